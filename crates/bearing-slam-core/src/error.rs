@@ -1,0 +1,100 @@
+//! The one error type of the core. Every public operation that reads user data
+//! returns [`Result`]; nothing on a data path panics.
+
+use thiserror::Error;
+
+/// Everything that can go wrong in the estimator, each variant naming the
+/// offending input.
+#[derive(Debug, Clone, PartialEq, Error)]
+pub enum SlamError {
+    /// A NaN or infinite number where a finite one is required.
+    #[error("non-finite {what}: {value}")]
+    NonFinite {
+        /// Which input was not finite.
+        what: &'static str,
+        /// The value received.
+        value: f64,
+    },
+    /// A variance or standard deviation that is zero, negative or not finite.
+    #[error("invalid noise for {what}: {value} (must be positive and finite)")]
+    InvalidNoise {
+        /// Which noise parameter.
+        what: &'static str,
+        /// The value received.
+        value: f64,
+    },
+    /// A parameter outside its valid range.
+    #[error("invalid parameter {name} = {value}: {reason}")]
+    InvalidParameter {
+        /// The parameter's name.
+        name: &'static str,
+        /// The value received.
+        value: f64,
+        /// What the valid range is.
+        reason: &'static str,
+    },
+    /// Arrays or matrices of the wrong size.
+    #[error("dimension mismatch in {what}: expected {expected}, got {got}")]
+    DimensionMismatch {
+        /// Which input had the wrong size.
+        what: &'static str,
+        /// The size required.
+        expected: usize,
+        /// The size received.
+        got: usize,
+    },
+    /// A landmark id that the filter does not hold.
+    #[error("unknown landmark id {0}")]
+    UnknownLandmark(u64),
+    /// The same landmark id twice in one batch.
+    #[error("landmark id {0} appears twice in one batch of measurements")]
+    DuplicateMeasurement(u64),
+    /// An innovation covariance (or another matrix that must be) not positive
+    /// definite.
+    #[error("{what} is not positive definite")]
+    NotPositiveDefinite {
+        /// Which matrix.
+        what: &'static str,
+    },
+    /// A landmark whose inverse depth is not positive has no Euclidean point.
+    #[error("landmark {id} has inverse depth {rho} <= 0: its point is at or beyond infinity")]
+    LandmarkAtInfinity {
+        /// The landmark id.
+        id: u64,
+        /// Its inverse depth.
+        rho: f64,
+    },
+    /// Time stamps that run backwards.
+    #[error("time went backwards: {current} s after {previous} s")]
+    TimeOrder {
+        /// The last accepted time.
+        previous: f64,
+        /// The offending time.
+        current: f64,
+    },
+    /// Two estimates or sequences that must align but do not.
+    #[error("cannot compare: {0}")]
+    Mismatch(&'static str),
+}
+
+/// The core's result type.
+pub type Result<T> = std::result::Result<T, SlamError>;
+
+/// Returns `value` if it is finite, otherwise a [`SlamError::NonFinite`] naming `what`.
+pub fn ensure_finite(what: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() {
+        Ok(value)
+    } else {
+        Err(SlamError::NonFinite { what, value })
+    }
+}
+
+/// Returns `value` if it is finite and strictly positive, otherwise a
+/// [`SlamError::InvalidNoise`] naming `what`.
+pub fn ensure_positive_noise(what: &'static str, value: f64) -> Result<f64> {
+    if value.is_finite() && value > 0.0 {
+        Ok(value)
+    } else {
+        Err(SlamError::InvalidNoise { what, value })
+    }
+}

@@ -1,0 +1,18 @@
+//! # bearing-slam-core
+//!
+//! The estimator of bearing-slam: a generic EKF on nalgebra, motion models,
+//! bearing and range-bearing measurement models, Euclidean and inverse-depth
+//! landmarks, the undelayed (PI-SR) and delayed (stochastic triangulation, MTE)
+//! landmark initializers of Munguía & Grau, the bearing-only SLAM filter, and
+//! the metrics to score it (ATE, RPE, NEES, NIS).
+//!
+//! Equation numbers `(n)` in the docs are those of Munguía & Grau's paper,
+//! as digested in the project's METHOD.md.
+
+pub mod error;
+pub mod geometry;
+pub mod log;
+pub mod trace;
+
+pub use error::{Result, SlamError};
+pub use geometry::{Pose2, wrap_angle};

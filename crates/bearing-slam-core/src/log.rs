@@ -1,0 +1,162 @@
+//! The sensor log: a time-ordered stream of what a robot measured, plus the
+//! ground truth when it is known. Simulators and dataset loaders produce it,
+//! the SLAM filter consumes it ([`crate::slam::BearingSlam::process`]), the IO
+//! crate stores it. Pure data: no I/O here.
+
+use crate::error::{Result, SlamError, ensure_finite};
+use crate::geometry::Pose2;
+use serde::{Deserialize, Serialize};
+
+/// Distances rolled by each wheel since the previous reading, from the wheel
+/// encoders (input of the differential-drive model, Munguía & Grau (2)(3)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WheelOdometry {
+    /// Distance rolled by the left wheel, metres (negative when reversing).
+    pub left_m: f64,
+    /// Distance rolled by the right wheel, metres.
+    pub right_m: f64,
+}
+
+/// A velocity command (or measured velocity) held for `dt` seconds: the input
+/// of the velocity motion model.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VelocityOdometry {
+    /// Forward speed, m/s.
+    pub v: f64,
+    /// Turn rate, rad/s, counter-clockwise positive.
+    pub omega: f64,
+    /// How long the command was held, seconds (> 0).
+    pub dt: f64,
+}
+
+/// One bearing (and optionally range) to an identified landmark, in the robot
+/// frame: counter-clockwise from the robot's x-axis.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BearingObservation {
+    /// The landmark's id (data association is known).
+    pub landmark_id: u64,
+    /// Bearing, radians, in (−π, π].
+    pub bearing: f64,
+    /// Range in metres when the sensor measures it (only the range-bearing
+    /// reference filter uses it).
+    pub range: Option<f64>,
+}
+
+/// What happened at one instant.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum EventKind {
+    /// Wheel encoder increments since the previous wheel reading.
+    Wheels(WheelOdometry),
+    /// A velocity command covering the interval `[time, time + dt)`.
+    Velocity(VelocityOdometry),
+    /// All bearings of one sensor scan, taken at the same instant.
+    Bearings(Vec<BearingObservation>),
+    /// The true robot pose (never shown to the filter; for scoring).
+    GroundTruth(Pose2),
+}
+
+/// An event with its time stamp (seconds, monotonically non-decreasing).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Event {
+    /// Seconds since the start of the log.
+    pub time: f64,
+    /// What was measured.
+    pub kind: EventKind,
+}
+
+/// The true position of a landmark.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkTruth {
+    /// The id bearings refer to.
+    pub id: u64,
+    /// World x, metres.
+    pub x: f64,
+    /// World y, metres.
+    pub y: f64,
+}
+
+/// Facts about the robot and sensors that produced a log, so that a filter
+/// can be configured to match.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+pub struct LogInfo {
+    /// Name of the scenario or dataset.
+    pub source: String,
+    /// Seed of the run when simulated.
+    pub seed: Option<u64>,
+    /// Distance between the wheels, metres, when wheel odometry is present.
+    pub wheel_base_m: Option<f64>,
+    /// Standard deviation of the bearing noise, radians, when known.
+    pub bearing_sigma_rad: Option<f64>,
+    /// The initial pose, when it is known (the filter starts there).
+    pub initial_pose: Option<Pose2>,
+}
+
+/// A time-ordered stream of events with its landmark truth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+pub struct SensorLog {
+    /// Where the log came from and what produced it.
+    pub info: LogInfo,
+    /// The events, sorted by time.
+    pub events: Vec<Event>,
+    /// True landmark positions, when known (empty otherwise).
+    pub landmarks: Vec<LandmarkTruth>,
+}
+
+impl SensorLog {
+    /// Checks that times are finite and non-decreasing and that every number
+    /// in every event is finite; names the first offending event.
+    pub fn validate(&self) -> Result<()> {
+        let mut previous = f64::NEG_INFINITY;
+        for event in &self.events {
+            ensure_finite("event time", event.time)?;
+            if event.time < previous {
+                return Err(SlamError::TimeOrder { previous, current: event.time });
+            }
+            previous = event.time;
+            match &event.kind {
+                EventKind::Wheels(w) => {
+                    ensure_finite("left wheel distance", w.left_m)?;
+                    ensure_finite("right wheel distance", w.right_m)?;
+                }
+                EventKind::Velocity(v) => {
+                    ensure_finite("velocity v", v.v)?;
+                    ensure_finite("velocity omega", v.omega)?;
+                    ensure_finite("velocity dt", v.dt)?;
+                }
+                EventKind::Bearings(obs) => {
+                    for o in obs {
+                        ensure_finite("bearing", o.bearing)?;
+                        if let Some(r) = o.range {
+                            ensure_finite("range", r)?;
+                        }
+                    }
+                }
+                EventKind::GroundTruth(p) => {
+                    ensure_finite("ground-truth x", p.x)?;
+                    ensure_finite("ground-truth y", p.y)?;
+                    ensure_finite("ground-truth theta", p.theta)?;
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// The ground-truth poses with their times, in order.
+    #[must_use]
+    pub fn ground_truth(&self) -> Vec<(f64, Pose2)> {
+        self.events
+            .iter()
+            .filter_map(|e| match e.kind {
+                EventKind::GroundTruth(p) => Some((e.time, p)),
+                _ => None,
+            })
+            .collect()
+    }
+
+    /// The true position of landmark `id`, if known.
+    #[must_use]
+    pub fn landmark_truth(&self, id: u64) -> Option<LandmarkTruth> {
+        self.landmarks.iter().copied().find(|l| l.id == id)
+    }
+}

@@ -1,0 +1,108 @@
+//! What a SLAM run produces over time: estimate snapshots and filter events.
+//! Plain data, so the IO crate can store it and the Python layer can plot it.
+
+use crate::geometry::Pose2;
+use serde::{Deserialize, Serialize};
+
+/// How a landmark entered the state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum InitMethod {
+    /// Undelayed inverse depth with a fixed prior, Munguía & Grau (13)(15).
+    PiSr,
+    /// Delayed, by stochastic triangulation, Munguía & Grau (16)–(23).
+    Triangulated,
+    /// Stochastic triangulation with the first pose cloned into the state.
+    TriangulatedClone,
+    /// A distant landmark with the `ρ_far` prior, Munguía & Grau (24).
+    Far,
+    /// From a range-bearing measurement, inverse of (6) given in (7).
+    RangeBearing,
+}
+
+/// Something the filter decided, worth logging.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum SlamEvent {
+    /// First sighting of a landmark under a delayed initializer.
+    CandidateCreated {
+        /// Landmark id.
+        id: u64,
+    },
+    /// A candidate not seen for too long was dropped.
+    CandidateExpired {
+        /// Landmark id.
+        id: u64,
+    },
+    /// A landmark entered the state.
+    LandmarkInitialized {
+        /// Landmark id.
+        id: u64,
+        /// How.
+        method: InitMethod,
+        /// Parallax angle at initialization, radians (0 for undelayed).
+        parallax_rad: f64,
+    },
+    /// An inverse-depth landmark became a Euclidean point (linearity test passed).
+    LandmarkConverted {
+        /// Landmark id.
+        id: u64,
+        /// The linearity index that triggered it.
+        linearity_index: f64,
+    },
+    /// A measurement failed the Mahalanobis gate and was not used.
+    MeasurementRejected {
+        /// Landmark id.
+        id: u64,
+        /// Its normalized innovation squared.
+        nis: f64,
+    },
+}
+
+/// A [`SlamEvent`] with the time it happened.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TimedSlamEvent {
+    /// Seconds, in the log's clock.
+    pub time: f64,
+    /// What happened.
+    pub event: SlamEvent,
+}
+
+/// A landmark's estimate as a Euclidean point with its 2×2 covariance, whatever
+/// its parameterization in the state.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LandmarkSnapshot {
+    /// Landmark id.
+    pub id: u64,
+    /// World x, metres.
+    pub x: f64,
+    /// World y, metres.
+    pub y: f64,
+    /// Covariance of `(x, y)`, row-major, m².
+    pub covariance: [[f64; 2]; 2],
+    /// Whether the state still holds it in inverse depth.
+    pub inverse_depth: bool,
+}
+
+/// The filter's estimate at one instant.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct EstimateSnapshot {
+    /// Seconds, in the log's clock.
+    pub time: f64,
+    /// Estimated robot pose.
+    pub pose: Pose2,
+    /// Covariance of `[x, y, θ]`, row-major.
+    pub pose_covariance: [[f64; 3]; 3],
+    /// Landmarks with a finite Euclidean estimate.
+    pub landmarks: Vec<LandmarkSnapshot>,
+}
+
+/// Everything a run produced: snapshots (typically one per measurement batch)
+/// and the event list.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, Default)]
+pub struct SlamTrace {
+    /// Estimates over time.
+    pub snapshots: Vec<EstimateSnapshot>,
+    /// Filter decisions over time.
+    pub events: Vec<TimedSlamEvent>,
+}

@@ -1,0 +1,1 @@
+//! MCAP logs and dataset loaders (under construction).
