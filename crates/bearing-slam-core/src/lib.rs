@@ -9,10 +9,14 @@
 //! Equation numbers `(n)` in the docs are those of Munguía & Grau's paper,
 //! as digested in the project's METHOD.md.
 
+pub mod ekf;
 pub mod error;
 pub mod geometry;
 pub mod log;
 pub mod trace;
+
+#[cfg(feature = "testing")]
+pub mod testing;
 
 pub use error::{Result, SlamError};
 pub use geometry::{Pose2, wrap_angle};
