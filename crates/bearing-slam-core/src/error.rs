@@ -72,6 +72,10 @@ pub enum SlamError {
         /// The offending time.
         current: f64,
     },
+    /// Geometry where a quantity is undefined (a landmark at the sensor,
+    /// parallel rays, a point behind the sensor).
+    #[error("degenerate geometry: {0}")]
+    Degenerate(&'static str),
     /// Two estimates or sequences that must align but do not.
     #[error("cannot compare: {0}")]
     Mismatch(&'static str),

@@ -12,7 +12,11 @@
 pub mod ekf;
 pub mod error;
 pub mod geometry;
+pub mod init;
+pub mod landmark;
 pub mod log;
+pub mod slam;
+pub mod measurement;
 pub mod trace;
 
 #[cfg(feature = "testing")]

@@ -1,0 +1,289 @@
+//! Landmark initialization from bearings: the undelayed inverse-depth method
+//! with a fixed depth prior ("PI-SR", Munguía & Grau (13)(15), after Montiel
+//! et al.) and the paper's delayed method, stochastic triangulation ("MTE",
+//! (16)–(24)).
+//!
+//! These are the pure functions with their Jacobians; the SLAM filter
+//! ([`crate::slam`]) decides when to call them and grows the covariance with
+//! [`crate::ekf::Ekf::augment`].
+
+use crate::error::{Result, SlamError, ensure_finite};
+use crate::geometry::{cross2, unit_direction, wrap_angle};
+use nalgebra::{Matrix1x3, Matrix4x3, Vector2, Vector3, Vector4};
+use serde::{Deserialize, Serialize};
+
+/// The fixed prior `(ρ_ini, σ_ρ)` of the undelayed method.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct InverseDepthPrior {
+    /// Initial inverse depth, 1/m (> 0).
+    pub rho_ini: f64,
+    /// Its standard deviation, 1/m (> 0).
+    pub sigma_rho: f64,
+}
+
+impl InverseDepthPrior {
+    /// A validated prior.
+    pub fn new(rho_ini: f64, sigma_rho: f64) -> Result<Self> {
+        if !(rho_ini.is_finite() && rho_ini > 0.0) {
+            return Err(SlamError::InvalidParameter {
+                name: "rho_ini",
+                value: rho_ini,
+                reason: "must be positive and finite",
+            });
+        }
+        crate::error::ensure_positive_noise("sigma_rho", sigma_rho)?;
+        Ok(Self { rho_ini, sigma_rho })
+    }
+
+    /// The heuristic of METHOD.md §1 to cover depths `[d_min, ∞)` with 95 %:
+    /// `ρ_min = 1/d_min`, `ρ_ini = ρ_min/2`, `σ_ρ = ρ_min/4`.
+    pub fn covering_depths_from(min_depth: f64) -> Result<Self> {
+        if !(min_depth.is_finite() && min_depth > 0.0) {
+            return Err(SlamError::InvalidParameter {
+                name: "min_depth",
+                value: min_depth,
+                reason: "must be positive and finite",
+            });
+        }
+        let rho_max = 1.0 / min_depth;
+        Self::new(rho_max / 2.0, rho_max / 4.0)
+    }
+}
+
+/// A new inverse-depth landmark with its Jacobians with respect to the
+/// quantities it was computed from.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseDepthInit {
+    /// `[x_v, y_v, θ_v + z, ρ]`.
+    pub landmark: Vector4<f64>,
+    /// `∂y/∂[x_v, y_v, θ_v]` (the current pose).
+    pub j_landmark_pose: Matrix4x3<f64>,
+    /// `∂y/∂z` (the current bearing).
+    pub j_landmark_z: Vector4<f64>,
+}
+
+/// Undelayed initialization, Munguía & Grau (13): `y = [x_v, y_v, θ_v + z, ρ_ini]`.
+/// The covariance (15) is `J blkdiag(P, σ_z², σ_ρ²) Jᵀ` with `∂y/∂ρ = e₄`.
+pub fn pi_sr(pose: &Vector3<f64>, bearing: f64, rho_ini: f64) -> Result<InverseDepthInit> {
+    ensure_finite("bearing", bearing)?;
+    ensure_finite("rho_ini", rho_ini)?;
+    let mut j_landmark_pose = Matrix4x3::zeros();
+    j_landmark_pose.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+    Ok(InverseDepthInit {
+        landmark: Vector4::new(pose.x, pose.y, wrap_angle(pose.z + bearing), rho_ini),
+        j_landmark_pose,
+        j_landmark_z: Vector4::new(0.0, 0.0, 1.0, 0.0),
+    })
+}
+
+/// A candidate of the delayed method, Munguía & Grau (16):
+/// `λ = [x₁, y₁, θ₁, z₁, σ²_x₁, σ²_y₁, σ²_θ₁]`, the pose and bearing of the first
+/// sighting and the pose variances (diagonal of `P_vv`) at that moment.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Candidate {
+    /// Pose `[x₁, y₁, θ₁]` at the first sighting.
+    pub pose: Vector3<f64>,
+    /// Bearing `z₁` at the first sighting.
+    pub bearing: f64,
+    /// `[σ²_x₁, σ²_y₁, σ²_θ₁]`.
+    pub pose_variances: Vector3<f64>,
+    /// When it was created, seconds.
+    pub created: f64,
+    /// When it was last seen, seconds.
+    pub last_seen: f64,
+}
+
+/// The triangle of a candidate's first ray and the current ray,
+/// Munguía & Grau (17)–(20).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Parallax {
+    /// Baseline `b = ‖p_v − p₁‖`, metres.
+    pub baseline: f64,
+    /// Angle at the first pose between its ray and the baseline, radians.
+    pub beta: f64,
+    /// Angle at the current pose between its ray and the baseline, radians.
+    pub gamma: f64,
+    /// Parallax `α = π − (β + γ)`: the angle between the two rays, radians.
+    pub alpha: f64,
+}
+
+/// Parallax of two rays, (17)–(20), with the numerically safe formulas of
+/// METHOD.md: every angle is `atan2(|a × b|, a·b)` instead of `acos`, whose
+/// derivative is infinite at ±1. `α` is the angle between the ray directions
+/// `h₁ = m(θ₁ + z₁)` and `h₂ = m(θ_v + z)`, which equals `π − (β + γ)` whenever
+/// the rays meet in front of both poses.
+pub fn parallax(first_pose: &Vector3<f64>, first_bearing: f64, pose: &Vector3<f64>, bearing: f64) -> Parallax {
+    let h1 = unit_direction(first_pose.z + first_bearing);
+    let h2 = unit_direction(pose.z + bearing);
+    let b1 = pose.fixed_rows::<2>(0) - first_pose.fixed_rows::<2>(0);
+    let b2 = -b1;
+    let angle = |a: &Vector2<f64>, b: &Vector2<f64>| cross2(a, b).abs().atan2(a.dot(b));
+    Parallax { baseline: b1.norm(), beta: angle(&h1, &b1), gamma: angle(&h2, &b2), alpha: angle(&h1, &h2) }
+}
+
+/// A landmark initialized by stochastic triangulation, with every Jacobian
+/// needed by (22)(23).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TriangulationInit {
+    /// `[x_v, y_v, θ_v + z, ρ]`, anchored at the current pose, with ρ from (21).
+    pub landmark: Vector4<f64>,
+    /// `∂y/∂[x_v, y_v, θ_v]`, the current pose.
+    pub j_landmark_pose: Matrix4x3<f64>,
+    /// `∂y/∂z`, the current bearing.
+    pub j_landmark_z: Vector4<f64>,
+    /// `∂y/∂[x₁, y₁, θ₁]`, the candidate's first pose.
+    pub j_landmark_first_pose: Matrix4x3<f64>,
+    /// `∂y/∂z₁`, the candidate's first bearing.
+    pub j_landmark_first_bearing: Vector4<f64>,
+    /// The triangle it came from.
+    pub parallax: Parallax,
+}
+
+/// The inverse depth of (21), `ρ = sin α / (b sin β)` — by the law of sines the
+/// inverse distance from the current pose to the landmark — in the signed,
+/// `acos`-free form `ρ = (h₁ × h₂) / (b₁ × h₁)`, with its gradients with respect to
+/// the current pose `[x_v, y_v, θ_v]` (θ and z enter only through `θ_v + z`)
+/// and the first pose `[x₁, y₁, θ₁]` (likewise `θ₁ + z₁`).
+///
+/// Returns `(ρ, ∂ρ/∂pose, ∂ρ/∂first_pose)`; `∂ρ/∂z = ∂ρ/∂θ_v` and
+/// `∂ρ/∂z₁ = ∂ρ/∂θ₁`. Fails when the first ray is parallel to the baseline
+/// (`b₁ × h₁ = 0`: no triangle).
+pub fn triangulated_inverse_depth(
+    first_pose: &Vector3<f64>,
+    first_bearing: f64,
+    pose: &Vector3<f64>,
+    bearing: f64,
+) -> Result<(f64, Matrix1x3<f64>, Matrix1x3<f64>)> {
+    let h1 = unit_direction(first_pose.z + first_bearing);
+    let h2 = unit_direction(pose.z + bearing);
+    let b = pose.fixed_rows::<2>(0) - first_pose.fixed_rows::<2>(0);
+    let s = cross2(&h1, &h2); // sin α, signed
+    let e = cross2(&b, &h1); // b sin β, signed
+    if !(e.abs() > 1e-12) {
+        return Err(SlamError::Degenerate("first ray is parallel to the baseline: no triangle"));
+    }
+    let c = h1.dot(&h2); // cos α
+    let rho = s / e;
+    let e2 = e * e;
+    // ∂e/∂b = [h₁y, −h₁x], ∂b/∂p_v = I, ∂b/∂p₁ = −I; ∂s/∂φ₂ = c, ∂s/∂φ₁ = −c, ∂e/∂φ₁ = b·h₁.
+    let j_rho_b = Vector2::new(-s * h1.y / e2, s * h1.x / e2);
+    let j_rho_phi2 = c / e;
+    let j_rho_phi1 = (-c * e - s * b.dot(&h1)) / e2;
+    Ok((
+        rho,
+        Matrix1x3::new(j_rho_b.x, j_rho_b.y, j_rho_phi2),
+        Matrix1x3::new(-j_rho_b.x, -j_rho_b.y, j_rho_phi1),
+    ))
+}
+
+/// Stochastic triangulation, Munguía & Grau (21)–(23): the landmark
+/// `y = [x_v, y_v, θ_v + z, ρ]` with ρ from (21) and the Jacobians with respect
+/// to the current pose and bearing and the candidate's first pose and bearing.
+/// Fails when the rays do not meet in front of both poses (`ρ ≤ 0`).
+pub fn triangulate_candidate(
+    candidate: &Candidate,
+    pose: &Vector3<f64>,
+    bearing: f64,
+) -> Result<TriangulationInit> {
+    ensure_finite("bearing", bearing)?;
+    let (rho, j_rho_pose, j_rho_first) =
+        triangulated_inverse_depth(&candidate.pose, candidate.bearing, pose, bearing)?;
+    if !(rho > 0.0) || !rho.is_finite() {
+        return Err(SlamError::Degenerate("rays meet behind the sensor"));
+    }
+    let mut j_landmark_pose = Matrix4x3::zeros();
+    j_landmark_pose.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+    j_landmark_pose.set_row(3, &j_rho_pose);
+    let mut j_landmark_first_pose = Matrix4x3::zeros();
+    j_landmark_first_pose.set_row(3, &j_rho_first);
+    Ok(TriangulationInit {
+        landmark: Vector4::new(pose.x, pose.y, wrap_angle(pose.z + bearing), rho),
+        j_landmark_pose,
+        j_landmark_z: Vector4::new(0.0, 0.0, 1.0, j_rho_pose[2]),
+        j_landmark_first_pose,
+        j_landmark_first_bearing: Vector4::new(0.0, 0.0, 0.0, j_rho_first[2]),
+        parallax: parallax(&candidate.pose, candidate.bearing, pose, bearing),
+    })
+}
+
+/// Parameters of the delayed initializer.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TriangulationConfig {
+    /// Minimum parallax `α_min` to triangulate, radians (paper: 10°, 20° in Fig. 7).
+    pub alpha_min: f64,
+    /// Baseline `b_min` past which a landmark still below `α_min` is "far", metres (24).
+    pub baseline_min: f64,
+    /// The far rule applies only when `β > beta_min` (not driving straight at it), radians.
+    pub beta_min: f64,
+    /// Candidates not seen for this long are dropped, seconds.
+    pub candidate_timeout: f64,
+}
+
+impl Default for TriangulationConfig {
+    /// The paper's values: `α_min = 10°`, `β_min = 20°`; `b_min = 1 m` and a
+    /// 5 s timeout are our choices (the paper leaves them open).
+    fn default() -> Self {
+        Self {
+            alpha_min: 10f64.to_radians(),
+            baseline_min: 1.0,
+            beta_min: 20f64.to_radians(),
+            candidate_timeout: 5.0,
+        }
+    }
+}
+
+impl TriangulationConfig {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<()> {
+        let checks = [
+            ("alpha_min", self.alpha_min, self.alpha_min > 0.0 && self.alpha_min < std::f64::consts::PI),
+            ("baseline_min", self.baseline_min, self.baseline_min > 0.0),
+            ("beta_min", self.beta_min, self.beta_min >= 0.0 && self.beta_min < std::f64::consts::PI),
+            ("candidate_timeout", self.candidate_timeout, self.candidate_timeout > 0.0),
+        ];
+        for (name, value, ok) in checks {
+            if !(ok && value.is_finite()) {
+                return Err(SlamError::InvalidParameter { name, value, reason: "out of range" });
+            }
+        }
+        Ok(())
+    }
+
+    /// The far-landmark prior of (24): `ρ_far = 2 sin(α_min/2) / b_min` bounds
+    /// the 95 % region, so `ρ_ini = ρ_far/2`, `σ_ρ = ρ_far/4`.
+    pub fn far_prior(&self) -> Result<InverseDepthPrior> {
+        let rho_far = 2.0 * (self.alpha_min / 2.0).sin() / self.baseline_min;
+        InverseDepthPrior::new(rho_far / 2.0, rho_far / 4.0)
+    }
+}
+
+/// What the delayed initializer does with a new bearing of a candidate.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum CandidateDecision {
+    /// Not enough parallax yet (or driving straight at it): keep waiting.
+    Wait,
+    /// `α > α_min` and the rays meet in front: triangulate, (21)–(23).
+    Triangulate,
+    /// Long baseline, still no parallax, not straight ahead: a far landmark (24).
+    Far,
+    /// `α > α_min` but the rays diverge (an outlier or a wrong first bearing):
+    /// restart the candidate from this sighting.
+    Restart,
+}
+
+/// The decision rule of §1 "Delayed initialization", steps 3, 5 and 6.
+#[must_use]
+pub fn decide(config: &TriangulationConfig, candidate: &Candidate, pose: &Vector3<f64>, bearing: f64) -> (CandidateDecision, Parallax) {
+    let p = parallax(&candidate.pose, candidate.bearing, pose, bearing);
+    let decision = if p.alpha > config.alpha_min {
+        match triangulated_inverse_depth(&candidate.pose, candidate.bearing, pose, bearing) {
+            Ok((rho, _, _)) if rho > 0.0 => CandidateDecision::Triangulate,
+            _ => CandidateDecision::Restart,
+        }
+    } else if p.baseline > config.baseline_min && p.beta > config.beta_min {
+        CandidateDecision::Far
+    } else {
+        CandidateDecision::Wait
+    };
+    (decision, p)
+}

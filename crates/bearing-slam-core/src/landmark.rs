@@ -1,0 +1,76 @@
+//! Landmark parameterizations: Euclidean points and inverse-depth points
+//! (Munguía & Grau (11)), the conversion from inverse depth to Euclidean with
+//! its Jacobian, and the linearity index that says when to convert (Civera,
+//! Davison & Montiel, "Inverse depth parametrization for monocular SLAM", 2008).
+
+use crate::error::{Result, SlamError};
+use crate::geometry::unit_direction;
+use nalgebra::{Matrix2x4, Vector2, Vector4};
+use serde::{Deserialize, Serialize};
+
+/// How a landmark is held in the state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Parameterization {
+    /// `[x, y]`, metres.
+    Euclidean,
+    /// `[x_a, y_a, θ, ρ]`: anchor position, ray azimuth, inverse depth (11).
+    InverseDepth,
+}
+
+impl Parameterization {
+    /// Number of state entries.
+    #[must_use]
+    pub const fn dim(self) -> usize {
+        match self {
+            Parameterization::Euclidean => 2,
+            Parameterization::InverseDepth => 4,
+        }
+    }
+}
+
+/// An inverse-depth landmark as a Euclidean point with its Jacobian.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InverseDepthPoint {
+    /// `(x_a, y_a) + m(θ)/ρ`, Munguía & Grau (11).
+    pub point: Vector2<f64>,
+    /// `∂point/∂[x_a, y_a, θ, ρ]`.
+    pub j_point_landmark: Matrix2x4<f64>,
+}
+
+/// Converts `[x_a, y_a, θ, ρ]` to the Euclidean point `(x_a, y_a) + m(θ)/ρ`
+/// with its Jacobian. Fails when `ρ ≤ 0` (a point at or beyond infinity).
+pub fn inverse_depth_to_point(landmark: &Vector4<f64>) -> Result<InverseDepthPoint> {
+    let rho = landmark[3];
+    if !(rho > 0.0 && rho.is_finite()) {
+        return Err(SlamError::Degenerate("inverse depth must be positive to give a point"));
+    }
+    let m = unit_direction(landmark[2]);
+    let point = Vector2::new(landmark[0], landmark[1]) + m / rho;
+    let j_point_landmark = Matrix2x4::new(
+        1.0, 0.0, -m.y / rho, -m.x / (rho * rho),
+        0.0, 1.0, m.x / rho, -m.y / (rho * rho),
+    );
+    Ok(InverseDepthPoint { point, j_point_landmark })
+}
+
+/// Civera et al.'s linearity index of the inverse-depth → depth mapping, in 2-D:
+/// `L = 4 σ_d |cos α| / d₁`, with `σ_d = σ_ρ / ρ²`, `d₁` the distance from the
+/// sensor to the point and `α` the angle between the landmark's ray and the
+/// current line of sight. Small values (Civera uses 0.1) mean depth is well
+/// enough known for a Euclidean parameterization to stay Gaussian.
+pub fn linearity_index(landmark: &Vector4<f64>, rho_variance: f64, sensor: &Vector2<f64>) -> Result<f64> {
+    let converted = inverse_depth_to_point(landmark)?;
+    let rho = landmark[3];
+    if !(rho_variance >= 0.0 && rho_variance.is_finite()) {
+        return Err(SlamError::InvalidNoise { what: "inverse-depth variance", value: rho_variance });
+    }
+    let sight = converted.point - sensor;
+    let d1 = sight.norm();
+    if !(d1 > 1e-12) {
+        return Err(SlamError::Degenerate("landmark coincides with the sensor position"));
+    }
+    let sigma_d = rho_variance.sqrt() / (rho * rho);
+    let cos_alpha = unit_direction(landmark[2]).dot(&sight) / d1;
+    Ok(4.0 * sigma_d * cos_alpha.abs() / d1)
+}

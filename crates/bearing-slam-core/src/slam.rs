@@ -1,0 +1,746 @@
+//! The bearing-only SLAM filter: an [`Ekf`] over `[x_v, y_1, …, y_n]`
+//! (Munguía & Grau (5)) with landmarks keyed by user ids (known data
+//! association), initialized undelayed (PI-SR) or by stochastic triangulation
+//! (MTE, optionally with a cloned first pose), converted from inverse depth to
+//! Euclidean once their depth is linear enough, and gated by a chi-square test.
+
+use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, MotionModel};
+use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
+use crate::geometry::{Pose2, wrap_angle};
+use crate::init::{
+    Candidate, CandidateDecision, InverseDepthPrior, TriangulationConfig, decide, pi_sr,
+    triangulate_candidate,
+};
+use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
+use crate::measurement::{BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing};
+use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
+use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
+use serde::{Deserialize, Serialize};
+use statrs::distribution::{ChiSquared, ContinuousCDF};
+use std::collections::BTreeMap;
+
+/// Size of the vehicle block `[x, y, θ]`.
+const VEHICLE_DIM: usize = 3;
+
+/// Which landmark initializer the filter uses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "method", rename_all = "snake_case")]
+pub enum InitializerConfig {
+    /// Undelayed inverse depth with a fixed prior, Munguía & Grau (13)(15).
+    PiSr {
+        /// The prior used for every landmark without its own.
+        prior: InverseDepthPrior,
+        /// Per-landmark priors (the paper's "mixed" setting of Fig. 4d).
+        per_landmark: BTreeMap<u64, InverseDepthPrior>,
+    },
+    /// Delayed stochastic triangulation (MTE), (16)–(24), with the paper's
+    /// simplification: the candidate keeps only the first pose's variances.
+    Triangulation(TriangulationConfig),
+    /// MTE with the first pose cloned into the state while the candidate
+    /// waits, so every cross-covariance at initialization is exact.
+    TriangulationWithClone(TriangulationConfig),
+}
+
+impl InitializerConfig {
+    /// PI-SR with one prior for every landmark.
+    #[must_use]
+    pub fn pi_sr(prior: InverseDepthPrior) -> Self {
+        Self::PiSr { prior, per_landmark: BTreeMap::new() }
+    }
+}
+
+/// Everything the filter needs to start.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SlamConfig {
+    /// Where the robot starts (the map frame is defined by it).
+    pub initial_pose: Pose2,
+    /// Standard deviations of the initial pose `[σ_x, σ_y, σ_θ]` (≥ 0).
+    pub initial_pose_sigma: [f64; 3],
+    /// Standard deviation of the bearing noise, radians.
+    pub bearing_sigma: f64,
+    /// Standard deviation of the range noise for range-bearing updates, metres.
+    pub range_sigma: f64,
+    /// The landmark initializer.
+    pub initializer: InitializerConfig,
+    /// Probability of the chi-square gate (e.g. 0.999); `None` disables gating.
+    pub gate_probability: Option<f64>,
+    /// Linearity index below which an inverse-depth landmark becomes Euclidean
+    /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
+    pub conversion_threshold: Option<f64>,
+}
+
+impl Default for SlamConfig {
+    fn default() -> Self {
+        Self {
+            initial_pose: Pose2::default(),
+            initial_pose_sigma: [0.0; 3],
+            bearing_sigma: 1f64.to_radians(),
+            range_sigma: 0.1,
+            initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
+            gate_probability: Some(0.999),
+            conversion_threshold: Some(0.1),
+        }
+    }
+}
+
+impl SlamConfig {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<()> {
+        for (what, v) in [("initial x", self.initial_pose.x), ("initial y", self.initial_pose.y), ("initial theta", self.initial_pose.theta)] {
+            ensure_finite(what, v)?;
+        }
+        for s in self.initial_pose_sigma {
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(SlamError::InvalidNoise { what: "initial pose sigma", value: s });
+            }
+        }
+        ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        ensure_positive_noise("range sigma", self.range_sigma)?;
+        if let Some(p) = self.gate_probability {
+            if !(p > 0.0 && p < 1.0) {
+                return Err(SlamError::InvalidParameter { name: "gate_probability", value: p, reason: "must be in (0, 1)" });
+            }
+        }
+        if let Some(t) = self.conversion_threshold {
+            if !(t > 0.0 && t.is_finite()) {
+                return Err(SlamError::InvalidParameter { name: "conversion_threshold", value: t, reason: "must be positive" });
+            }
+        }
+        match &self.initializer {
+            InitializerConfig::PiSr { prior, per_landmark } => {
+                InverseDepthPrior::new(prior.rho_ini, prior.sigma_rho)?;
+                for p in per_landmark.values() {
+                    InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
+                }
+            }
+            InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c) => c.validate()?,
+        }
+        Ok(())
+    }
+}
+
+/// A landmark's estimate as a Euclidean point, whatever its parameterization.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LandmarkEstimate {
+    /// Its id.
+    pub id: u64,
+    /// World position, metres.
+    pub position: Vector2<f64>,
+    /// Covariance of the position, m² (for inverse depth: `J P Jᵀ` through (11)).
+    pub covariance: Matrix2<f64>,
+    /// How it is held in the state.
+    pub parameterization: Parameterization,
+    /// How it was initialized.
+    pub method: InitMethod,
+}
+
+/// What one batch of measurements did.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BatchReport {
+    /// Measurements of mapped landmarks used in the update.
+    pub used: usize,
+    /// Measurements rejected by the gate.
+    pub rejected: usize,
+    /// Landmarks that entered the state.
+    pub initialized: usize,
+    /// NIS of the batch update (0 when nothing was used).
+    pub nis: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct LandmarkSlot {
+    offset: usize,
+    parameterization: Parameterization,
+    method: InitMethod,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PendingCandidate {
+    candidate: Candidate,
+    /// The pose clone holding the first pose (clone variant only).
+    clone: Option<u64>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PoseClone {
+    offset: usize,
+    /// Candidates that refer to it; it leaves the state at zero.
+    users: usize,
+}
+
+/// The bearing-only EKF SLAM filter.
+#[derive(Clone, Debug)]
+pub struct BearingSlam {
+    config: SlamConfig,
+    ekf: Ekf,
+    landmarks: BTreeMap<u64, LandmarkSlot>,
+    candidates: BTreeMap<u64, PendingCandidate>,
+    clones: BTreeMap<u64, PoseClone>,
+    /// The clone taken at the current batch's time, shared by every candidate created in it.
+    batch_clone: Option<u64>,
+    next_clone_id: u64,
+    gate_threshold: Option<f64>,
+    time: Option<f64>,
+    events: Vec<TimedSlamEvent>,
+}
+
+impl BearingSlam {
+    /// A filter at `config.initial_pose` with no landmarks.
+    pub fn new(config: SlamConfig) -> Result<Self> {
+        config.validate()?;
+        let mean = DVector::from_column_slice(config.initial_pose.to_vector().as_slice());
+        let sigma = Vector3::from(config.initial_pose_sigma);
+        let cov = DMatrix::from_diagonal(&DVector::from_iterator(3, sigma.iter().map(|s| s * s)));
+        let gate_threshold = match config.gate_probability {
+            Some(p) => Some(chi_square_quantile(1.0, p)?),
+            None => None,
+        };
+        Ok(Self {
+            ekf: Ekf::new(mean, cov)?,
+            config,
+            landmarks: BTreeMap::new(),
+            candidates: BTreeMap::new(),
+            clones: BTreeMap::new(),
+            batch_clone: None,
+            next_clone_id: 0,
+            gate_threshold,
+            time: None,
+            events: Vec::new(),
+        })
+    }
+
+    /// The configuration.
+    #[must_use]
+    pub fn config(&self) -> &SlamConfig {
+        &self.config
+    }
+
+    /// The underlying EKF (state and covariance, read only).
+    #[must_use]
+    pub fn ekf(&self) -> &Ekf {
+        &self.ekf
+    }
+
+    /// Time of the last processed input, if any.
+    #[must_use]
+    pub fn time(&self) -> Option<f64> {
+        self.time
+    }
+
+    /// The estimated robot pose.
+    #[must_use]
+    pub fn pose(&self) -> Pose2 {
+        let m = self.ekf.mean();
+        Pose2::new(m[0], m[1], m[2])
+    }
+
+    /// The covariance of `[x, y, θ]`.
+    #[must_use]
+    pub fn pose_covariance(&self) -> Matrix3<f64> {
+        self.ekf.covariance().fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// The ids of the landmarks in the state, ascending.
+    #[must_use]
+    pub fn landmark_ids(&self) -> Vec<u64> {
+        self.landmarks.keys().copied().collect()
+    }
+
+    /// Number of landmarks waiting for parallax (delayed initializers).
+    #[must_use]
+    pub fn candidate_count(&self) -> usize {
+        self.candidates.len()
+    }
+
+    /// The filter's decisions so far.
+    #[must_use]
+    pub fn events(&self) -> &[TimedSlamEvent] {
+        &self.events
+    }
+
+    /// Removes and returns the events recorded so far.
+    pub fn take_events(&mut self) -> Vec<TimedSlamEvent> {
+        std::mem::take(&mut self.events)
+    }
+
+    /// Landmark `id` as a Euclidean point with its 2×2 covariance. An
+    /// inverse-depth landmark is mapped through (11) with `J P Jᵀ`; one whose
+    /// inverse depth is not positive has no point and gives
+    /// [`SlamError::LandmarkAtInfinity`].
+    pub fn landmark(&self, id: u64) -> Result<LandmarkEstimate> {
+        let slot = self.landmarks.get(&id).ok_or(SlamError::UnknownLandmark(id))?;
+        let (position, covariance) = match slot.parameterization {
+            Parameterization::Euclidean => (self.ekf.block::<2>(slot.offset)?, self.ekf.covariance_block::<2>(slot.offset)?),
+            Parameterization::InverseDepth => {
+                let y = self.ekf.block::<4>(slot.offset)?;
+                let converted = inverse_depth_to_point(&y).map_err(|_| SlamError::LandmarkAtInfinity { id, rho: y[3] })?;
+                let p = self.ekf.covariance_block::<4>(slot.offset)?;
+                let j = converted.j_point_landmark;
+                (converted.point, j * p * j.transpose())
+            }
+        };
+        Ok(LandmarkEstimate { id, position, covariance, parameterization: slot.parameterization, method: slot.method })
+    }
+
+    /// Every landmark with a finite Euclidean estimate, by ascending id.
+    #[must_use]
+    pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
+        self.landmarks.keys().filter_map(|&id| self.landmark(id).ok()).collect()
+    }
+
+    /// The estimate now, as plain data for logs and plots.
+    #[must_use]
+    pub fn snapshot(&self) -> EstimateSnapshot {
+        let c = self.pose_covariance();
+        EstimateSnapshot {
+            time: self.time.unwrap_or(0.0),
+            pose: self.pose(),
+            pose_covariance: [[c[(0, 0)], c[(0, 1)], c[(0, 2)]], [c[(1, 0)], c[(1, 1)], c[(1, 2)]], [c[(2, 0)], c[(2, 1)], c[(2, 2)]]],
+            landmarks: self
+                .landmarks()
+                .into_iter()
+                .map(|l| LandmarkSnapshot {
+                    id: l.id,
+                    x: l.position.x,
+                    y: l.position.y,
+                    covariance: [[l.covariance[(0, 0)], l.covariance[(0, 1)]], [l.covariance[(1, 0)], l.covariance[(1, 1)]]],
+                    inverse_depth: l.parameterization == Parameterization::InverseDepth,
+                })
+                .collect(),
+        }
+    }
+
+    fn advance_time(&mut self, time: f64) -> Result<()> {
+        self.check_time(time)?;
+        self.time = Some(time);
+        Ok(())
+    }
+
+    fn record(&mut self, event: SlamEvent) {
+        let time = self.time.unwrap_or(0.0);
+        self.events.push(TimedSlamEvent { time, event });
+    }
+
+    /// Prediction with any vehicle motion model (diff-drive encoders (2)(3),
+    /// velocity, odometry, or your own): only the vehicle rows and columns of
+    /// `P` change. `time` is when the motion ends.
+    pub fn predict<M: MotionModel<3>>(&mut self, time: f64, model: &M, control: &M::Control) -> Result<()> {
+        self.check_time(time)?;
+        self.ekf.predict(model, control)?;
+        self.wrap_heading()?;
+        self.time = Some(time);
+        Ok(())
+    }
+
+    fn wrap_heading(&mut self) -> Result<()> {
+        let mut v = self.ekf.block::<1>(2)?;
+        v[0] = wrap_angle(v[0]);
+        self.ekf.set_block::<1>(2, &v)
+    }
+
+    /// Updates with one scan of bearings `(landmark id, bearing in radians)`,
+    /// all taken at `time`: mapped landmarks are gated and stacked into one
+    /// batched update; unmapped ones go to the initializer afterwards (with the
+    /// updated pose). Inputs are checked before anything changes: NaN bearings,
+    /// duplicate ids or a time before the last one give an error and leave the
+    /// filter as it was.
+    pub fn update_bearings(&mut self, time: f64, observations: &[(u64, f64)]) -> Result<BatchReport> {
+        for (i, &(id, z)) in observations.iter().enumerate() {
+            ensure_finite("bearing", z)?;
+            if observations[..i].iter().any(|&(other, _)| other == id) {
+                return Err(SlamError::DuplicateMeasurement(id));
+            }
+        }
+        self.check_time(time)?;
+        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
+        let mut batch = Vec::new();
+        let mut report = BatchReport::default();
+        let mut new_sightings = Vec::new();
+        let mut pending_events = Vec::new();
+        for &(id, z) in observations {
+            let Some(slot) = self.landmarks.get(&id).copied() else {
+                new_sightings.push((id, z));
+                continue;
+            };
+            let measured = Vector1::new(wrap_angle(z));
+            let linearized = match slot.parameterization {
+                Parameterization::Euclidean => self.ekf.linearize(&BearingToPoint, slot.offset, &measured, &noise),
+                Parameterization::InverseDepth => self.ekf.linearize(&BearingToInverseDepth, slot.offset, &measured, &noise),
+            };
+            self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
+        }
+        self.commit_batch(time, &batch, &mut report, pending_events)?;
+        for (id, z) in new_sightings {
+            if self.initialize_from_bearing(id, wrap_angle(z))? {
+                report.initialized += 1;
+            }
+        }
+        self.batch_clone = None;
+        self.expire_candidates();
+        self.convert_linear_landmarks()?;
+        Ok(report)
+    }
+
+    /// The classic range-bearing EKF-SLAM update (Munguía & Grau (6), new
+    /// landmarks placed by (7)), for reference runs on data that has ranges.
+    /// Observations are `(landmark id, range in metres, bearing in radians)`.
+    pub fn update_range_bearings(&mut self, time: f64, observations: &[(u64, f64, f64)]) -> Result<BatchReport> {
+        for (i, &(id, r, z)) in observations.iter().enumerate() {
+            ensure_finite("bearing", z)?;
+            ensure_finite("range", r)?;
+            if !(r > 0.0) {
+                return Err(SlamError::InvalidParameter { name: "range", value: r, reason: "must be positive" });
+            }
+            if observations[..i].iter().any(|&(other, _, _)| other == id) {
+                return Err(SlamError::DuplicateMeasurement(id));
+            }
+        }
+        self.check_time(time)?;
+        let noise = Matrix2::from_diagonal(&Vector2::new(self.config.range_sigma.powi(2), self.config.bearing_sigma.powi(2)));
+        let mut batch = Vec::new();
+        let mut report = BatchReport::default();
+        let mut pending_events = Vec::new();
+        let mut new_points = Vec::new();
+        for &(id, r, z) in observations {
+            match self.landmarks.get(&id).copied() {
+                Some(slot) if slot.parameterization == Parameterization::Euclidean => {
+                    let measured = Vector2::new(r, wrap_angle(z));
+                    let linearized = self.ekf.linearize(&RangeBearing, slot.offset, &measured, &noise);
+                    self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
+                }
+                Some(_) => {
+                    return Err(SlamError::Mismatch("range-bearing update of an inverse-depth landmark"));
+                }
+                None => new_points.push((id, r, z)),
+            }
+        }
+        self.commit_batch(time, &batch, &mut report, pending_events)?;
+        for (id, r, z) in new_points {
+            let pose = self.ekf.block::<3>(0)?;
+            let inv = inverse_range_bearing(&pose, r, wrap_angle(z))?;
+            let added = inv.j_point_measurement * noise * inv.j_point_measurement.transpose();
+            let offset = self.ekf.augment(
+                &DVector::from_column_slice(inv.point.as_slice()),
+                &[BlockJacobian { offset: 0, jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()) }],
+                &DMatrix::from_column_slice(2, 2, added.as_slice()),
+            )?;
+            self.landmarks.insert(id, LandmarkSlot { offset, parameterization: Parameterization::Euclidean, method: InitMethod::RangeBearing });
+            self.record(SlamEvent::LandmarkInitialized { id, method: InitMethod::RangeBearing, parallax_rad: 0.0 });
+            report.initialized += 1;
+        }
+        Ok(report)
+    }
+
+    fn check_time(&self, time: f64) -> Result<()> {
+        ensure_finite("time", time)?;
+        match self.time {
+            Some(previous) if time < previous => Err(SlamError::TimeOrder { previous, current: time }),
+            _ => Ok(()),
+        }
+    }
+
+    /// Chi-square gate on one linearized measurement. A degenerate prediction
+    /// (landmark estimated at the sensor) is rejected with `nis = f64::MAX`.
+    fn gate(
+        &self,
+        id: u64,
+        linearized: Result<LinearizedMeasurement>,
+        batch: &mut Vec<LinearizedMeasurement>,
+        report: &mut BatchReport,
+        events: &mut Vec<SlamEvent>,
+    ) -> Result<()> {
+        let linearized = match linearized {
+            Ok(l) => l,
+            Err(SlamError::Degenerate(_)) => {
+                report.rejected += 1;
+                events.push(SlamEvent::MeasurementRejected { id, nis: f64::MAX });
+                return Ok(());
+            }
+            Err(e) => return Err(e),
+        };
+        let dof = linearized.innovation.len();
+        if let Some(threshold) = self.gate_threshold {
+            let nis = self.ekf.nis(&linearized)?;
+            // The 1-dof threshold scales to `dof` through the quantile of χ²(dof).
+            let limit = if dof == 1 {
+                threshold
+            } else {
+                chi_square_quantile(dof as f64, self.config.gate_probability.unwrap_or(0.999))?
+            };
+            if nis > limit {
+                report.rejected += 1;
+                events.push(SlamEvent::MeasurementRejected { id, nis });
+                return Ok(());
+            }
+        }
+        batch.push(linearized);
+        Ok(())
+    }
+
+    fn commit_batch(
+        &mut self,
+        time: f64,
+        batch: &[LinearizedMeasurement],
+        report: &mut BatchReport,
+        pending_events: Vec<SlamEvent>,
+    ) -> Result<()> {
+        let stats = self.ekf.update(batch)?;
+        self.advance_time(time)?;
+        report.used = batch.len();
+        report.nis = stats.nis;
+        for e in pending_events {
+            self.record(e);
+        }
+        self.wrap_heading()?;
+        self.wrap_ray_azimuths()
+    }
+
+    fn wrap_ray_azimuths(&mut self) -> Result<()> {
+        for slot in self.landmarks.values() {
+            if slot.parameterization == Parameterization::InverseDepth {
+                let mut v = self.ekf.block::<1>(slot.offset + 2)?;
+                v[0] = wrap_angle(v[0]);
+                self.ekf.set_block::<1>(slot.offset + 2, &v)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Appends an inverse-depth landmark `y = [x_v, y_v, θ_v + z, ρ]` with the
+    /// given state Jacobians and added noise, records it and returns `true`.
+    fn insert_inverse_depth(
+        &mut self,
+        id: u64,
+        landmark: &Vector4<f64>,
+        jacobians: &[BlockJacobian],
+        added_noise: &nalgebra::Matrix4<f64>,
+        method: InitMethod,
+        parallax_rad: f64,
+    ) -> Result<bool> {
+        let offset = self.ekf.augment(
+            &DVector::from_column_slice(landmark.as_slice()),
+            jacobians,
+            &DMatrix::from_column_slice(4, 4, added_noise.as_slice()),
+        )?;
+        self.landmarks.insert(id, LandmarkSlot { offset, parameterization: Parameterization::InverseDepth, method });
+        self.record(SlamEvent::LandmarkInitialized { id, method, parallax_rad });
+        Ok(true)
+    }
+
+    /// PI-SR (13)(15): `P_new = J blkdiag(P_vv, σ_z², σ_ρ²) Jᵀ` and `P_new,x = J_x P_v·`.
+    fn initialize_with_prior(&mut self, id: u64, z: f64, prior: InverseDepthPrior, method: InitMethod) -> Result<bool> {
+        let pose = self.ekf.block::<3>(0)?;
+        let init = pi_sr(&pose, z, prior.rho_ini)?;
+        let j_rho = Vector4::new(0.0, 0.0, 0.0, 1.0);
+        let added = init.j_landmark_z * self.config.bearing_sigma.powi(2) * init.j_landmark_z.transpose()
+            + j_rho * prior.sigma_rho.powi(2) * j_rho.transpose();
+        let jacobian = DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice());
+        self.insert_inverse_depth(id, &init.landmark, &[BlockJacobian { offset: 0, jacobian }], &added, method, 0.0)
+    }
+
+    /// Routes a first or repeated sighting of an unmapped landmark to the
+    /// configured initializer. Returns whether the landmark entered the state.
+    fn initialize_from_bearing(&mut self, id: u64, z: f64) -> Result<bool> {
+        let (config, cloning) = match &self.config.initializer {
+            InitializerConfig::PiSr { prior, per_landmark } => {
+                let prior = per_landmark.get(&id).copied().unwrap_or(*prior);
+                return self.initialize_with_prior(id, z, prior, InitMethod::PiSr);
+            }
+            InitializerConfig::Triangulation(c) => (*c, false),
+            InitializerConfig::TriangulationWithClone(c) => (*c, true),
+        };
+        let time = self.time.unwrap_or(0.0);
+        let pose = self.ekf.block::<3>(0)?;
+        let Some(pending) = self.candidates.get(&id).copied() else {
+            self.create_candidate(id, z, cloning)?;
+            return Ok(false);
+        };
+        let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
+        match decision {
+            CandidateDecision::Wait => {
+                if let Some(c) = self.candidates.get_mut(&id) {
+                    c.candidate.last_seen = time;
+                }
+                Ok(false)
+            }
+            CandidateDecision::Restart => {
+                self.drop_candidate(id)?;
+                self.create_candidate(id, z, cloning)?;
+                Ok(false)
+            }
+            CandidateDecision::Far => {
+                self.drop_candidate(id)?;
+                self.initialize_with_prior(id, z, config.far_prior()?, InitMethod::Far)
+            }
+            CandidateDecision::Triangulate => {
+                let init = triangulate_candidate(&pending.candidate, &pose, z)?;
+                let sz2 = self.config.bearing_sigma.powi(2);
+                // (22)(23): the current bearing z always adds its noise; the first
+                // bearing z₁ was never used in an update, so it adds its own too.
+                let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
+                    + init.j_landmark_first_bearing * sz2 * init.j_landmark_first_bearing.transpose();
+                let mut jacobians = vec![BlockJacobian { offset: 0, jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()) }];
+                let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
+                    Some(clone) => {
+                        // Exact: the first pose is a state block correlated with everything.
+                        jacobians.push(BlockJacobian {
+                            offset: clone.offset,
+                            jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_first_pose.as_slice()),
+                        });
+                        InitMethod::TriangulatedClone
+                    }
+                    None => {
+                        // The paper's R_i of (22): the first pose as independent noise
+                        // with the variances stored in the candidate.
+                        let j1 = init.j_landmark_first_pose;
+                        added += j1 * Matrix3::from_diagonal(&pending.candidate.pose_variances) * j1.transpose();
+                        InitMethod::Triangulated
+                    }
+                };
+                let inserted = self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, parallax.alpha)?;
+                self.drop_candidate(id)?;
+                Ok(inserted)
+            }
+        }
+    }
+
+    /// (16): store the first sighting. The clone variant also clones the pose
+    /// into the state (one clone per batch, shared by its candidates).
+    fn create_candidate(&mut self, id: u64, z: f64, cloning: bool) -> Result<()> {
+        let time = self.time.unwrap_or(0.0);
+        let pose = self.ekf.block::<3>(0)?;
+        let variances = self.pose_covariance().diagonal();
+        let clone = if cloning {
+            let clone_id = match self.batch_clone {
+                Some(c) => c,
+                None => {
+                    let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
+                    let c = self.next_clone_id;
+                    self.next_clone_id += 1;
+                    self.clones.insert(c, PoseClone { offset, users: 0 });
+                    self.batch_clone = Some(c);
+                    c
+                }
+            };
+            if let Some(c) = self.clones.get_mut(&clone_id) {
+                c.users += 1;
+            }
+            Some(clone_id)
+        } else {
+            None
+        };
+        self.candidates.insert(
+            id,
+            PendingCandidate { candidate: Candidate { pose, bearing: z, pose_variances: variances, created: time, last_seen: time }, clone },
+        );
+        self.record(SlamEvent::CandidateCreated { id });
+        Ok(())
+    }
+
+    /// Forgets a candidate and releases its pose clone (removed from the state
+    /// when no candidate uses it any more).
+    fn drop_candidate(&mut self, id: u64) -> Result<()> {
+        let Some(pending) = self.candidates.remove(&id) else { return Ok(()) };
+        let Some(clone_id) = pending.clone else { return Ok(()) };
+        let Some(clone) = self.clones.get_mut(&clone_id) else { return Ok(()) };
+        clone.users = clone.users.saturating_sub(1);
+        if clone.users == 0 {
+            let offset = clone.offset;
+            self.clones.remove(&clone_id);
+            if self.batch_clone == Some(clone_id) {
+                self.batch_clone = None;
+            }
+            self.remove_state_block(offset, VEHICLE_DIM)?;
+        }
+        Ok(())
+    }
+
+    /// Removes a block and shifts every later block's offset.
+    fn remove_state_block(&mut self, offset: usize, len: usize) -> Result<()> {
+        self.ekf.remove_block(offset, len)?;
+        self.shift_offsets_after(offset, len);
+        Ok(())
+    }
+
+    /// Moves every block that starts after `offset` down by `len` entries.
+    fn shift_offsets_after(&mut self, offset: usize, len: usize) {
+        let offsets = self.landmarks.values_mut().map(|s| &mut s.offset).chain(self.clones.values_mut().map(|c| &mut c.offset));
+        for o in offsets {
+            if *o > offset {
+                *o -= len;
+            }
+        }
+    }
+
+    fn expire_candidates(&mut self) {
+        let (InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c)) = &self.config.initializer else {
+            return;
+        };
+        let now = self.time.unwrap_or(0.0);
+        let stale: Vec<u64> = self
+            .candidates
+            .iter()
+            .filter(|(_, p)| now - p.candidate.last_seen > c.candidate_timeout)
+            .map(|(&id, _)| id)
+            .collect();
+        for id in stale {
+            // Only fails on an internal offset error, which would be a bug.
+            if self.drop_candidate(id).is_ok() {
+                self.record(SlamEvent::CandidateExpired { id });
+            }
+        }
+    }
+
+    /// Converts inverse-depth landmarks whose linearity index is below the
+    /// threshold into Euclidean points (4 → 2 state entries).
+    fn convert_linear_landmarks(&mut self) -> Result<()> {
+        let Some(threshold) = self.config.conversion_threshold else { return Ok(()) };
+        let sensor = self.ekf.block::<2>(0)?;
+        let ids: Vec<u64> = self
+            .landmarks
+            .iter()
+            .filter(|(_, s)| s.parameterization == Parameterization::InverseDepth)
+            .map(|(&id, _)| id)
+            .collect();
+        for id in ids {
+            let Some(slot) = self.landmarks.get(&id).copied() else { continue };
+            let y = self.ekf.block::<4>(slot.offset)?;
+            let rho_variance = self.ekf.covariance()[(slot.offset + 3, slot.offset + 3)];
+            let Ok(index) = linearity_index(&y, rho_variance, &sensor) else { continue };
+            if index >= threshold {
+                continue;
+            }
+            let converted = inverse_depth_to_point(&y)?;
+            self.ekf.reparameterize(
+                slot.offset,
+                4,
+                &DVector::from_column_slice(converted.point.as_slice()),
+                &DMatrix::from_column_slice(2, 4, converted.j_point_landmark.as_slice()),
+            )?;
+            self.shift_offsets_after(slot.offset, 2);
+            if let Some(s) = self.landmarks.get_mut(&id) {
+                s.parameterization = Parameterization::Euclidean;
+            }
+            self.record(SlamEvent::LandmarkConverted { id, linearity_index: index });
+        }
+        Ok(())
+    }
+
+    /// Removes a landmark from the map (marginalization).
+    pub fn remove_landmark(&mut self, id: u64) -> Result<()> {
+        let slot = self.landmarks.remove(&id).ok_or(SlamError::UnknownLandmark(id))?;
+        self.remove_state_block(slot.offset, slot.parameterization.dim())
+    }
+}
+
+/// The `p`-quantile of a chi-square distribution with `dof` degrees of freedom.
+pub fn chi_square_quantile(dof: f64, p: f64) -> Result<f64> {
+    if !(dof > 0.0 && dof.is_finite()) {
+        return Err(SlamError::InvalidParameter { name: "dof", value: dof, reason: "must be positive" });
+    }
+    if !(p > 0.0 && p < 1.0) {
+        return Err(SlamError::InvalidParameter { name: "probability", value: p, reason: "must be in (0, 1)" });
+    }
+    let dist = ChiSquared::new(dof).map_err(|_| SlamError::InvalidParameter { name: "dof", value: dof, reason: "must be positive" })?;
+    Ok(dist.inverse_cdf(p))
+}
