@@ -1,4 +1,5 @@
-//! Noise calibration from the MRCLAM ground truth.
+//! Noise calibration from the MRCLAM ground truth (its items are re-exported
+//! by [`crate::mrclam`]).
 //!
 //! Nothing here looks at a filter's output: the numbers come only from the
 //! sensor data and the Vicon ground truth, so that anyone can rerun them
@@ -22,7 +23,9 @@
 //! window start; the error is the true end pose seen from that prediction,
 //! `e = predicted⁻¹ ∘ true = (along, cross, heading)`: along-track (forward
 //! distance) error, cross-track error and heading error, in the predicted end
-//! frame. Windows with a ground-truth gap at either end are skipped.
+//! frame. Windows with a ground-truth gap at either end are skipped; windows
+//! where the robot is commanded to stand still (`v = ω = 0` throughout) are
+//! left out of the statistics and counted.
 //!
 //! The numbers are for the **velocity motion model** (METHOD.md §2.4: the
 //! command `(v, ω)` held for `Δt`, exact arc integration) with additive,
@@ -206,6 +209,8 @@ pub struct MotionResidual {
     pub duration_s: f64,
     /// Distance commanded over the window, `Σ |v| dt`, metres.
     pub commanded_distance_m: f64,
+    /// Rotation commanded over the window, `Σ |ω| dt`, radians.
+    pub commanded_rotation_rad: f64,
     /// Along-track (forward) error of the prediction, metres.
     pub along_m: f64,
     /// Cross-track (leftward) error of the prediction, metres.
@@ -224,6 +229,9 @@ pub struct MotionCalibration {
     pub n_windows: usize,
     /// Windows skipped because the ground truth has a gap at one end.
     pub n_skipped_windows: usize,
+    /// Windows left out because every command in them is `v = ω = 0` (the
+    /// robot is parked: the model's noise is for a moving robot).
+    pub n_stationary_windows: usize,
     /// Mean commanded distance per window, metres.
     pub mean_distance_m: f64,
     /// Along-track errors, metres.
@@ -247,7 +255,12 @@ pub struct MotionCalibration {
 }
 
 impl MotionCalibration {
-    fn from_residuals(residuals: &[MotionResidual], n_skipped: usize, window_s: f64) -> Self {
+    fn from_residuals(all: &[MotionResidual], n_skipped: usize, window_s: f64) -> Self {
+        let residuals: Vec<MotionResidual> = all
+            .iter()
+            .copied()
+            .filter(|r| r.commanded_distance_m > 0.0 || r.commanded_rotation_rad > 0.0)
+            .collect();
         let along: Vec<f64> = residuals.iter().map(|r| r.along_m).collect();
         let cross: Vec<f64> = residuals.iter().map(|r| r.cross_m).collect();
         let heading: Vec<f64> = residuals.iter().map(|r| r.heading_rad).collect();
@@ -259,6 +272,7 @@ impl MotionCalibration {
             window_s,
             n_windows: residuals.len(),
             n_skipped_windows: n_skipped,
+            n_stationary_windows: all.len() - residuals.len(),
             mean_distance_m: mean_and_std(&distances).0,
             sigma_v_mps: along.robust_sigma / window_s,
             sigma_omega_radps: heading.robust_sigma / window_s,
@@ -312,11 +326,15 @@ fn calibration_from(
             problem: "no landmark bearing has ground truth at its time".to_owned(),
         });
     }
-    if residuals.motion.is_empty() {
+    if !residuals
+        .motion
+        .iter()
+        .any(|r| r.commanded_distance_m > 0.0 || r.commanded_rotation_rad > 0.0)
+    {
         return Err(MrclamError::Calibration {
             source_name: source,
             problem: format!(
-                "no {} s motion window is covered by ground truth",
+                "no {} s motion window with motion is covered by ground truth",
                 options.window_s
             ),
         });
@@ -478,6 +496,7 @@ pub fn motion_residuals(
         let mut pose = true_start;
         let mut cursor = start;
         let mut distance = 0.0;
+        let mut rotation = 0.0;
         let mut covered = true;
         for &(t, v, omega, dt) in &commands[index..] {
             if t >= end {
@@ -493,6 +512,7 @@ pub fn motion_residuals(
             if duration > 0.0 {
                 pose = integrate_velocity(&pose, v, omega, duration);
                 distance += v.abs() * duration;
+                rotation += omega.abs() * duration;
                 cursor = segment_end;
             }
         }
@@ -505,6 +525,7 @@ pub fn motion_residuals(
             start_s: start,
             duration_s: window_s,
             commanded_distance_m: distance,
+            commanded_rotation_rad: rotation,
             along_m: error.x,
             cross_m: error.y,
             heading_rad: error.theta,

@@ -48,7 +48,7 @@
 //!   [`MrclamError::Parse`] naming the file and line. The real files load
 //!   without any error.
 
-mod calibration;
+pub mod calibration;
 mod parse;
 
 pub use calibration::{
