@@ -550,3 +550,30 @@ fn interpolation_matches_a_hand_computed_pose() {
     assert!(bearing_slam_io::mrclam::interpolate_pose_with_max_gap(&track, 2.0, 3.0).is_some());
     assert_eq!(interpolate_pose(&[], 0.0), None);
 }
+
+#[test]
+fn parser_tolerates_lf_blank_lines_tabs_and_comments_but_not_duplicates() {
+    let dir = temp_dir("parser");
+    let path = dir.join("Barcodes.dat");
+    fs::write(
+        &path,
+        "# header\n\n  1\t 5   \n2 14 # robot 2\n\t\n6\t72\r\n",
+    )
+    .expect("write");
+    let table = read_barcodes(&path).expect("tolerant parse");
+    assert_eq!(table.len(), 3);
+    assert_eq!(table.subject(14), Some(2));
+    assert_eq!(table.barcode(6), Some(72));
+
+    fs::write(&path, "# header\n1 5\n2 5\n").expect("write");
+    let message = read_barcodes(&path)
+        .expect_err("duplicate barcode")
+        .to_string();
+    assert!(message.contains("Barcodes.dat:3:"), "{message}");
+    assert!(message.contains("barcode 5 is listed twice"), "{message}");
+
+    fs::write(&path, "# header only\r\n").expect("write");
+    let error = read_barcodes(&path).expect_err("no rows");
+    assert!(matches!(error, MrclamError::NoData { .. }), "{error}");
+    let _ = fs::remove_dir_all(&dir);
+}
