@@ -1,1 +1,3 @@
 //! MCAP logs and dataset loaders (under construction).
+
+pub mod mrclam;
