@@ -13,6 +13,7 @@ pub mod ekf;
 pub mod error;
 pub mod geometry;
 pub mod log;
+pub mod metrics;
 pub mod motion;
 pub mod trace;
 
