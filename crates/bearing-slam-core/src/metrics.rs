@@ -10,6 +10,7 @@
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use nalgebra::{Cholesky, DMatrix, DVector, Matrix3, Vector2};
+use serde::{Deserialize, Serialize};
 use statrs::distribution::{ChiSquared, Continuous, ContinuousCDF};
 use statrs::function::gamma::ln_gamma;
 
@@ -17,7 +18,7 @@ use statrs::function::gamma::ln_gamma;
 
 /// How to register the estimated trajectory onto the truth before measuring
 /// the absolute trajectory error.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize, Deserialize)]
 pub enum Alignment {
     /// Compare as is: the estimate and the truth share their world frame (the
     /// filter was started at the true initial pose).
@@ -30,7 +31,7 @@ pub enum Alignment {
 }
 
 /// The absolute trajectory error of an estimate against the truth.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AteReport {
     /// Root mean square of the position errors, metres.
     pub rmse_m: f64,
@@ -48,7 +49,7 @@ pub struct AteReport {
 }
 
 /// The relative pose error over a fixed index offset.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RpeReport {
     /// Root mean square of the translation errors of the relative motions,
     /// metres.
@@ -482,7 +483,7 @@ pub fn average_over_runs(runs: &[Vec<f64>]) -> Result<Vec<f64>> {
 /// How often an averaged NEES (or NIS) sequence stays inside its chi-square
 /// band: a consistent filter stays inside about `confidence` of the time;
 /// mostly above means over-confident, mostly below pessimistic.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConsistencyStats {
     /// Number of time steps.
     pub steps: usize,

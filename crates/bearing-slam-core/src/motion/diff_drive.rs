@@ -6,6 +6,7 @@ use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::wrap_angle;
 use crate::log::WheelOdometry;
 use nalgebra::{Matrix2, Matrix3x2, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
 
 /// Noise of the wheel encoders, per wheel and independent between wheels
 /// (METHOD.md §1: "noise lives in wheel space").
@@ -18,7 +19,7 @@ use nalgebra::{Matrix2, Matrix3x2, Vector2, Vector3};
 /// `scale_sqrt_m` metres). The floor keeps the covariance positive definite
 /// for a robot standing still. The paper's Fig. 8 setting, a constant odometry
 /// variance of 0.01, is `floor_sigma_m = 0.1, scale_sqrt_m = 0`.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct WheelNoise {
     /// Standard deviation of each wheel distance regardless of motion, metres
     /// (> 0).

@@ -5,6 +5,7 @@ use crate::ekf::{MotionModel, MotionPrediction};
 use crate::error::{Result, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;
 
 /// Below this translation (metres) between two odometry poses the direction of
@@ -14,7 +15,7 @@ pub const MIN_TRANSLATION_FOR_ROT1_M: f64 = 1e-6;
 
 /// The odometry control `u = [δ_rot1, δ_trans, δ_rot2]`: turn towards the
 /// direction of travel, move straight, turn to the final heading.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OdometryIncrement {
     /// First rotation, radians.
     pub rot1: f64,
@@ -97,7 +98,7 @@ impl OdometryIncrement {
 /// `alpha = [α1, α2, α3, α4]` each ≥ 0 (α1, α3 dimensionless; α2 in rad²/m²;
 /// α4 in m²/rad²). The floors (> 0) keep the covariance positive definite
 /// for a robot standing still.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OdometryNoise {
     /// `[α1, α2, α3, α4]`, each finite and ≥ 0.
     pub alpha: [f64; 4],

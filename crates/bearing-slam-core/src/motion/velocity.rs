@@ -8,6 +8,7 @@ use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::wrap_angle;
 use crate::log::VelocityOdometry;
 use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
 
 /// Noise of a velocity command, Thrun et al.'s α-model with additive floors.
 /// On the control vector `u = [v, ω, γ]` (forward speed m/s, turn rate rad/s,
@@ -21,7 +22,7 @@ use nalgebra::{Matrix3, Vector3};
 /// per (rad/s)² of turn rate, giving variances in the units of the entry). The
 /// floors (> 0) keep the `(v, ω)` covariance positive definite when the robot
 /// stands still, where Thrun's pure α-model would claim perfect knowledge.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct VelocityNoise {
     /// `[α1, α2, α3, α4, α5, α6]`, each finite and ≥ 0.
     pub alpha: [f64; 6],
