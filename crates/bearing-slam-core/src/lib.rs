@@ -15,8 +15,11 @@ pub mod geometry;
 pub mod init;
 pub mod landmark;
 pub mod log;
-pub mod slam;
 pub mod measurement;
+pub mod metrics;
+pub mod motion;
+pub mod runner;
+pub mod slam;
 pub mod trace;
 
 #[cfg(feature = "testing")]
