@@ -71,6 +71,14 @@ struct Keyed<T> {
     item: T,
 }
 
+fn keyed<T>(header: &mcap::records::MessageHeader, item: T) -> Keyed<T> {
+    Keyed {
+        log_time: header.log_time,
+        sequence: header.sequence,
+        item,
+    }
+}
+
 fn sort_keyed<T>(mut v: Vec<Keyed<T>>) -> Vec<T> {
     // Stable: equal (log time, sequence) keep file order.
     v.sort_by_key(|k| (k.log_time, k.sequence));
@@ -293,21 +301,6 @@ impl Reader {
                 source,
             })
         }
-        let key = |item| Keyed {
-            log_time: header.log_time,
-            sequence: header.sequence,
-            item,
-        };
-        let key_s = |item| Keyed {
-            log_time: header.log_time,
-            sequence: header.sequence,
-            item,
-        };
-        let key_e = |item| Keyed {
-            log_time: header.log_time,
-            sequence: header.sequence,
-            item,
-        };
         let event = match topic {
             Topic::Wheels => Some(EventMsg::Wheels(parse::<WheelsMsg>(
                 path, &name, index, data,
@@ -331,18 +324,18 @@ impl Reader {
             }
             Topic::Estimate => {
                 let s = parse::<EstimateSnapshot>(path, &name, index, data)?;
-                self.snapshots.push(key_s(s));
+                self.snapshots.push(keyed(&header, s));
                 None
             }
             Topic::SlamEvent => {
                 let e = parse::<TimedSlamEvent>(path, &name, index, data)?;
-                self.slam_events.push(key_e(e));
+                self.slam_events.push(keyed(&header, e));
                 None
             }
             _ => None,
         };
         if let Some(e) = event {
-            self.events.push(key(e.into_event()));
+            self.events.push(keyed(&header, e.into_event()));
         }
         Ok(())
     }

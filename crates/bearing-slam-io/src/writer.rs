@@ -130,7 +130,7 @@ impl PathView {
 
     /// Adds a pose; true when the path is due for publication.
     fn push(&mut self, pose: Pose, every: usize, max_points: usize) -> bool {
-        if self.seen % self.stride == 0 {
+        if self.seen.is_multiple_of(self.stride) {
             self.poses.push(pose);
             if self.poses.len() > max_points.max(2) {
                 let mut i = 0;
@@ -870,8 +870,9 @@ pub fn write_log_with_options(
             .enumerate()
             .filter_map(|(n, t)| t.map(|t| (n, t)))
             .fold(None::<(usize, f64)>, |best, (n, t)| match best {
-                Some((_, bt)) if !(t < bt) => best,
-                _ => Some((n, t)),
+                Some((_, bt)) if t < bt => Some((n, t)),
+                None => Some((n, t)),
+                _ => best,
             });
         match pick {
             None => break,

@@ -11,8 +11,11 @@ use bearing_slam_io::{
 use common::{Rng, sample_log, tmp};
 use mcap::records::MessageHeader;
 
-/// An MCAP file written by "someone else": the given (schema, topic, metadata, messages).
-fn foreign_mcap(channels: &[(&str, &str, &[(&str, &str)], Vec<&str>)]) -> Vec<u8> {
+/// One channel of a foreign file: schema name, topic, metadata, messages.
+type ForeignChannel<'a> = (&'a str, &'a str, &'a [(&'a str, &'a str)], Vec<&'a str>);
+
+/// An MCAP file written by "someone else".
+fn foreign_mcap(channels: &[ForeignChannel<'_>]) -> Vec<u8> {
     let mut w = mcap::Writer::new(Cursor::new(Vec::new())).expect("writer");
     let mut seq = 0;
     for (schema, topic, metadata, messages) in channels {
