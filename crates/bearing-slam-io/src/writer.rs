@@ -400,13 +400,13 @@ impl McapLogWriter {
     /// Closes the open chunk and flushes the file to the operating system:
     /// everything written so far survives a crash of this process.
     pub fn flush(&mut self) -> Result<()> {
-        let path = self.path.clone();
+        let path = &self.path;
         let writer = self
             .writer
             .as_mut()
-            .ok_or(IoError::Finished { path: path.clone() })?;
+            .ok_or_else(|| IoError::Finished { path: path.clone() })?;
         writer.flush().map_err(|source| IoError::Mcap {
-            path,
+            path: path.clone(),
             action: "flushing a chunk".into(),
             source,
         })?;
@@ -680,11 +680,11 @@ impl McapLogWriter {
 
     fn emit_bytes(&mut self, topic: Topic, log_time: u64, data: &[u8]) -> Result<()> {
         let channel_id = self.channel(topic)?;
-        let path = self.path.clone();
+        let path = &self.path;
         let writer = self
             .writer
             .as_mut()
-            .ok_or(IoError::Finished { path: path.clone() })?;
+            .ok_or_else(|| IoError::Finished { path: path.clone() })?;
         let header = MessageHeader {
             channel_id,
             sequence: self.sequence,
@@ -694,7 +694,7 @@ impl McapLogWriter {
         writer
             .write_to_known_channel(&header, data)
             .map_err(|source| IoError::Mcap {
-                path,
+                path: path.clone(),
                 action: format!("writing a message on {}", topic.name()),
                 source,
             })?;
