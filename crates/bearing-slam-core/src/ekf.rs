@@ -62,8 +62,7 @@ pub trait MeasurementModel<const V: usize, const L: usize, const M: usize> {
     ) -> Result<MeasurementPrediction<V, L, M>>;
 
     /// The innovation `measured − predicted`, with angles wrapped to (−π, π].
-    fn residual(&self, measured: &SVector<f64, M>, predicted: &SVector<f64, M>)
-    -> SVector<f64, M>;
+    fn residual(&self, measured: &SVector<f64, M>, predicted: &SVector<f64, M>) -> SVector<f64, M>;
 }
 
 /// The Jacobian of some function with respect to one contiguous block of the
@@ -114,7 +113,11 @@ impl Ekf {
             return Err(SlamError::DimensionMismatch {
                 what: "initial covariance",
                 expected: n,
-                got: if cov.nrows() == n { cov.ncols() } else { cov.nrows() },
+                got: if cov.nrows() == n {
+                    cov.ncols()
+                } else {
+                    cov.nrows()
+                },
             });
         }
         for &v in mean.iter() {
@@ -161,7 +164,11 @@ impl Ekf {
     }
 
     /// Overwrites `L` entries of the mean (e.g. to wrap an angle after an update).
-    pub fn set_block<const L: usize>(&mut self, offset: usize, value: &SVector<f64, L>) -> Result<()> {
+    pub fn set_block<const L: usize>(
+        &mut self,
+        offset: usize,
+        value: &SVector<f64, L>,
+    ) -> Result<()> {
         self.check_range("state block", offset, L)?;
         self.mean.fixed_rows_mut::<L>(offset).copy_from(value);
         Ok(())
@@ -169,7 +176,11 @@ impl Ekf {
 
     fn check_range(&self, what: &'static str, offset: usize, len: usize) -> Result<()> {
         if offset + len > self.dim() {
-            return Err(SlamError::DimensionMismatch { what, expected: self.dim(), got: offset + len });
+            return Err(SlamError::DimensionMismatch {
+                what,
+                expected: self.dim(),
+                got: offset + len,
+            });
         }
         Ok(())
     }
@@ -189,7 +200,10 @@ impl Ekf {
     }
 
     /// Applies an already computed [`MotionPrediction`] to the vehicle block.
-    pub fn apply_prediction<const V: usize>(&mut self, prediction: &MotionPrediction<V>) -> Result<()> {
+    pub fn apply_prediction<const V: usize>(
+        &mut self,
+        prediction: &MotionPrediction<V>,
+    ) -> Result<()> {
         self.check_range("vehicle block", 0, V)?;
         for &v in prediction.state.iter() {
             ensure_finite("predicted state", v)?;
@@ -203,12 +217,16 @@ impl Ekf {
             let p_vm = self.cov.view((0, V), (V, n - V)).into_owned();
             let new_vm = f * p_vm;
             self.cov.view_mut((0, V), (V, n - V)).copy_from(&new_vm);
-            self.cov.view_mut((V, 0), (n - V, V)).copy_from(&new_vm.transpose());
+            self.cov
+                .view_mut((V, 0), (n - V, V))
+                .copy_from(&new_vm.transpose());
         }
         self.cov
             .fixed_view_mut::<V, V>(0, 0)
             .copy_from(&(0.5 * (new_vv + new_vv.transpose())));
-        self.mean.fixed_rows_mut::<V>(0).copy_from(&prediction.state);
+        self.mean
+            .fixed_rows_mut::<V>(0)
+            .copy_from(&prediction.state);
         Ok(())
     }
 
@@ -252,7 +270,10 @@ impl Ekf {
         let mut s = DMatrix::zeros(rows, rows);
         for a in blocks {
             for b in blocks {
-                let p_ab = self.cov.view((a.offset, b.offset), (a.jacobian.ncols(), b.jacobian.ncols()));
+                let p_ab = self.cov.view(
+                    (a.offset, b.offset),
+                    (a.jacobian.ncols(), b.jacobian.ncols()),
+                );
                 s += &a.jacobian * p_ab * b.jacobian.transpose();
             }
         }
@@ -262,7 +283,11 @@ impl Ekf {
     fn check_measurement(&self, m: &LinearizedMeasurement) -> Result<()> {
         let rows = m.innovation.len();
         if m.noise.nrows() != rows || m.noise.ncols() != rows {
-            return Err(SlamError::DimensionMismatch { what: "measurement noise", expected: rows, got: m.noise.nrows() });
+            return Err(SlamError::DimensionMismatch {
+                what: "measurement noise",
+                expected: rows,
+                got: m.noise.nrows(),
+            });
         }
         for block in &m.blocks {
             if block.jacobian.nrows() != rows {
@@ -272,7 +297,11 @@ impl Ekf {
                     got: block.jacobian.nrows(),
                 });
             }
-            self.check_range("measurement Jacobian block", block.offset, block.jacobian.ncols())?;
+            self.check_range(
+                "measurement Jacobian block",
+                block.offset,
+                block.jacobian.ncols(),
+            )?;
         }
         for &v in m.innovation.iter().chain(m.noise.iter()) {
             ensure_finite("innovation or measurement noise", v)?;
@@ -291,8 +320,12 @@ impl Ekf {
         self.check_measurement(measurement)?;
         let rows = measurement.innovation.len();
         let s = self.project_covariance(&measurement.blocks, rows) + &measurement.noise;
-        let chol = s.cholesky().ok_or(SlamError::NotPositiveDefinite { what: "innovation covariance S" })?;
-        Ok(measurement.innovation.dot(&chol.solve(&measurement.innovation)))
+        let chol = s.cholesky().ok_or(SlamError::NotPositiveDefinite {
+            what: "innovation covariance S",
+        })?;
+        Ok(measurement
+            .innovation
+            .dot(&chol.solve(&measurement.innovation)))
     }
 
     /// One EKF update with all measurements of a batch stacked into a single
@@ -340,15 +373,15 @@ impl Ekf {
             let k = m.innovation.len();
             for block in &m.blocks {
                 let cols = block.jacobian.ncols();
-                s.rows_mut(row, k).gemm(1.0, &block.jacobian, &c.rows(block.offset, cols), 1.0);
+                s.rows_mut(row, k)
+                    .gemm(1.0, &block.jacobian, &c.rows(block.offset, cols), 1.0);
             }
             row += k;
         }
         let s = 0.5 * (&s + s.transpose());
-        let chol = s
-            .clone()
-            .cholesky()
-            .ok_or(SlamError::NotPositiveDefinite { what: "innovation covariance S" })?;
+        let chol = s.clone().cholesky().ok_or(SlamError::NotPositiveDefinite {
+            what: "innovation covariance S",
+        })?;
         let nis = innovation.dot(&chol.solve(&innovation));
         // Kᵀ = S⁻¹ Cᵀ.
         let k_t = chol.solve(&c.transpose());
@@ -392,7 +425,11 @@ impl Ekf {
     ) -> Result<usize> {
         let k = new_mean.len();
         if added_noise.nrows() != k || added_noise.ncols() != k {
-            return Err(SlamError::DimensionMismatch { what: "augmentation noise", expected: k, got: added_noise.nrows() });
+            return Err(SlamError::DimensionMismatch {
+                what: "augmentation noise",
+                expected: k,
+                got: added_noise.nrows(),
+            });
         }
         for block in jacobians {
             if block.jacobian.nrows() != k {
@@ -402,7 +439,11 @@ impl Ekf {
                     got: block.jacobian.nrows(),
                 });
             }
-            self.check_range("augmentation Jacobian block", block.offset, block.jacobian.ncols())?;
+            self.check_range(
+                "augmentation Jacobian block",
+                block.offset,
+                block.jacobian.ncols(),
+            )?;
         }
         for &v in new_mean.iter().chain(added_noise.iter()) {
             ensure_finite("new state block or its noise", v)?;
@@ -411,11 +452,21 @@ impl Ekf {
         // Cross covariance G_x P (k × n).
         let mut cross = DMatrix::zeros(k, n);
         for block in jacobians {
-            cross.gemm(1.0, &block.jacobian, &self.cov.rows(block.offset, block.jacobian.ncols()), 1.0);
+            cross.gemm(
+                1.0,
+                &block.jacobian,
+                &self.cov.rows(block.offset, block.jacobian.ncols()),
+                1.0,
+            );
         }
         let mut p_yy = added_noise.clone();
         for block in jacobians {
-            p_yy.gemm(1.0, &cross.columns(block.offset, block.jacobian.ncols()), &block.jacobian.transpose(), 1.0);
+            p_yy.gemm(
+                1.0,
+                &cross.columns(block.offset, block.jacobian.ncols()),
+                &block.jacobian.transpose(),
+                1.0,
+            );
         }
         let p_yy = 0.5 * (&p_yy + p_yy.transpose());
         for &v in cross.iter().chain(p_yy.iter()) {
@@ -442,7 +493,10 @@ impl Ekf {
         let mean = self.mean.rows(offset, len).into_owned();
         self.augment(
             &mean,
-            &[BlockJacobian { offset, jacobian: DMatrix::identity(len, len) }],
+            &[BlockJacobian {
+                offset,
+                jacobian: DMatrix::identity(len, len),
+            }],
             &DMatrix::zeros(len, len),
         )
     }
@@ -483,9 +537,11 @@ impl Ekf {
             ensure_finite("reparameterized block", v)?;
         }
         let rows = j_new_old * self.cov.rows(offset, old_len); // new_len × n
-        let diag = &rows.columns(offset, old_len) * j_new_old.transpose();
+        let diag = rows.columns(offset, old_len) * j_new_old.transpose();
         self.cov.rows_mut(offset, new_len).copy_from(&rows);
-        self.cov.columns_mut(offset, new_len).copy_from(&rows.transpose());
+        self.cov
+            .columns_mut(offset, new_len)
+            .copy_from(&rows.transpose());
         self.cov
             .view_mut((offset, offset), (new_len, new_len))
             .copy_from(&(0.5 * (&diag + diag.transpose())));

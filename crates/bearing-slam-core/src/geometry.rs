@@ -20,7 +20,11 @@ pub fn wrap_angle(angle: f64) -> f64 {
     }
     let wrapped = angle - TAU * ((angle + PI) / TAU).floor();
     // `wrapped` is in [−π, π); move the lower end to +π.
-    if wrapped <= -PI { wrapped + TAU } else { wrapped }
+    if wrapped <= -PI {
+        wrapped + TAU
+    } else {
+        wrapped
+    }
 }
 
 /// The unit direction `m(θ) = [cos θ, sin θ]` of a ray with world azimuth `θ`

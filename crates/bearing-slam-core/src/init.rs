@@ -68,7 +68,9 @@ pub fn pi_sr(pose: &Vector3<f64>, bearing: f64, rho_ini: f64) -> Result<InverseD
     ensure_finite("bearing", bearing)?;
     ensure_finite("rho_ini", rho_ini)?;
     let mut j_landmark_pose = Matrix4x3::zeros();
-    j_landmark_pose.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+    j_landmark_pose
+        .fixed_view_mut::<3, 3>(0, 0)
+        .fill_with_identity();
     Ok(InverseDepthInit {
         landmark: Vector4::new(pose.x, pose.y, wrap_angle(pose.z + bearing), rho_ini),
         j_landmark_pose,
@@ -112,13 +114,23 @@ pub struct Parallax {
 /// derivative is infinite at ±1. `α` is the angle between the ray directions
 /// `h₁ = m(θ₁ + z₁)` and `h₂ = m(θ_v + z)`, which equals `π − (β + γ)` whenever
 /// the rays meet in front of both poses.
-pub fn parallax(first_pose: &Vector3<f64>, first_bearing: f64, pose: &Vector3<f64>, bearing: f64) -> Parallax {
+pub fn parallax(
+    first_pose: &Vector3<f64>,
+    first_bearing: f64,
+    pose: &Vector3<f64>,
+    bearing: f64,
+) -> Parallax {
     let h1 = unit_direction(first_pose.z + first_bearing);
     let h2 = unit_direction(pose.z + bearing);
     let b1 = pose.fixed_rows::<2>(0) - first_pose.fixed_rows::<2>(0);
     let b2 = -b1;
     let angle = |a: &Vector2<f64>, b: &Vector2<f64>| cross2(a, b).abs().atan2(a.dot(b));
-    Parallax { baseline: b1.norm(), beta: angle(&h1, &b1), gamma: angle(&h2, &b2), alpha: angle(&h1, &h2) }
+    Parallax {
+        baseline: b1.norm(),
+        beta: angle(&h1, &b1),
+        gamma: angle(&h2, &b2),
+        alpha: angle(&h1, &h2),
+    }
 }
 
 /// A landmark initialized by stochastic triangulation, with every Jacobian
@@ -160,7 +172,9 @@ pub fn triangulated_inverse_depth(
     let s = cross2(&h1, &h2); // sin α, signed
     let e = cross2(&b, &h1); // b sin β, signed
     if !(e.abs() > 1e-12) {
-        return Err(SlamError::Degenerate("first ray is parallel to the baseline: no triangle"));
+        return Err(SlamError::Degenerate(
+            "first ray is parallel to the baseline: no triangle",
+        ));
     }
     let c = h1.dot(&h2); // cos α
     let rho = s / e;
@@ -192,7 +206,9 @@ pub fn triangulate_candidate(
         return Err(SlamError::Degenerate("rays meet behind the sensor"));
     }
     let mut j_landmark_pose = Matrix4x3::zeros();
-    j_landmark_pose.fixed_view_mut::<3, 3>(0, 0).fill_with_identity();
+    j_landmark_pose
+        .fixed_view_mut::<3, 3>(0, 0)
+        .fill_with_identity();
     j_landmark_pose.set_row(3, &j_rho_pose);
     let mut j_landmark_first_pose = Matrix4x3::zeros();
     j_landmark_first_pose.set_row(3, &j_rho_first);
@@ -236,14 +252,30 @@ impl TriangulationConfig {
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
         let checks = [
-            ("alpha_min", self.alpha_min, self.alpha_min > 0.0 && self.alpha_min < std::f64::consts::PI),
+            (
+                "alpha_min",
+                self.alpha_min,
+                self.alpha_min > 0.0 && self.alpha_min < std::f64::consts::PI,
+            ),
             ("baseline_min", self.baseline_min, self.baseline_min > 0.0),
-            ("beta_min", self.beta_min, self.beta_min >= 0.0 && self.beta_min < std::f64::consts::PI),
-            ("candidate_timeout", self.candidate_timeout, self.candidate_timeout > 0.0),
+            (
+                "beta_min",
+                self.beta_min,
+                self.beta_min >= 0.0 && self.beta_min < std::f64::consts::PI,
+            ),
+            (
+                "candidate_timeout",
+                self.candidate_timeout,
+                self.candidate_timeout > 0.0,
+            ),
         ];
         for (name, value, ok) in checks {
             if !(ok && value.is_finite()) {
-                return Err(SlamError::InvalidParameter { name, value, reason: "out of range" });
+                return Err(SlamError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "out of range",
+                });
             }
         }
         Ok(())
@@ -273,7 +305,12 @@ pub enum CandidateDecision {
 
 /// The decision rule of §1 "Delayed initialization", steps 3, 5 and 6.
 #[must_use]
-pub fn decide(config: &TriangulationConfig, candidate: &Candidate, pose: &Vector3<f64>, bearing: f64) -> (CandidateDecision, Parallax) {
+pub fn decide(
+    config: &TriangulationConfig,
+    candidate: &Candidate,
+    pose: &Vector3<f64>,
+    bearing: f64,
+) -> (CandidateDecision, Parallax) {
     let p = parallax(&candidate.pose, candidate.bearing, pose, bearing);
     let decision = if p.alpha > config.alpha_min {
         match triangulated_inverse_depth(&candidate.pose, candidate.bearing, pose, bearing) {

@@ -43,15 +43,26 @@ pub struct InverseDepthPoint {
 pub fn inverse_depth_to_point(landmark: &Vector4<f64>) -> Result<InverseDepthPoint> {
     let rho = landmark[3];
     if !(rho > 0.0 && rho.is_finite()) {
-        return Err(SlamError::Degenerate("inverse depth must be positive to give a point"));
+        return Err(SlamError::Degenerate(
+            "inverse depth must be positive to give a point",
+        ));
     }
     let m = unit_direction(landmark[2]);
     let point = Vector2::new(landmark[0], landmark[1]) + m / rho;
     let j_point_landmark = Matrix2x4::new(
-        1.0, 0.0, -m.y / rho, -m.x / (rho * rho),
-        0.0, 1.0, m.x / rho, -m.y / (rho * rho),
+        1.0,
+        0.0,
+        -m.y / rho,
+        -m.x / (rho * rho),
+        0.0,
+        1.0,
+        m.x / rho,
+        -m.y / (rho * rho),
     );
-    Ok(InverseDepthPoint { point, j_point_landmark })
+    Ok(InverseDepthPoint {
+        point,
+        j_point_landmark,
+    })
 }
 
 /// Civera et al.'s linearity index of the inverse-depth → depth mapping, in 2-D:
@@ -59,16 +70,25 @@ pub fn inverse_depth_to_point(landmark: &Vector4<f64>) -> Result<InverseDepthPoi
 /// sensor to the point and `α` the angle between the landmark's ray and the
 /// current line of sight. Small values (Civera uses 0.1) mean depth is well
 /// enough known for a Euclidean parameterization to stay Gaussian.
-pub fn linearity_index(landmark: &Vector4<f64>, rho_variance: f64, sensor: &Vector2<f64>) -> Result<f64> {
+pub fn linearity_index(
+    landmark: &Vector4<f64>,
+    rho_variance: f64,
+    sensor: &Vector2<f64>,
+) -> Result<f64> {
     let converted = inverse_depth_to_point(landmark)?;
     let rho = landmark[3];
     if !(rho_variance >= 0.0 && rho_variance.is_finite()) {
-        return Err(SlamError::InvalidNoise { what: "inverse-depth variance", value: rho_variance });
+        return Err(SlamError::InvalidNoise {
+            what: "inverse-depth variance",
+            value: rho_variance,
+        });
     }
     let sight = converted.point - sensor;
     let d1 = sight.norm();
     if !(d1 > 1e-12) {
-        return Err(SlamError::Degenerate("landmark coincides with the sensor position"));
+        return Err(SlamError::Degenerate(
+            "landmark coincides with the sensor position",
+        ));
     }
     let sigma_d = rho_variance.sqrt() / (rho * rho);
     let cos_alpha = unit_direction(landmark[2]).dot(&sight) / d1;

@@ -111,7 +111,10 @@ impl SensorLog {
         for event in &self.events {
             ensure_finite("event time", event.time)?;
             if event.time < previous {
-                return Err(SlamError::TimeOrder { previous, current: event.time });
+                return Err(SlamError::TimeOrder {
+                    previous,
+                    current: event.time,
+                });
             }
             previous = event.time;
             match &event.kind {

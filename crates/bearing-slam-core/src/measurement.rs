@@ -18,7 +18,9 @@ const MIN_SQUARED_DISTANCE: f64 = 1e-18;
 fn bearing_of_direction(d: &Vector2<f64>, heading: f64) -> Result<(f64, Matrix1x2<f64>)> {
     let q = d.norm_squared();
     if !(q > MIN_SQUARED_DISTANCE) {
-        return Err(SlamError::Degenerate("landmark coincides with the sensor position"));
+        return Err(SlamError::Degenerate(
+            "landmark coincides with the sensor position",
+        ));
     }
     let z = wrap_angle(d.y.atan2(d.x) - heading);
     Ok((z, Matrix1x2::new(-d.y / q, d.x / q)))
@@ -62,8 +64,7 @@ impl MeasurementModel<3, 4, 1> for BearingToInverseDepth {
         landmark: &Vector4<f64>,
     ) -> Result<MeasurementPrediction<3, 4, 1>> {
         let rho = landmark[3];
-        let anchor_minus_vehicle =
-            landmark.fixed_rows::<2>(0) - vehicle.fixed_rows::<2>(0);
+        let anchor_minus_vehicle = landmark.fixed_rows::<2>(0) - vehicle.fixed_rows::<2>(0);
         let m = unit_direction(landmark[2]);
         let d = rho * anchor_minus_vehicle + m;
         let (z, j_z_d) = bearing_of_direction(&d, vehicle.z)?;
@@ -105,13 +106,22 @@ impl MeasurementModel<3, 2, 2> for RangeBearing {
         let j_r_d = Matrix1x2::new(d.x / r, d.y / r);
         let j_meas_d = Matrix2::new(j_r_d[0], j_r_d[1], j_z_d[0], j_z_d[1]);
         let mut j_z_vehicle = SMatrix::<f64, 2, 3>::zeros();
-        j_z_vehicle.fixed_view_mut::<2, 2>(0, 0).copy_from(&(-j_meas_d));
+        j_z_vehicle
+            .fixed_view_mut::<2, 2>(0, 0)
+            .copy_from(&(-j_meas_d));
         j_z_vehicle[(1, 2)] = -1.0;
-        Ok(MeasurementPrediction { value: Vector2::new(r, z), j_z_vehicle, j_z_landmark: j_meas_d })
+        Ok(MeasurementPrediction {
+            value: Vector2::new(r, z),
+            j_z_vehicle,
+            j_z_landmark: j_meas_d,
+        })
     }
 
     fn residual(&self, measured: &Vector2<f64>, predicted: &Vector2<f64>) -> Vector2<f64> {
-        Vector2::new(measured.x - predicted.x, wrap_angle(measured.y - predicted.y))
+        Vector2::new(
+            measured.x - predicted.x,
+            wrap_angle(measured.y - predicted.y),
+        )
     }
 }
 
@@ -128,9 +138,17 @@ pub struct InverseRangeBearing {
 }
 
 /// Munguía & Grau (7): the point seen at range `r` and bearing `z` from `pose`.
-pub fn inverse_range_bearing(pose: &Vector3<f64>, range: f64, bearing: f64) -> Result<InverseRangeBearing> {
+pub fn inverse_range_bearing(
+    pose: &Vector3<f64>,
+    range: f64,
+    bearing: f64,
+) -> Result<InverseRangeBearing> {
     if !(range.is_finite() && range > 0.0) {
-        return Err(SlamError::InvalidParameter { name: "range", value: range, reason: "must be positive and finite" });
+        return Err(SlamError::InvalidParameter {
+            name: "range",
+            value: range,
+            reason: "must be positive and finite",
+        });
     }
     crate::error::ensure_finite("bearing", bearing)?;
     let m = unit_direction(pose.z + bearing);
@@ -138,7 +156,11 @@ pub fn inverse_range_bearing(pose: &Vector3<f64>, range: f64, bearing: f64) -> R
     let point = pose.fixed_rows::<2>(0) + range * m;
     let j_point_pose = Matrix2x3::new(1.0, 0.0, range * dm.x, 0.0, 1.0, range * dm.y);
     let j_point_measurement = Matrix2::new(m.x, range * dm.x, m.y, range * dm.y);
-    Ok(InverseRangeBearing { point, j_point_pose, j_point_measurement })
+    Ok(InverseRangeBearing {
+        point,
+        j_point_pose,
+        j_point_measurement,
+    })
 }
 
 /// A point triangulated from two bearings with its Jacobians, Munguía & Grau (10).
@@ -162,7 +184,12 @@ pub struct Triangulation {
 ///
 /// Fails when the rays are parallel (`|h₁ × h₂| < 1e-12`) or meet behind
 /// either pose: then the bearings carry no depth.
-pub fn triangulate(pose1: &Vector3<f64>, z1: f64, pose2: &Vector3<f64>, z2: f64) -> Result<Triangulation> {
+pub fn triangulate(
+    pose1: &Vector3<f64>,
+    z1: f64,
+    pose2: &Vector3<f64>,
+    z2: f64,
+) -> Result<Triangulation> {
     for (what, v) in [("first bearing", z1), ("second bearing", z2)] {
         crate::error::ensure_finite(what, v)?;
     }
@@ -189,10 +216,14 @@ pub fn triangulate(pose1: &Vector3<f64>, z1: f64, pose2: &Vector3<f64>, z2: f64)
     let j_point_phi1 = h2 * j_d2_phi1;
     let j_point_phi2 = h2 * j_d2_phi2 + d2 * dh2;
     let mut j_point_pose1 = Matrix2x3::zeros();
-    j_point_pose1.fixed_view_mut::<2, 2>(0, 0).copy_from(&(-j_point_b));
+    j_point_pose1
+        .fixed_view_mut::<2, 2>(0, 0)
+        .copy_from(&(-j_point_b));
     j_point_pose1.set_column(2, &j_point_phi1);
     let mut j_point_pose2 = Matrix2x3::zeros();
-    j_point_pose2.fixed_view_mut::<2, 2>(0, 0).copy_from(&(Matrix2::identity() + j_point_b));
+    j_point_pose2
+        .fixed_view_mut::<2, 2>(0, 0)
+        .copy_from(&(Matrix2::identity() + j_point_b));
     j_point_pose2.set_column(2, &j_point_phi2);
     Ok(Triangulation {
         point: pose2.fixed_rows::<2>(0) + d2 * h2,

@@ -12,7 +12,9 @@ use crate::init::{
     triangulate_candidate,
 };
 use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
-use crate::measurement::{BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing};
+use crate::measurement::{
+    BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
+};
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
@@ -45,7 +47,10 @@ impl InitializerConfig {
     /// PI-SR with one prior for every landmark.
     #[must_use]
     pub fn pi_sr(prior: InverseDepthPrior) -> Self {
-        Self::PiSr { prior, per_landmark: BTreeMap::new() }
+        Self::PiSr {
+            prior,
+            per_landmark: BTreeMap::new(),
+        }
     }
 }
 
@@ -86,34 +91,54 @@ impl Default for SlamConfig {
 impl SlamConfig {
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
-        for (what, v) in [("initial x", self.initial_pose.x), ("initial y", self.initial_pose.y), ("initial theta", self.initial_pose.theta)] {
+        for (what, v) in [
+            ("initial x", self.initial_pose.x),
+            ("initial y", self.initial_pose.y),
+            ("initial theta", self.initial_pose.theta),
+        ] {
             ensure_finite(what, v)?;
         }
         for s in self.initial_pose_sigma {
             if !(s.is_finite() && s >= 0.0) {
-                return Err(SlamError::InvalidNoise { what: "initial pose sigma", value: s });
+                return Err(SlamError::InvalidNoise {
+                    what: "initial pose sigma",
+                    value: s,
+                });
             }
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
         ensure_positive_noise("range sigma", self.range_sigma)?;
         if let Some(p) = self.gate_probability {
             if !(p > 0.0 && p < 1.0) {
-                return Err(SlamError::InvalidParameter { name: "gate_probability", value: p, reason: "must be in (0, 1)" });
+                return Err(SlamError::InvalidParameter {
+                    name: "gate_probability",
+                    value: p,
+                    reason: "must be in (0, 1)",
+                });
             }
         }
         if let Some(t) = self.conversion_threshold {
             if !(t > 0.0 && t.is_finite()) {
-                return Err(SlamError::InvalidParameter { name: "conversion_threshold", value: t, reason: "must be positive" });
+                return Err(SlamError::InvalidParameter {
+                    name: "conversion_threshold",
+                    value: t,
+                    reason: "must be positive",
+                });
             }
         }
         match &self.initializer {
-            InitializerConfig::PiSr { prior, per_landmark } => {
+            InitializerConfig::PiSr {
+                prior,
+                per_landmark,
+            } => {
                 InverseDepthPrior::new(prior.rho_ini, prior.sigma_rho)?;
                 for p in per_landmark.values() {
                     InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
                 }
             }
-            InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c) => c.validate()?,
+            InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c) => {
+                c.validate()?
+            }
         }
         Ok(())
     }
@@ -268,24 +293,40 @@ impl BearingSlam {
     /// inverse depth is not positive has no point and gives
     /// [`SlamError::LandmarkAtInfinity`].
     pub fn landmark(&self, id: u64) -> Result<LandmarkEstimate> {
-        let slot = self.landmarks.get(&id).ok_or(SlamError::UnknownLandmark(id))?;
+        let slot = self
+            .landmarks
+            .get(&id)
+            .ok_or(SlamError::UnknownLandmark(id))?;
         let (position, covariance) = match slot.parameterization {
-            Parameterization::Euclidean => (self.ekf.block::<2>(slot.offset)?, self.ekf.covariance_block::<2>(slot.offset)?),
+            Parameterization::Euclidean => (
+                self.ekf.block::<2>(slot.offset)?,
+                self.ekf.covariance_block::<2>(slot.offset)?,
+            ),
             Parameterization::InverseDepth => {
                 let y = self.ekf.block::<4>(slot.offset)?;
-                let converted = inverse_depth_to_point(&y).map_err(|_| SlamError::LandmarkAtInfinity { id, rho: y[3] })?;
+                let converted = inverse_depth_to_point(&y)
+                    .map_err(|_| SlamError::LandmarkAtInfinity { id, rho: y[3] })?;
                 let p = self.ekf.covariance_block::<4>(slot.offset)?;
                 let j = converted.j_point_landmark;
                 (converted.point, j * p * j.transpose())
             }
         };
-        Ok(LandmarkEstimate { id, position, covariance, parameterization: slot.parameterization, method: slot.method })
+        Ok(LandmarkEstimate {
+            id,
+            position,
+            covariance,
+            parameterization: slot.parameterization,
+            method: slot.method,
+        })
     }
 
     /// Every landmark with a finite Euclidean estimate, by ascending id.
     #[must_use]
     pub fn landmarks(&self) -> Vec<LandmarkEstimate> {
-        self.landmarks.keys().filter_map(|&id| self.landmark(id).ok()).collect()
+        self.landmarks
+            .keys()
+            .filter_map(|&id| self.landmark(id).ok())
+            .collect()
     }
 
     /// The estimate now, as plain data for logs and plots.
@@ -295,7 +336,11 @@ impl BearingSlam {
         EstimateSnapshot {
             time: self.time.unwrap_or(0.0),
             pose: self.pose(),
-            pose_covariance: [[c[(0, 0)], c[(0, 1)], c[(0, 2)]], [c[(1, 0)], c[(1, 1)], c[(1, 2)]], [c[(2, 0)], c[(2, 1)], c[(2, 2)]]],
+            pose_covariance: [
+                [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
+                [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
+                [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
+            ],
             landmarks: self
                 .landmarks()
                 .into_iter()
@@ -303,7 +348,10 @@ impl BearingSlam {
                     id: l.id,
                     x: l.position.x,
                     y: l.position.y,
-                    covariance: [[l.covariance[(0, 0)], l.covariance[(0, 1)]], [l.covariance[(1, 0)], l.covariance[(1, 1)]]],
+                    covariance: [
+                        [l.covariance[(0, 0)], l.covariance[(0, 1)]],
+                        [l.covariance[(1, 0)], l.covariance[(1, 1)]],
+                    ],
                     inverse_depth: l.parameterization == Parameterization::InverseDepth,
                 })
                 .collect(),
@@ -324,7 +372,12 @@ impl BearingSlam {
     /// Prediction with any vehicle motion model (diff-drive encoders (2)(3),
     /// velocity, odometry, or your own): only the vehicle rows and columns of
     /// `P` change. `time` is when the motion ends.
-    pub fn predict<M: MotionModel<3>>(&mut self, time: f64, model: &M, control: &M::Control) -> Result<()> {
+    pub fn predict<M: MotionModel<3>>(
+        &mut self,
+        time: f64,
+        model: &M,
+        control: &M::Control,
+    ) -> Result<()> {
         self.check_time(time)?;
         self.ekf.predict(model, control)?;
         self.wrap_heading()?;
@@ -344,7 +397,11 @@ impl BearingSlam {
     /// updated pose). Inputs are checked before anything changes: NaN bearings,
     /// duplicate ids or a time before the last one give an error and leave the
     /// filter as it was.
-    pub fn update_bearings(&mut self, time: f64, observations: &[(u64, f64)]) -> Result<BatchReport> {
+    pub fn update_bearings(
+        &mut self,
+        time: f64,
+        observations: &[(u64, f64)],
+    ) -> Result<BatchReport> {
         for (i, &(id, z)) in observations.iter().enumerate() {
             ensure_finite("bearing", z)?;
             if observations[..i].iter().any(|&(other, _)| other == id) {
@@ -364,8 +421,14 @@ impl BearingSlam {
             };
             let measured = Vector1::new(wrap_angle(z));
             let linearized = match slot.parameterization {
-                Parameterization::Euclidean => self.ekf.linearize(&BearingToPoint, slot.offset, &measured, &noise),
-                Parameterization::InverseDepth => self.ekf.linearize(&BearingToInverseDepth, slot.offset, &measured, &noise),
+                Parameterization::Euclidean => {
+                    self.ekf
+                        .linearize(&BearingToPoint, slot.offset, &measured, &noise)
+                }
+                Parameterization::InverseDepth => {
+                    self.ekf
+                        .linearize(&BearingToInverseDepth, slot.offset, &measured, &noise)
+                }
             };
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
         }
@@ -384,19 +447,30 @@ impl BearingSlam {
     /// The classic range-bearing EKF-SLAM update (Munguía & Grau (6), new
     /// landmarks placed by (7)), for reference runs on data that has ranges.
     /// Observations are `(landmark id, range in metres, bearing in radians)`.
-    pub fn update_range_bearings(&mut self, time: f64, observations: &[(u64, f64, f64)]) -> Result<BatchReport> {
+    pub fn update_range_bearings(
+        &mut self,
+        time: f64,
+        observations: &[(u64, f64, f64)],
+    ) -> Result<BatchReport> {
         for (i, &(id, r, z)) in observations.iter().enumerate() {
             ensure_finite("bearing", z)?;
             ensure_finite("range", r)?;
             if !(r > 0.0) {
-                return Err(SlamError::InvalidParameter { name: "range", value: r, reason: "must be positive" });
+                return Err(SlamError::InvalidParameter {
+                    name: "range",
+                    value: r,
+                    reason: "must be positive",
+                });
             }
             if observations[..i].iter().any(|&(other, _, _)| other == id) {
                 return Err(SlamError::DuplicateMeasurement(id));
             }
         }
         self.check_time(time)?;
-        let noise = Matrix2::from_diagonal(&Vector2::new(self.config.range_sigma.powi(2), self.config.bearing_sigma.powi(2)));
+        let noise = Matrix2::from_diagonal(&Vector2::new(
+            self.config.range_sigma.powi(2),
+            self.config.bearing_sigma.powi(2),
+        ));
         let mut batch = Vec::new();
         let mut report = BatchReport::default();
         let mut pending_events = Vec::new();
@@ -405,11 +479,15 @@ impl BearingSlam {
             match self.landmarks.get(&id).copied() {
                 Some(slot) if slot.parameterization == Parameterization::Euclidean => {
                     let measured = Vector2::new(r, wrap_angle(z));
-                    let linearized = self.ekf.linearize(&RangeBearing, slot.offset, &measured, &noise);
+                    let linearized =
+                        self.ekf
+                            .linearize(&RangeBearing, slot.offset, &measured, &noise);
                     self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
                 }
                 Some(_) => {
-                    return Err(SlamError::Mismatch("range-bearing update of an inverse-depth landmark"));
+                    return Err(SlamError::Mismatch(
+                        "range-bearing update of an inverse-depth landmark",
+                    ));
                 }
                 None => new_points.push((id, r, z)),
             }
@@ -421,11 +499,25 @@ impl BearingSlam {
             let added = inv.j_point_measurement * noise * inv.j_point_measurement.transpose();
             let offset = self.ekf.augment(
                 &DVector::from_column_slice(inv.point.as_slice()),
-                &[BlockJacobian { offset: 0, jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()) }],
+                &[BlockJacobian {
+                    offset: 0,
+                    jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()),
+                }],
                 &DMatrix::from_column_slice(2, 2, added.as_slice()),
             )?;
-            self.landmarks.insert(id, LandmarkSlot { offset, parameterization: Parameterization::Euclidean, method: InitMethod::RangeBearing });
-            self.record(SlamEvent::LandmarkInitialized { id, method: InitMethod::RangeBearing, parallax_rad: 0.0 });
+            self.landmarks.insert(
+                id,
+                LandmarkSlot {
+                    offset,
+                    parameterization: Parameterization::Euclidean,
+                    method: InitMethod::RangeBearing,
+                },
+            );
+            self.record(SlamEvent::LandmarkInitialized {
+                id,
+                method: InitMethod::RangeBearing,
+                parallax_rad: 0.0,
+            });
             report.initialized += 1;
         }
         Ok(report)
@@ -434,7 +526,10 @@ impl BearingSlam {
     fn check_time(&self, time: f64) -> Result<()> {
         ensure_finite("time", time)?;
         match self.time {
-            Some(previous) if time < previous => Err(SlamError::TimeOrder { previous, current: time }),
+            Some(previous) if time < previous => Err(SlamError::TimeOrder {
+                previous,
+                current: time,
+            }),
             _ => Ok(()),
         }
     }
@@ -522,27 +617,58 @@ impl BearingSlam {
             jacobians,
             &DMatrix::from_column_slice(4, 4, added_noise.as_slice()),
         )?;
-        self.landmarks.insert(id, LandmarkSlot { offset, parameterization: Parameterization::InverseDepth, method });
-        self.record(SlamEvent::LandmarkInitialized { id, method, parallax_rad });
+        self.landmarks.insert(
+            id,
+            LandmarkSlot {
+                offset,
+                parameterization: Parameterization::InverseDepth,
+                method,
+            },
+        );
+        self.record(SlamEvent::LandmarkInitialized {
+            id,
+            method,
+            parallax_rad,
+        });
         Ok(true)
     }
 
     /// PI-SR (13)(15): `P_new = J blkdiag(P_vv, σ_z², σ_ρ²) Jᵀ` and `P_new,x = J_x P_v·`.
-    fn initialize_with_prior(&mut self, id: u64, z: f64, prior: InverseDepthPrior, method: InitMethod) -> Result<bool> {
+    fn initialize_with_prior(
+        &mut self,
+        id: u64,
+        z: f64,
+        prior: InverseDepthPrior,
+        method: InitMethod,
+    ) -> Result<bool> {
         let pose = self.ekf.block::<3>(0)?;
         let init = pi_sr(&pose, z, prior.rho_ini)?;
         let j_rho = Vector4::new(0.0, 0.0, 0.0, 1.0);
-        let added = init.j_landmark_z * self.config.bearing_sigma.powi(2) * init.j_landmark_z.transpose()
-            + j_rho * prior.sigma_rho.powi(2) * j_rho.transpose();
+        let added =
+            init.j_landmark_z * self.config.bearing_sigma.powi(2) * init.j_landmark_z.transpose()
+                + j_rho * prior.sigma_rho.powi(2) * j_rho.transpose();
         let jacobian = DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice());
-        self.insert_inverse_depth(id, &init.landmark, &[BlockJacobian { offset: 0, jacobian }], &added, method, 0.0)
+        self.insert_inverse_depth(
+            id,
+            &init.landmark,
+            &[BlockJacobian {
+                offset: 0,
+                jacobian,
+            }],
+            &added,
+            method,
+            0.0,
+        )
     }
 
     /// Routes a first or repeated sighting of an unmapped landmark to the
     /// configured initializer. Returns whether the landmark entered the state.
     fn initialize_from_bearing(&mut self, id: u64, z: f64) -> Result<bool> {
         let (config, cloning) = match &self.config.initializer {
-            InitializerConfig::PiSr { prior, per_landmark } => {
+            InitializerConfig::PiSr {
+                prior,
+                per_landmark,
+            } => {
                 let prior = per_landmark.get(&id).copied().unwrap_or(*prior);
                 return self.initialize_with_prior(id, z, prior, InitMethod::PiSr);
             }
@@ -578,14 +704,23 @@ impl BearingSlam {
                 // (22)(23): the current bearing z always adds its noise; the first
                 // bearing z₁ was never used in an update, so it adds its own too.
                 let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
-                    + init.j_landmark_first_bearing * sz2 * init.j_landmark_first_bearing.transpose();
-                let mut jacobians = vec![BlockJacobian { offset: 0, jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()) }];
+                    + init.j_landmark_first_bearing
+                        * sz2
+                        * init.j_landmark_first_bearing.transpose();
+                let mut jacobians = vec![BlockJacobian {
+                    offset: 0,
+                    jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
+                }];
                 let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
                     Some(clone) => {
                         // Exact: the first pose is a state block correlated with everything.
                         jacobians.push(BlockJacobian {
                             offset: clone.offset,
-                            jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_first_pose.as_slice()),
+                            jacobian: DMatrix::from_column_slice(
+                                4,
+                                3,
+                                init.j_landmark_first_pose.as_slice(),
+                            ),
                         });
                         InitMethod::TriangulatedClone
                     }
@@ -593,11 +728,20 @@ impl BearingSlam {
                         // The paper's R_i of (22): the first pose as independent noise
                         // with the variances stored in the candidate.
                         let j1 = init.j_landmark_first_pose;
-                        added += j1 * Matrix3::from_diagonal(&pending.candidate.pose_variances) * j1.transpose();
+                        added += j1
+                            * Matrix3::from_diagonal(&pending.candidate.pose_variances)
+                            * j1.transpose();
                         InitMethod::Triangulated
                     }
                 };
-                let inserted = self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, parallax.alpha)?;
+                let inserted = self.insert_inverse_depth(
+                    id,
+                    &init.landmark,
+                    &jacobians,
+                    &added,
+                    method,
+                    parallax.alpha,
+                )?;
                 self.drop_candidate(id)?;
                 Ok(inserted)
             }
@@ -631,7 +775,16 @@ impl BearingSlam {
         };
         self.candidates.insert(
             id,
-            PendingCandidate { candidate: Candidate { pose, bearing: z, pose_variances: variances, created: time, last_seen: time }, clone },
+            PendingCandidate {
+                candidate: Candidate {
+                    pose,
+                    bearing: z,
+                    pose_variances: variances,
+                    created: time,
+                    last_seen: time,
+                },
+                clone,
+            },
         );
         self.record(SlamEvent::CandidateCreated { id });
         Ok(())
@@ -640,9 +793,15 @@ impl BearingSlam {
     /// Forgets a candidate and releases its pose clone (removed from the state
     /// when no candidate uses it any more).
     fn drop_candidate(&mut self, id: u64) -> Result<()> {
-        let Some(pending) = self.candidates.remove(&id) else { return Ok(()) };
-        let Some(clone_id) = pending.clone else { return Ok(()) };
-        let Some(clone) = self.clones.get_mut(&clone_id) else { return Ok(()) };
+        let Some(pending) = self.candidates.remove(&id) else {
+            return Ok(());
+        };
+        let Some(clone_id) = pending.clone else {
+            return Ok(());
+        };
+        let Some(clone) = self.clones.get_mut(&clone_id) else {
+            return Ok(());
+        };
         clone.users = clone.users.saturating_sub(1);
         if clone.users == 0 {
             let offset = clone.offset;
@@ -664,7 +823,11 @@ impl BearingSlam {
 
     /// Moves every block that starts after `offset` down by `len` entries.
     fn shift_offsets_after(&mut self, offset: usize, len: usize) {
-        let offsets = self.landmarks.values_mut().map(|s| &mut s.offset).chain(self.clones.values_mut().map(|c| &mut c.offset));
+        let offsets = self
+            .landmarks
+            .values_mut()
+            .map(|s| &mut s.offset)
+            .chain(self.clones.values_mut().map(|c| &mut c.offset));
         for o in offsets {
             if *o > offset {
                 *o -= len;
@@ -673,7 +836,9 @@ impl BearingSlam {
     }
 
     fn expire_candidates(&mut self) {
-        let (InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c)) = &self.config.initializer else {
+        let (InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c)) =
+            &self.config.initializer
+        else {
             return;
         };
         let now = self.time.unwrap_or(0.0);
@@ -694,7 +859,9 @@ impl BearingSlam {
     /// Converts inverse-depth landmarks whose linearity index is below the
     /// threshold into Euclidean points (4 → 2 state entries).
     fn convert_linear_landmarks(&mut self) -> Result<()> {
-        let Some(threshold) = self.config.conversion_threshold else { return Ok(()) };
+        let Some(threshold) = self.config.conversion_threshold else {
+            return Ok(());
+        };
         let sensor = self.ekf.block::<2>(0)?;
         let ids: Vec<u64> = self
             .landmarks
@@ -703,10 +870,14 @@ impl BearingSlam {
             .map(|(&id, _)| id)
             .collect();
         for id in ids {
-            let Some(slot) = self.landmarks.get(&id).copied() else { continue };
+            let Some(slot) = self.landmarks.get(&id).copied() else {
+                continue;
+            };
             let y = self.ekf.block::<4>(slot.offset)?;
             let rho_variance = self.ekf.covariance()[(slot.offset + 3, slot.offset + 3)];
-            let Ok(index) = linearity_index(&y, rho_variance, &sensor) else { continue };
+            let Ok(index) = linearity_index(&y, rho_variance, &sensor) else {
+                continue;
+            };
             if index >= threshold {
                 continue;
             }
@@ -721,14 +892,20 @@ impl BearingSlam {
             if let Some(s) = self.landmarks.get_mut(&id) {
                 s.parameterization = Parameterization::Euclidean;
             }
-            self.record(SlamEvent::LandmarkConverted { id, linearity_index: index });
+            self.record(SlamEvent::LandmarkConverted {
+                id,
+                linearity_index: index,
+            });
         }
         Ok(())
     }
 
     /// Removes a landmark from the map (marginalization).
     pub fn remove_landmark(&mut self, id: u64) -> Result<()> {
-        let slot = self.landmarks.remove(&id).ok_or(SlamError::UnknownLandmark(id))?;
+        let slot = self
+            .landmarks
+            .remove(&id)
+            .ok_or(SlamError::UnknownLandmark(id))?;
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
 }
@@ -736,11 +913,23 @@ impl BearingSlam {
 /// The `p`-quantile of a chi-square distribution with `dof` degrees of freedom.
 pub fn chi_square_quantile(dof: f64, p: f64) -> Result<f64> {
     if !(dof > 0.0 && dof.is_finite()) {
-        return Err(SlamError::InvalidParameter { name: "dof", value: dof, reason: "must be positive" });
+        return Err(SlamError::InvalidParameter {
+            name: "dof",
+            value: dof,
+            reason: "must be positive",
+        });
     }
     if !(p > 0.0 && p < 1.0) {
-        return Err(SlamError::InvalidParameter { name: "probability", value: p, reason: "must be in (0, 1)" });
+        return Err(SlamError::InvalidParameter {
+            name: "probability",
+            value: p,
+            reason: "must be in (0, 1)",
+        });
     }
-    let dist = ChiSquared::new(dof).map_err(|_| SlamError::InvalidParameter { name: "dof", value: dof, reason: "must be positive" })?;
+    let dist = ChiSquared::new(dof).map_err(|_| SlamError::InvalidParameter {
+        name: "dof",
+        value: dof,
+        reason: "must be positive",
+    })?;
     Ok(dist.inverse_cdf(p))
 }

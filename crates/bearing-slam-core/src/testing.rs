@@ -69,12 +69,16 @@ pub fn check_covariance(p: &DMatrix<f64>) -> Result<(), String> {
     let scale = p.amax().max(1e-300);
     let asym = (p - p.transpose()).amax();
     if asym > 1e-9 * scale {
-        return Err(format!("covariance asymmetric by {asym:e} (scale {scale:e})"));
+        return Err(format!(
+            "covariance asymmetric by {asym:e} (scale {scale:e})"
+        ));
     }
     let eig = p.clone().symmetric_eigen();
     let min = eig.eigenvalues.min();
     if min < -1e-9 * scale {
-        return Err(format!("covariance has eigenvalue {min:e} (scale {scale:e})"));
+        return Err(format!(
+            "covariance has eigenvalue {min:e} (scale {scale:e})"
+        ));
     }
     Ok(())
 }

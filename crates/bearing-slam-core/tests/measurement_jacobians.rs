@@ -3,9 +3,13 @@
 //! inputs and the hard regions (heading near ±π, ρ → 0, small parallax).
 
 use bearing_slam_core::ekf::MeasurementModel;
-use bearing_slam_core::init::{Candidate, pi_sr, triangulate_candidate, triangulated_inverse_depth};
+use bearing_slam_core::init::{
+    Candidate, pi_sr, triangulate_candidate, triangulated_inverse_depth,
+};
 use bearing_slam_core::landmark::inverse_depth_to_point;
-use bearing_slam_core::measurement::{BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing, triangulate};
+use bearing_slam_core::measurement::{
+    BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing, triangulate,
+};
 use bearing_slam_core::testing::{compare_jacobians, numeric_jacobian};
 use nalgebra::{DMatrix, DVector, Vector2, Vector3, Vector4};
 use proptest::prelude::*;
@@ -26,18 +30,25 @@ fn pose() -> impl Strategy<Value = Vector3<f64>> {
     (-20.0..20.0f64, -20.0..20.0f64, heading()).prop_map(|(x, y, t)| Vector3::new(x, y, t))
 }
 
-
 fn check_measurement_model<const L: usize, const M: usize>(
     model: &impl MeasurementModel<3, L, M>,
     vehicle: Vector3<f64>,
     landmark: nalgebra::SVector<f64, L>,
     angle_rows: &[usize],
 ) -> Result<(), String> {
-    let p = model.predict(&vehicle, &landmark).map_err(|e| e.to_string())?;
+    let p = model
+        .predict(&vehicle, &landmark)
+        .map_err(|e| e.to_string())?;
     let num_v = numeric_jacobian(
         |v| {
             let v = Vector3::new(v[0], v[1], v[2]);
-            DVector::from_column_slice(model.predict(&v, &landmark).map(|p| p.value).unwrap_or_else(|_| nalgebra::SVector::<f64, M>::repeat(f64::NAN)).as_slice())
+            DVector::from_column_slice(
+                model
+                    .predict(&v, &landmark)
+                    .map(|p| p.value)
+                    .unwrap_or_else(|_| nalgebra::SVector::<f64, M>::repeat(f64::NAN))
+                    .as_slice(),
+            )
         },
         &DVector::from_column_slice(vehicle.as_slice()),
         angle_rows,
@@ -46,7 +57,13 @@ fn check_measurement_model<const L: usize, const M: usize>(
     let num_l = numeric_jacobian(
         |l| {
             let l = nalgebra::SVector::<f64, L>::from_column_slice(l.as_slice());
-            DVector::from_column_slice(model.predict(&vehicle, &l).map(|p| p.value).unwrap_or_else(|_| nalgebra::SVector::<f64, M>::repeat(f64::NAN)).as_slice())
+            DVector::from_column_slice(
+                model
+                    .predict(&vehicle, &l)
+                    .map(|p| p.value)
+                    .unwrap_or_else(|_| nalgebra::SVector::<f64, M>::repeat(f64::NAN))
+                    .as_slice(),
+            )
         },
         &DVector::from_column_slice(landmark.as_slice()),
         angle_rows,
@@ -165,9 +182,16 @@ fn inverse_depth_ray_at_infinity_stays_finite() {
     // ρ = 0: the point is at infinity along θ; the predicted bearing is θ − θ_v.
     let v = Vector3::new(3.0, -2.0, 0.4);
     let y = Vector4::new(-1.0, 5.0, 1.1, 0.0);
-    let p = BearingToInverseDepth.predict(&v, &y).expect("finite at rho = 0");
+    let p = BearingToInverseDepth
+        .predict(&v, &y)
+        .expect("finite at rho = 0");
     assert!((p.value.x - (1.1 - 0.4)).abs() < 1e-12);
-    assert!(p.j_z_vehicle.iter().chain(p.j_z_landmark.iter()).all(|v| v.is_finite()));
+    assert!(
+        p.j_z_vehicle
+            .iter()
+            .chain(p.j_z_landmark.iter())
+            .all(|v| v.is_finite())
+    );
     // Its vehicle-position Jacobian vanishes: a point at infinity has no parallax.
     assert!(p.j_z_vehicle[0].abs() < 1e-15 && p.j_z_vehicle[1].abs() < 1e-15);
 }
@@ -176,7 +200,10 @@ fn inverse_depth_ray_at_infinity_stays_finite() {
 fn degenerate_geometry_is_an_error_not_a_panic() {
     let v = Vector3::new(1.0, 1.0, 0.0);
     assert!(BearingToPoint.predict(&v, &Vector2::new(1.0, 1.0)).is_err());
-    assert!(triangulated_inverse_depth(&v, 0.0, &Vector3::new(2.0, 1.0, 0.0), 0.0).is_err(), "ray along the baseline");
+    assert!(
+        triangulated_inverse_depth(&v, 0.0, &Vector3::new(2.0, 1.0, 0.0), 0.0).is_err(),
+        "ray along the baseline"
+    );
     assert!(inverse_depth_to_point(&Vector4::new(0.0, 0.0, 0.0, -0.1)).is_err());
     assert!(inverse_range_bearing(&v, -1.0, 0.0).is_err());
     assert!(inverse_range_bearing(&v, 1.0, f64::NAN).is_err());

@@ -3,8 +3,10 @@
 //! the current pose, the acos formulas of the paper equal the atan2 ones we
 //! use, and the parallax grows with the baseline.
 
-use bearing_slam_core::init::{Candidate, CandidateDecision, TriangulationConfig, decide, parallax, triangulated_inverse_depth};
 use bearing_slam_core::geometry::unit_direction;
+use bearing_slam_core::init::{
+    Candidate, CandidateDecision, TriangulationConfig, decide, parallax, triangulated_inverse_depth,
+};
 use nalgebra::{Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::PI;
@@ -65,7 +67,11 @@ fn parallax_grows_with_the_baseline() {
     for k in 1..40 {
         let pose = Vector3::new(0.1 * f64::from(k), 0.0, 0.05);
         let p = parallax(&first, z1, &pose, bearing(&pose, &l));
-        assert!(p.alpha > previous, "step {k}: alpha {} not above {previous}", p.alpha);
+        assert!(
+            p.alpha > previous,
+            "step {k}: alpha {} not above {previous}",
+            p.alpha
+        );
         previous = p.alpha;
     }
 }
@@ -76,8 +82,13 @@ fn acos_free_formula_survives_tiny_parallax() {
     let first = Vector3::new(0.0, 0.0, 0.0);
     let pose = Vector3::new(1e-3, 0.0, 0.0);
     let l = Vector2::new(6.0, 8.0);
-    let (rho, _, _) = triangulated_inverse_depth(&first, bearing(&first, &l), &pose, bearing(&pose, &l)).expect("valid triangle");
-    assert!((rho - 1.0 / (l - pose.fixed_rows::<2>(0)).norm()).abs() < 1e-6, "rho {rho}");
+    let (rho, _, _) =
+        triangulated_inverse_depth(&first, bearing(&first, &l), &pose, bearing(&pose, &l))
+            .expect("valid triangle");
+    assert!(
+        (rho - 1.0 / (l - pose.fixed_rows::<2>(0)).norm()).abs() < 1e-6,
+        "rho {rho}"
+    );
 }
 
 #[test]
@@ -85,13 +96,25 @@ fn decision_rule_follows_the_paper() {
     let config = TriangulationConfig::default();
     let first = Vector3::new(0.0, 0.0, 0.0);
     let near = Vector2::new(2.0, 1.5);
-    let candidate = |l: &Vector2<f64>| Candidate { pose: first, bearing: bearing(&first, l), pose_variances: Vector3::zeros(), created: 0.0, last_seen: 0.0 };
+    let candidate = |l: &Vector2<f64>| Candidate {
+        pose: first,
+        bearing: bearing(&first, l),
+        pose_variances: Vector3::zeros(),
+        created: 0.0,
+        last_seen: 0.0,
+    };
     // Little travel: wait.
     let pose = Vector3::new(0.1, 0.0, 0.0);
-    assert_eq!(decide(&config, &candidate(&near), &pose, bearing(&pose, &near)).0, CandidateDecision::Wait);
+    assert_eq!(
+        decide(&config, &candidate(&near), &pose, bearing(&pose, &near)).0,
+        CandidateDecision::Wait
+    );
     // Enough parallax to a near landmark: triangulate.
     let pose = Vector3::new(1.5, 0.0, 0.0);
-    assert_eq!(decide(&config, &candidate(&near), &pose, bearing(&pose, &near)).0, CandidateDecision::Triangulate);
+    assert_eq!(
+        decide(&config, &candidate(&near), &pose, bearing(&pose, &near)).0,
+        CandidateDecision::Triangulate
+    );
     // A far landmark off to the side after a baseline > b_min: the far rule (24).
     let far = Vector2::new(60.0, 45.0);
     let pose = Vector3::new(1.2, 0.0, 0.0);
@@ -101,13 +124,25 @@ fn decision_rule_follows_the_paper() {
     // Driving straight at a landmark: no parallax, β ≈ 0, keep waiting.
     let ahead = Vector2::new(50.0, 0.0);
     let pose = Vector3::new(3.0, 0.0, 0.0);
-    assert_eq!(decide(&config, &candidate(&ahead), &pose, bearing(&pose, &ahead)).0, CandidateDecision::Wait);
+    assert_eq!(
+        decide(&config, &candidate(&ahead), &pose, bearing(&pose, &ahead)).0,
+        CandidateDecision::Wait
+    );
     // Rays that diverge after enough "parallax": restart the candidate.
-    let c = Candidate { bearing: -PI / 2.0, ..candidate(&near) };
+    let c = Candidate {
+        bearing: -PI / 2.0,
+        ..candidate(&near)
+    };
     let pose = Vector3::new(1.0, 0.0, 0.0);
-    assert_eq!(decide(&config, &c, &pose, PI / 2.0).0, CandidateDecision::Restart);
+    assert_eq!(
+        decide(&config, &c, &pose, PI / 2.0).0,
+        CandidateDecision::Restart
+    );
     // The far prior of (24).
     let prior = config.far_prior().expect("valid config");
     let rho_far = 2.0 * (config.alpha_min / 2.0).sin() / config.baseline_min;
-    assert!((prior.rho_ini - rho_far / 2.0).abs() < 1e-15 && (prior.sigma_rho - rho_far / 4.0).abs() < 1e-15);
+    assert!(
+        (prior.rho_ini - rho_far / 2.0).abs() < 1e-15
+            && (prior.sigma_rho - rho_far / 4.0).abs() < 1e-15
+    );
 }

@@ -4,7 +4,9 @@
 //! every landmark in range with Gaussian noise. Seeded and deterministic.
 
 use crate::geometry::{Pose2, wrap_angle};
-use crate::log::{BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, WheelOdometry};
+use crate::log::{
+    BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, WheelOdometry,
+};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
@@ -43,13 +45,33 @@ impl KinematicScenario {
     #[must_use]
     pub fn paper_fig4(with_far: bool) -> Self {
         let mut landmarks = vec![
-            LandmarkTruth { id: 1, x: 2.0, y: 1.5 },
-            LandmarkTruth { id: 2, x: 4.0, y: -1.5 },
-            LandmarkTruth { id: 3, x: 6.0, y: 2.0 },
-            LandmarkTruth { id: 4, x: 8.0, y: -2.0 },
+            LandmarkTruth {
+                id: 1,
+                x: 2.0,
+                y: 1.5,
+            },
+            LandmarkTruth {
+                id: 2,
+                x: 4.0,
+                y: -1.5,
+            },
+            LandmarkTruth {
+                id: 3,
+                x: 6.0,
+                y: 2.0,
+            },
+            LandmarkTruth {
+                id: 4,
+                x: 8.0,
+                y: -2.0,
+            },
         ];
         if with_far {
-            landmarks.push(LandmarkTruth { id: 5, x: 60.0, y: 45.0 });
+            landmarks.push(LandmarkTruth {
+                id: 5,
+                x: 60.0,
+                y: 45.0,
+            });
         }
         Self {
             name: "kinematic_fig4".into(),
@@ -73,30 +95,53 @@ impl KinematicScenario {
     #[must_use]
     pub fn simulate(&self, seed: u64) -> SensorLog {
         let mut rng = StdRng::seed_from_u64(seed);
-        let bearing_noise = Normal::new(0.0, self.bearing_sigma).expect("bearing sigma must be positive");
+        let bearing_noise =
+            Normal::new(0.0, self.bearing_sigma).expect("bearing sigma must be positive");
         let mut pose = self.initial_pose;
-        let mut events = vec![Event { time: 0.0, kind: EventKind::GroundTruth(pose) }];
+        let mut events = vec![Event {
+            time: 0.0,
+            kind: EventKind::GroundTruth(pose),
+        }];
         for (k, &(left, right)) in self.wheel_steps.iter().enumerate() {
             let time = (k + 1) as f64 * self.dt;
             pose = exact_arc(&pose, left, right, self.wheel_base_m);
             let mut encoder = |d: f64| {
-                let sigma = (self.encoder_floor_sigma_m.powi(2) + self.encoder_scale_sqrt_m.powi(2) * d.abs()).sqrt();
-                d + Normal::new(0.0, sigma).expect("encoder sigma must be positive").sample(&mut rng)
+                let sigma = (self.encoder_floor_sigma_m.powi(2)
+                    + self.encoder_scale_sqrt_m.powi(2) * d.abs())
+                .sqrt();
+                d + Normal::new(0.0, sigma)
+                    .expect("encoder sigma must be positive")
+                    .sample(&mut rng)
             };
-            let reading = WheelOdometry { left_m: encoder(left), right_m: encoder(right) };
-            events.push(Event { time, kind: EventKind::Wheels(reading) });
-            events.push(Event { time, kind: EventKind::GroundTruth(pose) });
+            let reading = WheelOdometry {
+                left_m: encoder(left),
+                right_m: encoder(right),
+            };
+            events.push(Event {
+                time,
+                kind: EventKind::Wheels(reading),
+            });
+            events.push(Event {
+                time,
+                kind: EventKind::GroundTruth(pose),
+            });
             let scan = self
                 .landmarks
                 .iter()
                 .filter(|l| (l.x - pose.x).hypot(l.y - pose.y) <= self.max_range_m)
                 .map(|l| BearingObservation {
                     landmark_id: l.id,
-                    bearing: wrap_angle((l.y - pose.y).atan2(l.x - pose.x) - pose.theta + bearing_noise.sample(&mut rng)),
+                    bearing: wrap_angle(
+                        (l.y - pose.y).atan2(l.x - pose.x) - pose.theta
+                            + bearing_noise.sample(&mut rng),
+                    ),
                     range: None,
                 })
                 .collect();
-            events.push(Event { time, kind: EventKind::Bearings(scan) });
+            events.push(Event {
+                time,
+                kind: EventKind::Bearings(scan),
+            });
         }
         SensorLog {
             info: LogInfo {
@@ -125,5 +170,9 @@ pub fn exact_arc(pose: &Pose2, left: f64, right: f64, wheel_base: f64) -> Pose2 
         (radius * turn.sin(), radius * (1.0 - turn.cos()))
     };
     let (s, c) = pose.theta.sin_cos();
-    Pose2::new(pose.x + c * dx - s * dy, pose.y + s * dx + c * dy, wrap_angle(pose.theta + turn))
+    Pose2::new(
+        pose.x + c * dx - s * dy,
+        pose.y + s * dx + c * dy,
+        wrap_angle(pose.theta + turn),
+    )
 }

@@ -1,0 +1,232 @@
+//! Runs a whole [`SensorLog`] through the [`BearingSlam`] filter: odometry
+//! events predict, bearing scans update, ground-truth events record the
+//! estimate (and a dead-reckoning integration of the same odometry) for
+//! scoring. This is the loop the CLI, the Monte Carlo runner and the Python
+//! `run` call.
+//!
+//! Time semantics: a `Wheels` event carries the distances rolled since the
+//! previous one and is applied at once; a `Velocity` event is a command held
+//! from its time on, so before every later event the filter is first
+//! predicted up to that event's time with the active command (for at most the
+//! command's `dt`).
+
+use crate::ekf::MotionModel;
+use crate::error::{Result, SlamError};
+use crate::geometry::Pose2;
+use crate::log::{EventKind, SensorLog, VelocityOdometry, WheelOdometry};
+use crate::motion::{DiffDriveModel, VelocityModel};
+use crate::slam::{BearingSlam, SlamConfig};
+use crate::trace::SlamTrace;
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+/// Which odometry the filter predicts with, and its noise model.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum OdometryConfig {
+    /// Wheel encoders through the differential-drive model (2)(3); velocity
+    /// events in the log are ignored.
+    Wheels(DiffDriveModel),
+    /// Velocity commands through the velocity model; wheel events are ignored.
+    Velocity(VelocityModel),
+}
+
+/// How a log is run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunConfig {
+    /// The filter's configuration.
+    pub slam: SlamConfig,
+    /// The odometry source and its motion model.
+    pub odometry: OdometryConfig,
+    /// Use the ranges too (classic range-bearing EKF-SLAM, a reference).
+    pub use_range: bool,
+}
+
+/// The estimate next to the truth and to dead reckoning at one instant.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrackPoint {
+    /// Seconds.
+    pub time: f64,
+    /// The filter's pose estimate.
+    pub estimate: Pose2,
+    /// Its covariance, row-major.
+    pub covariance: [[f64; 3]; 3],
+    /// Odometry alone, integrated with the same motion model from the same start.
+    pub dead_reckoning: Pose2,
+    /// The true pose, when the log has it.
+    pub truth: Option<Pose2>,
+}
+
+/// Counters of a run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunCounts {
+    /// Predictions applied.
+    pub predictions: usize,
+    /// Bearing (or range-bearing) measurements used in updates.
+    pub measurements_used: usize,
+    /// Measurements rejected by the gate.
+    pub measurements_rejected: usize,
+    /// Landmarks that entered the state.
+    pub landmarks_initialized: usize,
+}
+
+/// Everything a run produced.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunOutput {
+    /// Snapshots after every measurement batch, and the filter's events.
+    pub trace: SlamTrace,
+    /// The estimate at every ground-truth time (or, without ground truth, after
+    /// every measurement batch).
+    pub track: Vec<TrackPoint>,
+    /// Counters.
+    pub counts: RunCounts,
+}
+
+/// Advances a pose-only dead-reckoning integration by a motion model's mean.
+fn dead_reckon<M: MotionModel<3>>(pose: &mut Pose2, model: &M, control: &M::Control) -> Result<()> {
+    let next = model.predict(&pose.to_vector(), control)?.state;
+    *pose = Pose2::from_vector(&next);
+    Ok(())
+}
+
+/// The filter, the dead-reckoning pose and the pending velocity command.
+struct Runner<'a> {
+    config: &'a RunConfig,
+    slam: BearingSlam,
+    dead_reckoning: Pose2,
+    /// `(command, start time, time already applied up to)`.
+    command: Option<(VelocityOdometry, f64, f64)>,
+    output: RunOutput,
+}
+
+impl Runner<'_> {
+    /// Predicts with the active velocity command up to `time` (never past its `dt`).
+    fn advance_command(&mut self, time: f64) -> Result<()> {
+        let (OdometryConfig::Velocity(model), Some((cmd, start, applied))) =
+            (&self.config.odometry, self.command)
+        else {
+            return Ok(());
+        };
+        let until = time.min(start + cmd.dt);
+        let dt = until - applied;
+        if dt > 1e-9 {
+            let step = VelocityOdometry { dt, ..cmd };
+            self.slam.predict(until, model, &step)?;
+            dead_reckon(&mut self.dead_reckoning, model, &step)?;
+            self.output.counts.predictions += 1;
+            self.command = Some((cmd, start, until));
+        }
+        Ok(())
+    }
+
+    fn wheels(&mut self, time: f64, reading: &WheelOdometry) -> Result<()> {
+        if let OdometryConfig::Wheels(model) = &self.config.odometry {
+            self.slam.predict(time, model, reading)?;
+            dead_reckon(&mut self.dead_reckoning, model, reading)?;
+            self.output.counts.predictions += 1;
+        }
+        Ok(())
+    }
+
+    fn bearings(&mut self, time: f64, scan: &[crate::log::BearingObservation]) -> Result<()> {
+        let report = if self.config.use_range {
+            let obs: Vec<(u64, f64, f64)> = scan
+                .iter()
+                .map(|o| {
+                    o.range
+                        .map(|r| (o.landmark_id, r, o.bearing))
+                        .ok_or(SlamError::Mismatch(
+                            "range-bearing run on a scan without ranges",
+                        ))
+                })
+                .collect::<Result<_>>()?;
+            self.slam.update_range_bearings(time, &obs)?
+        } else {
+            let obs: Vec<(u64, f64)> = scan.iter().map(|o| (o.landmark_id, o.bearing)).collect();
+            self.slam.update_bearings(time, &obs)?
+        };
+        let counts = &mut self.output.counts;
+        counts.measurements_used += report.used;
+        counts.measurements_rejected += report.rejected;
+        counts.landmarks_initialized += report.initialized;
+        self.output.trace.snapshots.push(self.slam.snapshot());
+        Ok(())
+    }
+
+    fn record(&mut self, time: f64, truth: Option<Pose2>) {
+        let c = self.slam.pose_covariance();
+        self.output.track.push(TrackPoint {
+            time,
+            estimate: self.slam.pose(),
+            covariance: [
+                [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
+                [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
+                [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
+            ],
+            dead_reckoning: self.dead_reckoning,
+            truth,
+        });
+    }
+}
+
+/// Runs `log` through a new filter. The filter starts at
+/// `config.slam.initial_pose` unless the log states its initial pose, which
+/// then wins (the map frame is the world frame of the log). Ground truth is
+/// recorded from the first odometry or measurement event on.
+pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
+    log.validate()?;
+    let mut slam_config = config.slam.clone();
+    if let Some(pose) = log.info.initial_pose {
+        slam_config.initial_pose = pose;
+    }
+    let start = slam_config.initial_pose;
+    let mut runner = Runner {
+        config,
+        slam: BearingSlam::new(slam_config)?,
+        dead_reckoning: start,
+        command: None,
+        output: RunOutput::default(),
+    };
+    let has_truth = log
+        .events
+        .iter()
+        .any(|e| matches!(e.kind, EventKind::GroundTruth(_)));
+    let mut started = false;
+    for event in &log.events {
+        runner.advance_command(event.time)?;
+        match &event.kind {
+            EventKind::Wheels(w) => {
+                started = true;
+                runner.wheels(event.time, w)?;
+            }
+            EventKind::Velocity(v) => {
+                started = true;
+                runner.command = Some((*v, event.time, event.time));
+            }
+            EventKind::Bearings(scan) => {
+                started = true;
+                runner.bearings(event.time, scan)?;
+                if !has_truth {
+                    runner.record(event.time, None);
+                }
+            }
+            EventKind::GroundTruth(pose) => {
+                if started || event.time <= 0.0 {
+                    runner.record(event.time, Some(*pose));
+                }
+            }
+        }
+    }
+    runner.output.trace.events = runner.slam.take_events();
+    Ok(runner.output)
+}
+
+/// The estimate's error against the truth at a track point: `[dx, dy, dθ]`
+/// with the heading wrapped.
+#[must_use]
+pub fn pose_error(estimate: &Pose2, truth: &Pose2) -> Vector3<f64> {
+    Vector3::new(
+        estimate.x - truth.x,
+        estimate.y - truth.y,
+        crate::geometry::wrap_angle(estimate.theta - truth.theta),
+    )
+}

@@ -1,0 +1,405 @@
+//! The reader: [`read_log`] rebuilds the [`SensorLog`] and the [`SlamTrace`]
+//! from the exact-data topics, and recovers what it can from a truncated file.
+
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+
+use bearing_slam_core::log::{Event, LandmarkTruth, LogInfo, SensorLog};
+use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
+use serde::de::DeserializeOwned;
+
+use crate::error::{IoError, Result};
+use crate::schema::{
+    EventMsg, FORMAT_VERSION, FORMAT_VERSION_KEY, GroundTruthMsg, LandmarksMsg, MESSAGE_ENCODING,
+    SCHEMA_PREFIX, ScanMsg, Topic, VelocityMsg, WheelsMsg,
+};
+
+/// What a bearing-slam MCAP file holds.
+#[derive(Clone, Debug, PartialEq)]
+pub struct McapRun {
+    /// The sensor log, equal to the one written (all f64 bit for bit).
+    pub log: SensorLog,
+    /// The SLAM trace, when the file has trace topics (possibly empty).
+    pub trace: Option<SlamTrace>,
+    /// Problems that did not stop the reading: truncation (with the number
+    /// of messages recovered), a missing info or landmark message, foreign
+    /// topics ignored, a log that fails [`SensorLog::validate`].
+    pub warnings: Vec<String>,
+}
+
+/// Largest record the reader accepts, unless the file itself is larger: a
+/// bound on what a corrupt length field can make it allocate.
+const MIN_RECORD_LIMIT: usize = 256 * 1024 * 1024;
+
+/// Reads a bearing-slam MCAP file.
+///
+/// A truncated file (a writer killed mid-run) yields every message of its
+/// complete chunks, and a warning saying so. A file that is not MCAP, an
+/// MCAP file without bearing-slam topics, or a message that does not decode
+/// is an error naming the problem.
+pub fn read_log(path: impl AsRef<Path>) -> Result<McapRun> {
+    let path = path.as_ref();
+    let bytes = std::fs::read(path).map_err(|source| IoError::Io {
+        path: path.to_path_buf(),
+        action: "read",
+        source,
+    })?;
+    read_log_bytes(&bytes, path)
+}
+
+/// Reads a bearing-slam MCAP file already in memory; `name` is used in
+/// errors and warnings.
+pub fn read_log_bytes(bytes: &[u8], name: impl AsRef<Path>) -> Result<McapRun> {
+    Reader::new(name.as_ref().to_path_buf()).read(bytes)
+}
+
+/// A channel as declared in the file.
+struct ChannelInfo {
+    topic: String,
+    /// The exact-data topic, when the schema is one of ours.
+    exact: Option<Topic>,
+    /// Messages seen so far on this channel.
+    count: usize,
+}
+
+/// A decoded item with its sort key.
+struct Keyed<T> {
+    log_time: u64,
+    sequence: u32,
+    item: T,
+}
+
+fn keyed<T>(header: &mcap::records::MessageHeader, item: T) -> Keyed<T> {
+    Keyed {
+        log_time: header.log_time,
+        sequence: header.sequence,
+        item,
+    }
+}
+
+fn sort_keyed<T>(mut v: Vec<Keyed<T>>) -> Vec<T> {
+    // Stable: equal (log time, sequence) keep file order.
+    v.sort_by_key(|k| (k.log_time, k.sequence));
+    v.into_iter().map(|k| k.item).collect()
+}
+
+struct Reader {
+    path: PathBuf,
+    schemas: HashMap<u16, String>,
+    channels: HashMap<u16, ChannelInfo>,
+    events: Vec<Keyed<Event>>,
+    snapshots: Vec<Keyed<EstimateSnapshot>>,
+    slam_events: Vec<Keyed<TimedSlamEvent>>,
+    infos: Vec<LogInfo>,
+    landmarks: Vec<Vec<LandmarkTruth>>,
+    messages: usize,
+    foreign_messages: usize,
+    warnings: Vec<String>,
+}
+
+impl Reader {
+    fn new(path: PathBuf) -> Self {
+        Self {
+            path,
+            schemas: HashMap::new(),
+            channels: HashMap::new(),
+            events: Vec::new(),
+            snapshots: Vec::new(),
+            slam_events: Vec::new(),
+            infos: Vec::new(),
+            landmarks: Vec::new(),
+            messages: 0,
+            foreign_messages: 0,
+            warnings: Vec::new(),
+        }
+    }
+
+    fn read(mut self, bytes: &[u8]) -> Result<McapRun> {
+        self.check_magic(bytes)?;
+        let stream_error = self.scan(bytes)?;
+        let has_ours = self.channels.values().any(|c| c.exact.is_some());
+        if !has_ours {
+            if let Some((error, _)) = stream_error {
+                return Err(IoError::Mcap {
+                    path: self.path,
+                    action: "reading the data section (the file is truncated or corrupt before \
+                             any complete bearing-slam chunk)"
+                        .into(),
+                    source: error,
+                });
+            }
+            let mut topics: Vec<String> = self.channels.values().map(|c| c.topic.clone()).collect();
+            topics.sort();
+            return Err(IoError::NoBearingSlamTopics {
+                path: self.path,
+                topics,
+            });
+        }
+        if let Some((error, after_data_end)) = stream_error {
+            let what = if after_data_end {
+                "its summary section is truncated or damaged (all data records are intact)"
+            } else {
+                "the file is truncated or damaged (a writer killed mid-run?); only complete chunks were read"
+            };
+            self.warnings.push(format!(
+                "{}: {what}; MCAP reader stopped with: {error}; recovered {} complete messages \
+                 ({} sensor events, {} estimate snapshots, {} filter events)",
+                self.path.display(),
+                self.messages,
+                self.events.len(),
+                self.snapshots.len(),
+                self.slam_events.len(),
+            ));
+        }
+        self.finish()
+    }
+
+    fn check_magic(&self, bytes: &[u8]) -> Result<()> {
+        let not_mcap = |reason: String| IoError::NotMcap {
+            path: self.path.clone(),
+            reason,
+        };
+        if bytes.is_empty() {
+            return Err(not_mcap("the file is empty".into()));
+        }
+        if !bytes.starts_with(mcap::MAGIC) {
+            if mcap::MAGIC.starts_with(bytes) {
+                return Err(not_mcap(format!(
+                    "only {} bytes, cut inside the MCAP magic",
+                    bytes.len()
+                )));
+            }
+            let head: Vec<String> = bytes.iter().take(8).map(|b| format!("{b:02x}")).collect();
+            let kind = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+                " (a PNG image)"
+            } else {
+                ""
+            };
+            return Err(not_mcap(format!(
+                "it does not start with the MCAP magic bytes 89 4d 43 41 50 30 0d 0a, but {}{kind}",
+                head.join(" ")
+            )));
+        }
+        Ok(())
+    }
+
+    /// Reads all records in file order. Returns the MCAP error that stopped
+    /// the scan, if any, and whether it came after the data end record.
+    fn scan(&mut self, bytes: &[u8]) -> Result<Option<(mcap::McapError, bool)>> {
+        let options = LinearReaderOptions::default()
+            .with_prevalidate_chunk_crcs(true)
+            .with_record_length_limit(bytes.len().max(MIN_RECORD_LIMIT));
+        let mut reader = LinearReader::new_with_options(options);
+        let mut remaining = bytes;
+        let mut after_data_end = false;
+        while let Some(event) = reader.next_event() {
+            match event {
+                Ok(LinearReadEvent::ReadRequest(need)) => {
+                    let n = need.min(remaining.len());
+                    reader.insert(n).copy_from_slice(&remaining[..n]);
+                    reader.notify_read(n);
+                    remaining = &remaining[n..];
+                }
+                Ok(LinearReadEvent::Record { data, opcode }) => {
+                    let record = match mcap::parse_record(opcode, data) {
+                        Ok(r) => r,
+                        Err(e) => return Ok(Some((e, after_data_end))),
+                    };
+                    match record {
+                        Record::Schema { header, .. } => {
+                            self.schemas.insert(header.id, header.name);
+                        }
+                        Record::Channel(c) => self.add_channel(c)?,
+                        Record::Message { header, data } if !after_data_end => {
+                            self.message(header, &data)?;
+                        }
+                        Record::DataEnd(_) => after_data_end = true,
+                        _ => {}
+                    }
+                }
+                Err(e) => return Ok(Some((e, after_data_end))),
+            }
+        }
+        Ok(None)
+    }
+
+    fn add_channel(&mut self, c: mcap::records::Channel) -> Result<()> {
+        if self.channels.contains_key(&c.id) {
+            // Repeated in the summary section.
+            return Ok(());
+        }
+        let schema_name = self.schemas.get(&c.schema_id).cloned().unwrap_or_default();
+        let exact = if schema_name.starts_with(SCHEMA_PREFIX) {
+            let topic = Topic::exact_from_schema_name(&schema_name);
+            if topic.is_none() {
+                self.warnings.push(format!(
+                    "{}: topic {} has unknown schema {schema_name}; ignored",
+                    self.path.display(),
+                    c.topic
+                ));
+            }
+            topic
+        } else {
+            None
+        };
+        if exact.is_some() {
+            if c.message_encoding != MESSAGE_ENCODING {
+                return Err(IoError::BadEncoding {
+                    path: self.path.clone(),
+                    topic: c.topic,
+                    encoding: c.message_encoding,
+                });
+            }
+            if let Some(v) = c.metadata.get(FORMAT_VERSION_KEY)
+                && v.parse::<u32>().map_or(true, |v| v > FORMAT_VERSION)
+            {
+                return Err(IoError::UnsupportedVersion {
+                    path: self.path.clone(),
+                    topic: c.topic,
+                    found: v.clone(),
+                    supported: FORMAT_VERSION,
+                });
+            }
+        }
+        self.channels.insert(
+            c.id,
+            ChannelInfo {
+                topic: c.topic,
+                exact,
+                count: 0,
+            },
+        );
+        Ok(())
+    }
+
+    fn message(&mut self, header: mcap::records::MessageHeader, data: &[u8]) -> Result<()> {
+        self.messages += 1;
+        let Some(channel) = self.channels.get_mut(&header.channel_id) else {
+            self.foreign_messages += 1;
+            return Ok(());
+        };
+        let index = channel.count;
+        channel.count += 1;
+        let Some(topic) = channel.exact else {
+            self.foreign_messages += 1;
+            return Ok(());
+        };
+        let name = channel.topic.clone();
+        let path = &self.path;
+        fn parse<T: DeserializeOwned>(
+            path: &Path,
+            topic: &str,
+            index: usize,
+            data: &[u8],
+        ) -> Result<T> {
+            serde_json::from_slice(data).map_err(|source| IoError::BadMessage {
+                path: path.to_path_buf(),
+                topic: topic.to_owned(),
+                index,
+                source,
+            })
+        }
+        let event = match topic {
+            Topic::Wheels => Some(EventMsg::Wheels(parse::<WheelsMsg>(
+                path, &name, index, data,
+            )?)),
+            Topic::Velocity => Some(EventMsg::Velocity(parse::<VelocityMsg>(
+                path, &name, index, data,
+            )?)),
+            Topic::Bearings => Some(EventMsg::Scan(parse::<ScanMsg>(path, &name, index, data)?)),
+            Topic::GroundTruth => Some(EventMsg::GroundTruth(parse::<GroundTruthMsg>(
+                path, &name, index, data,
+            )?)),
+            Topic::Info => {
+                let info = parse::<LogInfo>(path, &name, index, data)?;
+                self.infos.push(info);
+                None
+            }
+            Topic::LandmarkTruth => {
+                let msg = parse::<LandmarksMsg>(path, &name, index, data)?;
+                self.landmarks.push(msg.landmarks);
+                None
+            }
+            Topic::Estimate => {
+                let s = parse::<EstimateSnapshot>(path, &name, index, data)?;
+                self.snapshots.push(keyed(&header, s));
+                None
+            }
+            Topic::SlamEvent => {
+                let e = parse::<TimedSlamEvent>(path, &name, index, data)?;
+                self.slam_events.push(keyed(&header, e));
+                None
+            }
+            _ => None,
+        };
+        if let Some(e) = event {
+            self.events.push(keyed(&header, e.into_event()));
+        }
+        Ok(())
+    }
+
+    fn finish(mut self) -> Result<McapRun> {
+        let path = self.path.display().to_string();
+        let info = match self.infos.len() {
+            0 => {
+                self.warnings.push(format!(
+                    "{path}: no message on {}; the log info is left at its default",
+                    Topic::Info.name()
+                ));
+                LogInfo::default()
+            }
+            n => {
+                if n > 1 {
+                    self.warnings.push(format!(
+                        "{path}: {n} messages on {}; the last one is used",
+                        Topic::Info.name()
+                    ));
+                }
+                self.infos.pop().unwrap_or_default()
+            }
+        };
+        let landmarks = match self.landmarks.len() {
+            0 => {
+                self.warnings.push(format!(
+                    "{path}: no message on {}; the landmark truth is left empty",
+                    Topic::LandmarkTruth.name()
+                ));
+                Vec::new()
+            }
+            n => {
+                if n > 1 {
+                    self.warnings.push(format!(
+                        "{path}: {n} messages on {}; the last one is used",
+                        Topic::LandmarkTruth.name()
+                    ));
+                }
+                self.landmarks.pop().unwrap_or_default()
+            }
+        };
+        let has_trace = self
+            .channels
+            .values()
+            .any(|c| matches!(c.exact, Some(Topic::Estimate | Topic::SlamEvent)));
+        let trace = has_trace.then(|| SlamTrace {
+            snapshots: sort_keyed(std::mem::take(&mut self.snapshots)),
+            events: sort_keyed(std::mem::take(&mut self.slam_events)),
+        });
+        let log = SensorLog {
+            info,
+            events: sort_keyed(std::mem::take(&mut self.events)),
+            landmarks,
+        };
+        if let Err(e) = log.validate() {
+            self.warnings.push(format!(
+                "{path}: the sensor log read back fails validation: {e}"
+            ));
+        }
+        Ok(McapRun {
+            log,
+            trace,
+            warnings: self.warnings,
+        })
+    }
+}
