@@ -212,15 +212,16 @@ impl Ekf {
         let n = self.dim();
         let p_vv = self.cov.fixed_view::<V, V>(0, 0).into_owned();
         let new_vv = f * p_vv * f.transpose() + prediction.process_noise;
-        if n > V {
-            // P_vm ← F P_vm, column by column of the map part (no temporaries of size n×n).
-            let p_vm = self.cov.view((0, V), (V, n - V)).into_owned();
-            let new_vm = f * p_vm;
-            self.cov.view_mut((0, V), (V, n - V)).copy_from(&new_vm);
-            self.cov
-                .view_mut((V, 0), (n - V, V))
-                .copy_from(&new_vm.transpose());
+        // P_vm ← F P_vm (V × (n − V)); no n×n temporary.
+        let new_vm = f * self.cov.view((0, V), (V, n - V));
+        // Check before writing: an overflow must leave the filter unchanged.
+        for &v in new_vv.iter().chain(new_vm.iter()) {
+            ensure_finite("predicted covariance", v)?;
         }
+        self.cov.view_mut((0, V), (V, n - V)).copy_from(&new_vm);
+        self.cov
+            .view_mut((V, 0), (n - V, V))
+            .copy_from(&new_vm.transpose());
         self.cov
             .fixed_view_mut::<V, V>(0, 0)
             .copy_from(&(0.5 * (new_vv + new_vv.transpose())));

@@ -76,6 +76,15 @@ pub enum SlamError {
     /// parallel rays, a point behind the sensor).
     #[error("degenerate geometry: {0}")]
     Degenerate(&'static str),
+    /// The estimate left the range where it means anything (an absurd
+    /// odometry step, a corrupt log): refused before it entered the filter.
+    #[error("filter would diverge: {what} = {value:e}")]
+    Diverged {
+        /// Which quantity.
+        what: &'static str,
+        /// Its value.
+        value: f64,
+    },
     /// Two estimates or sequences that must align but do not.
     #[error("cannot compare: {0}")]
     Mismatch(&'static str),

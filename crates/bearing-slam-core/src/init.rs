@@ -171,7 +171,7 @@ pub fn triangulated_inverse_depth(
     let b = pose.fixed_rows::<2>(0) - first_pose.fixed_rows::<2>(0);
     let s = cross2(&h1, &h2); // sin α, signed
     let e = cross2(&b, &h1); // b sin β, signed
-    if !(e.abs() > 1e-12) {
+    if e.is_nan() || e.abs() <= 1e-12 {
         return Err(SlamError::Degenerate(
             "first ray is parallel to the baseline: no triangle",
         ));
@@ -202,7 +202,7 @@ pub fn triangulate_candidate(
     ensure_finite("bearing", bearing)?;
     let (rho, j_rho_pose, j_rho_first) =
         triangulated_inverse_depth(&candidate.pose, candidate.bearing, pose, bearing)?;
-    if !(rho > 0.0) || !rho.is_finite() {
+    if !rho.is_finite() || rho <= 0.0 {
         return Err(SlamError::Degenerate("rays meet behind the sensor"));
     }
     let mut j_landmark_pose = Matrix4x3::zeros();
@@ -233,6 +233,10 @@ pub struct TriangulationConfig {
     pub beta_min: f64,
     /// Candidates not seen for this long are dropped, seconds.
     pub candidate_timeout: f64,
+    /// A triangulated landmark nearer than this to the sensor is not believed
+    /// (rays crossing almost at the robot: ρ and its Jacobian blow up as the
+    /// first ray aligns with the baseline); the candidate restarts. Metres.
+    pub min_depth: f64,
 }
 
 impl Default for TriangulationConfig {
@@ -244,6 +248,7 @@ impl Default for TriangulationConfig {
             baseline_min: 1.0,
             beta_min: 20f64.to_radians(),
             candidate_timeout: 5.0,
+            min_depth: 0.1,
         }
     }
 }
@@ -268,6 +273,7 @@ impl TriangulationConfig {
                 self.candidate_timeout,
                 self.candidate_timeout > 0.0,
             ),
+            ("min_depth", self.min_depth, self.min_depth > 0.0),
         ];
         for (name, value, ok) in checks {
             if !(ok && value.is_finite()) {
@@ -281,10 +287,24 @@ impl TriangulationConfig {
         Ok(())
     }
 
-    /// The far-landmark prior of (24): `ρ_far = 2 sin(α_min/2) / b_min` bounds
-    /// the 95 % region, so `ρ_ini = ρ_far/2`, `σ_ρ = ρ_far/4`.
-    pub fn far_prior(&self) -> Result<InverseDepthPrior> {
-        let rho_far = 2.0 * (self.alpha_min / 2.0).sin() / self.baseline_min;
+    /// The far-landmark prior of (24) for the triangle actually observed.
+    ///
+    /// The paper bounds the inverse depth by `ρ_far = 2 sin(α_min/2) / b_min`,
+    /// which holds when the first ray is perpendicular to the baseline
+    /// (β = 90°). For smaller β a landmark below `α_min` can be much nearer: a
+    /// landmark 3 m away at β = 20° would sit five standard deviations outside
+    /// the paper's prior. We use the exact bound that (21) gives for the
+    /// current triangle, `α < α_min ⇒ ρ = sin α / (b sin β) < sin α_min / (b sin β)`,
+    /// equal to the paper's at β = 90°: `ρ_ini = ρ_far/2`, `σ_ρ = ρ_far/4`
+    /// (95 % of the prior in `[0, ρ_far]`).
+    pub fn far_prior(&self, parallax: &Parallax) -> Result<InverseDepthPrior> {
+        let denominator = parallax.baseline * parallax.beta.sin();
+        if denominator.is_nan() || denominator <= 0.0 {
+            return Err(SlamError::Degenerate(
+                "far rule needs a baseline off the first ray",
+            ));
+        }
+        let rho_far = self.alpha_min.sin() / denominator;
         InverseDepthPrior::new(rho_far / 2.0, rho_far / 4.0)
     }
 }
@@ -298,8 +318,8 @@ pub enum CandidateDecision {
     Triangulate,
     /// Long baseline, still no parallax, not straight ahead: a far landmark (24).
     Far,
-    /// `α > α_min` but the rays diverge (an outlier or a wrong first bearing):
-    /// restart the candidate from this sighting.
+    /// `α > α_min` but the rays diverge, or cross nearer than `min_depth` (an
+    /// outlier or a wrong first bearing): restart the candidate from this sighting.
     Restart,
 }
 
@@ -314,7 +334,9 @@ pub fn decide(
     let p = parallax(&candidate.pose, candidate.bearing, pose, bearing);
     let decision = if p.alpha > config.alpha_min {
         match triangulated_inverse_depth(&candidate.pose, candidate.bearing, pose, bearing) {
-            Ok((rho, _, _)) if rho > 0.0 => CandidateDecision::Triangulate,
+            Ok((rho, _, _)) if rho > 0.0 && rho * config.min_depth < 1.0 => {
+                CandidateDecision::Triangulate
+            }
             _ => CandidateDecision::Restart,
         }
     } else if p.baseline > config.baseline_min && p.beta > config.beta_min {

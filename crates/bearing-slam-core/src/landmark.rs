@@ -85,7 +85,7 @@ pub fn linearity_index(
     }
     let sight = converted.point - sensor;
     let d1 = sight.norm();
-    if !(d1 > 1e-12) {
+    if d1.is_nan() || d1 <= 1e-12 {
         return Err(SlamError::Degenerate(
             "landmark coincides with the sensor position",
         ));

@@ -27,3 +27,5 @@ pub mod testing;
 
 pub use error::{Result, SlamError};
 pub use geometry::{Pose2, wrap_angle};
+/// The linear algebra crate of the public API, re-exported so users match its version.
+pub use nalgebra;

@@ -17,7 +17,7 @@ const MIN_SQUARED_DISTANCE: f64 = 1e-18;
 /// respect to `d` (shared by the Euclidean and inverse-depth models).
 fn bearing_of_direction(d: &Vector2<f64>, heading: f64) -> Result<(f64, Matrix1x2<f64>)> {
     let q = d.norm_squared();
-    if !(q > MIN_SQUARED_DISTANCE) {
+    if q.is_nan() || q <= MIN_SQUARED_DISTANCE {
         return Err(SlamError::Degenerate(
             "landmark coincides with the sensor position",
         ));

@@ -15,14 +15,22 @@ use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index}
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
+use crate::metrics::chi2_quantile;
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
-use statrs::distribution::{ChiSquared, ContinuousCDF};
 use std::collections::BTreeMap;
 
 /// Size of the vehicle block `[x, y, θ]`.
 const VEHICLE_DIM: usize = 3;
+
+/// A pose variance past this (σ = 1000 km) means the input was garbage: the
+/// covariance would no longer be representable next to the landmarks' (its
+/// condition number passes 1/ε), so such a prediction is refused.
+const MAX_POSE_VARIANCE: f64 = 1e12;
+
+/// Positions beyond this many metres from the origin are refused likewise.
+const MAX_POSITION_M: f64 = 1e9;
 
 /// Which landmark initializer the filter uses.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -108,23 +116,23 @@ impl SlamConfig {
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
         ensure_positive_noise("range sigma", self.range_sigma)?;
-        if let Some(p) = self.gate_probability {
-            if !(p > 0.0 && p < 1.0) {
-                return Err(SlamError::InvalidParameter {
-                    name: "gate_probability",
-                    value: p,
-                    reason: "must be in (0, 1)",
-                });
-            }
+        if let Some(p) = self.gate_probability
+            && !(p > 0.0 && p < 1.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "gate_probability",
+                value: p,
+                reason: "must be in (0, 1)",
+            });
         }
-        if let Some(t) = self.conversion_threshold {
-            if !(t > 0.0 && t.is_finite()) {
-                return Err(SlamError::InvalidParameter {
-                    name: "conversion_threshold",
-                    value: t,
-                    reason: "must be positive",
-                });
-            }
+        if let Some(t) = self.conversion_threshold
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "conversion_threshold",
+                value: t,
+                reason: "must be positive",
+            });
         }
         match &self.initializer {
             InitializerConfig::PiSr {
@@ -217,7 +225,7 @@ impl BearingSlam {
         let sigma = Vector3::from(config.initial_pose_sigma);
         let cov = DMatrix::from_diagonal(&DVector::from_iterator(3, sigma.iter().map(|s| s * s)));
         let gate_threshold = match config.gate_probability {
-            Some(p) => Some(chi_square_quantile(1.0, p)?),
+            Some(p) => Some(chi2_quantile(1.0, p)?),
             None => None,
         };
         Ok(Self {
@@ -379,7 +387,26 @@ impl BearingSlam {
         control: &M::Control,
     ) -> Result<()> {
         self.check_time(time)?;
-        self.ekf.predict(model, control)?;
+        let vehicle = self.ekf.block::<3>(0)?;
+        let prediction = model.predict(&vehicle, control)?;
+        let p_vv = self.pose_covariance();
+        let f = prediction.j_state_state;
+        let new_p_vv = f * p_vv * f.transpose() + prediction.process_noise;
+        let variance = new_p_vv.diagonal().max();
+        if variance.is_nan() || variance > MAX_POSE_VARIANCE {
+            return Err(SlamError::Diverged {
+                what: "predicted pose variance (m², rad²)",
+                value: variance,
+            });
+        }
+        let reach = prediction.state.x.abs().max(prediction.state.y.abs());
+        if reach > MAX_POSITION_M {
+            return Err(SlamError::Diverged {
+                what: "predicted position (m)",
+                value: reach,
+            });
+        }
+        self.ekf.apply_prediction(&prediction)?;
         self.wrap_heading()?;
         self.time = Some(time);
         Ok(())
@@ -455,7 +482,7 @@ impl BearingSlam {
         for (i, &(id, r, z)) in observations.iter().enumerate() {
             ensure_finite("bearing", z)?;
             ensure_finite("range", r)?;
-            if !(r > 0.0) {
+            if r <= 0.0 {
                 return Err(SlamError::InvalidParameter {
                     name: "range",
                     value: r,
@@ -560,7 +587,7 @@ impl BearingSlam {
             let limit = if dof == 1 {
                 threshold
             } else {
-                chi_square_quantile(dof as f64, self.config.gate_probability.unwrap_or(0.999))?
+                chi2_quantile(dof as f64, self.config.gate_probability.unwrap_or(0.999))?
             };
             if nis > limit {
                 report.rejected += 1;
@@ -696,7 +723,7 @@ impl BearingSlam {
             }
             CandidateDecision::Far => {
                 self.drop_candidate(id)?;
-                self.initialize_with_prior(id, z, config.far_prior()?, InitMethod::Far)
+                self.initialize_with_prior(id, z, config.far_prior(&parallax)?, InitMethod::Far)
             }
             CandidateDecision::Triangulate => {
                 let init = triangulate_candidate(&pending.candidate, &pose, z)?;
@@ -908,28 +935,4 @@ impl BearingSlam {
             .ok_or(SlamError::UnknownLandmark(id))?;
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
-}
-
-/// The `p`-quantile of a chi-square distribution with `dof` degrees of freedom.
-pub fn chi_square_quantile(dof: f64, p: f64) -> Result<f64> {
-    if !(dof > 0.0 && dof.is_finite()) {
-        return Err(SlamError::InvalidParameter {
-            name: "dof",
-            value: dof,
-            reason: "must be positive",
-        });
-    }
-    if !(p > 0.0 && p < 1.0) {
-        return Err(SlamError::InvalidParameter {
-            name: "probability",
-            value: p,
-            reason: "must be in (0, 1)",
-        });
-    }
-    let dist = ChiSquared::new(dof).map_err(|_| SlamError::InvalidParameter {
-        name: "dof",
-        value: dof,
-        reason: "must be positive",
-    })?;
-    Ok(dist.inverse_cdf(p))
 }

@@ -138,11 +138,36 @@ fn decision_rule_follows_the_paper() {
         decide(&config, &c, &pose, PI / 2.0).0,
         CandidateDecision::Restart
     );
-    // The far prior of (24).
-    let prior = config.far_prior().expect("valid config");
-    let rho_far = 2.0 * (config.alpha_min / 2.0).sin() / config.baseline_min;
+    // The far prior of (24), exact for the observed triangle: the true inverse
+    // depth lies inside [0, ρ_far], and at β = 90° it is the paper's formula.
+    let prior = config.far_prior(&p).expect("valid triangle");
+    let true_rho = 1.0 / (far - pose.fixed_rows::<2>(0)).norm();
     assert!(
-        (prior.rho_ini - rho_far / 2.0).abs() < 1e-15
-            && (prior.sigma_rho - rho_far / 4.0).abs() < 1e-15
+        true_rho < 2.0 * prior.rho_ini,
+        "true rho {true_rho} above rho_far {}",
+        2.0 * prior.rho_ini
+    );
+    let side = Vector2::new(0.0, 30.0);
+    let c = candidate(&side);
+    let pose = Vector3::new(1.2, 0.0, 0.0);
+    let (_, p90) = decide(&config, &c, &pose, bearing(&pose, &side));
+    let paper = 2.0 * (config.alpha_min / 2.0).sin() / p90.baseline;
+    let ours = 2.0 * config.far_prior(&p90).expect("valid").rho_ini;
+    assert!(
+        (ours - paper).abs() < 0.01 * paper,
+        "beta = 90 deg: ours {ours} vs paper {paper}"
+    );
+    // A near landmark at a shallow β must stay inside its prior (the paper's
+    // fixed formula would put it 5σ out).
+    let near2 = Vector2::new(4.0, -1.5);
+    let c = candidate(&near2);
+    let pose = Vector3::new(1.1, 0.0, 0.0);
+    let (_, shallow) = decide(&config, &c, &pose, bearing(&pose, &near2));
+    let prior = config.far_prior(&shallow).expect("valid");
+    let true_rho = 1.0 / (near2 - pose.fixed_rows::<2>(0)).norm();
+    assert!(
+        true_rho < 2.0 * prior.rho_ini,
+        "near landmark rho {true_rho} outside [0, {}]",
+        2.0 * prior.rho_ini
     );
 }

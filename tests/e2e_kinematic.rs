@@ -1,0 +1,166 @@
+//! End to end on the kinematic Fig. 4 run (METHOD.md §1 "Reported results"):
+//! a straight 10 m run past four near landmarks and one far one, 1° bearings,
+//! 20 seeded runs per method. Thresholds are set from what the physics of the
+//! problem allows, with margin, and each one fails if the method breaks:
+//! - dead reckoning alone ends ≈ 0.5 m RMS off; SLAM must do clearly better;
+//! - bearings at 1° to landmarks 1.5–3 m away fix the heading to ~1°, while
+//!   PI-SR with (0.01, 0.005) places the near landmarks at 100 m (its prior
+//!   excludes them at > 50σ), so its heading drifts by > 10°;
+//! - MTE-clone keeps every cross-covariance exact, so its pose NEES averaged
+//!   over runs must sit inside the 99 % chi-square band of 3 dof; MTE's
+//!   independent-first-pose simplification (22) is mildly over-confident,
+//!   bounded here at twice the band's upper end.
+
+use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
+use bearing_slam::core::metrics::{chi2_interval, pose_nees};
+use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
+use bearing_slam::core::nalgebra::Matrix3;
+use bearing_slam::core::runner::{OdometryConfig, RunConfig, run, summarize};
+use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
+use bearing_slam::core::testing::kinematic::KinematicScenario;
+
+const RUNS: u64 = 20;
+
+/// Means over the runs.
+struct MethodResult {
+    ate_m: f64,
+    final_position_m: f64,
+    final_heading_deg: f64,
+    dead_reckoning_ate_m: f64,
+    near_landmark_error_m: f64,
+    /// Pose NEES averaged over runs at t = 5, 10, 15, 20 s.
+    nees_at: Vec<f64>,
+}
+
+fn evaluate(initializer: InitializerConfig) -> MethodResult {
+    let scenario = KinematicScenario::paper_fig4(true);
+    let noise = WheelNoise {
+        floor_sigma_m: scenario.encoder_floor_sigma_m,
+        scale_sqrt_m: scenario.encoder_scale_sqrt_m,
+    };
+    let config = RunConfig {
+        slam: SlamConfig {
+            bearing_sigma: scenario.bearing_sigma,
+            initializer,
+            ..SlamConfig::default()
+        },
+        odometry: OdometryConfig::Wheels(
+            DiffDriveModel::new(scenario.wheel_base_m, noise).expect("valid model"),
+        ),
+        use_range: false,
+    };
+    let checkpoints = [50usize, 100, 150, 200];
+    let mut nees_at = vec![0.0; checkpoints.len()];
+    let mut sums = [0.0f64; 4];
+    let mut near = 0.0;
+    for seed in 0..RUNS {
+        let log = scenario.simulate(seed);
+        let output = run(&log, &config).expect("run succeeds");
+        let s = summarize(&log, &output).expect("log has truth");
+        assert!(s.finite, "seed {seed}: non-finite covariance");
+        for (acc, v) in sums.iter_mut().zip([
+            s.ate_rmse_m,
+            s.final_position_error_m,
+            s.final_heading_error_deg,
+            s.dead_reckoning_ate_rmse_m,
+        ]) {
+            *acc += v / RUNS as f64;
+        }
+        for (acc, &k) in nees_at.iter_mut().zip(&checkpoints) {
+            let p = &output.track[k];
+            let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+            *acc += pose_nees(&p.estimate, &cov, &p.truth.expect("truth")).expect("PD covariance")
+                / RUNS as f64;
+        }
+        let last = output.trace.snapshots.last().expect("snapshots");
+        let errors: Vec<f64> = last
+            .landmarks
+            .iter()
+            .filter(|l| l.id <= 4)
+            .map(|l| {
+                let t = log.landmark_truth(l.id).expect("truth");
+                (l.x - t.x).hypot(l.y - t.y)
+            })
+            .collect();
+        assert_eq!(
+            errors.len(),
+            4,
+            "seed {seed}: every near landmark must be mapped"
+        );
+        near += errors.iter().sum::<f64>() / 4.0 / RUNS as f64;
+    }
+    let [
+        ate_m,
+        final_position_m,
+        final_heading_deg,
+        dead_reckoning_ate_m,
+    ] = sums;
+    MethodResult {
+        ate_m,
+        final_position_m,
+        final_heading_deg,
+        dead_reckoning_ate_m,
+        near_landmark_error_m: near,
+        nees_at,
+    }
+}
+
+#[test]
+fn mte_converges_and_is_consistent_where_pi_sr_drifts() {
+    let (_, upper) = chi2_interval(3.0, RUNS as usize, 0.99).expect("valid interval");
+    let clone = evaluate(InitializerConfig::TriangulationWithClone(
+        TriangulationConfig::default(),
+    ));
+    let mte = evaluate(InitializerConfig::Triangulation(
+        TriangulationConfig::default(),
+    ));
+    let pi_sr_far = evaluate(InitializerConfig::pi_sr(
+        InverseDepthPrior::new(0.01, 0.005).expect("valid prior"),
+    ));
+
+    for (name, r) in [("MTE", &mte), ("MTE-clone", &clone)] {
+        assert!(
+            r.ate_m < 0.5 * r.dead_reckoning_ate_m,
+            "{name}: ATE {} vs dead reckoning {}",
+            r.ate_m,
+            r.dead_reckoning_ate_m
+        );
+        assert!(
+            r.final_position_m < 0.35,
+            "{name}: final position error {} m",
+            r.final_position_m
+        );
+        assert!(
+            r.final_heading_deg < 3.0,
+            "{name}: final heading error {}°",
+            r.final_heading_deg
+        );
+        assert!(
+            r.near_landmark_error_m < 0.25,
+            "{name}: near landmark error {} m",
+            r.near_landmark_error_m
+        );
+    }
+    for (k, nees) in clone.nees_at.iter().enumerate() {
+        assert!(
+            *nees < upper,
+            "MTE-clone NEES {nees} at checkpoint {k} above the 99% bound {upper}"
+        );
+    }
+    for (k, nees) in mte.nees_at.iter().enumerate() {
+        assert!(
+            *nees < 2.0 * upper,
+            "MTE NEES {nees} at checkpoint {k} above twice the 99% bound {upper}"
+        );
+    }
+    let drift = pi_sr_far.final_heading_deg;
+    assert!(
+        drift > 8.0,
+        "PI-SR (0.01, 0.005) heading error {drift}° should show the paper's drift"
+    );
+    assert!(
+        drift > 4.0 * mte.final_heading_deg,
+        "PI-SR drift {drift}° vs MTE {}°",
+        mte.final_heading_deg
+    );
+}
