@@ -62,25 +62,44 @@ impl ControllerSpec {
     /// Checks the controller's settings (and builds its path to check it).
     pub fn validate(&self) -> Result<()> {
         match self {
-            Self::PurePursuit { path, speed_mps, lookahead_m, laps, .. } => {
+            Self::PurePursuit {
+                path,
+                speed_mps,
+                lookahead_m,
+                laps,
+                ..
+            } => {
                 path.validate()?;
                 check_positive("controller.speed_mps", *speed_mps)?;
                 check_positive("controller.lookahead_m", *lookahead_m)?;
                 if *laps == 0 {
-                    return Err(crate::error::invalid("controller.laps", 0.0, "must be at least 1"));
+                    return Err(crate::error::invalid(
+                        "controller.laps",
+                        0.0,
+                        "must be at least 1",
+                    ));
                 }
             }
             Self::Script { segments, repeat } => {
                 if segments.is_empty() {
-                    return Err(SimError::InvalidScenario("controller: a script needs at least one segment".into()));
+                    return Err(SimError::InvalidScenario(
+                        "controller: a script needs at least one segment".into(),
+                    ));
                 }
                 for (i, s) in segments.iter().enumerate() {
                     check_finite(&format!("controller.segments[{i}].v"), s.v)?;
                     check_finite(&format!("controller.segments[{i}].omega"), s.omega)?;
-                    check_positive(&format!("controller.segments[{i}].duration_s"), s.duration_s)?;
+                    check_positive(
+                        &format!("controller.segments[{i}].duration_s"),
+                        s.duration_s,
+                    )?;
                 }
                 if *repeat == 0 {
-                    return Err(crate::error::invalid("controller.repeat", 0.0, "must be at least 1"));
+                    return Err(crate::error::invalid(
+                        "controller.repeat",
+                        0.0,
+                        "must be at least 1",
+                    ));
                 }
             }
         }
@@ -96,7 +115,12 @@ impl ControllerSpec {
     /// A rough time the controller needs, seconds (for a default run length).
     pub fn nominal_duration_s(&self) -> Result<f64> {
         Ok(match self {
-            Self::PurePursuit { path, speed_mps, laps, .. } => {
+            Self::PurePursuit {
+                path,
+                speed_mps,
+                laps,
+                ..
+            } => {
                 let p = path.build()?;
                 let laps = if p.is_closed() { f64::from(*laps) } else { 1.0 };
                 p.length() * laps / speed_mps
@@ -140,8 +164,24 @@ impl PurePursuit {
     /// stops (infinite to loop forever), `stop_decel` the deceleration it plans
     /// for stopping.
     #[must_use]
-    pub fn new(path: Path, speed: f64, lookahead: f64, end_s: f64, stop_decel: f64, max_turn_rate: f64) -> Self {
-        Self { path, speed, lookahead, end_s, stop_decel, max_turn_rate, progress: 0.0, done: false }
+    pub fn new(
+        path: Path,
+        speed: f64,
+        lookahead: f64,
+        end_s: f64,
+        stop_decel: f64,
+        max_turn_rate: f64,
+    ) -> Self {
+        Self {
+            path,
+            speed,
+            lookahead,
+            end_s,
+            stop_decel,
+            max_turn_rate,
+            progress: 0.0,
+            done: false,
+        }
     }
 
     /// Arc length travelled along the (unrolled) path so far, metres.
@@ -157,7 +197,10 @@ impl PurePursuit {
         }
         let here = Vector::new(pose.x, pose.y);
         let ahead = (4.0 * self.lookahead).max(1.0);
-        let s = self.path.closest_near(here, self.progress, 0.25, ahead).min(self.end_s);
+        let s = self
+            .path
+            .closest_near(here, self.progress, 0.25, ahead)
+            .min(self.end_s);
         self.progress = s;
         let remaining = self.end_s - s;
         if remaining <= 0.02 {
@@ -171,7 +214,11 @@ impl PurePursuit {
         let dy = -sn * d_world.x + cs * d_world.y;
         let dist = dx.hypot(dy);
         let v = self.speed.min((2.0 * self.stop_decel * remaining).sqrt());
-        let kappa = if dist > 1e-9 { 2.0 * dy / (dist * dist) } else { 0.0 };
+        let kappa = if dist > 1e-9 {
+            2.0 * dy / (dist * dist)
+        } else {
+            0.0
+        };
         let omega = (v * kappa).clamp(-self.max_turn_rate, self.max_turn_rate);
         Command { v, omega }
     }
@@ -207,7 +254,10 @@ impl Script {
             // A small tolerance keeps segment boundaries on the controller's
             // own time grid from flickering with rounding.
             if t < start + s.duration_s - 1e-9 {
-                return Command { v: s.v, omega: s.omega };
+                return Command {
+                    v: s.v,
+                    omega: s.omega,
+                };
             }
             start += s.duration_s;
         }
@@ -247,8 +297,12 @@ impl CommandLimiter {
     pub fn limit(&mut self, wanted: Command, dt: f64) -> Command {
         let omega_goal = wanted.omega.clamp(-self.max_turn_rate, self.max_turn_rate);
         let dv = (wanted.v - self.last.v).clamp(-self.max_accel * dt, self.max_accel * dt);
-        let dw = (omega_goal - self.last.omega).clamp(-self.max_angular_accel * dt, self.max_angular_accel * dt);
-        self.last = Command { v: self.last.v + dv, omega: self.last.omega + dw };
+        let dw = (omega_goal - self.last.omega)
+            .clamp(-self.max_angular_accel * dt, self.max_angular_accel * dt);
+        self.last = Command {
+            v: self.last.v + dv,
+            omega: self.last.omega + dw,
+        };
         self.last
     }
 
@@ -273,7 +327,13 @@ impl Controller {
     pub fn new(spec: &ControllerSpec, robot: &RobotParams) -> Result<Self> {
         spec.validate()?;
         Ok(match spec {
-            ControllerSpec::PurePursuit { path, speed_mps, lookahead_m, laps, loop_forever } => {
+            ControllerSpec::PurePursuit {
+                path,
+                speed_mps,
+                lookahead_m,
+                laps,
+                loop_forever,
+            } => {
                 let path = path.build()?;
                 let end_s = if !path.is_closed() {
                     path.length()
@@ -292,7 +352,9 @@ impl Controller {
                     robot.max_turn_rate_radps,
                 ))
             }
-            ControllerSpec::Script { segments, repeat } => Self::Script(Script::new(segments, *repeat)),
+            ControllerSpec::Script { segments, repeat } => {
+                Self::Script(Script::new(segments, *repeat))
+            }
         })
     }
 
@@ -321,14 +383,31 @@ mod tests {
     #[test]
     fn limiter_ramps() {
         let mut l = CommandLimiter::new(&RobotParams::default());
-        let c = l.limit(Command { v: 1.0, omega: 10.0 }, 0.1);
+        let c = l.limit(
+            Command {
+                v: 1.0,
+                omega: 10.0,
+            },
+            0.1,
+        );
         assert!((c.v - 0.1).abs() < 1e-12 && (c.omega - 0.4).abs() < 1e-12);
     }
 
     #[test]
     fn script_plays_segments_in_order() {
         let s = Script::new(
-            &[Segment { v: 1.0, omega: 0.0, duration_s: 1.0 }, Segment { v: 0.0, omega: 1.0, duration_s: 1.0 }],
+            &[
+                Segment {
+                    v: 1.0,
+                    omega: 0.0,
+                    duration_s: 1.0,
+                },
+                Segment {
+                    v: 0.0,
+                    omega: 1.0,
+                    duration_s: 1.0,
+                },
+            ],
             2,
         );
         assert_eq!(s.command(0.5).v, 1.0);

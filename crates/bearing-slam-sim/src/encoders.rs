@@ -28,7 +28,11 @@ pub struct EncoderParams {
 
 impl Default for EncoderParams {
     fn default() -> Self {
-        Self { ticks_per_rev: 1024, noise_sigma_m: 0.0, noise_var_per_m: 0.0 }
+        Self {
+            ticks_per_rev: 1024,
+            noise_sigma_m: 0.0,
+            noise_var_per_m: 0.0,
+        }
     }
 }
 
@@ -57,7 +61,11 @@ impl Encoders {
     #[must_use]
     pub fn new(params: EncoderParams, wheel_radius_m: f64) -> Self {
         let metres_per_tick = TAU * wheel_radius_m / f64::from(params.ticks_per_rev.max(1));
-        Self { params, metres_per_tick, last_ticks: [0; 2] }
+        Self {
+            params,
+            metres_per_tick,
+            last_ticks: [0; 2],
+        }
     }
 
     /// The tick count for a total wheel rotation `angle` (radians).

@@ -110,5 +110,9 @@ pub(crate) fn check_probability(name: &str, value: f64) -> Result<f64> {
 
 /// Builds an [`SimError::InvalidParameter`].
 pub(crate) fn invalid(name: &str, value: f64, reason: &'static str) -> SimError {
-    SimError::InvalidParameter { name: name.to_owned(), value, reason }
+    SimError::InvalidParameter {
+        name: name.to_owned(),
+        value,
+        reason,
+    }
 }

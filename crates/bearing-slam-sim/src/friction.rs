@@ -142,7 +142,11 @@ impl FrictionMap {
 #[must_use]
 pub fn regularized_coulomb(slip: Vector, limit: f64, epsilon: f64) -> Vector {
     let denom = (slip.length_squared() + epsilon * epsilon).sqrt();
-    if denom > 0.0 { slip * (-limit / denom) } else { Vector::ZERO }
+    if denom > 0.0 {
+        slip * (-limit / denom)
+    } else {
+        Vector::ZERO
+    }
 }
 
 #[cfg(test)]

@@ -96,38 +96,60 @@ impl PathSpec {
                     check_finite(&format!("path.line[{i}]"), *x)?;
                 }
                 if from == to {
-                    return Err(SimError::InvalidScenario("path: a line needs two distinct end points".into()));
+                    return Err(SimError::InvalidScenario(
+                        "path: a line needs two distinct end points".into(),
+                    ));
                 }
             }
             Self::Waypoints { points, .. } => {
                 if points.len() < 2 {
-                    return Err(SimError::InvalidScenario("path: waypoints need at least two points".into()));
+                    return Err(SimError::InvalidScenario(
+                        "path: waypoints need at least two points".into(),
+                    ));
                 }
                 for (i, p) in points.iter().enumerate() {
                     check_finite(&format!("path.points[{i}].x"), p[0])?;
                     check_finite(&format!("path.points[{i}].y"), p[1])?;
                 }
             }
-            Self::Circle { center, radius, start_angle, .. } => {
+            Self::Circle {
+                center,
+                radius,
+                start_angle,
+                ..
+            } => {
                 check_finite("path.center.x", center[0])?;
                 check_finite("path.center.y", center[1])?;
                 check_positive("path.radius", *radius)?;
                 check_finite("path.start_angle", *start_angle)?;
             }
-            Self::Oval { center, straight_m, radius } => {
+            Self::Oval {
+                center,
+                straight_m,
+                radius,
+            } => {
                 check_finite("path.center.x", center[0])?;
                 check_finite("path.center.y", center[1])?;
                 crate::error::check_non_negative("path.straight_m", *straight_m)?;
                 check_positive("path.radius", *radius)?;
             }
-            Self::RoundedRect { center, width, height, corner_radius } => {
+            Self::RoundedRect {
+                center,
+                width,
+                height,
+                corner_radius,
+            } => {
                 check_finite("path.center.x", center[0])?;
                 check_finite("path.center.y", center[1])?;
                 check_positive("path.width", *width)?;
                 check_positive("path.height", *height)?;
                 check_positive("path.corner_radius", *corner_radius)?;
                 if 2.0 * corner_radius > width.min(*height) {
-                    return Err(invalid("path.corner_radius", *corner_radius, "must not exceed half the smaller side"));
+                    return Err(invalid(
+                        "path.corner_radius",
+                        *corner_radius,
+                        "must not exceed half the smaller side",
+                    ));
                 }
             }
             Self::FigureEight { center, half_width } => {
@@ -145,7 +167,12 @@ impl PathSpec {
         let (points, closed) = match self {
             Self::Line { from, to } => (vec![v(*from), v(*to)], false),
             Self::Waypoints { points, closed } => (points.iter().map(|p| v(*p)).collect(), *closed),
-            Self::Circle { center, radius, start_angle, ccw } => {
+            Self::Circle {
+                center,
+                radius,
+                start_angle,
+                ccw,
+            } => {
                 let n = ((TAU * radius / CURVE_SPACING_M).ceil() as usize).max(64);
                 let sign = if *ccw { 1.0 } else { -1.0 };
                 let pts = (0..n)
@@ -156,18 +183,30 @@ impl PathSpec {
                     .collect();
                 (pts, true)
             }
-            Self::Oval { center, straight_m, radius } => {
-                (rounded_rect(v(*center), straight_m + 2.0 * radius, 2.0 * radius, *radius), true)
-            }
-            Self::RoundedRect { center, width, height, corner_radius } => {
-                (rounded_rect(v(*center), *width, *height, *corner_radius), true)
-            }
+            Self::Oval {
+                center,
+                straight_m,
+                radius,
+            } => (
+                rounded_rect(v(*center), straight_m + 2.0 * radius, 2.0 * radius, *radius),
+                true,
+            ),
+            Self::RoundedRect {
+                center,
+                width,
+                height,
+                corner_radius,
+            } => (
+                rounded_rect(v(*center), *width, *height, *corner_radius),
+                true,
+            ),
             Self::FigureEight { center, half_width } => {
                 let n = ((6.1 * half_width / CURVE_SPACING_M).ceil() as usize).max(200);
                 let pts = (0..n)
                     .map(|k| {
                         let t = TAU * k as f64 / n as f64;
-                        v(*center) + Vector::new(half_width * t.sin(), half_width * t.sin() * t.cos())
+                        v(*center)
+                            + Vector::new(half_width * t.sin(), half_width * t.sin() * t.cos())
                     })
                     .collect();
                 (pts, true)
@@ -236,17 +275,27 @@ impl Path {
             points.pop();
         }
         if points.len() < 2 {
-            return Err(SimError::InvalidScenario("path: fewer than two distinct points".into()));
+            return Err(SimError::InvalidScenario(
+                "path: fewer than two distinct points".into(),
+            ));
         }
         let mut cumulative = vec![0.0];
-        let n_seg = if closed { points.len() } else { points.len() - 1 };
+        let n_seg = if closed {
+            points.len()
+        } else {
+            points.len() - 1
+        };
         for i in 0..n_seg {
             let a = points[i];
             let b = points[(i + 1) % points.len()];
             let last = cumulative[cumulative.len() - 1];
             cumulative.push(last + (b - a).length());
         }
-        Ok(Self { points, cumulative, closed })
+        Ok(Self {
+            points,
+            cumulative,
+            closed,
+        })
     }
 
     /// Whether the path loops.
@@ -274,11 +323,23 @@ impl Path {
     #[must_use]
     pub fn point_at(&self, s: f64) -> Vector {
         let len = self.length();
-        let s = if self.closed { s.rem_euclid(len) } else { s.clamp(0.0, len) };
-        let i = self.cumulative.partition_point(|&c| c <= s).saturating_sub(1).min(self.segment_count() - 1);
+        let s = if self.closed {
+            s.rem_euclid(len)
+        } else {
+            s.clamp(0.0, len)
+        };
+        let i = self
+            .cumulative
+            .partition_point(|&c| c <= s)
+            .saturating_sub(1)
+            .min(self.segment_count() - 1);
         let (a, b) = self.segment(i);
         let seg_len = self.cumulative[i + 1] - self.cumulative[i];
-        let u = if seg_len > 0.0 { ((s - self.cumulative[i]) / seg_len).clamp(0.0, 1.0) } else { 0.0 };
+        let u = if seg_len > 0.0 {
+            ((s - self.cumulative[i]) / seg_len).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
         a + (b - a) * u
     }
 
@@ -295,12 +356,24 @@ impl Path {
     #[must_use]
     pub fn closest_near(&self, p: Vector, hint: f64, back: f64, ahead: f64) -> f64 {
         let len = self.length();
-        let lo = if self.closed { hint - back } else { (hint - back).max(0.0) };
-        let hi = if self.closed { hint + ahead } else { (hint + ahead).min(len) };
+        let lo = if self.closed {
+            hint - back
+        } else {
+            (hint - back).max(0.0)
+        };
+        let hi = if self.closed {
+            hint + ahead
+        } else {
+            (hint + ahead).min(len)
+        };
         let lap0 = (lo / len).floor();
         let base_lo = lo - lap0 * len;
         let n = self.segment_count();
-        let mut i = self.cumulative.partition_point(|&c| c <= base_lo).saturating_sub(1).min(n - 1);
+        let mut i = self
+            .cumulative
+            .partition_point(|&c| c <= base_lo)
+            .saturating_sub(1)
+            .min(n - 1);
         let mut offset = lap0 * len;
         let mut best = (f64::INFINITY, hint);
         // Walk forward through (unrolled) segments until past `hi`.
@@ -312,7 +385,11 @@ impl Path {
             let (a, b) = self.segment(i);
             let d = b - a;
             let l2 = d.length_squared();
-            let u = if l2 > 0.0 { ((p - a).dot(d) / l2).clamp(0.0, 1.0) } else { 0.0 };
+            let u = if l2 > 0.0 {
+                ((p - a).dot(d) / l2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
             let s = (s0 + u * l2.sqrt()).clamp(lo, hi);
             let dist = (self.point_at(s) - p).length_squared();
             if dist < best.0 {
@@ -337,25 +414,64 @@ mod tests {
 
     #[test]
     fn shapes_have_the_expected_lengths() {
-        let c = PathSpec::Circle { center: [0.0, 0.0], radius: 5.0, start_angle: 0.0, ccw: true }.build().unwrap();
+        let c = PathSpec::Circle {
+            center: [0.0, 0.0],
+            radius: 5.0,
+            start_angle: 0.0,
+            ccw: true,
+        }
+        .build()
+        .unwrap();
         assert!((c.length() - TAU * 5.0).abs() < 0.01);
-        let o = PathSpec::Oval { center: [0.0, 0.0], straight_m: 1.0, radius: 0.5 }.build().unwrap();
+        let o = PathSpec::Oval {
+            center: [0.0, 0.0],
+            straight_m: 1.0,
+            radius: 0.5,
+        }
+        .build()
+        .unwrap();
         assert!((o.length() - (2.0 + PI)).abs() < 0.01);
-        let r = PathSpec::RoundedRect { center: [0.0, 0.0], width: 8.0, height: 5.0, corner_radius: 1.0 }.build().unwrap();
+        let r = PathSpec::RoundedRect {
+            center: [0.0, 0.0],
+            width: 8.0,
+            height: 5.0,
+            corner_radius: 1.0,
+        }
+        .build()
+        .unwrap();
         assert!((r.length() - (12.0 + 6.0 + TAU)).abs() < 0.01);
         let a = figure_eight_half_width_for_length(4.0);
-        let f = PathSpec::FigureEight { center: [0.0, 0.0], half_width: a }.build().unwrap();
+        let f = PathSpec::FigureEight {
+            center: [0.0, 0.0],
+            half_width: a,
+        }
+        .build()
+        .unwrap();
         assert!((f.length() - 4.0).abs() < 0.01, "{}", f.length());
     }
 
     #[test]
     fn start_poses_and_wrapping() {
-        let c = PathSpec::Circle { center: [0.0, 0.0], radius: 5.0, start_angle: 0.0, ccw: true }.build().unwrap();
+        let c = PathSpec::Circle {
+            center: [0.0, 0.0],
+            radius: 5.0,
+            start_angle: 0.0,
+            ccw: true,
+        }
+        .build()
+        .unwrap();
         let s = c.start_pose();
         assert!((s.x - 5.0).abs() < 1e-9 && (s.theta - FRAC_PI_2).abs() < 0.01);
         let p = c.point_at(c.length() * 1.25);
         assert!((p.x).abs() < 0.01 && (p.y - 5.0).abs() < 0.01);
-        let r = PathSpec::RoundedRect { center: [0.0, 0.0], width: 8.0, height: 5.0, corner_radius: 1.0 }.build().unwrap();
+        let r = PathSpec::RoundedRect {
+            center: [0.0, 0.0],
+            width: 8.0,
+            height: 5.0,
+            corner_radius: 1.0,
+        }
+        .build()
+        .unwrap();
         let s = r.start_pose();
         assert!(s.x.abs() < 1e-9 && (s.y + 2.5).abs() < 1e-9 && s.theta.abs() < 1e-9);
     }
@@ -363,7 +479,12 @@ mod tests {
     #[test]
     fn closest_search_stays_on_its_branch_at_a_crossing() {
         let a = figure_eight_half_width_for_length(4.0);
-        let f = PathSpec::FigureEight { center: [0.0, 0.0], half_width: a }.build().unwrap();
+        let f = PathSpec::FigureEight {
+            center: [0.0, 0.0],
+            half_width: a,
+        }
+        .build()
+        .unwrap();
         // At the crossing (the centre) the path passes at s = 0 and s = L/2.
         let near_half = f.closest_near(Vector::ZERO, 0.5 * f.length() - 0.1, 0.3, 0.5);
         assert!((near_half - 0.5 * f.length()).abs() < 0.05);

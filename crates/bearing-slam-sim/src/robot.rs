@@ -112,20 +112,30 @@ impl RobotParams {
         check_positive("robot.wheel_inertia_kgm2", self.wheel_inertia_kgm2)?;
         check_finite("robot.com_offset_x_m", self.com_offset_x_m)?;
         check_finite("robot.caster_x_m", self.caster_x_m)?;
-        check_non_negative("robot.caster_rolling_resistance", self.caster_rolling_resistance)?;
+        check_non_negative(
+            "robot.caster_rolling_resistance",
+            self.caster_rolling_resistance,
+        )?;
         check_positive("robot.body_radius_m", self.body_radius_m)?;
         check_non_negative("robot.motor_kp", self.motor_kp)?;
         check_non_negative("robot.motor_ki", self.motor_ki)?;
         check_positive("robot.motor_torque_max_nm", self.motor_torque_max_nm)?;
         check_positive("robot.slip_epsilon_mps", self.slip_epsilon_mps)?;
         check_positive("robot.max_accel_mps2", self.max_accel_mps2)?;
-        check_positive("robot.max_angular_accel_radps2", self.max_angular_accel_radps2)?;
+        check_positive(
+            "robot.max_angular_accel_radps2",
+            self.max_angular_accel_radps2,
+        )?;
         check_positive("robot.max_turn_rate_radps", self.max_turn_rate_radps)?;
         if self.wheel_substeps == 0 {
             return Err(invalid("robot.wheel_substeps", 0.0, "must be at least 1"));
         }
         if self.caster_x_m >= 0.0 {
-            return Err(invalid("robot.caster_x_m", self.caster_x_m, "the caster must be behind the axle (< 0)"));
+            return Err(invalid(
+                "robot.caster_x_m",
+                self.caster_x_m,
+                "the caster must be behind the axle (< 0)",
+            ));
         }
         let share = self.caster_load_share();
         if !(0.0..1.0).contains(&share) {
@@ -161,14 +171,21 @@ impl RobotParams {
     #[must_use]
     pub fn wheel_speeds_for(&self, v: f64, omega: f64) -> [f64; 2] {
         let half = 0.5 * omega * self.wheel_base_m;
-        [(v - half) / self.wheel_radius_m, (v + half) / self.wheel_radius_m]
+        [
+            (v - half) / self.wheel_radius_m,
+            (v + half) / self.wheel_radius_m,
+        ]
     }
 
     /// Contact points of `[left wheel, right wheel, caster]` in the body frame.
     #[must_use]
     pub fn contact_points_body(&self) -> [Vector; 3] {
         let half = 0.5 * self.wheel_base_m;
-        [Vector::new(0.0, half), Vector::new(0.0, -half), Vector::new(self.caster_x_m, 0.0)]
+        [
+            Vector::new(0.0, half),
+            Vector::new(0.0, -half),
+            Vector::new(self.caster_x_m, 0.0),
+        ]
     }
 }
 
@@ -229,7 +246,10 @@ impl DriveTrain {
     /// A drive train at rest. `params` must have been validated.
     #[must_use]
     pub fn new(params: RobotParams) -> Self {
-        Self { params, wheels: [WheelState::default(); 2] }
+        Self {
+            params,
+            wheels: [WheelState::default(); 2],
+        }
     }
 
     /// The robot's parameters.
@@ -266,7 +286,12 @@ impl DriveTrain {
     /// over one physics step of `dt` seconds with the current motor torques,
     /// and returns the average contact forces to apply to the rapier body.
     #[must_use]
-    pub fn integrate(&mut self, body: &BodyState, friction: &FrictionMap, dt: f64) -> ContactForces {
+    pub fn integrate(
+        &mut self,
+        body: &BodyState,
+        friction: &FrictionMap,
+        dt: f64,
+    ) -> ContactForces {
         let p = &self.params;
         let n = p.wheel_substeps.max(1);
         let h = dt / f64::from(n);
@@ -298,7 +323,8 @@ impl DriveTrain {
                     let wheel = &mut self.wheels[i];
                     let slip_long = v_point.dot(e_x) - r * wheel.omega;
                     let slip_lat = v_point.dot(e_y);
-                    let f_local = regularized_coulomb(Vector::new(slip_long, slip_lat), wheel_limit[i], eps);
+                    let f_local =
+                        regularized_coulomb(Vector::new(slip_long, slip_lat), wheel_limit[i], eps);
                     wheel.omega += h * (wheel.torque - r * f_local.x) / p.wheel_inertia_kgm2;
                     wheel.angle += h * wheel.omega;
                     e_x * f_local.x + e_y * f_local.y
@@ -314,7 +340,10 @@ impl DriveTrain {
             heading += h * yaw_rate;
             com += vel * h;
         }
-        ContactForces { forces: impulse.map(|j| j / dt), points: start_points }
+        ContactForces {
+            forces: impulse.map(|j| j / dt),
+            points: start_points,
+        }
     }
 }
 
@@ -340,11 +369,20 @@ mod tests {
 
     #[test]
     fn invalid_params_are_rejected() {
-        let p = RobotParams { mass_kg: -1.0, ..RobotParams::default() };
+        let p = RobotParams {
+            mass_kg: -1.0,
+            ..RobotParams::default()
+        };
         assert!(p.validate().is_err());
-        let p = RobotParams { com_offset_x_m: 0.05, ..RobotParams::default() };
+        let p = RobotParams {
+            com_offset_x_m: 0.05,
+            ..RobotParams::default()
+        };
         assert!(p.validate().is_err());
-        let p = RobotParams { slip_epsilon_mps: f64::NAN, ..RobotParams::default() };
+        let p = RobotParams {
+            slip_epsilon_mps: f64::NAN,
+            ..RobotParams::default()
+        };
         assert!(p.validate().is_err());
     }
 }

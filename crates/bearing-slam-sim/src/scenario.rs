@@ -20,7 +20,13 @@ use std::f64::consts::{FRAC_PI_2, FRAC_PI_4, TAU};
 use std::path::Path as FsPath;
 
 /// The names [`Scenario::named`] accepts.
-const NAMES: &[&str] = &["paper_fig4", "paper_fig8", "single_source_oval", "single_source_figure8", "slip_patch"];
+const NAMES: &[&str] = &[
+    "paper_fig4",
+    "paper_fig8",
+    "single_source_oval",
+    "single_source_figure8",
+    "slip_patch",
+];
 
 /// The names of the built-in scenarios, in a fixed order.
 #[must_use]
@@ -57,7 +63,12 @@ pub struct Rates {
 
 impl Default for Rates {
     fn default() -> Self {
-        Self { physics_hz: 200.0, odometry_hz: 50.0, bearing_hz: 10.0, ground_truth_hz: 50.0 }
+        Self {
+            physics_hz: 200.0,
+            odometry_hz: 50.0,
+            bearing_hz: 10.0,
+            ground_truth_hz: 50.0,
+        }
     }
 }
 
@@ -68,7 +79,11 @@ impl Rates {
         let ratio = self.physics_hz / rate_hz;
         let rounded = ratio.round();
         if rounded < 1.0 || (ratio - rounded).abs() > 1e-6 * ratio {
-            return Err(invalid(name, rate_hz, "must divide rates.physics_hz into a whole number of steps"));
+            return Err(invalid(
+                name,
+                rate_hz,
+                "must divide rates.physics_hz into a whole number of steps",
+            ));
         }
         Ok(rounded as u64)
     }
@@ -190,7 +205,10 @@ impl Scenario {
             "single_source_figure8" => single_source(name, seed, true),
             "slip_patch" => slip_patch(seed),
             _ => {
-                return Err(SimError::UnknownScenario { name: name.to_owned(), known: NAMES.join(", ") });
+                return Err(SimError::UnknownScenario {
+                    name: name.to_owned(),
+                    known: NAMES.join(", "),
+                });
             }
         };
         s.validate()?;
@@ -199,15 +217,20 @@ impl Scenario {
 
     /// Parses a scenario from TOML text and validates it.
     pub fn from_toml_str(text: &str) -> Result<Self> {
-        let s: Self = toml::from_str(text).map_err(|e| SimError::Parse { format: "toml", message: e.to_string() })?;
+        let s: Self = toml::from_str(text).map_err(|e| SimError::Parse {
+            format: "toml",
+            message: e.to_string(),
+        })?;
         s.validate()?;
         Ok(s)
     }
 
     /// Parses a scenario from JSON text and validates it.
     pub fn from_json_str(text: &str) -> Result<Self> {
-        let s: Self =
-            serde_json::from_str(text).map_err(|e| SimError::Parse { format: "json", message: e.to_string() })?;
+        let s: Self = serde_json::from_str(text).map_err(|e| SimError::Parse {
+            format: "json",
+            message: e.to_string(),
+        })?;
         s.validate()?;
         Ok(s)
     }
@@ -215,24 +238,37 @@ impl Scenario {
     /// Loads a `.toml` or `.json` scenario file.
     pub fn from_path(path: impl AsRef<FsPath>) -> Result<Self> {
         let path = path.as_ref();
-        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-        let text =
-            std::fs::read_to_string(path).map_err(|source| SimError::Io { path: path.to_path_buf(), source })?;
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        let text = std::fs::read_to_string(path).map_err(|source| SimError::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
         match ext.as_deref() {
             Some("toml") => Self::from_toml_str(&text),
             Some("json") => Self::from_json_str(&text),
-            _ => Err(SimError::UnknownFormat { path: path.to_path_buf() }),
+            _ => Err(SimError::UnknownFormat {
+                path: path.to_path_buf(),
+            }),
         }
     }
 
     /// The scenario as TOML text (what [`Scenario::from_toml_str`] reads).
     pub fn to_toml_string(&self) -> Result<String> {
-        toml::to_string_pretty(self).map_err(|e| SimError::Parse { format: "toml", message: e.to_string() })
+        toml::to_string_pretty(self).map_err(|e| SimError::Parse {
+            format: "toml",
+            message: e.to_string(),
+        })
     }
 
     /// The scenario as JSON text (what [`Scenario::from_json_str`] reads).
     pub fn to_json_string(&self) -> Result<String> {
-        serde_json::to_string_pretty(self).map_err(|e| SimError::Parse { format: "json", message: e.to_string() })
+        serde_json::to_string_pretty(self).map_err(|e| SimError::Parse {
+            format: "json",
+            message: e.to_string(),
+        })
     }
 
     /// Checks every parameter and the consistency of the whole.
@@ -243,7 +279,9 @@ impl Scenario {
         if let Some(d) = self.duration_s {
             check_positive("duration_s", d)?;
         } else if self.controller.is_endless() {
-            return Err(SimError::InvalidScenario("a controller that loops forever needs duration_s".into()));
+            return Err(SimError::InvalidScenario(
+                "a controller that loops forever needs duration_s".into(),
+            ));
         }
         self.rates.divisors()?;
         if let Some(p) = &self.initial_pose {
@@ -262,7 +300,11 @@ impl Scenario {
             check_non_negative("random_landmarks.r_min", r.r_min)?;
             check_positive("random_landmarks.r_max", r.r_max)?;
             if r.r_max < r.r_min {
-                return Err(invalid("random_landmarks.r_max", r.r_max, "must not be below r_min"));
+                return Err(invalid(
+                    "random_landmarks.r_max",
+                    r.r_max,
+                    "must not be below r_min",
+                ));
             }
         }
         self.landmark_truth().map(|_| ())
@@ -287,7 +329,8 @@ impl Scenario {
             let mut rng = stream_rng(self.seed, STREAM_LANDMARKS);
             for i in 0..r.count {
                 let u: f64 = rng.random();
-                let radius = (r.r_min * r.r_min + u * (r.r_max * r.r_max - r.r_min * r.r_min)).sqrt();
+                let radius =
+                    (r.r_min * r.r_min + u * (r.r_max * r.r_max - r.r_min * r.r_min)).sqrt();
                 let phi = rng.random::<f64>() * TAU;
                 out.push(LandmarkTruth {
                     id: r.first_id + i as u64,
@@ -300,7 +343,10 @@ impl Scenario {
             check_finite(&format!("landmarks[{i}].x"), l.x)?;
             check_finite(&format!("landmarks[{i}].y"), l.y)?;
             if out[..i].iter().any(|o| o.id == l.id) {
-                return Err(SimError::InvalidScenario(format!("landmark id {} appears twice", l.id)));
+                return Err(SimError::InvalidScenario(format!(
+                    "landmark id {} appears twice",
+                    l.id
+                )));
             }
         }
         Ok(out)
@@ -320,8 +366,10 @@ impl Scenario {
         match &mut self.random_landmarks {
             Some(r) => r.count = count,
             None => {
-                self.builder_error =
-                    Some(format!("with_landmark_count: scenario {:?} has no random landmarks", self.name));
+                self.builder_error = Some(format!(
+                    "with_landmark_count: scenario {:?} has no random landmarks",
+                    self.name
+                ));
             }
         }
         self
@@ -378,10 +426,23 @@ fn lm(id: u64, x: f64, y: f64) -> LandmarkTruth {
 /// Paper Fig. 4: a 10 m straight run along +x at 0.5 m/s past four near
 /// landmarks and one far one (id 5); σ = 1°, 360°, 200 m.
 fn paper_fig4(seed: u64) -> Scenario {
-    let controller = ControllerSpec::Script { segments: vec![Segment { v: 0.5, omega: 0.0, duration_s: 20.0 }], repeat: 1 };
+    let controller = ControllerSpec::Script {
+        segments: vec![Segment {
+            v: 0.5,
+            omega: 0.0,
+            duration_s: 20.0,
+        }],
+        repeat: 1,
+    };
     let mut s = Scenario::new("paper_fig4", seed, controller);
     s.initial_pose = Some(Pose2::new(0.0, 0.0, 0.0));
-    s.landmarks = vec![lm(1, 2.0, 1.5), lm(2, 4.0, -1.5), lm(3, 6.0, 2.0), lm(4, 8.0, -2.0), lm(5, 60.0, 45.0)];
+    s.landmarks = vec![
+        lm(1, 2.0, 1.5),
+        lm(2, 4.0, -1.5),
+        lm(3, 6.0, 2.0),
+        lm(4, 8.0, -2.0),
+        lm(5, 60.0, 45.0),
+    ];
     s.far_landmark_ids = vec![5];
     s.sensor.bearing_sigma_rad = 1f64.to_radians();
     s.sensor.max_range_m = 200.0;
@@ -392,11 +453,28 @@ fn paper_fig4(seed: u64) -> Scenario {
 /// Paper Fig. 8: two counter-clockwise laps of a 5 m circle at 0.5 m/s
 /// among `N = 10` random landmarks in the 2–9 m annulus; σ = 5°, 360°.
 fn paper_fig8(seed: u64) -> Scenario {
-    let path = PathSpec::Circle { center: [0.0, 0.0], radius: 5.0, start_angle: 0.0, ccw: true };
-    let controller = ControllerSpec::PurePursuit { path, speed_mps: 0.5, lookahead_m: 0.5, laps: 2, loop_forever: false };
+    let path = PathSpec::Circle {
+        center: [0.0, 0.0],
+        radius: 5.0,
+        start_angle: 0.0,
+        ccw: true,
+    };
+    let controller = ControllerSpec::PurePursuit {
+        path,
+        speed_mps: 0.5,
+        lookahead_m: 0.5,
+        laps: 2,
+        loop_forever: false,
+    };
     let mut s = Scenario::new("paper_fig8", seed, controller);
     s.initial_pose = Some(Pose2::new(5.0, 0.0, FRAC_PI_2));
-    s.random_landmarks = Some(RandomLandmarks { count: 10, center: [0.0, 0.0], r_min: 2.0, r_max: 9.0, first_id: 1 });
+    s.random_landmarks = Some(RandomLandmarks {
+        count: 10,
+        center: [0.0, 0.0],
+        r_min: 2.0,
+        r_max: 9.0,
+        first_id: 1,
+    });
     s.sensor.bearing_sigma_rad = 5f64.to_radians();
     s.sensor.max_range_m = 100.0;
     // "Odometry noise variance 0.01" read as a relative variance per reading:
@@ -413,7 +491,10 @@ fn single_source(name: &str, seed: u64, figure_eight: bool) -> Scenario {
     let (path, slip_patch, start) = if figure_eight {
         let a = figure_eight_half_width_for_length(lap);
         (
-            PathSpec::FigureEight { center: [0.0, 0.0], half_width: a },
+            PathSpec::FigureEight {
+                center: [0.0, 0.0],
+                half_width: a,
+            },
             FrictionPatch::rect([0.15, -1.0], [1.5, 1.0], 0.05),
             Pose2::new(0.0, 0.0, FRAC_PI_4),
         )
@@ -421,12 +502,22 @@ fn single_source(name: &str, seed: u64, figure_eight: bool) -> Scenario {
         let radius = 0.4;
         let straight = 0.5 * (lap - TAU * radius);
         (
-            PathSpec::Oval { center: [0.0, 0.0], straight_m: straight, radius },
+            PathSpec::Oval {
+                center: [0.0, 0.0],
+                straight_m: straight,
+                radius,
+            },
             FrictionPatch::rect([0.5 * straight, -1.0], [1.5, 1.0], 0.05),
             Pose2::new(0.0, -radius, 0.0),
         )
     };
-    let controller = ControllerSpec::PurePursuit { path, speed_mps: 0.2, lookahead_m: 0.25, laps: 6, loop_forever: false };
+    let controller = ControllerSpec::PurePursuit {
+        path,
+        speed_mps: 0.2,
+        lookahead_m: 0.25,
+        laps: 6,
+        loop_forever: false,
+    };
     let mut s = Scenario::new(name, seed, controller);
     s.initial_pose = Some(start);
     s.landmarks = vec![lm(1, 0.0, 1.5)];
@@ -441,14 +532,36 @@ fn single_source(name: &str, seed: u64, figure_eight: bool) -> Scenario {
 /// 0.5 m/s whose bottom-right corner lies on ice (μ = 0.05); eight landmarks
 /// along the walls, a central box and a pillar that hide some of them.
 fn slip_patch(seed: u64) -> Scenario {
-    let path = PathSpec::RoundedRect { center: [0.0, 0.0], width: 8.0, height: 5.0, corner_radius: 1.0 };
-    let controller = ControllerSpec::PurePursuit { path, speed_mps: 0.5, lookahead_m: 0.6, laps: 2, loop_forever: false };
+    let path = PathSpec::RoundedRect {
+        center: [0.0, 0.0],
+        width: 8.0,
+        height: 5.0,
+        corner_radius: 1.0,
+    };
+    let controller = ControllerSpec::PurePursuit {
+        path,
+        speed_mps: 0.5,
+        lookahead_m: 0.6,
+        laps: 2,
+        loop_forever: false,
+    };
     let mut s = Scenario::new("slip_patch", seed, controller);
     s.initial_pose = Some(Pose2::new(0.0, -2.5, 0.0));
-    s.world.room = Some(Room { min: [-6.0, -4.5], max: [6.0, 4.5], wall_thickness: 0.2 });
+    s.world.room = Some(Room {
+        min: [-6.0, -4.5],
+        max: [6.0, 4.5],
+        wall_thickness: 0.2,
+    });
     s.world.obstacles = vec![
-        Obstacle::Box { center: [0.0, 0.0], half_extents: [2.0, 0.6], angle: 0.0 },
-        Obstacle::Circle { center: [5.0, 2.0], radius: 0.3 },
+        Obstacle::Box {
+            center: [0.0, 0.0],
+            half_extents: [2.0, 0.6],
+            angle: 0.0,
+        },
+        Obstacle::Circle {
+            center: [5.0, 2.0],
+            radius: 0.3,
+        },
     ];
     s.world.slip_patches = vec![FrictionPatch::rect([2.5, -3.5], [5.0, 0.0], 0.05)];
     s.slip = true;

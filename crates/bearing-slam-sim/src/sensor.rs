@@ -68,12 +68,20 @@ impl SensorParams {
         check_positive("sensor.bearing_sigma_rad", self.bearing_sigma_rad)?;
         check_positive("sensor.fov_rad", self.fov_rad)?;
         if self.fov_rad > TAU + 1e-9 {
-            return Err(invalid("sensor.fov_rad", self.fov_rad, "must not exceed 2π"));
+            return Err(invalid(
+                "sensor.fov_rad",
+                self.fov_rad,
+                "must not exceed 2π",
+            ));
         }
         check_positive("sensor.max_range_m", self.max_range_m)?;
         check_non_negative("sensor.min_range_m", self.min_range_m)?;
         if self.min_range_m >= self.max_range_m {
-            return Err(invalid("sensor.min_range_m", self.min_range_m, "must be below max_range_m"));
+            return Err(invalid(
+                "sensor.min_range_m",
+                self.min_range_m,
+                "must be below max_range_m",
+            ));
         }
         check_non_negative("sensor.range_sigma_m", self.range_sigma_m)?;
         check_non_negative("sensor.range_sigma_rel", self.range_sigma_rel)?;
@@ -117,7 +125,13 @@ impl BearingSensor {
     /// One scan from `pose`: the observations of `landmarks` (in their order),
     /// with `occluded(pose, landmark, range)` telling whether the line of sight
     /// from the sensor to the landmark is blocked.
-    pub fn scan<R, F>(&self, pose: &Pose2, landmarks: &[LandmarkTruth], occluded: F, rng: &mut R) -> Vec<BearingObservation>
+    pub fn scan<R, F>(
+        &self,
+        pose: &Pose2,
+        landmarks: &[LandmarkTruth],
+        occluded: F,
+        rng: &mut R,
+    ) -> Vec<BearingObservation>
     where
         R: Rng + ?Sized,
         F: Fn(&Pose2, &LandmarkTruth, f64) -> bool,
@@ -141,19 +155,28 @@ impl BearingSensor {
             if p.dropout_probability > 0.0 && rng.random::<f64>() < p.dropout_probability {
                 continue;
             }
-            let bearing = if p.outlier_probability > 0.0 && rng.random::<f64>() < p.outlier_probability {
-                let half = if p.is_omnidirectional() { PI } else { 0.5 * p.fov_rad };
-                wrap_angle(rng.random_range(-half..=half))
-            } else {
-                let z: f64 = StandardNormal.sample(rng);
-                wrap_angle(true_bearing + p.bearing_sigma_rad * z)
-            };
+            let bearing =
+                if p.outlier_probability > 0.0 && rng.random::<f64>() < p.outlier_probability {
+                    let half = if p.is_omnidirectional() {
+                        PI
+                    } else {
+                        0.5 * p.fov_rad
+                    };
+                    wrap_angle(rng.random_range(-half..=half))
+                } else {
+                    let z: f64 = StandardNormal.sample(rng);
+                    wrap_angle(true_bearing + p.bearing_sigma_rad * z)
+                };
             let zr: f64 = StandardNormal.sample(rng);
             let noisy_range = (range + (p.range_sigma_m + p.range_sigma_rel * range) * zr).max(0.0);
             if !p.in_fov(bearing) {
                 continue;
             }
-            out.push(BearingObservation { landmark_id: lm.id, bearing, range: Some(noisy_range) });
+            out.push(BearingObservation {
+                landmark_id: lm.id,
+                bearing,
+                range: Some(noisy_range),
+            });
         }
         out
     }
@@ -167,21 +190,56 @@ mod tests {
 
     fn lms() -> Vec<LandmarkTruth> {
         vec![
-            LandmarkTruth { id: 1, x: 5.0, y: 0.0 },
-            LandmarkTruth { id: 2, x: 0.0, y: 5.0 },
-            LandmarkTruth { id: 3, x: -5.0, y: 0.0 },
-            LandmarkTruth { id: 4, x: 500.0, y: 0.0 },
+            LandmarkTruth {
+                id: 1,
+                x: 5.0,
+                y: 0.0,
+            },
+            LandmarkTruth {
+                id: 2,
+                x: 0.0,
+                y: 5.0,
+            },
+            LandmarkTruth {
+                id: 3,
+                x: -5.0,
+                y: 0.0,
+            },
+            LandmarkTruth {
+                id: 4,
+                x: 500.0,
+                y: 0.0,
+            },
         ]
     }
 
     #[test]
     fn cone_and_range_limit_what_is_seen() {
-        let sensor = BearingSensor::new(SensorParams { fov_rad: 120f64.to_radians(), ..SensorParams::default() });
+        let sensor = BearingSensor::new(SensorParams {
+            fov_rad: 120f64.to_radians(),
+            ..SensorParams::default()
+        });
         let mut rng = StdRng::seed_from_u64(3);
-        let obs = sensor.scan(&Pose2::new(0.0, 0.0, 0.0), &lms(), |_, _, _| false, &mut rng);
-        assert_eq!(obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(), vec![1]);
-        let obs = sensor.scan(&Pose2::new(0.0, 0.0, PI / 2.0), &lms(), |_, _, _| false, &mut rng);
-        assert_eq!(obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(), vec![2]);
+        let obs = sensor.scan(
+            &Pose2::new(0.0, 0.0, 0.0),
+            &lms(),
+            |_, _, _| false,
+            &mut rng,
+        );
+        assert_eq!(
+            obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(),
+            vec![1]
+        );
+        let obs = sensor.scan(
+            &Pose2::new(0.0, 0.0, PI / 2.0),
+            &lms(),
+            |_, _, _| false,
+            &mut rng,
+        );
+        assert_eq!(
+            obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(),
+            vec![2]
+        );
         assert!(obs[0].bearing.abs() < 0.1);
     }
 
@@ -190,6 +248,9 @@ mod tests {
         let sensor = BearingSensor::new(SensorParams::default());
         let mut rng = StdRng::seed_from_u64(3);
         let obs = sensor.scan(&Pose2::default(), &lms(), |_, lm, _| lm.id == 2, &mut rng);
-        assert_eq!(obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(), vec![1, 3]);
+        assert_eq!(
+            obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(),
+            vec![1, 3]
+        );
     }
 }

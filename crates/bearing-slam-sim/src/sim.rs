@@ -62,7 +62,9 @@ impl Simulation {
         let [odometry_every, bearing_every, ground_truth_every] = scenario.rates.divisors()?;
         let dt = 1.0 / scenario.rates.physics_hz;
         let dt_odo = dt * odometry_every as f64;
-        let end_step = scenario.duration_s.map(|d| (d / dt_odo - 1e-9).ceil().max(1.0) as u64 * odometry_every);
+        let end_step = scenario
+            .duration_s
+            .map(|d| (d / dt_odo - 1e-9).ceil().max(1.0) as u64 * odometry_every);
         let nominal = scenario.controller.nominal_duration_s()?;
         let cap_s = scenario.duration_s.unwrap_or(2.0 * nominal + 30.0);
         let max_steps = ((cap_s / dt_odo).ceil().max(1.0) as u64) * odometry_every;
@@ -122,7 +124,9 @@ impl Simulation {
     /// The robot's true pose now.
     #[must_use]
     pub fn true_pose(&self) -> Pose2 {
-        self.scene.robot_pose().unwrap_or(Pose2::new(f64::NAN, f64::NAN, f64::NAN))
+        self.scene
+            .robot_pose()
+            .unwrap_or(Pose2::new(f64::NAN, f64::NAN, f64::NAN))
     }
 
     /// The command being executed now.
@@ -165,21 +169,35 @@ impl Simulation {
     /// The log of what has been recorded so far.
     #[must_use]
     pub fn log(&self) -> SensorLog {
-        SensorLog { info: self.info.clone(), events: self.events.clone(), landmarks: self.landmarks.clone() }
+        SensorLog {
+            info: self.info.clone(),
+            events: self.events.clone(),
+            landmarks: self.landmarks.clone(),
+        }
     }
 
     /// The log, consuming the simulation.
     #[must_use]
     pub fn into_log(self) -> SensorLog {
-        SensorLog { info: self.info, events: self.events, landmarks: self.landmarks }
+        SensorLog {
+            info: self.info,
+            events: self.events,
+            landmarks: self.landmarks,
+        }
     }
 
     fn robot_is_still(&self) -> bool {
         let r = self.drive.params().wheel_radius_m;
-        let wheels_still = self.drive.wheels().iter().all(|w| (w.omega * r).abs() < STILL_SPEED);
-        self.scene
-            .robot_state()
-            .is_some_and(|b| b.com_velocity.length() < STILL_SPEED && b.yaw_rate.abs() < STILL_YAW_RATE && wheels_still)
+        let wheels_still = self
+            .drive
+            .wheels()
+            .iter()
+            .all(|w| (w.omega * r).abs() < STILL_SPEED);
+        self.scene.robot_state().is_some_and(|b| {
+            b.com_velocity.length() < STILL_SPEED
+                && b.yaw_rate.abs() < STILL_YAW_RATE
+                && wheels_still
+        })
     }
 
     fn should_end(&self, t: f64) -> bool {
@@ -187,7 +205,9 @@ impl Simulation {
             Some(end) => self.step_index >= end,
             None => {
                 self.step_index >= self.max_steps
-                    || (self.controller.is_done(t) && self.limiter.last() == Command::default() && self.robot_is_still())
+                    || (self.controller.is_done(t)
+                        && self.limiter.last() == Command::default()
+                        && self.robot_is_still())
             }
         }
     }
@@ -196,16 +216,22 @@ impl Simulation {
     fn record(&mut self, pose: Pose2) {
         let k = self.step_index;
         let t = self.time();
-        let odometry_tick = k % self.odometry_every == 0;
+        let odometry_tick = k.is_multiple_of(self.odometry_every);
         if odometry_tick && k > 0 {
             let angles = self.drive.wheels().map(|w| w.angle);
             let [left_m, right_m] = self.encoders.read(angles, &mut self.rng_encoders);
-            self.events.push(Event { time: t, kind: EventKind::Wheels(WheelOdometry { left_m, right_m }) });
+            self.events.push(Event {
+                time: t,
+                kind: EventKind::Wheels(WheelOdometry { left_m, right_m }),
+            });
         }
-        if k % self.ground_truth_every == 0 {
-            self.events.push(Event { time: t, kind: EventKind::GroundTruth(pose) });
+        if k.is_multiple_of(self.ground_truth_every) {
+            self.events.push(Event {
+                time: t,
+                kind: EventKind::GroundTruth(pose),
+            });
         }
-        if k % self.bearing_every == 0 {
+        if k.is_multiple_of(self.bearing_every) {
             let scene = &self.scene;
             let obs = self.sensor.scan(
                 &pose,
@@ -213,7 +239,10 @@ impl Simulation {
                 |p, lm, range| scene.line_blocked([p.x, p.y], [lm.x, lm.y], range),
                 &mut self.rng_sensor,
             );
-            self.events.push(Event { time: t, kind: EventKind::Bearings(obs) });
+            self.events.push(Event {
+                time: t,
+                kind: EventKind::Bearings(obs),
+            });
         }
         if odometry_tick {
             if self.should_end(t) {
@@ -226,7 +255,11 @@ impl Simulation {
             self.command = self.limiter.limit(wanted, dt_odo);
             self.events.push(Event {
                 time: t,
-                kind: EventKind::Velocity(VelocityOdometry { v: self.command.v, omega: self.command.omega, dt: dt_odo }),
+                kind: EventKind::Velocity(VelocityOdometry {
+                    v: self.command.v,
+                    omega: self.command.omega,
+                    dt: dt_odo,
+                }),
             });
         }
     }
@@ -236,19 +269,34 @@ impl Simulation {
     /// contact forces and steps rapier.
     pub fn step(&mut self) -> Result<()> {
         let time = self.time();
-        let pose = self.scene.robot_pose().ok_or(SimError::Diverged { time, what: "robot body missing" })?;
+        let pose = self.scene.robot_pose().ok_or(SimError::Diverged {
+            time,
+            what: "robot body missing",
+        })?;
         if !pose.is_finite() {
-            return Err(SimError::Diverged { time, what: "robot pose" });
+            return Err(SimError::Diverged {
+                time,
+                what: "robot pose",
+            });
         }
         if !self.finished {
             self.record(pose);
         }
-        let target = self.drive.params().wheel_speeds_for(self.command.v, self.command.omega);
+        let target = self
+            .drive
+            .params()
+            .wheel_speeds_for(self.command.v, self.command.omega);
         self.drive.update_motors(target, self.dt);
-        let state = self.scene.robot_state().ok_or(SimError::Diverged { time, what: "robot body missing" })?;
+        let state = self.scene.robot_state().ok_or(SimError::Diverged {
+            time,
+            what: "robot body missing",
+        })?;
         let forces = self.drive.integrate(&state, self.scene.friction(), self.dt);
         if forces.forces.iter().any(|f| !f.is_finite()) {
-            return Err(SimError::Diverged { time, what: "wheel forces" });
+            return Err(SimError::Diverged {
+                time,
+                what: "wheel forces",
+            });
         }
         self.scene.apply(&forces);
         self.scene.step();

@@ -64,7 +64,11 @@ impl Obstacle {
     /// Checks the obstacle's numbers; `name` prefixes error messages.
     pub fn validate(&self, name: &str) -> Result<()> {
         match self {
-            Self::Box { center, half_extents, angle } => {
+            Self::Box {
+                center,
+                half_extents,
+                angle,
+            } => {
                 check_finite(&format!("{name}.center.x"), center[0])?;
                 check_finite(&format!("{name}.center.y"), center[1])?;
                 check_positive(&format!("{name}.half_extents.x"), half_extents[0])?;
@@ -76,13 +80,19 @@ impl Obstacle {
                 check_finite(&format!("{name}.center.y"), center[1])?;
                 check_positive(&format!("{name}.radius"), *radius)?;
             }
-            Self::Wall { from, to, thickness } => {
+            Self::Wall {
+                from,
+                to,
+                thickness,
+            } => {
                 for (i, v) in from.iter().chain(to.iter()).enumerate() {
                     check_finite(&format!("{name}.end[{i}]"), *v)?;
                 }
                 check_positive(&format!("{name}.thickness"), *thickness)?;
                 if from == to {
-                    return Err(SimError::InvalidScenario(format!("{name}: a wall needs two distinct ends")));
+                    return Err(SimError::InvalidScenario(format!(
+                        "{name}: a wall needs two distinct ends"
+                    )));
                 }
             }
         }
@@ -91,18 +101,29 @@ impl Obstacle {
 
     fn collider(&self) -> Collider {
         match self {
-            Self::Box { center, half_extents, angle } => ColliderBuilder::cuboid(half_extents[0], half_extents[1])
+            Self::Box {
+                center,
+                half_extents,
+                angle,
+            } => ColliderBuilder::cuboid(half_extents[0], half_extents[1])
                 .translation(Vector::new(center[0], center[1]))
                 .rotation(*angle)
                 .build(),
-            Self::Circle { center, radius } => {
-                ColliderBuilder::ball(*radius).translation(Vector::new(center[0], center[1])).build()
-            }
-            Self::Wall { from, to, thickness } => {
+            Self::Circle { center, radius } => ColliderBuilder::ball(*radius)
+                .translation(Vector::new(center[0], center[1]))
+                .build(),
+            Self::Wall {
+                from,
+                to,
+                thickness,
+            } => {
                 let dx = to[0] - from[0];
                 let dy = to[1] - from[1];
                 ColliderBuilder::cuboid(0.5 * dx.hypot(dy), 0.5 * thickness)
-                    .translation(Vector::new(0.5 * (from[0] + to[0]), 0.5 * (from[1] + to[1])))
+                    .translation(Vector::new(
+                        0.5 * (from[0] + to[0]),
+                        0.5 * (from[1] + to[1]),
+                    ))
                     .rotation(dy.atan2(dx))
                     .build()
             }
@@ -128,7 +149,13 @@ pub struct WorldSpec {
 
 impl Default for WorldSpec {
     fn default() -> Self {
-        Self { base_mu: 0.8, patches: Vec::new(), slip_patches: Vec::new(), room: None, obstacles: Vec::new() }
+        Self {
+            base_mu: 0.8,
+            patches: Vec::new(),
+            slip_patches: Vec::new(),
+            room: None,
+            obstacles: Vec::new(),
+        }
     }
 }
 
@@ -148,7 +175,11 @@ impl WorldSpec {
             }
             check_positive("world.room.wall_thickness", room.wall_thickness)?;
             if room.max[0] <= room.min[0] || room.max[1] <= room.min[1] {
-                return Err(invalid("world.room.max", room.max[0].min(room.max[1]), "must be above min"));
+                return Err(invalid(
+                    "world.room.max",
+                    room.max[0].min(room.max[1]),
+                    "must be above min",
+                ));
             }
         }
         for (i, o) in self.obstacles.iter().enumerate() {
@@ -178,10 +209,26 @@ impl WorldSpec {
             let cy = 0.5 * (y0 + y1);
             let hx = 0.5 * (x1 - x0) + t;
             let hy = 0.5 * (y1 - y0) + t;
-            out.push(Obstacle::Box { center: [cx, y0 - 0.5 * t], half_extents: [hx, 0.5 * t], angle: 0.0 });
-            out.push(Obstacle::Box { center: [cx, y1 + 0.5 * t], half_extents: [hx, 0.5 * t], angle: 0.0 });
-            out.push(Obstacle::Box { center: [x0 - 0.5 * t, cy], half_extents: [0.5 * t, hy], angle: 0.0 });
-            out.push(Obstacle::Box { center: [x1 + 0.5 * t, cy], half_extents: [0.5 * t, hy], angle: 0.0 });
+            out.push(Obstacle::Box {
+                center: [cx, y0 - 0.5 * t],
+                half_extents: [hx, 0.5 * t],
+                angle: 0.0,
+            });
+            out.push(Obstacle::Box {
+                center: [cx, y1 + 0.5 * t],
+                half_extents: [hx, 0.5 * t],
+                angle: 0.0,
+            });
+            out.push(Obstacle::Box {
+                center: [x0 - 0.5 * t, cy],
+                half_extents: [0.5 * t, hy],
+                angle: 0.0,
+            });
+            out.push(Obstacle::Box {
+                center: [x1 + 0.5 * t, cy],
+                half_extents: [0.5 * t, hy],
+                angle: 0.0,
+            });
         }
         out.extend(self.obstacles.iter().cloned());
         out
@@ -197,7 +244,10 @@ pub struct PhysicsScene {
 
 impl std::fmt::Debug for PhysicsScene {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("PhysicsScene").field("robot", &self.robot).field("friction", &self.friction).finish_non_exhaustive()
+        f.debug_struct("PhysicsScene")
+            .field("robot", &self.robot)
+            .field("friction", &self.friction)
+            .finish_non_exhaustive()
     }
 }
 
@@ -212,18 +262,30 @@ impl PhysicsScene {
         for o in spec.all_obstacles() {
             physics.insert_collider(o.collider(), None);
         }
-        let mprops = MassProperties::new(Vector::new(robot.com_offset_x_m, 0.0), robot.mass_kg, robot.yaw_inertia_kgm2);
+        let mprops = MassProperties::new(
+            Vector::new(robot.com_offset_x_m, 0.0),
+            robot.mass_kg,
+            robot.yaw_inertia_kgm2,
+        );
         let body = RigidBodyBuilder::dynamic()
             .translation(Vector::new(pose.x, pose.y))
             .rotation(pose.theta)
             .additional_mass_properties(mprops)
             .can_sleep(false)
             .build();
-        let collider = ColliderBuilder::ball(robot.body_radius_m).density(0.0).friction(0.3).restitution(0.0).build();
+        let collider = ColliderBuilder::ball(robot.body_radius_m)
+            .density(0.0)
+            .friction(0.3)
+            .restitution(0.0)
+            .build();
         let (handle, _) = physics.insert(body, collider);
         // Fill the broad phase so that line-of-sight queries work before the first step.
         physics.detect_collisions(&(), &());
-        Self { physics, robot: handle, friction: spec.friction_map(slip) }
+        Self {
+            physics,
+            robot: handle,
+            friction: spec.friction_map(slip),
+        }
     }
 
     /// The friction map of the floor.
@@ -238,7 +300,11 @@ impl PhysicsScene {
     pub fn robot_pose(&self) -> Option<Pose2> {
         let body = self.physics.bodies.get(self.robot)?;
         let t = body.translation();
-        Some(Pose2::new(t.x, t.y, bearing_slam_core::wrap_angle(body.rotation().angle())))
+        Some(Pose2::new(
+            t.x,
+            t.y,
+            bearing_slam_core::wrap_angle(body.rotation().angle()),
+        ))
     }
 
     /// The robot body's planar state for the drive train.
@@ -279,7 +345,10 @@ impl PhysicsScene {
         if len <= 0.0 {
             return false;
         }
-        let ray = Ray::new(Vector::new(from[0], from[1]), Vector::new(dx / len, dy / len));
+        let ray = Ray::new(
+            Vector::new(from[0], from[1]),
+            Vector::new(dx / len, dy / len),
+        );
         let filter = QueryFilter::default().exclude_rigid_body(self.robot);
         self.physics.cast_ray(&ray, range, true, filter).is_some()
     }
