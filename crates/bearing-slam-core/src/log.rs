@@ -44,7 +44,7 @@ pub struct BearingObservation {
 
 /// What happened at one instant.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
+#[serde(tag = "kind", content = "data", rename_all = "snake_case")]
 pub enum EventKind {
     /// Wheel encoder increments since the previous wheel reading.
     Wheels(WheelOdometry),

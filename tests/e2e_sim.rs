@@ -1,0 +1,69 @@
+//! End to end on the physics simulator: SLAM with stochastic triangulation
+//! beats dead reckoning from the same encoders on `paper_fig4` and on
+//! `slip_patch` (where the wheels really slip on ice), and a run replayed from
+//! an MCAP file gives the same result, bit for bit, as the run from memory.
+
+use bearing_slam::core::init::TriangulationConfig;
+use bearing_slam::core::runner::{RunConfig, run, summarize};
+use bearing_slam::core::slam::InitializerConfig;
+use bearing_slam::default_run_config;
+use bearing_slam::io::{read_log, write_log};
+use bearing_slam::sim::{Scenario, simulate};
+
+fn config(log: &bearing_slam::core::log::SensorLog, clone: bool) -> RunConfig {
+    let mut config = default_run_config(log).expect("config for a sim log");
+    let t = TriangulationConfig::default();
+    config.slam.initializer = if clone {
+        InitializerConfig::TriangulationWithClone(t)
+    } else {
+        InitializerConfig::Triangulation(t)
+    };
+    config
+}
+
+/// Means over five seeds: one run's dead reckoning can be lucky (errors that
+/// cancel), but on average odometry drifts and SLAM must stay well below it.
+#[test]
+fn slam_beats_dead_reckoning_on_physics_logs() {
+    const SEEDS: u64 = 5;
+    for name in ["paper_fig4", "slip_patch"] {
+        for clone in [false, true] {
+            let (mut slam_ate, mut slam_final, mut dr_ate, mut dr_final) = (0.0, 0.0, 0.0, 0.0);
+            for seed in 0..SEEDS {
+                let log = simulate(&Scenario::named(name, seed).expect("named scenario"))
+                    .expect("simulates");
+                let output = run(&log, &config(&log, clone)).expect("runs");
+                let s = summarize(&log, &output).expect("has truth");
+                assert!(s.finite, "{name} seed {seed}: non-finite covariance");
+                slam_ate += s.ate_rmse_m / SEEDS as f64;
+                slam_final += s.final_position_error_m / SEEDS as f64;
+                dr_ate += s.dead_reckoning_ate_rmse_m / SEEDS as f64;
+                dr_final += s.dead_reckoning_final_position_error_m / SEEDS as f64;
+            }
+            assert!(
+                slam_ate < 0.8 * dr_ate && slam_final < 0.8 * dr_final,
+                "{name} clone {clone}: SLAM ATE {slam_ate:.3} / final {slam_final:.3} m vs dead reckoning {dr_ate:.3} / {dr_final:.3} m"
+            );
+        }
+    }
+}
+
+#[test]
+fn replay_from_mcap_is_bit_identical() {
+    let log = simulate(&Scenario::named("slip_patch", 11).expect("named")).expect("simulates");
+    let config = config(&log, true);
+    let from_memory = run(&log, &config).expect("runs");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let path = dir.path().join("slip_patch.mcap");
+    write_log(&path, &log, Some(&from_memory.trace)).expect("writes");
+    let replayed = read_log(&path).expect("reads");
+    assert!(replayed.warnings.is_empty(), "{:?}", replayed.warnings);
+    assert_eq!(replayed.log, log, "log differs after the round trip");
+    assert_eq!(
+        replayed.trace.as_ref(),
+        Some(&from_memory.trace),
+        "stored trace differs"
+    );
+    let from_file = run(&replayed.log, &config).expect("runs");
+    assert_eq!(from_file, from_memory, "replayed run differs");
+}
