@@ -1,0 +1,530 @@
+//! One EKF-SLAM step on THE benchmark problem (shared/docs/BENCHMARK.md), and
+//! "the floor" it is measured against, in the same binary and run.
+//!
+//! * `ekf_step/n`: one prediction (velocity = unicycle model, vehicle rows and
+//!   columns only) + linearization of the 10 bearings + one batched update
+//!   (Joseph form, the default). `ekf_step_symmetric/n`: the same with
+//!   [`CovarianceUpdate::Symmetric`].
+//! * `floor_plain/n`: `P -= K G` with `G = S Kᵀ` precomputed, K N×10, on the
+//!   whole matrix, a plain column loop (axpys).
+//! * `floor_tiled/n`: the same product on the lower triangle only, register
+//!   tiled on prepacked K and `K S` (packing not timed).
+//!
+//! At the end the binary prints `ekf_step / floor` per n from criterion's own
+//! medians (`target/criterion/<group>/<n>/new/estimates.json`) and the
+//! log-log slope of the step time in n. Before the benchmarks it runs
+//! `EKF_RSS_STEPS` (default 10⁶, 0 to skip) continuous steps at n = 10 and
+//! prints the resident set size before and after (memory must stay flat).
+//!
+//! The problem, generated in Rust "in the spirit" of the Python generator
+//! (numpy's `default_rng([7, n])` is not reproduced bit for bit; a seeded
+//! `StdRng` draws the same distributions, see [`Problem::new`]): landmarks
+//! uniform in [−20, 20]², `P0 = A Aᵀ / N + 1e-3 I` with `A` standard normal,
+//! robot at the origin; controls `(v, ω) = (1 m/s, 0.1 rad/s)`, `Δt = 0.1 s`,
+//! noise std (0.1 m/s, 5°/s); 10 bearings to ids `(i·n)/10`, std 1°, from
+//! the noise-free trajectory plus noise from a second seeded stream. The
+//! prediction is the library's `VelocityModel` (exact arc; BENCHMARK.md's
+//! Euler step costs the same), and the truth is propagated by the same model.
+//!
+//! Keeping P SPD: the filter runs the stream continuously, so each timed
+//! step is a real step of a well-conditioned filter; after `STREAM_LEN`
+//! steps it is reset to the initial filter outside the timed region
+//! (`iter_custom`). The floor kernels run in place (their values drift
+//! linearly, which does not change the speed of the arithmetic).
+//!
+//! `cargo bench -p bearing-slam --bench ekf_step` (add `-- --quick` while
+//! iterating; `EKF_SIZES=10,200` restricts the sizes, `EKF_RSS_STEPS=0`
+//! skips the memory run).
+
+use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement};
+use bearing_slam::core::log::VelocityOdometry;
+use bearing_slam::core::measurement::BearingToPoint;
+use bearing_slam::core::motion::{VelocityModel, VelocityNoise};
+use bearing_slam::core::nalgebra::{DMatrix, DVector, Matrix1, Vector1, Vector3};
+use bearing_slam::core::wrap_angle;
+use criterion::{BenchmarkId, Criterion};
+use rand::SeedableRng;
+use rand::rngs::StdRng;
+use rand_distr::{Distribution, StandardNormal, Uniform};
+use std::hint::black_box;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+const SIZES: [usize; 7] = [10, 50, 100, 200, 500, 1000, 2000];
+/// Bearings per update.
+const M: usize = 10;
+/// Steps of the pre-generated measurement stream (≈ 1.6 laps of the circle).
+const STREAM_LEN: usize = 1000;
+const V: f64 = 1.0;
+const OMEGA: f64 = 0.1;
+const DT: f64 = 0.1;
+const SIGMA_BEARING: f64 = std::f64::consts::PI / 180.0;
+
+fn seed(parts: &[u64]) -> u64 {
+    // A fixed, documented mix of the numpy seed sequence's entries.
+    parts.iter().fold(0x9E37_79B9_7F4A_7C15_u64, |h, &p| {
+        (h ^ p).wrapping_mul(0x0100_0000_01B3)
+    })
+}
+
+fn must<T, E: std::fmt::Display>(r: Result<T, E>, what: &str) -> T {
+    match r {
+        Ok(v) => v,
+        Err(e) => panic!("{what}: {e}"),
+    }
+}
+
+/// THE benchmark problem at one n.
+struct Problem {
+    n: usize,
+    initial: Ekf,
+    landmarks: Vec<[f64; 2]>,
+    ids: [usize; M],
+    model: VelocityModel,
+    control: VelocityOdometry,
+    /// `z[k]`: the 10 bearings used by step k + 1, from the true pose after
+    /// k + 1 noise-free steps.
+    stream: Vec<[f64; M]>,
+}
+
+impl Problem {
+    /// `rng = seed(7, n)`: landmarks `uniform(−20, 20, (n, 2))` (row-major, as
+    /// numpy), then `A = standard_normal((N, N))` (row-major),
+    /// `P0 = A Aᵀ / N + 1e-3 I`, symmetrised. The stream uses `seed(7, n, 1)`.
+    fn new(n: usize, stream_len: usize) -> Self {
+        let dim = 3 + 2 * n;
+        let mut rng = StdRng::seed_from_u64(seed(&[7, n as u64]));
+        let uniform = must(Uniform::new(-20.0, 20.0), "uniform");
+        let landmarks: Vec<[f64; 2]> = (0..n)
+            .map(|_| [uniform.sample(&mut rng), uniform.sample(&mut rng)])
+            .collect();
+        let mut a = DMatrix::<f64>::zeros(dim, dim);
+        for i in 0..dim {
+            for j in 0..dim {
+                a[(i, j)] = StandardNormal.sample(&mut rng);
+            }
+        }
+        let mut p0 = &a * a.transpose() / dim as f64;
+        drop(a);
+        for i in 0..dim {
+            p0[(i, i)] += 1e-3;
+        }
+        let p0 = 0.5 * (&p0 + p0.transpose());
+        let mut mean = DVector::zeros(dim);
+        for (i, l) in landmarks.iter().enumerate() {
+            mean[3 + 2 * i] = l[0];
+            mean[4 + 2 * i] = l[1];
+        }
+        let initial = must(Ekf::new(mean, p0), "initial filter");
+        let model = must(
+            VelocityModel::new(VelocityNoise {
+                alpha: [0.0; 6],
+                sigma_v_min: 0.1,
+                sigma_omega_min: 5.0_f64.to_radians(),
+            }),
+            "velocity model",
+        );
+        let control = VelocityOdometry {
+            v: V,
+            omega: OMEGA,
+            dt: DT,
+        };
+        let ids = std::array::from_fn(|i| i * n / M);
+        let mut problem = Self {
+            n,
+            initial,
+            landmarks,
+            ids,
+            model,
+            control,
+            stream: Vec::new(),
+        };
+        problem.stream = problem.make_stream(stream_len);
+        problem
+    }
+
+    /// `make_stream(prob, K)`: true poses from the origin with noise-free
+    /// controls, bearings plus N(0, 1°²) noise from `seed(7, n, 1)`.
+    fn make_stream(&self, steps: usize) -> Vec<[f64; M]> {
+        let mut rng = StdRng::seed_from_u64(seed(&[7, self.n as u64, 1]));
+        let mut pose = Vector3::zeros();
+        (0..steps)
+            .map(|_| {
+                pose = must(self.model.propagate(&pose, &self.control), "truth");
+                std::array::from_fn(|i| {
+                    let [lx, ly] = self.landmarks[self.ids[i]];
+                    let noise: f64 = StandardNormal.sample(&mut rng);
+                    wrap_angle((ly - pose.y).atan2(lx - pose.x) - pose.z + SIGMA_BEARING * noise)
+                })
+            })
+            .collect()
+    }
+}
+
+/// One EKF step: predict, linearize the 10 bearings at the predicted
+/// estimate, one batched update.
+fn step(ekf: &mut Ekf, problem: &Problem, z: &[f64; M]) {
+    must(ekf.predict(&problem.model, &problem.control), "predict");
+    let noise = Matrix1::new(SIGMA_BEARING * SIGMA_BEARING);
+    let batch: [LinearizedMeasurement; M] = std::array::from_fn(|i| {
+        must(
+            ekf.linearize::<3, 2, 1, _>(
+                &BearingToPoint,
+                3 + 2 * problem.ids[i],
+                &Vector1::new(z[i]),
+                &noise,
+            ),
+            "linearize",
+        )
+    });
+    black_box(must(ekf.update(&batch), "update"));
+}
+
+/// Runs `iters` steps of the stream, resetting to the initial filter
+/// (untimed) whenever the stream is exhausted; returns the stepping time.
+fn timed_steps(
+    ekf: &mut Ekf,
+    k: &mut usize,
+    problem: &Problem,
+    form: CovarianceUpdate,
+    iters: u64,
+) -> Duration {
+    let mut left = iters;
+    let mut total = Duration::ZERO;
+    while left > 0 {
+        if *k == problem.stream.len() {
+            *ekf = problem.initial.clone().with_covariance_update(form);
+            *k = 0;
+        }
+        let chunk = left.min((problem.stream.len() - *k) as u64);
+        let start = Instant::now();
+        for z in &problem.stream[*k..*k + chunk as usize] {
+            step(ekf, problem, z);
+        }
+        total += start.elapsed();
+        *k += chunk as usize;
+        left -= chunk;
+    }
+    total
+}
+
+// ---------------------------------------------------------------- the floor
+
+#[cfg(target_feature = "avx")]
+const MR: usize = 4;
+#[cfg(not(target_feature = "avx"))]
+const MR: usize = 4;
+const NR: usize = 4;
+
+/// Inputs of the floor kernel: `K` (N×m, column-major), `G = S Kᵀ`
+/// (m×N, column-major), and both packed for the tiled kernel.
+struct Floor {
+    dim: usize,
+    k: Vec<f64>,
+    g: Vec<f64>,
+    a_packed: Vec<f64>,
+    b_packed: Vec<f64>,
+}
+
+impl Floor {
+    fn new(dim: usize) -> Self {
+        let mut rng = StdRng::seed_from_u64(seed(&[7, dim as u64, 2]));
+        let k_mat = DMatrix::<f64>::from_fn(dim, M, |_, _| {
+            let e: f64 = StandardNormal.sample(&mut rng);
+            1e-3 * e
+        });
+        let r = DMatrix::<f64>::from_fn(M, M, |_, _| StandardNormal.sample(&mut rng));
+        let s = &r * r.transpose() + DMatrix::identity(M, M);
+        let g = &s * k_mat.transpose(); // m×N
+        let ks = g.transpose(); // N×m = K S
+        let mut a_packed = vec![0.0; dim.div_ceil(MR) * MR * M];
+        let mut b_packed = vec![0.0; dim.div_ceil(NR) * NR * M];
+        for i in 0..dim {
+            for r in 0..M {
+                a_packed[((i / MR) * M + r) * MR + i % MR] = k_mat[(i, r)];
+                b_packed[((i / NR) * M + r) * NR + i % NR] = ks[(i, r)];
+            }
+        }
+        Self {
+            dim,
+            k: k_mat.as_slice().to_vec(),
+            g: g.as_slice().to_vec(),
+            a_packed,
+            b_packed,
+        }
+    }
+
+    /// `P -= K G` on the whole matrix, column by column (m axpys each).
+    fn plain(&self, p: &mut [f64]) {
+        let n = self.dim;
+        for (j, col) in p.chunks_exact_mut(n).enumerate() {
+            for r in 0..M {
+                let g = self.g[r + j * M];
+                let k_col = &self.k[r * n..(r + 1) * n];
+                for (x, &kv) in col.iter_mut().zip(k_col) {
+                    *x -= kv * g;
+                }
+            }
+        }
+    }
+
+    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles.
+    fn tiled(&self, p: &mut [f64]) {
+        let n = self.dim;
+        for (jp, bp) in self.b_packed.chunks_exact(M * NR).enumerate() {
+            let j0 = jp * NR;
+            let jn = NR.min(n - j0);
+            for (ip, ap) in self.a_packed.chunks_exact(M * MR).enumerate().skip(j0 / MR) {
+                let i0 = ip * MR;
+                let im = MR.min(n - i0);
+                let mut acc = [[0.0; MR]; NR];
+                let (a_cols, _) = ap.as_chunks::<MR>();
+                let (b_cols, _) = bp.as_chunks::<NR>();
+                for (ar, br) in a_cols.iter().zip(b_cols) {
+                    for (acc_j, &b) in acc.iter_mut().zip(br) {
+                        for (acc_ij, &a) in acc_j.iter_mut().zip(ar) {
+                            *acc_ij += a * b;
+                        }
+                    }
+                }
+                if i0 >= j0 + NR && im == MR && jn == NR {
+                    for (jj, acc_j) in acc.iter().enumerate() {
+                        let col = &mut p[(j0 + jj) * n + i0..][..MR];
+                        for (x, &d) in col.iter_mut().zip(acc_j) {
+                            *x -= d;
+                        }
+                    }
+                } else {
+                    for (jj, acc_j) in acc.iter().enumerate().take(jn) {
+                        let j = j0 + jj;
+                        for (ii, &d) in acc_j.iter().enumerate().take(im) {
+                            if i0 + ii >= j {
+                                p[j * n + i0 + ii] -= d;
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
+// ---------------------------------------------------------------- benches
+
+fn configure(
+    group: &mut criterion::BenchmarkGroup<'_, criterion::measurement::WallTime>,
+    n: usize,
+) {
+    if n >= 500 {
+        group.sample_size(10);
+        group.warm_up_time(Duration::from_secs(1));
+    } else {
+        group.sample_size(50);
+        group.warm_up_time(Duration::from_secs(1));
+        group.measurement_time(Duration::from_secs(3));
+    }
+}
+
+fn bench_size(c: &mut Criterion, n: usize) {
+    let problem = Problem::new(n, STREAM_LEN);
+    let dim = 3 + 2 * n;
+    for (name, form) in [
+        ("ekf_step", CovarianceUpdate::Joseph),
+        ("ekf_step_symmetric", CovarianceUpdate::Symmetric),
+    ] {
+        let mut group = c.benchmark_group(name);
+        configure(&mut group, n);
+        let mut ekf = problem.initial.clone().with_covariance_update(form);
+        let mut k = 0;
+        group.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter_custom(|iters| timed_steps(&mut ekf, &mut k, &problem, form, iters));
+        });
+        group.finish();
+        // The filter the timed steps left must still be a valid Gaussian.
+        if n <= 500 && ekf.covariance().clone().cholesky().is_none() {
+            panic!("{name}: covariance lost positive definiteness at n = {n}");
+        }
+    }
+    let floor = Floor::new(dim);
+    let mut p = problem.initial.covariance().as_slice().to_vec();
+    for (name, kernel) in [
+        ("floor_plain", Floor::plain as fn(&Floor, &mut [f64])),
+        ("floor_tiled", Floor::tiled),
+    ] {
+        let mut group = c.benchmark_group(name);
+        configure(&mut group, n);
+        group.bench_function(BenchmarkId::from_parameter(n), |b| {
+            b.iter(|| kernel(&floor, black_box(&mut p)));
+        });
+        group.finish();
+    }
+}
+
+/// Resident set size in bytes, from `/proc/self/statm` (Linux).
+fn rss_bytes() -> Option<u64> {
+    let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+    let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
+    Some(pages * 4096)
+}
+
+/// A long continuous run at n = 10 (the stream generated on the fly):
+/// memory must not grow with the number of steps.
+fn memory_flat(steps: u64) {
+    if steps == 0 {
+        return;
+    }
+    let problem = Problem::new(10, 0);
+    let mut ekf = problem.initial.clone();
+    let mut rng = StdRng::seed_from_u64(seed(&[7, 10, 1]));
+    let mut pose = Vector3::zeros();
+    let mut run = |ekf: &mut Ekf, count: u64| {
+        for _ in 0..count {
+            pose = must(problem.model.propagate(&pose, &problem.control), "truth");
+            let z: [f64; M] = std::array::from_fn(|i| {
+                let [lx, ly] = problem.landmarks[problem.ids[i]];
+                let noise: f64 = StandardNormal.sample(&mut rng);
+                wrap_angle((ly - pose.y).atan2(lx - pose.x) - pose.z + SIGMA_BEARING * noise)
+            });
+            step(ekf, &problem, &z);
+        }
+    };
+    let warm = 1000.min(steps);
+    run(&mut ekf, warm);
+    let before = rss_bytes();
+    let start = Instant::now();
+    run(&mut ekf, steps - warm);
+    let elapsed = start.elapsed();
+    let after = rss_bytes();
+    let kib = |b: Option<u64>| b.map_or("?".to_string(), |b| format!("{} KiB", b / 1024));
+    println!(
+        "memory: n = 10, {steps} continuous steps ({:.2} µs/step): RSS after {warm} steps {}, after {steps} steps {}",
+        elapsed.as_secs_f64() * 1e6 / (steps - warm).max(1) as f64,
+        kib(before),
+        kib(after),
+    );
+}
+
+/// Median (ns) of one benchmark from criterion's `estimates.json`.
+fn criterion_median(dir: &std::path::Path, group: &str, n: usize) -> Option<f64> {
+    let text = std::fs::read_to_string(
+        dir.join(group)
+            .join(n.to_string())
+            .join("new/estimates.json"),
+    )
+    .ok()?;
+    let median = &text[text.find("\"median\"")?..];
+    let value = &median[median.find("\"point_estimate\":")? + "\"point_estimate\":".len()..];
+    let end = value.find([',', '}'])?;
+    value[..end].trim().parse().ok()
+}
+
+fn criterion_dir() -> Option<PathBuf> {
+    if let Ok(home) = std::env::var("CRITERION_HOME") {
+        return Some(PathBuf::from(home));
+    }
+    if let Ok(target) = std::env::var("CARGO_TARGET_DIR") {
+        return Some(PathBuf::from(target).join("criterion"));
+    }
+    // target/<profile>/deps/ekf_step-<hash>
+    let exe = std::env::current_exe().ok()?;
+    Some(exe.parent()?.parent()?.parent()?.join("criterion"))
+}
+
+fn fmt_time(ns: f64) -> String {
+    if ns >= 1e6 {
+        format!("{:.3} ms", ns / 1e6)
+    } else {
+        format!("{:.2} µs", ns / 1e3)
+    }
+}
+
+/// The `ekf_step / floor` table and the log-log slope of the step time.
+fn summary() {
+    let Some(dir) = criterion_dir() else {
+        return;
+    };
+    println!("\nsummary (criterion medians from {}):", dir.display());
+    println!(
+        "| n | N | ekf_step (Joseph) | ekf_step (Symmetric) | floor plain | floor tiled | Joseph / plain | Joseph / tiled | Symmetric / tiled |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let mut points = Vec::new();
+    for n in SIZES {
+        let get = |g: &str| criterion_median(&dir, g, n);
+        let (Some(step), Some(sym), Some(plain), Some(tiled)) = (
+            get("ekf_step"),
+            get("ekf_step_symmetric"),
+            get("floor_plain"),
+            get("floor_tiled"),
+        ) else {
+            continue;
+        };
+        points.push((n as f64, step, sym));
+        println!(
+            "| {n} | {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} |",
+            3 + 2 * n,
+            fmt_time(step),
+            fmt_time(sym),
+            fmt_time(plain),
+            fmt_time(tiled),
+            step / plain,
+            step / tiled,
+            sym / tiled
+        );
+    }
+    let slope = |pts: &[(f64, f64)]| {
+        let k = pts.len() as f64;
+        let (sx, sy) = pts
+            .iter()
+            .fold((0.0, 0.0), |(a, b), (x, y)| (a + x.ln(), b + y.ln()));
+        let (mx, my) = (sx / k, sy / k);
+        let num: f64 = pts.iter().map(|(x, y)| (x.ln() - mx) * (y.ln() - my)).sum();
+        let den: f64 = pts.iter().map(|(x, _)| (x.ln() - mx).powi(2)).sum();
+        num / den
+    };
+    for (label, lo) in [("n ≥ 100", 100.0), ("n ≥ 200", 200.0)] {
+        let joseph: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| p.0 >= lo)
+            .map(|p| (p.0, p.1))
+            .collect();
+        let sym: Vec<(f64, f64)> = points
+            .iter()
+            .filter(|p| p.0 >= lo)
+            .map(|p| (p.0, p.2))
+            .collect();
+        if joseph.len() >= 2 {
+            println!(
+                "log-log slope of the step time in n ({label}): Joseph {:.2}, Symmetric {:.2}",
+                slope(&joseph),
+                slope(&sym)
+            );
+        }
+    }
+}
+
+fn main() {
+    let steps = std::env::var("EKF_RSS_STEPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1_000_000);
+    let mut c = Criterion::default().configure_from_args();
+    // `cargo bench` passes --bench; `cargo test --benches` does not: then
+    // criterion runs each benchmark once, so keep the long loop out of it.
+    if std::env::args().any(|a| a == "--bench") {
+        memory_flat(steps);
+    }
+    // EKF_SIZES=10,200 restricts the sizes (building P0 at n = 2000 alone
+    // takes seconds).
+    let sizes: Vec<usize> = std::env::var("EKF_SIZES").map_or_else(
+        |_| SIZES.to_vec(),
+        |s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect(),
+    );
+    for n in sizes {
+        bench_size(&mut c, n);
+    }
+    c.final_summary();
+    if std::env::args().any(|a| a == "--bench") {
+        summary();
+    }
+}
