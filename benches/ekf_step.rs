@@ -325,7 +325,17 @@ fn configure(
     }
 }
 
-fn bench_size(c: &mut Criterion, n: usize) {
+/// Per-iteration minima (ns) over interleaved rounds of the four kernels at
+/// one n: less sensitive to other load on the machine than medians.
+struct Interleaved {
+    n: usize,
+    joseph: f64,
+    symmetric: f64,
+    plain: f64,
+    tiled: f64,
+}
+
+fn bench_size(c: &mut Criterion, n: usize) -> Interleaved {
     let problem = Problem::new(n, STREAM_LEN);
     let dim = 3 + 2 * n;
     for (name, form) in [
@@ -357,6 +367,61 @@ fn bench_size(c: &mut Criterion, n: usize) {
             b.iter(|| kernel(&floor, black_box(&mut p)));
         });
         group.finish();
+    }
+
+    // Interleaved rounds: each round times a few iterations of each kernel
+    // back to back; the minimum per iteration over the rounds is kept.
+    let reps = (400_000 / (dim * dim)).clamp(1, 500) as u64;
+    let rounds = if n >= 1000 { 5 } else { 30 };
+    let mut joseph = problem.initial.clone();
+    let mut symmetric = problem
+        .initial
+        .clone()
+        .with_covariance_update(CovarianceUpdate::Symmetric);
+    let (mut kj, mut ks) = (0, 0);
+    let mut best = [f64::INFINITY; 4];
+    let per_iter = |d: Duration| d.as_secs_f64() * 1e9 / reps as f64;
+    for _ in 0..rounds {
+        let t = [
+            per_iter(timed_steps(
+                &mut joseph,
+                &mut kj,
+                &problem,
+                CovarianceUpdate::Joseph,
+                reps,
+            )),
+            per_iter(timed_steps(
+                &mut symmetric,
+                &mut ks,
+                &problem,
+                CovarianceUpdate::Symmetric,
+                reps,
+            )),
+            {
+                let start = Instant::now();
+                for _ in 0..reps {
+                    floor.plain(black_box(&mut p));
+                }
+                per_iter(start.elapsed())
+            },
+            {
+                let start = Instant::now();
+                for _ in 0..reps {
+                    floor.tiled(black_box(&mut p));
+                }
+                per_iter(start.elapsed())
+            },
+        ];
+        for (b, t) in best.iter_mut().zip(t) {
+            *b = b.min(t);
+        }
+    }
+    Interleaved {
+        n,
+        joseph: best[0],
+        symmetric: best[1],
+        plain: best[2],
+        tiled: best[3],
     }
 }
 
@@ -439,7 +504,7 @@ fn fmt_time(ns: f64) -> String {
 }
 
 /// The `ekf_step / floor` table and the log-log slope of the step time.
-fn summary() {
+fn summary(interleaved: &[Interleaved]) {
     let Some(dir) = criterion_dir() else {
         return;
     };
@@ -470,6 +535,24 @@ fn summary() {
             step / plain,
             step / tiled,
             sym / tiled
+        );
+    }
+    println!("\ninterleaved minima (same run, per iteration):");
+    println!(
+        "| n | ekf_step (Joseph) | ekf_step (Symmetric) | floor plain | floor tiled | Joseph / plain | Joseph / tiled | Symmetric / tiled |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in interleaved {
+        println!(
+            "| {} | {} | {} | {} | {} | {:.2} | {:.2} | {:.2} |",
+            r.n,
+            fmt_time(r.joseph),
+            fmt_time(r.symmetric),
+            fmt_time(r.plain),
+            fmt_time(r.tiled),
+            r.joseph / r.plain,
+            r.joseph / r.tiled,
+            r.symmetric / r.tiled
         );
     }
     let slope = |pts: &[(f64, f64)]| {
@@ -520,11 +603,9 @@ fn main() {
         |_| SIZES.to_vec(),
         |s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect(),
     );
-    for n in sizes {
-        bench_size(&mut c, n);
-    }
+    let interleaved: Vec<Interleaved> = sizes.into_iter().map(|n| bench_size(&mut c, n)).collect();
     c.final_summary();
     if std::env::args().any(|a| a == "--bench") {
-        summary();
+        summary(&interleaved);
     }
 }
