@@ -542,12 +542,12 @@ impl Ekf {
         let diag_inv = &ws.diag_inv;
         // w = L⁻¹ ν, nis = |w|².
         reset(&mut ws.w, m);
-        for r in 0..m {
+        for (r, &d) in diag_inv.iter().enumerate() {
             let mut v = ws.nu[r];
             for k in 0..r {
                 v -= ws.l[r + k * m] * ws.w[k];
             }
-            ws.w[r] = v * diag_inv[r];
+            ws.w[r] = v * d;
         }
         let nis = dot(&ws.w, &ws.w);
 
@@ -555,13 +555,13 @@ impl Ekf {
         // U = C L⁻ᵀ (U[:, r] = (C[:, r] − Σ_{k<r} L[r, k] U[:, k]) / L[r, r]).
         ws.u.clear();
         ws.u.extend_from_slice(&ws.c);
-        for r in 0..m {
+        for (r, &d) in diag_inv.iter().enumerate() {
             let (done, rest) = ws.u.split_at_mut(r * n);
             let col = &mut rest[..n];
             for k in 0..r {
                 axpy(-ws.l[r + k * m], &done[k * n..(k + 1) * n], col);
             }
-            scale(diag_inv[r], col);
+            scale(d, col);
         }
         let form = self.covariance_update;
         let depth = match form {
