@@ -16,14 +16,14 @@ import matplotlib as mpl
 
 mpl.use("Agg")
 
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.axes import Axes  # noqa: E402
-from matplotlib.figure import Figure  # noqa: E402
-from matplotlib.patches import Ellipse  # noqa: E402
-from numpy.typing import NDArray  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse
+from numpy.typing import NDArray
 
-from bearing_slam._native import RunResult, SensorLog, chi2_interval  # noqa: E402
+from bearing_slam._native import RunResult, SensorLog, chi2_interval
 
 __all__ = ["covariance_ellipse", "plot_nees", "plot_pose_errors", "plot_trajectory", "save_plots"]
 
@@ -46,7 +46,7 @@ def covariance_ellipse(
         float(width),
         float(height),
         angle=angle,
-        **kwargs,  # type: ignore[arg-type]
+        **kwargs,
     )
 
 
@@ -87,9 +87,7 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
         ax.plot(pos[:, 0], pos[:, 1], "o", color=_ESTIMATE, ms=5, label="landmarks (estimate)")
         for k in range(len(ids)):
             ax.add_patch(
-                covariance_ellipse(
-                    pos[k], cov[k], 2.0, fill=False, ec=_ESTIMATE, lw=1.0, alpha=0.8
-                )
+                covariance_ellipse(pos[k], cov[k], 2.0, fill=False, ec=_ESTIMATE, lw=1.0, alpha=0.8)
             )
         ax.plot([], [], color=_ESTIMATE, lw=1.0, label="landmark 2σ ellipse")
     ax.set_xlabel("x [m]")
@@ -105,7 +103,12 @@ def _path_box(result: RunResult) -> tuple[float, float, float, float]:
     if np.isfinite(truth).all() and len(truth):
         pts.append(truth)
     xy = np.concatenate(pts)
-    return float(xy[:, 0].min()), float(xy[:, 0].max()), float(xy[:, 1].min()), float(xy[:, 1].max())
+    return (
+        float(xy[:, 0].min()),
+        float(xy[:, 0].max()),
+        float(xy[:, 1].min()),
+        float(xy[:, 1].max()),
+    )
 
 
 def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
@@ -188,7 +191,9 @@ def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
     nees = result.nees
     lo, hi = chi2_interval(3.0, 1, 0.95)
     ok = np.isfinite(nees)
-    ax.axhspan(lo, hi, color=_TRUTH, alpha=0.15, label=f"95 % χ² band (3 dof): [{lo:.2f}, {hi:.2f}]")
+    ax.axhspan(
+        lo, hi, color=_TRUTH, alpha=0.15, label=f"95 % χ² band (3 dof): [{lo:.2f}, {hi:.2f}]"
+    )
     ax.axhline(3.0, color=_TRUTH, lw=1.0, ls="--", label="expected (3)")
     ax.plot(t[ok], nees[ok], color="k", lw=0.8, label="pose NEES")
     if ok.any():

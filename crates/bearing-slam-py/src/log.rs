@@ -48,8 +48,9 @@ impl PySensorLog {
     /// ranges matching `bearings` (NaN for none); `truth`: (n, 4)
     /// `time, x, y, theta`; `landmarks`: (n, 3) `id, x, y`; `info`: dict of
     /// `source, seed, wheel_base_m, bearing_sigma_rad, initial_pose`.
-    /// Events are sorted by time (stable; at one time: bearings, truth, odometry
-    /// in the order given). The log is validated.
+    /// Events are sorted by time, stable; at one time the simulator's order:
+    /// wheels, truth, bearings, velocity (a command starts after the scan at
+    /// its time). The log is validated.
     #[staticmethod]
     #[pyo3(signature = (*, wheels=None, velocity=None, bearings=None, ranges=None, truth=None, landmarks=None, info=None))]
     #[allow(clippy::too_many_arguments)]
@@ -96,7 +97,7 @@ impl PySensorLog {
                     });
                     i += 1;
                 }
-                events.push((t, 0, events.len(), EventKind::Bearings(scan)));
+                events.push((t, 2, events.len(), EventKind::Bearings(scan)));
             }
         }
         if let Some(g) = &truth {
@@ -111,7 +112,7 @@ impl PySensorLog {
                     left_m: r[1],
                     right_m: r[2],
                 });
-                events.push((r[0], 2, events.len(), k));
+                events.push((r[0], 0, events.len(), k));
             }
         }
         if let Some(v) = &velocity {
@@ -121,7 +122,7 @@ impl PySensorLog {
                     omega: r[2],
                     dt: r[3],
                 });
-                events.push((r[0], 2, events.len(), k));
+                events.push((r[0], 3, events.len(), k));
             }
         }
         events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
