@@ -377,9 +377,9 @@ impl PySlamFilter {
     fn __repr__(&self) -> String {
         let p = self.slam.pose();
         format!(
-            "SlamFilter(init={:?}, time={:?}, pose=[{:.4}, {:.4}, {:.4}], landmarks={}, candidates={}, state_dim={})",
+            "SlamFilter(init={:?}, time={}, pose=[{:.4}, {:.4}, {:.4}], landmarks={}, candidates={}, state_dim={})",
             self.config.init,
-            self.slam.time(),
+            self.slam.time().map_or("None".to_owned(), |t| t.to_string()),
             p.x,
             p.y,
             p.theta,

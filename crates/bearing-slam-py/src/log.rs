@@ -149,8 +149,15 @@ impl PySensorLog {
                     .import("json")?
                     .call_method1("dumps", (d,))?
                     .extract()?;
-                serde_json::from_str(&text)
-                    .map_err(|e| PyValueError::new_err(format!("invalid info dict: {e}")))?
+                let bad = |e: serde_json::Error| PyValueError::new_err(format!("invalid info dict: {e}"));
+                let given: serde_json::Map<String, serde_json::Value> =
+                    serde_json::from_str(&text).map_err(bad)?;
+                let mut merged = match serde_json::to_value(LogInfo::default()).map_err(bad)? {
+                    serde_json::Value::Object(m) => m,
+                    _ => serde_json::Map::new(),
+                };
+                merged.extend(given);
+                serde_json::from_value(serde_json::Value::Object(merged)).map_err(bad)?
             }
         };
         let log = SensorLog {
