@@ -321,8 +321,7 @@ impl PyConfig {
                     key.as_str(),
                     "initial_pose" | "initial_pose_sigma" | "velocity_alpha"
                 ) {
-                    PyTuple::new(slf.py(), v.try_iter()?.collect::<PyResult<Vec<_>>>()?)?
-                        .into_any()
+                    PyTuple::new(slf.py(), v.try_iter()?.collect::<PyResult<Vec<_>>>()?)?.into_any()
                 } else {
                     v
                 };

@@ -379,7 +379,9 @@ impl PySlamFilter {
         format!(
             "SlamFilter(init={:?}, time={}, pose=[{:.4}, {:.4}, {:.4}], landmarks={}, candidates={}, state_dim={})",
             self.config.init,
-            self.slam.time().map_or("None".to_owned(), |t| t.to_string()),
+            self.slam
+                .time()
+                .map_or("None".to_owned(), |t| t.to_string()),
             p.x,
             p.y,
             p.theta,

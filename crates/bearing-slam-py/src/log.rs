@@ -145,11 +145,9 @@ impl PySensorLog {
         let info: LogInfo = match info {
             None => LogInfo::default(),
             Some(d) => {
-                let text: String = py
-                    .import("json")?
-                    .call_method1("dumps", (d,))?
-                    .extract()?;
-                let bad = |e: serde_json::Error| PyValueError::new_err(format!("invalid info dict: {e}"));
+                let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
+                let bad =
+                    |e: serde_json::Error| PyValueError::new_err(format!("invalid info dict: {e}"));
                 let given: serde_json::Map<String, serde_json::Value> =
                     serde_json::from_str(&text).map_err(bad)?;
                 let mut merged = match serde_json::to_value(LogInfo::default()).map_err(bad)? {

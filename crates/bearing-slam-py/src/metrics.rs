@@ -1,6 +1,6 @@
 //! Trajectory and consistency metrics: ATE, RPE, NEES, NIS, χ² bounds.
 
-use crate::convert::{In1, In2, mat, poses, pose, vec3};
+use crate::convert::{In1, In2, mat, pose, poses, vec3};
 use crate::errors::SlamResultExt;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::metrics::{self, Alignment};

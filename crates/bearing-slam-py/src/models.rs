@@ -7,9 +7,7 @@ use bearing_slam::core::ekf::MeasurementModel;
 use bearing_slam::core::init::{self, Candidate};
 use bearing_slam::core::landmark;
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
-use bearing_slam::core::measurement::{
-    self, BearingToInverseDepth, BearingToPoint, RangeBearing,
-};
+use bearing_slam::core::measurement::{self, BearingToInverseDepth, BearingToPoint, RangeBearing};
 use bearing_slam::core::motion::{
     DiffDriveModel, OdometryIncrement, OdometryModel, OdometryNoise, Propagation, VelocityModel,
     VelocityNoise, WheelNoise,
@@ -73,7 +71,10 @@ pub(crate) fn diff_drive<'py>(
     let p = model.propagate_with_jacobians(&x, &u).py()?;
     let q = p.process_noise(&model.control_covariance(&u).py()?);
     // The core orders the control [right, left]; Python's arguments are (left, right).
-    let j = SMatrix::<f64, 3, 2>::from_columns(&[p.j_state_control.column(1), p.j_state_control.column(0)]);
+    let j = SMatrix::<f64, 3, 2>::from_columns(&[
+        p.j_state_control.column(1),
+        p.j_state_control.column(0),
+    ]);
     motion_out(py, &p, &j, &q)
 }
 
@@ -243,7 +244,14 @@ pub(crate) fn triangulation_init<'py>(
     first_bearing: f64,
     pose: In1<'py>,
     bearing: f64,
-) -> PyResult<(A1<'py>, A2<'py>, A1<'py>, A2<'py>, A1<'py>, Bound<'py, PyDict>)> {
+) -> PyResult<(
+    A1<'py>,
+    A2<'py>,
+    A1<'py>,
+    A2<'py>,
+    A1<'py>,
+    Bound<'py, PyDict>,
+)> {
     let candidate = Candidate {
         pose: vec3(&first_pose, "first_pose")?,
         bearing: first_bearing,

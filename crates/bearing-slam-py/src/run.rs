@@ -82,7 +82,13 @@ impl PyTrace {
             .inner
             .snapshots
             .iter()
-            .flat_map(|s| s.pose_covariance.iter().flatten().copied().collect::<Vec<_>>())
+            .flat_map(|s| {
+                s.pose_covariance
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .collect::<Vec<_>>()
+            })
             .collect();
         arr3(py, v, 3, 3)
     }
@@ -154,7 +160,10 @@ impl PyRunResult {
     /// `finite`); None when the log has no ground truth.
     #[getter]
     fn summary<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        self.summary.as_ref().map(|s| summary_dict(py, s)).transpose()
+        self.summary
+            .as_ref()
+            .map(|s| summary_dict(py, s))
+            .transpose()
     }
 
     /// The configuration of the run.
