@@ -16,10 +16,10 @@
 //!   second after its time stamp: the heading error of commands integrated
 //!   over 1 s windows is smallest when every command is applied
 //!   [`CommandModel::delay_s`] later than its stamp (pooled RMS heading error
-//!   0.043 rad at 0 s, 0.027 rad at 0.25 s on Dataset 6). Every `Velocity`
+//!   0.043 rad at 0 s, 0.026 rad at 0.25 s on Dataset 6). Every `Velocity`
 //!   event is moved later by the delay.
 //! * **Speed scale.** The robots drive slower than commanded (true/commanded
-//!   speed 0.84–0.94 per robot). Every commanded `v` is multiplied by
+//!   distance 0.90–0.95 per robot). Every commanded `v` is multiplied by
 //!   [`CommandModel::speed_scale`], the pooled least-squares ratio of true to
 //!   commanded distance over 1 s windows. One number for all robots: the
 //!   per-robot spread is left to the noise.
@@ -40,11 +40,14 @@
 //!    surveyed landmarks, gross outliers (|r| > 0.2 rad) removed: their
 //!    standard deviation `s` (not the robust MAD σ: the filter must cover the
 //!    tails it gates with). Consecutive scans of one landmark (≤ 0.5 s apart)
-//!    have correlated errors (pooled lag-one correlation `ρ` ≈ 0.6: the error
+//!    have correlated errors (pooled lag-one correlation `ρ` = 0.64: the error
 //!    depends on where the barcode sits in the image, which changes slowly),
-//!    but the filter treats every scan as independent. For an AR(1) error the
-//!    variance of a mean of many samples is `(1+ρ)/(1−ρ)` times the white
-//!    one, so the filter uses `σ_z = s·√((1+ρ)/(1−ρ))`. The range σ of the
+//!    but the filter treats every scan as independent. For an AR(1) error
+//!    the filter must inflate σ by [`ar1_inflation`]`(ρ, n)` so that the
+//!    variance it gives the mean of a visit of `n` scans is the true one, `n`
+//!    being the measurement-weighted median visit length (half of the
+//!    measurements belong to longer visits): `σ_z = s·ar1_inflation(ρ, n)`
+//!    (→ `s·√((1+ρ)/(1−ρ))` for long visits). The range σ of the
 //!    range-bearing reference filter follows the same rule on the range
 //!    residuals (gross outliers |r| > 1 m removed).
 //! 2. **Command model.** Delay: the value on a 0.05 s grid in `[0, 0.5]` s
@@ -55,12 +58,14 @@
 //!    one-second hold), but the real command error is not: with the
 //!    corrections above the heading error grows about like √T (white) but
 //!    the along-track error still grows faster (√q_v = RMS(along)/√T rises
-//!    from 0.010 m/s^½ at 1 s to 0.022 at 16 s). A white model can only match
+//!    from 0.010 m/s^½ at 1 s to 0.020 at 16 s). A white model can only match
 //!    one horizon `T`; it is matched at the horizon where a bearing-only
 //!    filter depends on odometry alone: the **median blind stretch**, the
-//!    median length of the gaps between consecutive landmark scans longer
-//!    than [`BLIND_GAP_THRESHOLD_S`] (the camera's narrow field of view leaves
-//!    the robot blind for seconds to tens of seconds). With `T` that median,
+//!    time-weighted median length of the gaps between consecutive landmark
+//!    scans longer than [`BLIND_GAP_THRESHOLD_S`] (half of the blind time is
+//!    spent in longer stretches; the camera's narrow field of view leaves the
+//!    robot blind 42 % of the time, in stretches of seconds to tens of
+//!    seconds). With `T` that median,
 //!    the 1 s floors are `σ_v_min² = mean(along²)/T` and
 //!    `σ_ω_min² = mean(heading²)/T` over the T-second windows in which the
 //!    robot was commanded to move (RMS, not robust σ, for the same reason as
