@@ -18,8 +18,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::Mutex;
 
-const USAGE: &str =
-    "usage: experiments fig4|fig5|fig8|fig10|all [--runs N] [--seed0 K] --out DIR";
+const USAGE: &str = "usage: experiments fig4|fig5|fig8|fig10|all [--runs N] [--seed0 K] --out DIR";
 
 struct Bars {
     current: Mutex<Option<(String, ProgressBar)>>,
@@ -113,8 +112,8 @@ fn real_main() -> Result<(), String> {
     if all || which == "fig5" {
         known = true;
         let angles = [
-            0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 40.0,
-            50.0, 60.0,
+            0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0, 10.0, 12.0, 15.0, 20.0, 25.0, 30.0, 40.0, 50.0,
+            60.0,
         ];
         let r = fig5(1.0, 5.0, &angles, 20_000, seed0).map_err(|e| e.to_string())?;
         let table = fig5_table(&r);

@@ -125,7 +125,11 @@ fn main() -> ExitCode {
         ProgressStyle::with_template("{msg} [{bar:40}] {pos}/{len} runs, {elapsed} (eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
     );
-    bar.set_message(format!("{} / {}", spec.scenario.name, spec.initializer.label()));
+    bar.set_message(format!(
+        "{} / {}",
+        spec.scenario.name,
+        spec.initializer.label()
+    ));
     let records = run_records(spec, |done| bar.set_position(done as u64));
     bar.finish();
     if args.verbose {

@@ -19,8 +19,8 @@
 use crate::core::init::triangulated_inverse_depth;
 use crate::core::nalgebra::Vector3;
 use crate::montecarlo::{InitializerSpec, MonteCarloReport, MonteCarloSpec, run_many};
-use rand::rngs::StdRng;
 use rand::SeedableRng;
+use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
@@ -29,7 +29,11 @@ use std::path::Path;
 pub type Progress<'a> = &'a (dyn Fn(&str, usize, usize) + Sync);
 
 /// Runs one Monte Carlo spec, reporting progress under its label.
-fn run_spec(spec: &MonteCarloSpec, what: &str, progress: Progress) -> crate::Result<MonteCarloReport> {
+fn run_spec(
+    spec: &MonteCarloSpec,
+    what: &str,
+    progress: Progress,
+) -> crate::Result<MonteCarloReport> {
     run_many(spec, |done| progress(what, done, spec.runs))
 }
 
@@ -470,11 +474,19 @@ pub fn fig10_table(r: &Fig10Result) -> String {
     for rep in &r.reports {
         let a = &rep.all_finite;
         let e = &rep.error_over_time;
-        let max = |v: &[f64]| v.iter().copied().fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))));
+        let max = |v: &[f64]| {
+            v.iter()
+                .copied()
+                .fold(None, |m: Option<f64>, x| Some(m.map_or(x, |m| m.max(x))))
+        };
         s += &format!(
             "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {:.1} % |\n",
             rep.spec.scenario.name,
-            if rep.spec.scenario.slip == Some(true) { "on" } else { "off" },
+            if rep.spec.scenario.slip == Some(true) {
+                "on"
+            } else {
+                "off"
+            },
             rep.runs.len(),
             fmt(a.dead_reckoning_ate_rmse_m, 3),
             fmt(a.ate_rmse_m, 3),
@@ -488,23 +500,38 @@ pub fn fig10_table(r: &Fig10Result) -> String {
         );
     }
     s += "\nMean position error (m) at the end of each lap (t = k · T/6, T the run's length):\n\n| scenario | slip | method | ";
-    s += &(1..=6).map(|k| format!("lap {k}")).collect::<Vec<_>>().join(" | ");
+    s += &(1..=6)
+        .map(|k| format!("lap {k}"))
+        .collect::<Vec<_>>()
+        .join(" | ");
     s += " |\n|---|---|---|---|---|---|---|---|---|\n";
     for rep in &r.reports {
         let e = &rep.error_over_time;
-        let Some(&t_end) = e.time.last() else { continue };
+        let Some(&t_end) = e.time.last() else {
+            continue;
+        };
         let at = |v: &[f64], k: usize| {
             let t = t_end * k as f64 / 6.0;
-            let i = e.time.partition_point(|&x| x < t).min(v.len().saturating_sub(1));
+            let i = e
+                .time
+                .partition_point(|&x| x < t)
+                .min(v.len().saturating_sub(1));
             v.get(i).copied()
         };
         for (method, v) in [("DR", &e.dead_reckoning_mean_m), ("SLAM", &e.slam_mean_m)] {
             s += &format!(
                 "| {} | {} | {} | {} |\n",
                 rep.spec.scenario.name,
-                if rep.spec.scenario.slip == Some(true) { "on" } else { "off" },
+                if rep.spec.scenario.slip == Some(true) {
+                    "on"
+                } else {
+                    "off"
+                },
                 method,
-                (1..=6).map(|k| fmt(at(v, k), 3)).collect::<Vec<_>>().join(" | ")
+                (1..=6)
+                    .map(|k| fmt(at(v, k), 3))
+                    .collect::<Vec<_>>()
+                    .join(" | ")
             );
         }
     }
