@@ -23,6 +23,8 @@ pub use bearing_slam_core::{Pose2, Result, SlamError};
 pub use bearing_slam_io as io;
 pub use bearing_slam_sim as sim;
 
+pub mod experiments;
+pub mod montecarlo;
 pub mod real_data;
 
 use bearing_slam_core::log::{EventKind, SensorLog};
