@@ -1,17 +1,24 @@
-# The project's commands. `make test` and `make demo` work on a fresh machine:
-# they install what they need (Rust toolchain components, a Python venv).
+# The project's commands. `make test` and `make demo` work on a fresh machine
+# with python3 (>= 3.11), pip and cargo: they install what they need (Rust
+# toolchain components, a Python venv with maturin and the dev tools).
 SHELL := /bin/bash
 .DEFAULT_GOAL := help
 
 CARGO ?= cargo
+PYTHON ?= python3
+VENV := .venv
+VPY := $(VENV)/bin/python
+STAMP := $(VENV)/.installed
+NATIVE_STAMP := $(VENV)/.native-built
+RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.toml Cargo.lock
 
-.PHONY: help test demo bench lint rust-setup rust-lint rust-test
+.PHONY: help test demo bench lint rust-setup rust-lint rust-test venv develop py-lint py-test
 
 help:
-	@echo "make demo   - simulate the paper's Fig. 4 run and compare MTE with PI-SR"
-	@echo "make test   - formatting, clippy and every test"
+	@echo "make demo   - simulate paper_fig4 and slip_patch, compare MTE, MTE-clone and PI-SR (Python CLI)"
+	@echo "make test   - Rust formatting, clippy and tests; ruff, mypy, stubtest and pytest"
 	@echo "make bench  - criterion benchmarks"
-	@echo "make lint   - formatting and clippy only"
+	@echo "make lint   - formatting and lints only (Rust and Python)"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true
@@ -23,12 +30,41 @@ rust-lint: rust-setup
 rust-test: rust-setup
 	$(CARGO) test --workspace
 
-lint: rust-lint
+# The venv with maturin, the runtime dependencies and the dev tools (the
+# `dev` extra of pyproject.toml), from PyPI. Re-run when pyproject changes.
+$(STAMP): pyproject.toml
+	test -x $(VPY) || $(PYTHON) -m venv $(VENV)
+	$(VPY) -m pip install --quiet --upgrade pip
+	$(VPY) -c 'import tomllib; p = tomllib.load(open("pyproject.toml", "rb"))["project"]; print("\n".join(p["dependencies"] + p["optional-dependencies"]["dev"]))' > $(VENV)/requirements.txt
+	$(VPY) -m pip install --quiet -r $(VENV)/requirements.txt
+	touch $@
 
-test: rust-lint rust-test
+venv: $(STAMP)
 
-demo: rust-setup
-	$(CARGO) run --release -p bearing-slam --example fig4_demo
+# The extension module, built in release mode and installed (editable) into the venv.
+$(NATIVE_STAMP): $(STAMP) $(RUST_SOURCES) pyproject.toml
+	source $(VENV)/bin/activate && maturin develop --release
+	touch $@
+
+develop: $(NATIVE_STAMP)
+
+py-lint: develop
+	$(VENV)/bin/ruff check python tests/python
+	$(VENV)/bin/ruff format --check python tests/python
+	$(VENV)/bin/mypy
+	$(VPY) -m mypy.stubtest bearing_slam._native --allowlist python/stubtest-allowlist.txt
+
+# pytest exits 5 when it collects no test: that must fail, and it does (any
+# non-zero status fails make).
+py-test: develop
+	$(VPY) -m pytest
+
+lint: rust-lint py-lint
+
+test: rust-lint rust-test py-lint py-test
+
+demo: develop
+	$(VENV)/bin/bearing-slam demo --out demo_output
 
 bench: rust-setup
 	$(CARGO) bench -p bearing-slam

@@ -86,7 +86,11 @@ impl Default for SlamConfig {
     fn default() -> Self {
         Self {
             initial_pose: Pose2::default(),
-            initial_pose_sigma: [0.0; 3],
+            // A robot placed by hand is known to about a millimetre and a
+            // milliradian. Zero would leave P singular for the first steps
+            // (two wheels drive a 3-D pose), where a second-order model
+            // mismatch then reads as a huge NEES.
+            initial_pose_sigma: [1e-3, 1e-3, 1e-3],
             bearing_sigma: 1f64.to_radians(),
             range_sigma: 0.1,
             initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),

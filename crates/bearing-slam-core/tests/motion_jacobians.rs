@@ -681,11 +681,39 @@ fn velocity_covariance_formula() -> Result<()> {
         omega: -0.5,
         dt: 0.1,
     })?;
+    // Variances are per one-second hold; a 0.1 s hold has ten times each.
     let expected = Matrix3::from_diagonal(&Vector3::new(
         0.01 * 4.0 + 0.002 * 0.25 + 1e-6,
         0.003 * 4.0 + 0.02 * 0.25 + 1e-6,
         0.001 * 4.0 + 0.004 * 0.25,
-    ));
-    assert_relative_eq!(q, expected, epsilon = 1e-15);
+    )) / 0.1;
+    assert_relative_eq!(q, expected, epsilon = 1e-14);
+    Ok(())
+}
+
+/// White velocity noise: the pose covariance accumulated over one second of
+/// straight driving does not depend on how finely the second is divided.
+#[test]
+fn velocity_noise_is_independent_of_the_odometry_rate() -> Result<()> {
+    let model = velocity_model();
+    let covariance_after_one_second = |steps: u32| -> Result<Matrix3<f64>> {
+        let mut state = Vector3::zeros();
+        let mut p = Matrix3::zeros();
+        let control = VelocityOdometry {
+            v: 0.0,
+            omega: 0.0,
+            dt: 1.0 / f64::from(steps),
+        };
+        for _ in 0..steps {
+            let prediction = model.predict(&state, &control)?;
+            let f = prediction.j_state_state;
+            p = f * p * f.transpose() + prediction.process_noise;
+            state = prediction.state;
+        }
+        Ok(p)
+    };
+    let coarse = covariance_after_one_second(1)?;
+    let fine = covariance_after_one_second(100)?;
+    assert_relative_eq!(coarse, fine, max_relative = 1e-9);
     Ok(())
 }

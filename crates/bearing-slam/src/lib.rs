@@ -23,6 +23,10 @@ pub use bearing_slam_core::{Pose2, Result, SlamError};
 pub use bearing_slam_io as io;
 pub use bearing_slam_sim as sim;
 
+pub mod experiments;
+pub mod montecarlo;
+pub mod real_data;
+
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam_core::runner::{OdometryConfig, RunConfig};

@@ -10,13 +10,21 @@ use crate::log::VelocityOdometry;
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
-/// Noise of a velocity command, Thrun et al.'s α-model with additive floors.
-/// On the control vector `u = [v, ω, γ]` (forward speed m/s, turn rate rad/s,
-/// final rotation rate rad/s), independent entries with
+/// Noise of a velocity command, Thrun et al.'s α-model with additive floors,
+/// as white noise on the velocities. On the control vector `u = [v, ω, γ]`
+/// (forward speed m/s, turn rate rad/s, final rotation rate rad/s),
+/// independent entries whose variances **for a command held one second** are
 ///
 /// * `σ_v² = α1 v² + α2 ω² + sigma_v_min²`,
 /// * `σ_ω² = α3 v² + α4 ω² + sigma_omega_min²`,
 /// * `σ_γ² = α5 v² + α6 ω²`,
+///
+/// and for a hold of `Δt` seconds are those divided by `Δt / 1 s`: the errors
+/// of the velocities are white, so the pose error they accumulate over a
+/// second does not depend on how often odometry arrives (Thrun's per-step α's
+/// would shrink it with the rate: 67 Hz commands would claim 67 times the
+/// certainty of 1 Hz ones). These are the numbers a calibration against
+/// ground truth over one-second windows yields.
 ///
 /// `alpha = [α1, …, α6]` (each ≥ 0; α1, α3, α5 per (m/s)² of speed, α2, α4, α6
 /// per (rad/s)² of turn rate, giving variances in the units of the entry). The
@@ -26,9 +34,9 @@ use serde::{Deserialize, Serialize};
 pub struct VelocityNoise {
     /// `[α1, α2, α3, α4, α5, α6]`, each finite and ≥ 0.
     pub alpha: [f64; 6],
-    /// Floor standard deviation of `v`, m/s (> 0).
+    /// Floor standard deviation of `v` over a one-second hold, m/s (> 0).
     pub sigma_v_min: f64,
-    /// Floor standard deviation of `ω`, rad/s (> 0).
+    /// Floor standard deviation of `ω` over a one-second hold, rad/s (> 0).
     pub sigma_omega_min: f64,
 }
 
@@ -191,11 +199,13 @@ impl VelocityModel {
         let a = &self.noise.alpha;
         let floor_v = self.noise.sigma_v_min * self.noise.sigma_v_min;
         let floor_w = self.noise.sigma_omega_min * self.noise.sigma_omega_min;
-        Ok(Matrix3::from_diagonal(&Vector3::new(
+        // White velocity noise: variances for one second, scaled by 1 s / Δt.
+        let per_second = Vector3::new(
             a[0] * v2 + a[1] * w2 + floor_v,
             a[2] * v2 + a[3] * w2 + floor_w,
             a[4] * v2 + a[5] * w2,
-        )))
+        );
+        Ok(Matrix3::from_diagonal(&(per_second / control.dt)))
     }
 }
 

@@ -1,0 +1,418 @@
+//! `Config`: every parameter of a run (filter, initializer, odometry model)
+//! as plain Python attributes with the paper's defaults, converted to the
+//! core's `RunConfig` when a filter or a run needs it.
+
+use crate::errors::SlamResultExt;
+use crate::log::PySensorLog;
+use bearing_slam::core::Pose2;
+use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
+use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
+use bearing_slam::core::runner::{OdometryConfig, RunConfig};
+use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
+use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
+use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyTuple};
+use std::collections::BTreeMap;
+
+/// The initializer names accepted by `Config.init`.
+pub(crate) const INITS: [&str; 3] = ["mte", "mte-clone", "pi-sr"];
+/// The odometry names accepted by `Config.odometry`.
+pub(crate) const ODOMETRIES: [&str; 2] = ["wheels", "velocity"];
+
+/// Configuration of a bearing-only SLAM run.
+#[pyclass(module = "bearing_slam", name = "Config", from_py_object)]
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) struct PyConfig {
+    /// `"mte"`, `"mte-clone"` or `"pi-sr"`.
+    #[pyo3(get, set)]
+    pub init: String,
+    /// Bearing noise σ, rad.
+    #[pyo3(get, set)]
+    pub bearing_sigma: f64,
+    /// Range noise σ, m (range-bearing runs only).
+    #[pyo3(get, set)]
+    pub range_sigma: f64,
+    /// Initial pose `(x, y, θ)` (a log's own initial pose wins in `run`).
+    #[pyo3(get, set)]
+    pub initial_pose: (f64, f64, f64),
+    /// Initial pose σ `(σx, σy, σθ)`.
+    #[pyo3(get, set)]
+    pub initial_pose_sigma: (f64, f64, f64),
+    /// Mahalanobis gate probability, or None for no gate.
+    #[pyo3(get, set)]
+    pub gate_probability: Option<f64>,
+    /// Linearity-index threshold for inverse depth → Euclidean, or None.
+    #[pyo3(get, set)]
+    pub conversion_threshold: Option<f64>,
+    /// MTE: minimum parallax α_min, rad.
+    #[pyo3(get, set)]
+    pub alpha_min: f64,
+    /// MTE: minimum baseline b_min for the far rule, m.
+    #[pyo3(get, set)]
+    pub baseline_min: f64,
+    /// MTE: minimum β for the far rule, rad.
+    #[pyo3(get, set)]
+    pub beta_min: f64,
+    /// MTE: candidate timeout, s.
+    #[pyo3(get, set)]
+    pub candidate_timeout: f64,
+    /// MTE: minimum depth of a triangulated landmark, m.
+    #[pyo3(get, set)]
+    pub min_depth: f64,
+    /// PI-SR: initial inverse depth ρ_ini, 1/m.
+    #[pyo3(get, set)]
+    pub rho_ini: f64,
+    /// PI-SR: σ_ρ, 1/m.
+    #[pyo3(get, set)]
+    pub sigma_rho: f64,
+    /// PI-SR: per-landmark `(ρ_ini, σ_ρ)` by id.
+    #[pyo3(get, set)]
+    pub per_landmark_priors: BTreeMap<u64, (f64, f64)>,
+    /// `"wheels"` or `"velocity"`.
+    #[pyo3(get, set)]
+    pub odometry: String,
+    /// Wheel base, m.
+    #[pyo3(get, set)]
+    pub wheel_base: f64,
+    /// Wheel noise floor σ, m.
+    #[pyo3(get, set)]
+    pub wheel_floor_sigma: f64,
+    /// Wheel noise growth, √m.
+    #[pyo3(get, set)]
+    pub wheel_scale_sqrt: f64,
+    /// Velocity model α1..α6.
+    #[pyo3(get, set)]
+    pub velocity_alpha: (f64, f64, f64, f64, f64, f64),
+    /// Velocity floor σ_v, m/s.
+    #[pyo3(get, set)]
+    pub velocity_sigma_v_min: f64,
+    /// Velocity floor σ_ω, rad/s.
+    #[pyo3(get, set)]
+    pub velocity_sigma_omega_min: f64,
+    /// Use the ranges too (range-bearing reference filter).
+    #[pyo3(get, set)]
+    pub use_range: bool,
+}
+
+/// The attribute names, in display order.
+const FIELDS: [&str; 23] = [
+    "init",
+    "bearing_sigma",
+    "range_sigma",
+    "initial_pose",
+    "initial_pose_sigma",
+    "gate_probability",
+    "conversion_threshold",
+    "alpha_min",
+    "baseline_min",
+    "beta_min",
+    "candidate_timeout",
+    "min_depth",
+    "rho_ini",
+    "sigma_rho",
+    "per_landmark_priors",
+    "odometry",
+    "wheel_base",
+    "wheel_floor_sigma",
+    "wheel_scale_sqrt",
+    "velocity_alpha",
+    "velocity_sigma_v_min",
+    "velocity_sigma_omega_min",
+    "use_range",
+];
+
+impl Default for PyConfig {
+    fn default() -> Self {
+        let slam = SlamConfig::default();
+        let tri = TriangulationConfig::default();
+        let a = DEFAULT_VELOCITY_NOISE.alpha;
+        Self {
+            init: "mte".into(),
+            bearing_sigma: slam.bearing_sigma,
+            range_sigma: slam.range_sigma,
+            initial_pose: (0.0, 0.0, 0.0),
+            initial_pose_sigma: (0.0, 0.0, 0.0),
+            gate_probability: slam.gate_probability,
+            conversion_threshold: slam.conversion_threshold,
+            alpha_min: tri.alpha_min,
+            baseline_min: tri.baseline_min,
+            beta_min: tri.beta_min,
+            candidate_timeout: tri.candidate_timeout,
+            min_depth: tri.min_depth,
+            rho_ini: 0.5,
+            sigma_rho: 0.25,
+            per_landmark_priors: BTreeMap::new(),
+            odometry: "wheels".into(),
+            wheel_base: 0.2,
+            wheel_floor_sigma: DEFAULT_WHEEL_NOISE.floor_sigma_m,
+            wheel_scale_sqrt: DEFAULT_WHEEL_NOISE.scale_sqrt_m,
+            velocity_alpha: (a[0], a[1], a[2], a[3], a[4], a[5]),
+            velocity_sigma_v_min: DEFAULT_VELOCITY_NOISE.sigma_v_min,
+            velocity_sigma_omega_min: DEFAULT_VELOCITY_NOISE.sigma_omega_min,
+            use_range: false,
+        }
+    }
+}
+
+impl PyConfig {
+    /// Copies the core's run configuration into a `Config`.
+    pub(crate) fn from_run_config(rc: &RunConfig) -> Self {
+        let mut c = Self::default();
+        let s = &rc.slam;
+        c.bearing_sigma = s.bearing_sigma;
+        c.range_sigma = s.range_sigma;
+        c.initial_pose = (s.initial_pose.x, s.initial_pose.y, s.initial_pose.theta);
+        let sg = s.initial_pose_sigma;
+        c.initial_pose_sigma = (sg[0], sg[1], sg[2]);
+        c.gate_probability = s.gate_probability;
+        c.conversion_threshold = s.conversion_threshold;
+        let tri = match &s.initializer {
+            InitializerConfig::PiSr {
+                prior,
+                per_landmark,
+            } => {
+                c.init = "pi-sr".into();
+                c.rho_ini = prior.rho_ini;
+                c.sigma_rho = prior.sigma_rho;
+                c.per_landmark_priors = per_landmark
+                    .iter()
+                    .map(|(k, p)| (*k, (p.rho_ini, p.sigma_rho)))
+                    .collect();
+                None
+            }
+            InitializerConfig::Triangulation(t) => {
+                c.init = "mte".into();
+                Some(*t)
+            }
+            InitializerConfig::TriangulationWithClone(t) => {
+                c.init = "mte-clone".into();
+                Some(*t)
+            }
+        };
+        if let Some(t) = tri {
+            c.alpha_min = t.alpha_min;
+            c.baseline_min = t.baseline_min;
+            c.beta_min = t.beta_min;
+            c.candidate_timeout = t.candidate_timeout;
+            c.min_depth = t.min_depth;
+        }
+        match &rc.odometry {
+            OdometryConfig::Wheels(m) => {
+                c.odometry = "wheels".into();
+                c.wheel_base = m.wheel_base_m();
+                c.wheel_floor_sigma = m.noise().floor_sigma_m;
+                c.wheel_scale_sqrt = m.noise().scale_sqrt_m;
+            }
+            OdometryConfig::Velocity(m) => {
+                c.odometry = "velocity".into();
+                let n = m.noise();
+                let a = n.alpha;
+                c.velocity_alpha = (a[0], a[1], a[2], a[3], a[4], a[5]);
+                c.velocity_sigma_v_min = n.sigma_v_min;
+                c.velocity_sigma_omega_min = n.sigma_omega_min;
+            }
+        }
+        c.use_range = rc.use_range;
+        c
+    }
+
+    /// The triangulation parameters.
+    fn triangulation(&self) -> TriangulationConfig {
+        TriangulationConfig {
+            alpha_min: self.alpha_min,
+            baseline_min: self.baseline_min,
+            beta_min: self.beta_min,
+            candidate_timeout: self.candidate_timeout,
+            min_depth: self.min_depth,
+        }
+    }
+
+    /// The filter's configuration, validated.
+    pub(crate) fn slam_config(&self) -> PyResult<SlamConfig> {
+        let initializer = match self.init.as_str() {
+            "mte" => InitializerConfig::Triangulation(self.triangulation()),
+            "mte-clone" => InitializerConfig::TriangulationWithClone(self.triangulation()),
+            "pi-sr" => InitializerConfig::PiSr {
+                prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
+                per_landmark: self
+                    .per_landmark_priors
+                    .iter()
+                    .map(|(&id, &(r, s))| Ok((id, InverseDepthPrior::new(r, s)?)))
+                    .collect::<Result<_, SlamError>>()
+                    .py()?,
+            },
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown initializer {other:?}: expected one of {INITS:?}"
+                )));
+            }
+        };
+        let (x, y, t) = self.initial_pose;
+        let (sx, sy, st) = self.initial_pose_sigma;
+        let cfg = SlamConfig {
+            initial_pose: Pose2::new(x, y, t),
+            initial_pose_sigma: [sx, sy, st],
+            bearing_sigma: self.bearing_sigma,
+            range_sigma: self.range_sigma,
+            initializer,
+            gate_probability: self.gate_probability,
+            conversion_threshold: self.conversion_threshold,
+        };
+        cfg.validate().py()?;
+        Ok(cfg)
+    }
+
+    /// The wheel-odometry model.
+    pub(crate) fn wheel_model(&self) -> PyResult<DiffDriveModel> {
+        DiffDriveModel::new(
+            self.wheel_base,
+            WheelNoise {
+                floor_sigma_m: self.wheel_floor_sigma,
+                scale_sqrt_m: self.wheel_scale_sqrt,
+            },
+        )
+        .py()
+    }
+
+    /// The velocity model.
+    pub(crate) fn velocity_model(&self) -> PyResult<VelocityModel> {
+        let a = self.velocity_alpha;
+        VelocityModel::new(VelocityNoise {
+            alpha: [a.0, a.1, a.2, a.3, a.4, a.5],
+            sigma_v_min: self.velocity_sigma_v_min,
+            sigma_omega_min: self.velocity_sigma_omega_min,
+        })
+        .py()
+    }
+
+    /// The core's run configuration, validated.
+    pub(crate) fn run_config(&self) -> PyResult<RunConfig> {
+        let odometry = match self.odometry.as_str() {
+            "wheels" => OdometryConfig::Wheels(self.wheel_model()?),
+            "velocity" => OdometryConfig::Velocity(self.velocity_model()?),
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown odometry model {other:?}: expected one of {ODOMETRIES:?}"
+                )));
+            }
+        };
+        Ok(RunConfig {
+            slam: self.slam_config()?,
+            odometry,
+            use_range: self.use_range,
+        })
+    }
+
+    /// Sets the attributes named in `kwargs` (through Python, so each
+    /// attribute's own conversion applies) and validates the result.
+    fn apply(slf: &Bound<'_, Self>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
+        if let Some(kw) = kwargs {
+            for (k, v) in kw.iter() {
+                let key: String = k.extract()?;
+                if !FIELDS.contains(&key.as_str()) {
+                    return Err(PyTypeError::new_err(format!(
+                        "Config has no parameter {key:?}; parameters: {}",
+                        FIELDS.join(", ")
+                    )));
+                }
+                // Accept any sequence for the tuple-valued parameters.
+                let v = if matches!(
+                    key.as_str(),
+                    "initial_pose" | "initial_pose_sigma" | "velocity_alpha"
+                ) {
+                    PyTuple::new(slf.py(), v.try_iter()?.collect::<PyResult<Vec<_>>>()?)?.into_any()
+                } else {
+                    v
+                };
+                slf.setattr(key.as_str(), v)?;
+            }
+        }
+        slf.borrow().run_config()?;
+        Ok(())
+    }
+}
+
+#[pymethods]
+impl PyConfig {
+    /// A configuration with the paper's defaults, any parameter overridden by keyword.
+    #[new]
+    #[pyo3(signature = (init = "mte", **kwargs))]
+    fn py_new(
+        py: Python<'_>,
+        init: &str,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<Self>> {
+        let cfg = Self {
+            init: init.to_owned(),
+            ..Self::default()
+        };
+        let obj = Bound::new(py, cfg)?;
+        Self::apply(&obj, kwargs)?;
+        Ok(obj.unbind())
+    }
+
+    /// The configuration matched to a log (odometry model and wheel base,
+    /// bearing σ), as the Rust `default_run_config`, with `init` and any
+    /// parameter overridden by keyword.
+    #[staticmethod]
+    #[pyo3(signature = (log, init = "mte", **kwargs))]
+    fn for_log(
+        py: Python<'_>,
+        log: &PySensorLog,
+        init: &str,
+        kwargs: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Py<Self>> {
+        let rc = bearing_slam::default_run_config(&log.inner).py()?;
+        let mut cfg = Self::from_run_config(&rc);
+        cfg.init = init.to_owned();
+        let obj = Bound::new(py, cfg)?;
+        Self::apply(&obj, kwargs)?;
+        Ok(obj.unbind())
+    }
+
+    /// A copy with the given parameters changed.
+    #[pyo3(signature = (**kwargs))]
+    fn replace(&self, py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Py<Self>> {
+        let obj = Bound::new(py, self.clone())?;
+        Self::apply(&obj, kwargs)?;
+        Ok(obj.unbind())
+    }
+
+    /// Checks every parameter; raises the matching `BearingSlamError` subclass.
+    fn validate(&self) -> PyResult<()> {
+        self.run_config().map(|_| ())
+    }
+
+    /// Every parameter as a dict.
+    fn to_dict<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyDict>> {
+        let d = PyDict::new(slf.py());
+        for f in FIELDS {
+            d.set_item(f, slf.getattr(f)?)?;
+        }
+        Ok(d)
+    }
+
+    fn __repr__(slf: &Bound<'_, Self>) -> PyResult<String> {
+        let parts = FIELDS
+            .iter()
+            .map(|f| Ok(format!("{f}={}", slf.getattr(*f)?.repr()?)))
+            .collect::<PyResult<Vec<_>>>()?;
+        Ok(format!("Config({})", parts.join(", ")))
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Self>()
+            .map(|o| *o.borrow() == *self)
+            .unwrap_or(false)
+    }
+
+    fn __copy__(&self) -> Self {
+        self.clone()
+    }
+
+    fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
+        self.clone()
+    }
+}

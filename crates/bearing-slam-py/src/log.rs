@@ -1,0 +1,326 @@
+//! `SensorLog`: a recorded or simulated run, with numpy arrays of its streams.
+
+use crate::convert::{In2, arr1, arr2, rows, to_py};
+use crate::errors::SlamResultExt;
+use bearing_slam::core::Pose2;
+use bearing_slam::core::log::{
+    BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, VelocityOdometry,
+    WheelOdometry,
+};
+use numpy::{PyArray1, PyArray2};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// A time-ordered stream of odometry, bearing scans and ground truth, with
+/// the true landmark positions.
+#[pyclass(module = "bearing_slam", name = "SensorLog", frozen)]
+#[derive(Clone, Debug)]
+pub(crate) struct PySensorLog {
+    /// The log.
+    pub inner: SensorLog,
+}
+
+impl PySensorLog {
+    /// Wraps a log.
+    pub(crate) fn new(inner: SensorLog) -> Self {
+        Self { inner }
+    }
+
+    /// Flattened rows of the events `f` selects.
+    fn collect<F>(&self, cols: usize, mut f: F) -> Vec<f64>
+    where
+        F: FnMut(&Event, &mut Vec<f64>),
+    {
+        let mut out = Vec::with_capacity(self.inner.events.len() * cols);
+        for e in &self.inner.events {
+            f(e, &mut out);
+        }
+        out
+    }
+}
+
+#[pymethods]
+impl PySensorLog {
+    /// Builds a log from arrays. `wheels`: (n, 3) `time, left_m, right_m`;
+    /// `velocity`: (n, 4) `time, v, omega, dt`; `bearings`: (n, 3)
+    /// `time, id, bearing` (rows at one time form one scan); `ranges`: (n,)
+    /// ranges matching `bearings` (NaN for none); `truth`: (n, 4)
+    /// `time, x, y, theta`; `landmarks`: (n, 3) `id, x, y`; `info`: dict of
+    /// `source, seed, wheel_base_m, bearing_sigma_rad, initial_pose`.
+    /// Events are sorted by time, stable; at one time the simulator's order:
+    /// wheels, truth, bearings, velocity (a command starts after the scan at
+    /// its time). The log is validated.
+    #[staticmethod]
+    #[pyo3(signature = (*, wheels=None, velocity=None, bearings=None, ranges=None, truth=None, landmarks=None, info=None))]
+    #[allow(clippy::too_many_arguments)]
+    fn from_arrays(
+        py: Python<'_>,
+        wheels: Option<In2<'_>>,
+        velocity: Option<In2<'_>>,
+        bearings: Option<In2<'_>>,
+        ranges: Option<crate::convert::In1<'_>>,
+        truth: Option<In2<'_>>,
+        landmarks: Option<In2<'_>>,
+        info: Option<&Bound<'_, PyDict>>,
+    ) -> PyResult<Self> {
+        // (time, rank at equal time, sequence, kind)
+        let mut events: Vec<(f64, u8, usize, EventKind)> = Vec::new();
+        if let Some(b) = &bearings {
+            let rs = rows(b, 3, "bearings")?;
+            let rg: Option<Vec<f64>> = ranges.as_ref().map(|r| r.as_array().to_vec());
+            if let Some(rg) = &rg
+                && rg.len() != rs.len()
+            {
+                return Err(PyValueError::new_err(format!(
+                    "ranges must have one entry per bearing row: {} != {}",
+                    rg.len(),
+                    rs.len()
+                )));
+            }
+            let mut i = 0;
+            while i < rs.len() {
+                let t = rs[i][0];
+                let mut scan = Vec::new();
+                while i < rs.len() && rs[i][0].to_bits() == t.to_bits() {
+                    let id = rs[i][1];
+                    if !(id >= 0.0 && id.fract() == 0.0 && id < u64::MAX as f64) {
+                        return Err(PyValueError::new_err(format!(
+                            "bearings[{i}]: landmark id {id} is not a non-negative integer"
+                        )));
+                    }
+                    let range = rg.as_ref().map(|r| r[i]).filter(|r| !r.is_nan());
+                    scan.push(BearingObservation {
+                        landmark_id: id as u64,
+                        bearing: rs[i][2],
+                        range,
+                    });
+                    i += 1;
+                }
+                events.push((t, 2, events.len(), EventKind::Bearings(scan)));
+            }
+        }
+        if let Some(g) = &truth {
+            for r in rows(g, 4, "truth")? {
+                let k = EventKind::GroundTruth(Pose2::new(r[1], r[2], r[3]));
+                events.push((r[0], 1, events.len(), k));
+            }
+        }
+        if let Some(w) = &wheels {
+            for r in rows(w, 3, "wheels")? {
+                let k = EventKind::Wheels(WheelOdometry {
+                    left_m: r[1],
+                    right_m: r[2],
+                });
+                events.push((r[0], 0, events.len(), k));
+            }
+        }
+        if let Some(v) = &velocity {
+            for r in rows(v, 4, "velocity")? {
+                let k = EventKind::Velocity(VelocityOdometry {
+                    v: r[1],
+                    omega: r[2],
+                    dt: r[3],
+                });
+                events.push((r[0], 3, events.len(), k));
+            }
+        }
+        events.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut lms = Vec::new();
+        if let Some(l) = &landmarks {
+            for (i, r) in rows(l, 3, "landmarks")?.into_iter().enumerate() {
+                if !(r[0] >= 0.0 && r[0].fract() == 0.0) {
+                    return Err(PyValueError::new_err(format!(
+                        "landmarks[{i}]: id {} is not a non-negative integer",
+                        r[0]
+                    )));
+                }
+                lms.push(LandmarkTruth {
+                    id: r[0] as u64,
+                    x: r[1],
+                    y: r[2],
+                });
+            }
+        }
+        let info: LogInfo = match info {
+            None => LogInfo::default(),
+            Some(d) => {
+                let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
+                let bad =
+                    |e: serde_json::Error| PyValueError::new_err(format!("invalid info dict: {e}"));
+                let given: serde_json::Map<String, serde_json::Value> =
+                    serde_json::from_str(&text).map_err(bad)?;
+                let mut merged = match serde_json::to_value(LogInfo::default()).map_err(bad)? {
+                    serde_json::Value::Object(m) => m,
+                    _ => serde_json::Map::new(),
+                };
+                merged.extend(given);
+                serde_json::from_value(serde_json::Value::Object(merged)).map_err(bad)?
+            }
+        };
+        let log = SensorLog {
+            info,
+            events: events
+                .into_iter()
+                .map(|(time, _, _, kind)| Event { time, kind })
+                .collect(),
+            landmarks: lms,
+        };
+        log.validate().py()?;
+        Ok(Self::new(log))
+    }
+
+    /// Number of events.
+    fn __len__(&self) -> usize {
+        self.inner.events.len()
+    }
+
+    fn __repr__(&self) -> String {
+        let c = |f: fn(&EventKind) -> bool| self.inner.events.iter().filter(|e| f(&e.kind)).count();
+        format!(
+            "SensorLog(source={:?}, events={}, wheels={}, velocity={}, scans={}, truth={}, landmarks={}, duration={:.3} s)",
+            self.inner.info.source,
+            self.inner.events.len(),
+            c(|k| matches!(k, EventKind::Wheels(_))),
+            c(|k| matches!(k, EventKind::Velocity(_))),
+            c(|k| matches!(k, EventKind::Bearings(_))),
+            c(|k| matches!(k, EventKind::GroundTruth(_))),
+            self.inner.landmarks.len(),
+            self.duration(),
+        )
+    }
+
+    fn __eq__(&self, other: &Bound<'_, PyAny>) -> bool {
+        other
+            .cast::<Self>()
+            .map(|o| o.get().inner == self.inner)
+            .unwrap_or(false)
+    }
+
+    /// Seconds from the first to the last event (0 for an empty log).
+    #[getter]
+    fn duration(&self) -> f64 {
+        match (self.inner.events.first(), self.inner.events.last()) {
+            (Some(a), Some(b)) => b.time - a.time,
+            _ => 0.0,
+        }
+    }
+
+    /// Time of every event, s, shape (n_events,).
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        arr1(py, self.inner.events.iter().map(|e| e.time).collect())
+    }
+
+    /// Wheel odometry: columns `time, left_m, right_m`, shape (n, 3).
+    #[getter]
+    fn wheels<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.collect(3, |e, o| {
+            if let EventKind::Wheels(w) = &e.kind {
+                o.extend([e.time, w.left_m, w.right_m]);
+            }
+        });
+        arr2(py, v, 3)
+    }
+
+    /// Velocity commands: columns `time, v, omega, dt`, shape (n, 4).
+    #[getter]
+    fn velocity<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.collect(4, |e, o| {
+            if let EventKind::Velocity(c) = &e.kind {
+                o.extend([e.time, c.v, c.omega, c.dt]);
+            }
+        });
+        arr2(py, v, 4)
+    }
+
+    /// Every bearing: columns `time, landmark_id, bearing` (rad, robot
+    /// frame), shape (n, 3); one row per observation.
+    #[getter]
+    fn bearings<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.collect(3, |e, o| {
+            if let EventKind::Bearings(s) = &e.kind {
+                for b in s {
+                    o.extend([e.time, b.landmark_id as f64, b.bearing]);
+                }
+            }
+        });
+        arr2(py, v, 3)
+    }
+
+    /// The range of each row of `bearings`, m (NaN where the sensor gave none).
+    #[getter]
+    fn ranges<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v = self.collect(1, |e, o| {
+            if let EventKind::Bearings(s) = &e.kind {
+                o.extend(s.iter().map(|b| b.range.unwrap_or(f64::NAN)));
+            }
+        });
+        arr1(py, v)
+    }
+
+    /// The landmark ids of each row of `bearings`, as uint64.
+    #[getter]
+    fn bearing_ids<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<u64>> {
+        let mut v = Vec::new();
+        for e in &self.inner.events {
+            if let EventKind::Bearings(s) = &e.kind {
+                v.extend(s.iter().map(|b| b.landmark_id));
+            }
+        }
+        PyArray1::from_vec(py, v)
+    }
+
+    /// Ground truth: columns `time, x, y, theta`, shape (n, 4).
+    #[getter]
+    fn truth<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.collect(4, |e, o| {
+            if let EventKind::GroundTruth(p) = &e.kind {
+                o.extend([e.time, p.x, p.y, p.theta]);
+            }
+        });
+        arr2(py, v, 4)
+    }
+
+    /// True landmarks: columns `id, x, y`, shape (n, 3).
+    #[getter]
+    fn landmarks<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self
+            .inner
+            .landmarks
+            .iter()
+            .flat_map(|l| [l.id as f64, l.x, l.y])
+            .collect();
+        arr2(py, v, 3)
+    }
+
+    /// What produced the log: `source, seed, wheel_base_m,
+    /// bearing_sigma_rad, initial_pose` (None where unknown).
+    #[getter]
+    fn info<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.inner.info)
+    }
+
+    /// The log as JSON (exact: floats round-trip).
+    fn to_json(&self) -> PyResult<String> {
+        serde_json::to_string(&self.inner)
+            .map_err(|e| PyValueError::new_err(format!("cannot serialize the log: {e}")))
+    }
+
+    /// A log from `to_json` output; validated.
+    #[staticmethod]
+    fn from_json(text: &str) -> PyResult<Self> {
+        let log: SensorLog = serde_json::from_str(text)
+            .map_err(|e| PyValueError::new_err(format!("invalid sensor-log JSON: {e}")))?;
+        log.validate().py()?;
+        Ok(Self::new(log))
+    }
+
+    /// The first `seconds` of the log (events with `time <= start + seconds`).
+    fn head(&self, seconds: f64) -> Self {
+        let start = self.inner.events.first().map_or(0.0, |e| e.time);
+        let mut log = self.inner.clone();
+        log.events.retain(|e| e.time <= start + seconds);
+        Self::new(log)
+    }
+}

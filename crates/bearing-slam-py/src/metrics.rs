@@ -1,0 +1,115 @@
+//! Trajectory and consistency metrics: ATE, RPE, NEES, NIS, χ² bounds.
+
+use crate::convert::{In1, In2, mat, pose, poses, vec3};
+use crate::errors::SlamResultExt;
+use bearing_slam::core::Pose2;
+use bearing_slam::core::metrics::{self, Alignment};
+use bearing_slam::core::nalgebra::{DMatrix, DVector};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Absolute trajectory error of poses `estimate` (n, 3) against `truth`
+/// (n, 3): dict `rmse_m, mean_m, max_m, final_position_m,
+/// final_heading_rad, alignment` (the SE(2) alignment `[x, y, theta]`
+/// applied when `align` is true).
+#[pyfunction]
+#[pyo3(signature = (estimate, truth, align = false))]
+pub(crate) fn ate<'py>(
+    py: Python<'py>,
+    estimate: In2<'py>,
+    truth: In2<'py>,
+    align: bool,
+) -> PyResult<Bound<'py, PyDict>> {
+    let e = poses(&estimate, "estimate")?;
+    let t = poses(&truth, "truth")?;
+    let mode = if align {
+        Alignment::Se2
+    } else {
+        Alignment::None
+    };
+    let r = metrics::ate(&e, &t, mode).py()?;
+    let d = PyDict::new(py);
+    d.set_item("rmse_m", r.rmse_m)?;
+    d.set_item("mean_m", r.mean_m)?;
+    d.set_item("max_m", r.max_m)?;
+    d.set_item("final_position_m", r.final_position_m)?;
+    d.set_item("final_heading_rad", r.final_heading_rad)?;
+    d.set_item("alignment", pose(py, &r.alignment))?;
+    Ok(d)
+}
+
+/// Relative pose error over `delta` steps: dict `translation_rmse_m,
+/// rotation_rmse_rad, pairs`.
+#[pyfunction]
+#[pyo3(signature = (estimate, truth, delta = 1))]
+pub(crate) fn rpe<'py>(
+    py: Python<'py>,
+    estimate: In2<'py>,
+    truth: In2<'py>,
+    delta: usize,
+) -> PyResult<Bound<'py, PyDict>> {
+    let e = poses(&estimate, "estimate")?;
+    let t = poses(&truth, "truth")?;
+    let r = metrics::rpe(&e, &t, delta).py()?;
+    let d = PyDict::new(py);
+    d.set_item("translation_rmse_m", r.translation_rmse_m)?;
+    d.set_item("rotation_rmse_rad", r.rotation_rmse_rad)?;
+    d.set_item("pairs", r.pairs)?;
+    Ok(d)
+}
+
+/// A vector and a square matrix of matching size.
+fn vec_and_matrix(v: &In1<'_>, m: &In2<'_>, what: &str) -> PyResult<(DVector<f64>, DMatrix<f64>)> {
+    let v = v.as_array();
+    let m = m.as_array();
+    let n = v.len();
+    if m.shape() != [n, n] {
+        return Err(PyValueError::new_err(format!(
+            "{what}: the matrix must have shape ({n}, {n}), got {:?}",
+            m.shape()
+        )));
+    }
+    Ok((
+        DVector::from_iterator(n, v.iter().copied()),
+        DMatrix::from_fn(n, n, |r, c| m[[r, c]]),
+    ))
+}
+
+/// Normalized estimation error squared `eᵀ P⁻¹ e`.
+#[pyfunction]
+pub(crate) fn nees(error: In1<'_>, covariance: In2<'_>) -> PyResult<f64> {
+    let (e, p) = vec_and_matrix(&error, &covariance, "nees")?;
+    metrics::nees(&e, &p).py()
+}
+
+/// Pose NEES of `estimate` `[x, y, theta]` with covariance (3, 3) against
+/// `truth` (heading error wrapped).
+#[pyfunction]
+pub(crate) fn pose_nees(estimate: In1<'_>, covariance: In2<'_>, truth: In1<'_>) -> PyResult<f64> {
+    let e = Pose2::from_vector(&vec3(&estimate, "estimate")?);
+    let t = Pose2::from_vector(&vec3(&truth, "truth")?);
+    let c = mat::<3, 3>(&covariance, "covariance")?;
+    metrics::pose_nees(&e, &c, &t).py()
+}
+
+/// Normalized innovation squared `νᵀ S⁻¹ ν`.
+#[pyfunction]
+pub(crate) fn nis(innovation: In1<'_>, s: In2<'_>) -> PyResult<f64> {
+    let (v, m) = vec_and_matrix(&innovation, &s, "nis")?;
+    metrics::nis(&v, &m).py()
+}
+
+/// The `p`-quantile of the χ² distribution with `dof` degrees of freedom.
+#[pyfunction]
+pub(crate) fn chi2_quantile(dof: f64, p: f64) -> PyResult<f64> {
+    metrics::chi2_quantile(dof, p).py()
+}
+
+/// Two-sided `confidence` interval of the average of `runs` NEES/NIS values
+/// of `dof` dimensions: `(lower, upper)`.
+#[pyfunction]
+#[pyo3(signature = (dof, runs = 1, confidence = 0.95))]
+pub(crate) fn chi2_interval(dof: f64, runs: usize, confidence: f64) -> PyResult<(f64, f64)> {
+    metrics::chi2_interval(dof, runs, confidence).py()
+}

@@ -1,0 +1,315 @@
+//! `run(log, config)`: a whole log through the filter in Rust (GIL released),
+//! and its results as numpy arrays.
+
+use crate::config::PyConfig;
+use crate::convert::{arr1, arr2, arr3, mat3_from_rows, to_py};
+use crate::errors::SlamResultExt;
+use crate::filter::{LandmarkArrays, events_list, snapshot_dict, snapshot_landmarks};
+use crate::log::PySensorLog;
+use bearing_slam::core::metrics::pose_nees;
+use bearing_slam::core::runner::{RunOutput, RunSummary, run, summarize};
+use bearing_slam::core::trace::SlamTrace;
+use numpy::{PyArray1, PyArray2, PyArray3};
+use pyo3::prelude::*;
+use pyo3::types::{PyDict, PyList};
+
+/// The summary as a dict (NaN kept as float NaN; `landmark_rmse_m` None
+/// when no landmark has a truth).
+pub(crate) fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bound<'py, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("ate_rmse_m", s.ate_rmse_m)?;
+    d.set_item("ate_aligned_rmse_m", s.ate_aligned_rmse_m)?;
+    d.set_item("final_position_error_m", s.final_position_error_m)?;
+    d.set_item("final_heading_error_deg", s.final_heading_error_deg)?;
+    d.set_item("landmark_rmse_m", s.landmark_rmse_m)?;
+    d.set_item("mean_nees_pose", s.mean_nees_pose)?;
+    d.set_item("n_landmarks_initialized", s.n_landmarks_initialized)?;
+    d.set_item("dead_reckoning_ate_rmse_m", s.dead_reckoning_ate_rmse_m)?;
+    d.set_item(
+        "dead_reckoning_final_position_error_m",
+        s.dead_reckoning_final_position_error_m,
+    )?;
+    d.set_item("finite", s.finite)?;
+    Ok(d)
+}
+
+/// A SLAM trace: estimate snapshots (one per measurement batch) and the
+/// filter's events, as stored in MCAP files.
+#[pyclass(module = "bearing_slam", name = "Trace", frozen)]
+#[derive(Clone, Debug)]
+pub(crate) struct PyTrace {
+    /// The trace.
+    pub inner: SlamTrace,
+}
+
+#[pymethods]
+impl PyTrace {
+    /// Number of snapshots.
+    fn __len__(&self) -> usize {
+        self.inner.snapshots.len()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "Trace(snapshots={}, events={})",
+            self.inner.snapshots.len(),
+            self.inner.events.len()
+        )
+    }
+
+    /// Snapshot times, s, (n,).
+    #[getter]
+    fn times<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        arr1(py, self.inner.snapshots.iter().map(|s| s.time).collect())
+    }
+
+    /// Estimated poses `[x, y, theta]`, (n, 3).
+    #[getter]
+    fn poses<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self
+            .inner
+            .snapshots
+            .iter()
+            .flat_map(|s| [s.pose.x, s.pose.y, s.pose.theta])
+            .collect();
+        arr2(py, v, 3)
+    }
+
+    /// Pose covariances, (n, 3, 3).
+    #[getter]
+    fn pose_covariances<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let v = self
+            .inner
+            .snapshots
+            .iter()
+            .flat_map(|s| {
+                s.pose_covariance
+                    .iter()
+                    .flatten()
+                    .copied()
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        arr3(py, v, 3, 3)
+    }
+
+    /// The filter's events as dicts `{time, kind, id, ...}`.
+    #[getter]
+    fn events<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        events_list(py, &self.inner.events)
+    }
+
+    /// Snapshot `index` (negative counts from the end) as a dict.
+    fn snapshot<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
+        let n = self.inner.snapshots.len() as isize;
+        let i = if index < 0 { index + n } else { index };
+        let s = usize::try_from(i)
+            .ok()
+            .and_then(|i| self.inner.snapshots.get(i))
+            .ok_or_else(|| {
+                pyo3::exceptions::PyIndexError::new_err(format!(
+                    "snapshot index {index} out of range for {n} snapshots"
+                ))
+            })?;
+        snapshot_dict(py, s)
+    }
+
+    /// The landmarks of the last snapshot: `(ids, positions (n, 2),
+    /// covariances (n, 2, 2))`.
+    fn final_landmarks<'py>(&self, py: Python<'py>) -> PyResult<LandmarkArrays<'py>> {
+        snapshot_landmarks(py, self.inner.snapshots.last())
+    }
+}
+
+/// Everything a run produced, with the numbers it is judged by.
+#[pyclass(module = "bearing_slam", name = "RunResult", frozen)]
+#[derive(Clone, Debug)]
+pub(crate) struct PyRunResult {
+    /// The core's output.
+    pub output: RunOutput,
+    /// Its score, when the log has ground truth.
+    pub summary: Option<RunSummary>,
+    /// The configuration it ran with.
+    pub config: PyConfig,
+}
+
+#[pymethods]
+impl PyRunResult {
+    fn __repr__(&self) -> String {
+        match &self.summary {
+            Some(s) => format!(
+                "RunResult(init={:?}, track={}, ate_rmse_m={:.4}, final_position_error_m={:.4}, n_landmarks={})",
+                self.config.init,
+                self.output.track.len(),
+                s.ate_rmse_m,
+                s.final_position_error_m,
+                s.n_landmarks_initialized
+            ),
+            None => format!(
+                "RunResult(init={:?}, track={}, no ground truth)",
+                self.config.init,
+                self.output.track.len()
+            ),
+        }
+    }
+
+    /// The metrics (`ate_rmse_m`, `ate_aligned_rmse_m`,
+    /// `final_position_error_m`, `final_heading_error_deg`,
+    /// `landmark_rmse_m`, `mean_nees_pose`, `n_landmarks_initialized`,
+    /// `dead_reckoning_ate_rmse_m`, `dead_reckoning_final_position_error_m`,
+    /// `finite`); None when the log has no ground truth.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        self.summary
+            .as_ref()
+            .map(|s| summary_dict(py, s))
+            .transpose()
+    }
+
+    /// The configuration of the run.
+    #[getter]
+    fn config(&self) -> PyConfig {
+        self.config.clone()
+    }
+
+    /// Track times, s, (n,): the ground-truth times (or the scan times
+    /// without ground truth).
+    #[getter]
+    fn time<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        arr1(py, self.output.track.iter().map(|p| p.time).collect())
+    }
+
+    /// Estimated poses `[x, y, theta]`, (n, 3).
+    #[getter]
+    fn estimate<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self
+            .output
+            .track
+            .iter()
+            .flat_map(|p| [p.estimate.x, p.estimate.y, p.estimate.theta])
+            .collect();
+        arr2(py, v, 3)
+    }
+
+    /// Pose covariances, (n, 3, 3).
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray3<f64>>> {
+        let v = self
+            .output
+            .track
+            .iter()
+            .flat_map(|p| p.covariance.iter().flatten().copied().collect::<Vec<_>>())
+            .collect();
+        arr3(py, v, 3, 3)
+    }
+
+    /// True poses, (n, 3); NaN rows where there is no truth.
+    #[getter]
+    fn truth<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self
+            .output
+            .track
+            .iter()
+            .flat_map(|p| match p.truth {
+                Some(t) => [t.x, t.y, t.theta],
+                None => [f64::NAN; 3],
+            })
+            .collect();
+        arr2(py, v, 3)
+    }
+
+    /// Dead reckoning (odometry alone, same model), (n, 3).
+    #[getter]
+    fn dead_reckoning<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self
+            .output
+            .track
+            .iter()
+            .flat_map(|p| {
+                [
+                    p.dead_reckoning.x,
+                    p.dead_reckoning.y,
+                    p.dead_reckoning.theta,
+                ]
+            })
+            .collect();
+        arr2(py, v, 3)
+    }
+
+    /// Pose NEES at each track point, (n,); NaN where there is no truth or
+    /// the covariance is not positive definite (e.g. a start known exactly).
+    #[getter]
+    fn nees<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v = self
+            .output
+            .track
+            .iter()
+            .map(|p| {
+                p.truth
+                    .and_then(|t| pose_nees(&p.estimate, &mat3_from_rows(&p.covariance), &t).ok())
+                    .unwrap_or(f64::NAN)
+            })
+            .collect();
+        arr1(py, v)
+    }
+
+    /// The final map: `(ids, positions (n, 2), covariances (n, 2, 2))`.
+    fn landmarks<'py>(&self, py: Python<'py>) -> PyResult<LandmarkArrays<'py>> {
+        snapshot_landmarks(py, self.output.trace.snapshots.last())
+    }
+
+    /// The filter's events as dicts `{time, kind, id, ...}`.
+    #[getter]
+    fn events<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        events_list(py, &self.output.trace.events)
+    }
+
+    /// Counters: `predictions, measurements_used, measurements_rejected,
+    /// landmarks_initialized`.
+    #[getter]
+    fn counts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.output.counts)
+    }
+
+    /// The trace (snapshots after every scan, events), as written to MCAP.
+    #[getter]
+    fn trace(&self) -> PyTrace {
+        PyTrace {
+            inner: self.output.trace.clone(),
+        }
+    }
+}
+
+/// Runs a whole log through a new filter, in Rust with the GIL released.
+/// Without a config, `Config.for_log(log)` (MTE) is used.
+#[pyfunction(name = "run")]
+#[pyo3(signature = (log, config = None))]
+pub(crate) fn py_run(
+    py: Python<'_>,
+    log: &PySensorLog,
+    config: Option<PyConfig>,
+) -> PyResult<PyRunResult> {
+    let config = match config {
+        Some(c) => c,
+        None => PyConfig::from_run_config(&bearing_slam::default_run_config(&log.inner).py()?),
+    };
+    let rc = config.run_config()?;
+    let inner = &log.inner;
+    let (output, summary) = py
+        .detach(|| {
+            let output = run(inner, &rc)?;
+            let has_truth = output.track.iter().any(|p| p.truth.is_some());
+            let summary = if has_truth {
+                Some(summarize(inner, &output)?)
+            } else {
+                None
+            };
+            Ok((output, summary))
+        })
+        .py()?;
+    Ok(PyRunResult {
+        output,
+        summary,
+        config,
+    })
+}

@@ -1,0 +1,94 @@
+"""bearing-slam: bearing-only EKF SLAM with the delayed stochastic-triangulation
+initialization of Munguía & Grau ("MTE"), in Rust, with numpy in and out.
+
+>>> import bearing_slam as bs
+>>> log = bs.simulate("paper_fig4", seed=3)
+>>> result = bs.run(log, bs.Config.for_log(log, init="mte"))
+>>> result.summary["ate_rmse_m"]  # doctest: +SKIP
+
+Step by step: :class:`SlamFilter`; models with Jacobians: :mod:`bearing_slam.models`;
+metrics: :mod:`bearing_slam.metrics`; plots: :mod:`bearing_slam.plots`; CLI: ``bearing-slam``.
+"""
+
+from bearing_slam import metrics, models
+from bearing_slam._native import (
+    BearingSlamError,
+    Config,
+    DatasetError,
+    DegenerateGeometryError,
+    DimensionMismatchError,
+    DivergedError,
+    DuplicateMeasurementError,
+    InvalidNoiseError,
+    InvalidParameterError,
+    LandmarkAtInfinityError,
+    McapError,
+    MismatchError,
+    NonFiniteError,
+    NotPositiveDefiniteError,
+    RunResult,
+    SensorLog,
+    SimulationError,
+    SlamFilter,
+    TimeOrderError,
+    Trace,
+    UnknownLandmarkError,
+    UpdateReport,
+    __version__,
+    ate,
+    chi2_interval,
+    chi2_quantile,
+    load_mrclam,
+    nees,
+    nis,
+    pose_nees,
+    read_mcap,
+    rpe,
+    run,
+    scenario_names,
+    scenario_toml,
+    simulate,
+    write_mcap,
+)
+
+__all__ = [
+    "BearingSlamError",
+    "Config",
+    "DatasetError",
+    "DegenerateGeometryError",
+    "DimensionMismatchError",
+    "DivergedError",
+    "DuplicateMeasurementError",
+    "InvalidNoiseError",
+    "InvalidParameterError",
+    "LandmarkAtInfinityError",
+    "McapError",
+    "MismatchError",
+    "NonFiniteError",
+    "NotPositiveDefiniteError",
+    "RunResult",
+    "SensorLog",
+    "SimulationError",
+    "SlamFilter",
+    "TimeOrderError",
+    "Trace",
+    "UnknownLandmarkError",
+    "UpdateReport",
+    "__version__",
+    "ate",
+    "chi2_interval",
+    "chi2_quantile",
+    "load_mrclam",
+    "metrics",
+    "models",
+    "nees",
+    "nis",
+    "pose_nees",
+    "read_mcap",
+    "rpe",
+    "run",
+    "scenario_names",
+    "scenario_toml",
+    "simulate",
+    "write_mcap",
+]

@@ -1,0 +1,5 @@
+import sys
+
+from bearing_slam.cli import main
+
+sys.exit(main())

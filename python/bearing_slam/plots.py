@@ -1,0 +1,231 @@
+"""Plots of a run (matplotlib, Agg backend: files only, no window).
+
+* :func:`plot_trajectory`: truth, estimate, dead reckoning, true landmarks and
+  estimated landmarks with their 2σ ellipses, axes equal.
+* :func:`plot_pose_errors`: x, y and θ errors over time with ±3σ bounds.
+* :func:`plot_nees`: pose NEES over time with the 95 % χ² band (3 dof).
+* :func:`save_plots`: all three as PNG files.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import matplotlib as mpl
+
+mpl.use("Agg")
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from matplotlib.patches import Ellipse
+from numpy.typing import NDArray
+
+from bearing_slam._native import RunResult, SensorLog, chi2_interval
+
+__all__ = ["covariance_ellipse", "plot_nees", "plot_pose_errors", "plot_trajectory", "save_plots"]
+
+_TRUTH = "#2ca02c"
+_ESTIMATE = "#1f77b4"
+_DEAD_RECKONING = "#7f7f7f"
+_LANDMARK = "#d62728"
+
+
+def covariance_ellipse(
+    mean: NDArray[np.float64], cov: NDArray[np.float64], n_sigma: float = 2.0, **kwargs: object
+) -> Ellipse:
+    """The ``n_sigma`` ellipse of a 2-D Gaussian as a matplotlib patch."""
+    vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
+    vals = np.clip(vals, 0.0, None)
+    angle = math.degrees(math.atan2(float(vecs[1, 1]), float(vecs[0, 1])))
+    width, height = 2.0 * n_sigma * np.sqrt(vals[::-1])
+    return Ellipse(
+        (float(mean[0]), float(mean[1])),
+        float(width),
+        float(height),
+        angle=angle,
+        **kwargs,
+    )
+
+
+def _title(result: RunResult, log: SensorLog | None) -> str:
+    source = str(log.info.get("source", "")) if log is not None else ""
+    config = result.config
+    init = config.init
+    if init == "pi-sr":
+        init = f"pi-sr (ρ_ini={config.rho_ini:g}, σ_ρ={config.sigma_rho:g})"
+    return f"{source} — {init}" if source else init
+
+
+def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) -> None:
+    truth = result.truth
+    if np.isfinite(truth).any():
+        ax.plot(truth[:, 0], truth[:, 1], color=_TRUTH, lw=2.0, label="ground truth")
+    dr = result.dead_reckoning
+    ax.plot(dr[:, 0], dr[:, 1], color=_DEAD_RECKONING, lw=1.2, ls="--", label="dead reckoning")
+    est = result.estimate
+    ax.plot(est[:, 0], est[:, 1], color=_ESTIMATE, lw=1.5, label="SLAM estimate")
+    if len(est):
+        ax.plot(est[0, 0], est[0, 1], "k^", ms=8, label="start")
+    if log is not None and len(log.landmarks):
+        lm = log.landmarks
+        ax.plot(lm[:, 1], lm[:, 2], "x", color=_LANDMARK, ms=10, mew=2, label="landmarks (truth)")
+        for row in lm:
+            ax.annotate(
+                f"{int(row[0])}",
+                (row[1], row[2]),
+                textcoords="offset points",
+                xytext=(6, 6),
+                color=_LANDMARK,
+                fontsize=9,
+                annotation_clip=True,
+            )
+    ids, pos, cov = result.landmarks()
+    if len(ids):
+        ax.plot(pos[:, 0], pos[:, 1], "o", color=_ESTIMATE, ms=5, label="landmarks (estimate)")
+        for k in range(len(ids)):
+            ax.add_patch(
+                covariance_ellipse(pos[k], cov[k], 2.0, fill=False, ec=_ESTIMATE, lw=1.0, alpha=0.8)
+            )
+        ax.plot([], [], color=_ESTIMATE, lw=1.0, label="landmark 2σ ellipse")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.grid(True, alpha=0.3)
+    if legend:
+        ax.legend(loc="best", fontsize=8, framealpha=0.85)
+
+
+def _path_box(result: RunResult) -> tuple[float, float, float, float]:
+    pts = [result.estimate[:, :2], result.dead_reckoning[:, :2]]
+    truth = result.truth[:, :2]
+    if np.isfinite(truth).all() and len(truth):
+        pts.append(truth)
+    xy = np.concatenate(pts)
+    return (
+        float(xy[:, 0].min()),
+        float(xy[:, 0].max()),
+        float(xy[:, 1].min()),
+        float(xy[:, 1].max()),
+    )
+
+
+def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
+    """Trajectories (truth, estimate, dead reckoning) and the map: true
+    landmarks (red crosses) and estimates (blue dots) with 2σ ellipses, axes
+    equal. When the map reaches far beyond the path (a distant landmark), a
+    second panel zooms on the path and the near landmarks."""
+    x0, x1, y0, y1 = _path_box(result) if len(result.time) else (0.0, 1.0, 0.0, 1.0)
+    size = max(x1 - x0, y1 - y0, 1.0)
+    _, pos, _ = result.landmarks()
+    pts = [pos] if len(pos) else []
+    if log is not None and len(log.landmarks):
+        pts.append(log.landmarks[:, 1:])
+    far = False
+    if pts:
+        allp = np.concatenate(pts)
+        reach = max(
+            float(np.max(np.abs(allp[:, 0] - 0.5 * (x0 + x1)))),
+            float(np.max(np.abs(allp[:, 1] - 0.5 * (y0 + y1)))),
+        )
+        far = reach > 2.0 * size
+    if far:
+        fig, (ax, zoom) = plt.subplots(
+            1, 2, figsize=(13, 6), layout="constrained", width_ratios=[1, 1.3]
+        )
+        _draw_map(ax, result, log, legend=False)
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_title("whole map")
+        _draw_map(zoom, result, log, legend=True)
+        half = 0.5 * size + 0.2 * size
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        zoom.set_xlim(cx - half, cx + half)
+        zoom.set_ylim(cy - 0.6 * half, cy + 0.6 * half)
+        zoom.set_aspect("equal", adjustable="box")
+        zoom.set_title("around the path")
+    else:
+        fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
+        _draw_map(ax, result, log, legend=True)
+        ax.set_aspect("equal", adjustable="datalim")
+    fig.suptitle(f"Trajectory and map: {_title(result, log)}")
+    return fig
+
+
+def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.asarray((a + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
+
+
+def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
+    """Pose errors (estimate − truth) in x, y [m] and θ [deg] over time, with
+    the filter's ±3σ bounds."""
+    fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    t = result.time
+    err = result.estimate - result.truth
+    err[:, 2] = _wrap(err[:, 2])
+    cov = result.covariance
+    sigma = np.sqrt(np.clip(np.diagonal(cov, axis1=1, axis2=2), 0.0, None))
+    labels = ["x error [m]", "y error [m]", "θ error [deg]"]
+    scale = [1.0, 1.0, 180.0 / np.pi]
+    for i, ax in enumerate(axes):
+        e = err[:, i] * scale[i]
+        b = 3.0 * sigma[:, i] * scale[i]
+        ax.fill_between(t, -b, b, color=_ESTIMATE, alpha=0.15, label="±3σ")
+        ax.plot(t, b, color=_ESTIMATE, lw=0.5)
+        ax.plot(t, -b, color=_ESTIMATE, lw=0.5)
+        ax.plot(t, e, color="k", lw=1.0, label="error")
+        ax.axhline(0.0, color="0.5", lw=0.5)
+        ax.set_ylabel(labels[i])
+        ax.grid(True, alpha=0.3)
+    axes[0].legend(loc="upper left", fontsize=9)
+    axes[-1].set_xlabel("time [s]")
+    fig.suptitle(f"Pose errors with ±3σ bounds: {_title(result, log)}")
+    return fig
+
+
+def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
+    """Pose NEES over time against the two-sided 95 % χ² interval of one run
+    (3 dof). A consistent filter stays inside the band about 95 % of the time."""
+    fig, ax = plt.subplots(figsize=(9, 4.5), layout="constrained")
+    t = result.time
+    nees = result.nees
+    lo, hi = chi2_interval(3.0, 1, 0.95)
+    ok = np.isfinite(nees)
+    ax.axhspan(
+        lo, hi, color=_TRUTH, alpha=0.15, label=f"95 % χ² band (3 dof): [{lo:.2f}, {hi:.2f}]"
+    )
+    ax.axhline(3.0, color=_TRUTH, lw=1.0, ls="--", label="expected (3)")
+    ax.plot(t[ok], nees[ok], color="k", lw=0.8, label="pose NEES")
+    if ok.any():
+        inside = float(np.mean((nees[ok] >= lo) & (nees[ok] <= hi)))
+        mean = float(np.mean(nees[ok]))
+        ax.set_title(
+            f"Pose NEES: {_title(result, log)} (mean {mean:.2f}, {100 * inside:.0f} % inside)"
+        )
+        ax.set_yscale("log")
+    else:
+        ax.set_title(f"Pose NEES: {_title(result, log)} (no ground truth)")
+    ax.set_xlabel("time [s]")
+    ax.set_ylabel("NEES (log scale)")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(loc="best", fontsize=9, framealpha=0.85)
+    return fig
+
+
+def save_plots(result: RunResult, log: SensorLog | None, out_dir: str | Path) -> list[Path]:
+    """Writes ``trajectory.png``, ``pose_errors.png`` and ``nees.png`` into
+    ``out_dir`` and returns their paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    paths = []
+    for name, make in (
+        ("trajectory.png", plot_trajectory),
+        ("pose_errors.png", plot_pose_errors),
+        ("nees.png", plot_nees),
+    ):
+        fig = make(result, log)
+        path = out / name
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+        paths.append(path)
+    return paths

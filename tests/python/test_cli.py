@@ -1,0 +1,138 @@
+"""The ``bearing-slam`` CLI, run as a user would (subprocess)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+
+ROOT = Path(__file__).resolve().parents[2]
+EXAMPLE_SCENARIO = ROOT / "crates" / "bearing-slam-sim" / "scenarios" / "example.toml"
+KEYS = [
+    "ate_rmse_m",
+    "final_position_error_m",
+    "final_heading_error_deg",
+    "landmark_rmse_m",
+    "mean_nees_pose",
+    "n_landmarks_initialized",
+]
+PLOTS = ["trajectory.png", "pose_errors.png", "nees.png"]
+
+
+def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "bearing_slam", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+
+
+def check_outputs(folder: Path) -> dict[str, object]:
+    metrics = json.loads((folder / "metrics.json").read_text())
+    for key in KEYS:
+        assert key in metrics, key
+        assert metrics[key] is not None, key
+        assert math.isfinite(metrics[key]), key
+    for png in PLOTS:
+        data = (folder / png).read_bytes()
+        assert data.startswith(b"\x89PNG"), png
+        assert len(data) > 20_000, png
+    with (folder / "estimate.mcap").open("rb") as f:
+        summary = make_reader(f).get_summary()
+    assert summary is not None
+    assert any(c.topic == "/slam/estimate" for c in summary.channels.values())
+    return dict(metrics)
+
+
+@pytest.mark.parametrize("command", [[], ["demo"], ["simulate"], ["run"], ["scenarios"]])
+def test_help(command: list[str]) -> None:
+    r = cli(*command, "--help")
+    assert r.returncode == 0, r.stderr
+    assert "usage: bearing-slam" in r.stdout
+    if command in (["demo"], ["run"]):
+        assert "metrics.json" in r.stdout
+        assert "estimate.mcap" in r.stdout
+
+
+def test_simulate_then_run(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    r = cli("simulate", "paper_fig4", "--seed", "3", "--out", log)
+    assert r.returncode == 0, r.stderr
+    assert log.stat().st_size > 10_000
+    out = tmp_path / "mte"
+    r = cli("run", log, "--init", "mte", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    m = check_outputs(out)
+    assert m["n_landmarks_initialized"] == 5
+    assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
+    assert 0.0 < m["mean_nees_pose"] < 20.0  # type: ignore[operator]
+    assert m["init"] == "mte"
+    r = cli(
+        "run", log, "--init", "pi-sr", "--rho-ini", "0.5", "--sigma-rho", "0.25", "--out",
+        tmp_path / "pisr", "--quiet",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    m = check_outputs(tmp_path / "pisr")
+    assert m["config"]["rho_ini"] == 0.5  # type: ignore[index]
+    assert m["init"] == "pi-sr"
+
+
+def test_simulate_scenario_file(tmp_path: Path) -> None:
+    out = tmp_path / "example.mcap"
+    r = cli("simulate", EXAMPLE_SCENARIO, "--seed", "1", "--duration", "5", "--out", out)
+    assert r.returncode == 0, r.stderr
+    assert out.exists()
+
+
+def test_demo(tmp_path: Path) -> None:
+    out = tmp_path / "demo"
+    r = cli("demo", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "paper_fig4" in r.stdout
+    assert "slip_patch" in r.stdout
+    assert "ATE [m]" in r.stdout
+    folders = sorted(p.name for p in out.iterdir() if p.is_dir())
+    assert len(folders) == 6
+    for scenario in ("paper_fig4", "slip_patch"):
+        m = check_outputs(out / f"{scenario}_mte")
+        assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
+        check_outputs(out / f"{scenario}_mte-clone")
+        check_outputs(out / f"{scenario}_pi-sr_0.01_0.005")
+    assert check_outputs(out / "paper_fig4_mte")["n_landmarks_initialized"] == 5
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["simulate", "nowhere", "--out", "x.mcap"], "unknown scenario"),
+        (["simulate", "missing.toml", "--out", "x.mcap"], "cannot read scenario file"),
+        (["run", "missing.mcap", "--out", "o"], "no such file"),
+        (["run", "CORRUPT", "--out", "o"], "not an MCAP file"),
+        (["run", "LOG", "--init", "pi-sr", "--rho-ini", "-1", "--out", "o"], "rho_ini"),
+    ],
+)
+def test_user_errors_are_one_line(tmp_path: Path, args: list[str], message: str) -> None:
+    corrupt = tmp_path / "corrupt.mcap"
+    corrupt.write_bytes(b"garbage" * 20)
+    log = tmp_path / "log.mcap"
+    if "LOG" in args:
+        assert cli("simulate", "paper_fig4", "--out", log).returncode == 0
+    args = [
+        str(corrupt) if a == "CORRUPT" else str(log) if a == "LOG" else
+        str(tmp_path / a) if a.endswith((".mcap", ".toml")) or a == "o" else a
+        for a in args
+    ]  # fmt: skip
+    r = cli(*args)
+    assert r.returncode == 2
+    assert "Traceback" not in r.stderr
+    lines = [line for line in r.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1, r.stderr
+    assert lines[0].startswith("bearing-slam: error:")
+    assert message in lines[0]
