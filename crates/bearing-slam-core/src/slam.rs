@@ -216,7 +216,8 @@ pub struct BearingSlam {
     /// The clone taken at the current batch's time, shared by every candidate created in it.
     batch_clone: Option<u64>,
     next_clone_id: u64,
-    gate_threshold: Option<f64>,
+    /// χ² gate thresholds for 1 dof (bearings) and 2 dof (range-bearing).
+    gate_thresholds: Option<[f64; 2]>,
     time: Option<f64>,
     events: Vec<TimedSlamEvent>,
 }
@@ -228,8 +229,8 @@ impl BearingSlam {
         let mean = DVector::from_column_slice(config.initial_pose.to_vector().as_slice());
         let sigma = Vector3::from(config.initial_pose_sigma);
         let cov = DMatrix::from_diagonal(&DVector::from_iterator(3, sigma.iter().map(|s| s * s)));
-        let gate_threshold = match config.gate_probability {
-            Some(p) => Some(chi2_quantile(1.0, p)?),
+        let gate_thresholds = match config.gate_probability {
+            Some(p) => Some([chi2_quantile(1.0, p)?, chi2_quantile(2.0, p)?]),
             None => None,
         };
         Ok(Self {
@@ -240,7 +241,7 @@ impl BearingSlam {
             clones: BTreeMap::new(),
             batch_clone: None,
             next_clone_id: 0,
-            gate_threshold,
+            gate_thresholds,
             time: None,
             events: Vec::new(),
         })
@@ -584,14 +585,18 @@ impl BearingSlam {
             }
             Err(e) => return Err(e),
         };
-        let dof = linearized.innovation.len();
-        if let Some(threshold) = self.gate_threshold {
+        if let Some(thresholds) = self.gate_thresholds {
             let nis = self.ekf.nis(&linearized)?;
-            // The 1-dof threshold scales to `dof` through the quantile of χ²(dof).
-            let limit = if dof == 1 {
-                threshold
-            } else {
-                chi2_quantile(dof as f64, self.config.gate_probability.unwrap_or(0.999))?
+            let limit = match linearized.innovation.len() {
+                1 => thresholds[0],
+                2 => thresholds[1],
+                dof => {
+                    return Err(SlamError::DimensionMismatch {
+                        what: "gated measurement",
+                        expected: 2,
+                        got: dof,
+                    });
+                }
             };
             if nis > limit {
                 report.rejected += 1;
