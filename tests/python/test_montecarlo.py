@@ -110,8 +110,8 @@ def test_progress_callback_counts_every_run() -> None:
         (make_spec("no_such_scenario", "mte", 2), bs.SimulationError, "no_such_scenario"),
         (
             make_spec("paper_fig4", {"method": "pi-sr", "rho_ini": 0.5, "sigma_rho": -1.0}, 2),
-            bs.BearingSlamError,
-            "",
+            bs.InvalidNoiseError,
+            "sigma_rho",
         ),
         (make_spec("paper_fig4", {"method": "magic"}, 2), bs.InvalidParameterError, "magic"),
         (
@@ -138,7 +138,9 @@ def test_bad_records_and_inputs() -> None:
     with pytest.raises(bs.InvalidParameterError, match="out of range"):
         montecarlo_run_one(spec_json, 2)
     with pytest.raises(bs.InvalidParameterError, match="missing key"):
-        montecarlo_report(spec_json, [{"metrics": {}}])
+        montecarlo_report(spec_json, [{"series": {}}])
+    with pytest.raises(bs.InvalidParameterError, match="run_index"):
+        montecarlo_report(spec_json, [{"metrics": {}, "series": {}, "init_events": []}])
     record = montecarlo_run_one(spec_json, 0)
     with pytest.raises(bs.InvalidParameterError, match="twice"):
         montecarlo_report(spec_json, [record, record])
