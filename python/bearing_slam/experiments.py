@@ -21,7 +21,8 @@ name           what it runs and plots
 
 Each writes ``NAME.md`` (the table), ``NAME.json`` (the numbers behind the
 table and the plot; the time series thinned to at most
-:data:`MAX_SERIES_POINTS` points) and ``NAME.png``.
+:data:`MAX_SERIES_POINTS` points, numbers to :data:`SIGNIFICANT_DIGITS`
+significant digits) and ``NAME.png``.
 """
 
 from __future__ import annotations
@@ -39,6 +40,7 @@ mpl.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 from numpy.typing import NDArray
 from tqdm import tqdm
 
@@ -55,6 +57,7 @@ __all__ = [
     "EXPERIMENTS",
     "MAX_SERIES_POINTS",
     "PLOTS",
+    "SIGNIFICANT_DIGITS",
     "compact",
     "plot_consistency",
     "plot_fig4",
@@ -74,6 +77,9 @@ DEFAULT_RUNS = {"fig4": 200, "consistency": 200, "fig8": 50, "fig10": 50}
 
 #: Time series in the written JSON are thinned to at most this many points.
 MAX_SERIES_POINTS = 400
+
+#: Significant digits of the numbers in the written JSON.
+SIGNIFICANT_DIGITS = 6
 
 #: What each experiment is, for titles and markdown headings.
 TITLES = {
@@ -127,8 +133,9 @@ def plot_fig4(result: dict[str, Any]) -> Figure:
         runs = reports[0]["spec"]["runs"] if reports else 0
         ax.set_title(f"paper_fig4, {title}, {runs} runs each")
         ax.grid(axis="x", alpha=0.3)
-    axes[1].legend(loc="lower right", fontsize=9, framealpha=0.9)
-    fig.tight_layout()
+    handles, names = axes[0].get_legend_handles_labels()
+    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     return fig
 
 
@@ -141,7 +148,7 @@ def plot_fig5(result: dict[str, Any]) -> Figure:
     ax1.semilogy(a, _nan(p["sigma_depth_m"] for p in pts), "-", color=_SLAM,
                  label="first order σ_ρ/ρ²")  # fmt: skip
     ax1.semilogy(a, _nan(p["sampled_sigma_depth_m"] for p in pts), "o", color="#d62728", ms=5,
-                 label="sampled (half 16–84 % range)")  # fmt: skip
+                 label="sampled, rays meeting in front (half 16–84 % range)")  # fmt: skip
     ax1.set_ylabel("σ_d [m]")
     ax1.set_title(f"depth σ_d, landmark at {result['distance_m']:g} m")
     ax2.semilogy(a, _nan(p["sigma_rho"] for p in pts), "-", color=_SLAM, label="first order")
@@ -252,9 +259,15 @@ def plot_consistency(result: dict[str, Any]) -> Figure:
             ax.axhline(3.0, color="k", lw=0.7, ls=":", label="expected (3)")
             ax.plot(t, _nan(nees["mean"]), color=_SLAM, lw=1.2, label="mean NEES")
             ax.set_yscale("log")
+            # The start is known exactly: the first NEES values are ~0; keep the band readable.
+            ax.set_ylim(bottom=0.2)
+            ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0), numticks=8))
+            ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+            ax.yaxis.set_minor_formatter(NullFormatter())
             inside = nees.get("fraction_inside")
-            frac = "" if inside is None else f", {100 * inside:.0f} % of time in band"
-            ax.set_title(f"{c['label']} — {title}{frac}", fontsize=9)
+            frac = "" if inside is None else f", {100 * inside:.0f} % of the time in the band"
+            label = c["label"].split(" (near")[0]
+            ax.set_title(f"{label}, {title}{frac}", fontsize=9)
             ax.set_ylabel("NEES")
             ax.grid(which="both", alpha=0.25)
             if row == len(group) - 1:
@@ -306,16 +319,28 @@ def _grids(obj: Any) -> set[int]:
     return out
 
 
+def _round(obj: Any, digits: int) -> Any:
+    """Every float inside ``obj`` rounded to ``digits`` significant digits."""
+    if isinstance(obj, float):
+        return float(f"{obj:.{digits}g}") if math.isfinite(obj) else obj
+    if isinstance(obj, dict):
+        return {k: _round(v, digits) for k, v in obj.items()}
+    if isinstance(obj, list):
+        return [_round(v, digits) for v in obj]
+    return obj
+
+
 def compact(result: dict[str, Any], max_points: int = MAX_SERIES_POINTS) -> dict[str, Any]:
     """``result`` without its markdown table (and, for Fig. 4, without the
-    consistency part, written on its own) and with every time series
-    (NEES and errors over time) thinned to at most ``max_points`` points; the
-    per-run metrics stay."""
+    consistency part, written on its own), with every time series (NEES and
+    errors over time) thinned to at most ``max_points`` points and every
+    number rounded to :data:`SIGNIFICANT_DIGITS` significant digits; the
+    per-run metrics stay. For the exact numbers run the experiment from Python."""
     out: Any = {k: v for k, v in result.items() if k not in ("table", "consistency")}
     for n in sorted(_grids(out)):
         if n > max_points:
             out = _thin(out, n, math.ceil(n / max_points))
-    result_out: dict[str, Any] = out
+    result_out: dict[str, Any] = _round(out, SIGNIFICANT_DIGITS)
     return result_out
 
 
