@@ -141,8 +141,14 @@ fn record_to_py<'py>(py: Python<'py>, r: &RunRecord) -> PyResult<Bound<'py, PyDi
     let s = PyDict::new(py);
     s.set_item("time", f64_list(py, &r.series.time)?)?;
     s.set_item("nees", PyList::new(py, &r.series.nees)?)?;
-    s.set_item("position_error_m", f64_list(py, &r.series.position_error_m)?)?;
-    s.set_item("heading_error_deg", f64_list(py, &r.series.heading_error_deg)?)?;
+    s.set_item(
+        "position_error_m",
+        f64_list(py, &r.series.position_error_m)?,
+    )?;
+    s.set_item(
+        "heading_error_deg",
+        f64_list(py, &r.series.heading_error_deg)?,
+    )?;
     s.set_item(
         "dead_reckoning_position_error_m",
         f64_list(py, &r.series.dead_reckoning_position_error_m)?,
@@ -163,9 +169,8 @@ fn record_from_py(obj: &Bound<'_, PyAny>, index: usize) -> PyResult<RunRecord> {
     let d = obj
         .cast::<PyDict>()
         .map_err(|_| invalid(format!("{what}: expected a dict from montecarlo_run_one")))?;
-    let metrics: RunMetrics =
-        serde_json::from_value(to_value(&item(d, "metrics", &what)?, &what)?)
-            .map_err(|e| invalid(format!("{what}.metrics: {e}")))?;
+    let metrics: RunMetrics = serde_json::from_value(to_value(&item(d, "metrics", &what)?, &what)?)
+        .map_err(|e| invalid(format!("{what}.metrics: {e}")))?;
     let s = item(d, "series", &what)?;
     let s = s
         .cast::<PyDict>()
