@@ -92,3 +92,10 @@ __all__ = [
     "simulate",
     "write_mcap",
 ]
+
+# Monte Carlo on local cores or any concurrent.futures executor (e.g. Dask):
+# the function `montecarlo` shadows its module's name as an attribute; import
+# the module's other names with `from bearing_slam.montecarlo import ...`.
+from bearing_slam.montecarlo import MonteCarloResult, montecarlo
+
+__all__ += ["MonteCarloResult", "montecarlo"]

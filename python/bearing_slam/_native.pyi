@@ -1,6 +1,7 @@
 """Type stubs of the native module (pyo3). Arrays are float64 unless noted."""
 
 import os
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any, final
 
 import numpy as np
@@ -320,3 +321,43 @@ def triangulate(
 def inverse_depth_to_point(landmark: ArrayLike) -> tuple[_F64, _F64]: ...
 def linearity_index(landmark: ArrayLike, rho_variance: float, sensor: ArrayLike) -> float: ...
 def wrap_angle(angle: float) -> float: ...
+
+# Monte Carlo and experiments (crates/bearing-slam-py/src/montecarlo.rs).
+__all__ += [
+    "experiment_consistency",
+    "experiment_fig4",
+    "experiment_fig5",
+    "experiment_fig8",
+    "experiment_fig10",
+    "montecarlo_report",
+    "montecarlo_run_many",
+    "montecarlo_run_one",
+]
+
+def montecarlo_run_one(spec_json: str, index: int) -> dict[str, Any]: ...
+def montecarlo_report(spec_json: str, records: Iterable[dict[str, Any]]) -> dict[str, Any]: ...
+def montecarlo_run_many(
+    spec_json: str, progress: Callable[[int], object] | None = None
+) -> dict[str, Any]: ...
+def experiment_fig4(
+    runs: int = 200, seed0: int = 0, progress: Callable[[str, int, int], object] | None = None
+) -> dict[str, Any]: ...
+def experiment_consistency(
+    runs: int = 200, seed0: int = 0, progress: Callable[[str, int, int], object] | None = None
+) -> dict[str, Any]: ...
+def experiment_fig5(
+    sigma_deg: float = 1.0,
+    distance_m: float = 5.0,
+    parallax_deg: Sequence[float] | None = None,
+    samples: int = 20000,
+    seed: int = 0,
+) -> dict[str, Any]: ...
+def experiment_fig8(
+    runs: int = 50,
+    seed0: int = 0,
+    counts: Sequence[int] | None = None,
+    progress: Callable[[str, int, int], object] | None = None,
+) -> dict[str, Any]: ...
+def experiment_fig10(
+    runs: int = 50, seed0: int = 0, progress: Callable[[str, int, int], object] | None = None
+) -> dict[str, Any]: ...

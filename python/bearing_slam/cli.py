@@ -296,6 +296,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Prints the names of the built-in scenarios, one per line.",
     )
     names.set_defaults(func=lambda _args: print("\n".join(scenario_names())) or 0)
+    _add_montecarlo_parsers(sub)
     return p
 
 
@@ -309,6 +310,153 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"bearing-slam: error: {e}", file=sys.stderr)
         return 2
     return status
+
+
+# ---------------------------------------------------------------- Monte Carlo and experiments
+
+
+def _positive_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
+    return v
+
+
+def _cmd_montecarlo(args: argparse.Namespace) -> int:
+    from bearing_slam.montecarlo import make_spec, run_spec
+
+    if args.scenario not in scenario_names():
+        raise UserError(f"unknown scenario {args.scenario!r}; known: {', '.join(scenario_names())}")
+    if args.init not in ("pi-sr", "pi-sr-mixed") and (
+        args.rho_ini is not None or args.sigma_rho is not None
+    ):
+        raise UserError("--rho-ini and --sigma-rho apply to --init pi-sr and pi-sr-mixed only")
+    spec = make_spec(
+        args.scenario,
+        args.init,
+        args.runs,
+        seed0=args.seed0,
+        landmark_count=args.landmarks,
+        far_landmark=not args.no_far,
+        slip=None if args.slip is None else args.slip == "on",
+        rho_ini=0.5 if args.rho_ini is None else args.rho_ini,
+        sigma_rho=0.25 if args.sigma_rho is None else args.sigma_rho,
+    )
+    result = run_spec(spec, progress=not args.quiet)
+
+    def f(v: float | None, digits: int = 3) -> str:
+        return "n/a" if v is None else f"{v:.{digits}f}"
+
+    a = result.report["all_finite"]
+    inside = result.nees_fraction_inside
+    print(f"{args.scenario} / {result.summary_line()}")
+    print(
+        f"ATE {f(a['ate_rmse_m'])} m (dead reckoning {f(a['dead_reckoning_ate_rmse_m'])} m), "
+        f"final position {f(a['final_position_error_m'])} m, "
+        f"heading {f(a['final_heading_error_deg'], 2)}°, mean NEES {f(result.mean_nees, 2)}, "
+        f"NEES in 95 % band {f(inside and 100 * inside, 1)} % of the time"
+    )
+    out = Path(args.json)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(result.to_json() + "\n")
+    print(f"wrote {out}")
+    return 0
+
+
+def _cmd_experiment(args: argparse.Namespace) -> int:
+    from bearing_slam.experiments import EXPERIMENTS, run_experiments
+
+    names = list(EXPERIMENTS) if args.name == "all" else [args.name]
+    command = "bearing-slam experiment " + " ".join(
+        [args.name]
+        + ([f"--runs {args.runs}"] if args.runs is not None else [])
+        + ([f"--seed0 {args.seed0}"] if args.seed0 else [])
+        + [f"--out {args.out}"]
+    )
+    written = run_experiments(
+        names,
+        args.out,
+        runs=args.runs,
+        seed0=args.seed0,
+        progress=not args.quiet,
+        command=command,
+        echo=print,
+    )
+    files = [p.name for paths in written.values() for p in paths]
+    print(f"wrote {', '.join(files)} into {args.out}/")
+    return 0
+
+
+def _add_montecarlo_parsers(sub: Any) -> None:
+    mc = sub.add_parser(
+        "montecarlo",
+        help="many seeded runs of a scenario with one initializer: class fractions, NEES",
+        description="Runs SCENARIO --runs times (seeds --seed0, --seed0+1, ...) with one "
+        "landmark initializer on all local cores, classifies every run as converged, drift "
+        "(final heading error > 5°, final position error > 0.5 m or near-landmark RMSE > "
+        "0.5 m) or diverged (failure, non-finite or non-PSD covariance, or final position "
+        "error > 5 m), prints the class fractions and writes --json: the spec, "
+        "converged_fraction, drift_fraction, diverged_fraction, per-run metrics (runs), "
+        "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 %% band) "
+        "and error_over_time. From Python, bearing_slam.montecarlo(...) also runs on any "
+        "concurrent.futures executor, e.g. a Dask cluster.",
+    )
+    mc.add_argument("scenario", metavar="SCENARIO", help="built-in scenario name")
+    mc.add_argument("--runs", type=_positive_int, default=20, help="runs (default: %(default)s)")
+    mc.add_argument(
+        "--init",
+        choices=["mte", "mte-clone", "pi-sr", "pi-sr-mixed"],
+        default="mte",
+        help="landmark initializer (default: %(default)s)",
+    )
+    mc.add_argument(
+        "--rho-ini",
+        type=float,
+        help="PI-SR initial inverse depth, 1/m (default 0.5; pi-sr-mixed: near landmarks, "
+        "the far ones get 0.01)",
+    )
+    mc.add_argument("--sigma-rho", type=float, help="its σ, 1/m (default 0.25; far: 0.005)")
+    mc.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
+    mc.add_argument("--no-far", action="store_true", help="remove the scenario's far landmarks")
+    mc.add_argument("--landmarks", type=_positive_int, help="number of random landmarks")
+    mc.add_argument("--slip", choices=["on", "off"], help="slippery patches (default: scenario's)")
+    mc.add_argument("--json", required=True, metavar="OUT.json", help="report file to write")
+    mc.add_argument("--quiet", action="store_true", help="no progress bar")
+    mc.set_defaults(func=_cmd_montecarlo)
+
+    ex = sub.add_parser(
+        "experiment",
+        help="reproduce the paper's figures: markdown tables, JSON and PNG plots",
+        description="Runs one of the paper's experiments (or all) and writes into --out, for "
+        "each: NAME.md (the table, as printed), NAME.json (the numbers behind it) and "
+        "NAME.png. fig4: paper_fig4 with PI-SR (0.01, 0.005), PI-SR (0.5, 0.25), PI-SR mixed, "
+        "MTE and MTE-clone, with and without the far landmark (default 200 runs each); "
+        "fig4.png: class fractions per method. consistency: the same runs' mean pose NEES over "
+        "time with the 95 %% band per method (consistency.png; reuses fig4's runs under all). "
+        "fig5: σ_d and σ_ρ of a triangulation against parallax, first order and sampled "
+        "(fig5.png, log y). fig8: paper_fig8 with 5, 10, 20, 40 landmarks, MTE (default 50 "
+        "runs); fig8.png: ATE of dead reckoning and SLAM against landmark count. fig10: "
+        "single-source oval and figure-eight, slip off and on, MTE (default 50 runs); "
+        "fig10.png: position error over time, dead reckoning and SLAM.",
+    )
+    ex.add_argument(
+        "name",
+        choices=["fig4", "fig5", "fig8", "fig10", "consistency", "all"],
+        metavar="fig4|fig5|fig8|fig10|consistency|all",
+        help="which experiment",
+    )
+    ex.add_argument(
+        "--runs",
+        type=_positive_int,
+        help="runs per configuration (default: 200 for fig4/consistency, 50 for fig8/fig10)",
+    )
+    ex.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
+    ex.add_argument("--out", default="docs/results", help="output folder (default: %(default)s)")
+    ex.add_argument("--quiet", action="store_true", help="no progress bars")
+    ex.set_defaults(func=_cmd_experiment)
 
 
 if __name__ == "__main__":
