@@ -179,6 +179,8 @@ def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=9)
     axes[-1].set_xlabel("time [s]")
+    if not np.isfinite(result.truth).any():
+        axes[0].set_title("no ground truth: the filter's ±3σ only, no error", fontsize=9)
     fig.suptitle(f"Pose errors with ±3σ bounds: {_title(result, log)}")
     return fig
 

@@ -13,6 +13,7 @@ mod io;
 mod log;
 mod metrics;
 mod models;
+mod real_data;
 mod run;
 mod sim;
 
@@ -57,5 +58,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::inverse_depth_to_point, m)?)?;
     m.add_function(wrap_pyfunction!(models::linearity_index, m)?)?;
     m.add_function(wrap_pyfunction!(models::py_wrap_angle, m)?)?;
+    m.add_function(wrap_pyfunction!(real_data::py_evaluate_mrclam, m)?)?;
     Ok(())
 }
