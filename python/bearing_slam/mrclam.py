@@ -300,7 +300,14 @@ def comparison_figure(
                 ax.plot(pos[:, 0], pos[:, 1], "o", color=_COLORS[method], ms=4, mfc="none")
         lm = first.log.landmarks
         ax.plot(lm[:, 1], lm[:, 2], "x", color="#d62728", ms=7, mew=1.8, label="landmarks (survey)")
-        ax.set_title(f"robot {robot}\nATE [m]: " + ", ".join(scores), fontsize=9)
+        half = (len(scores) + 1) // 2
+        ax.set_title(
+            f"robot {robot}, ATE [m]:\n"
+            + ", ".join(scores[:half])
+            + "\n"
+            + ", ".join(scores[half:]),
+            fontsize=9,
+        )
         ax.set_aspect("equal", adjustable="box")
         ax.set_xlim(-3.0, 7.0)
         ax.set_ylim(-5.5, 7.0)

@@ -196,3 +196,26 @@ def test_python_api() -> None:
         bs.evaluate_mrclam(D6, 300, "mte")
     with pytest.raises(bs.DatasetError, match="does not exist"):
         bs.evaluate_mrclam(D6 / "nope", 1, "mte")
+
+
+def test_readme_tables_match_results_json() -> None:
+    """The README's Dataset 6 ATE and Dataset 1 tables are the numbers of
+    ``docs/results/mrclam/results.json`` (written by the ``mrclam_eval`` example)."""
+    results = json.loads((ROOT / "docs/results/mrclam/results.json").read_text())
+    text = (ROOT / "README.md").read_text().split("## Real data: UTIAS MRCLAM", 1)[1]
+    ate_table, rest = text.split("**Dataset 6, landmark RMSE", 1)
+    d1_table = rest.split("**Dataset 1, landmark RMSE", 1)[1]
+    order = ["dead_reckoning", "mte", "mte_clone", "pi_sr", "range_bearing"]
+
+    def row(table: str, robot: int) -> list[str]:
+        line = next(ln for ln in table.splitlines() if ln.startswith(f"| R{robot} |"))
+        return [c.strip() for c in line.strip("|").split("|")][1:]
+
+    for r in results["dataset6"]:
+        cells = row(ate_table, r["robot"])
+        assert cells[order.index(r["method"])] == f"{r['ate_rmse_m']:.2f}", r["source"]
+    for r in results["dataset1"]:
+        if r["method"] == "dead_reckoning":
+            continue
+        cell = row(d1_table, r["robot"])[order.index(r["method"]) - 1]
+        assert cell == f"{r['landmark_rmse_aligned_m']:.2f} ({r['n_landmarks_mapped']})"
