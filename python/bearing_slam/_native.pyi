@@ -45,6 +45,7 @@ __all__ = [
     "chi2_interval",
     "chi2_quantile",
     "diff_drive",
+    "evaluate_mrclam",
     "inverse_depth_to_point",
     "inverse_range_bearing",
     "linearity_index",
@@ -269,6 +270,13 @@ def read_mcap(path: _Path) -> tuple[SensorLog, Trace | None, list[str]]: ...
 def load_mrclam(
     dataset_dir: _Path, robot: int, start: float | None = None, end: float | None = None
 ) -> tuple[SensorLog, dict[str, Any]]: ...
+def evaluate_mrclam(
+    dataset_dir: _Path,
+    robot: int,
+    method: str = "mte",
+    start: float | None = None,
+    end: float | None = None,
+) -> tuple[RunResult, dict[str, Any], SensorLog]: ...
 def ate(estimate: ArrayLike, truth: ArrayLike, align: bool = False) -> dict[str, Any]: ...
 def rpe(estimate: ArrayLike, truth: ArrayLike, delta: int = 1) -> dict[str, Any]: ...
 def nees(error: ArrayLike, covariance: ArrayLike) -> float: ...

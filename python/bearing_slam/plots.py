@@ -179,6 +179,8 @@ def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=9)
     axes[-1].set_xlabel("time [s]")
+    if not np.isfinite(result.truth).any():
+        axes[0].set_title("no ground truth: the filter's ±3σ only, no error", fontsize=9)
     fig.suptitle(f"Pose errors with ±3σ bounds: {_title(result, log)}")
     return fig
 
@@ -205,8 +207,19 @@ def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
         ax.set_yscale("log")
     else:
         ax.set_title(f"Pose NEES: {_title(result, log)} (no ground truth)")
+        ax.text(
+            0.5,
+            0.5,
+            "no ground truth: the NEES cannot be computed",
+            transform=ax.transAxes,
+            ha="center",
+            va="center",
+            fontsize=12,
+        )
+        if len(t):
+            ax.set_xlim(float(t[0]), float(t[-1]) + 1e-9)
     ax.set_xlabel("time [s]")
-    ax.set_ylabel("NEES (log scale)")
+    ax.set_ylabel("NEES (log scale)" if ok.any() else "NEES")
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(loc="best", fontsize=9, framealpha=0.85)
     return fig

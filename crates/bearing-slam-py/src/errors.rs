@@ -149,7 +149,7 @@ pub(crate) fn register(module: &Bound<'_, PyModule>) -> PyResult<()> {
 }
 
 /// An exception of class `name` with `message`.
-fn raise(name: &str, message: String) -> PyErr {
+pub(crate) fn raise(name: &str, message: String) -> PyErr {
     Python::attach(|py| {
         match TYPES
             .get(py)

@@ -14,6 +14,7 @@ mod log;
 mod metrics;
 mod models;
 mod montecarlo;
+mod real_data;
 mod run;
 mod sim;
 
@@ -59,5 +60,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::linearity_index, m)?)?;
     m.add_function(wrap_pyfunction!(models::py_wrap_angle, m)?)?;
     montecarlo::register(m)?;
+    m.add_function(wrap_pyfunction!(real_data::py_evaluate_mrclam, m)?)?;
     Ok(())
 }

@@ -1,0 +1,147 @@
+//! `evaluate_mrclam(...)`: one method on one real MRCLAM robot with the
+//! calibrated parameters (`bearing_slam::real_data`), in Rust with the GIL
+//! released; the run as a `RunResult`, its real-data scores as a dict and the
+//! log the filter was given.
+
+use crate::config::PyConfig;
+use crate::convert::to_py;
+use crate::errors;
+use crate::log::PySensorLog;
+use crate::run::PyRunResult;
+use bearing_slam::core::Pose2;
+use bearing_slam::core::runner::summarize;
+use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
+use bearing_slam::real_data::{
+    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
+    filter_log,
+};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// The method names accepted by `evaluate_mrclam`, in table order.
+pub(crate) const METHODS: [&str; 5] = [
+    "dead-reckoning",
+    "mte",
+    "mte-clone",
+    "pi-sr",
+    "range-bearing",
+];
+
+fn parse_method(name: &str) -> PyResult<Method> {
+    Method::from_name(&name.replace('-', "_"))
+        .filter(|_| METHODS.contains(&name))
+        .ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "unknown method {name:?}; expected one of {}",
+                METHODS.join(", ")
+            ))
+        })
+}
+
+fn real_data_error(e: RealDataError) -> PyErr {
+    match e {
+        RealDataError::Load(e) => errors::dataset(e),
+        RealDataError::Slam(e) => errors::slam(e),
+        RealDataError::Calibration(m) => errors::raise("DatasetError", m),
+    }
+}
+
+/// Runs `method` (`"dead-reckoning"`, `"mte"`, `"mte-clone"`, `"pi-sr"` or
+/// `"range-bearing"`) on robot `robot` (1–5) of an MRCLAM dataset directory
+/// (`MRCLAM_DatasetN/`), optionally on the window `[start, end)` in seconds
+/// since the robot's first command, with the parameters calibrated on
+/// Dataset 6 (command delay and speed scale applied to the log). Returns
+/// `(result, metrics, log)`: the `RunResult`, the real-data scores as a dict
+/// (`ate_rmse_m`, `odometry_ate_rmse_m`, `landmark_rmse_m` raw in the Vicon
+/// frame, `landmark_rmse_aligned_m`, counts, the loader's `report`, the
+/// `parameters`, `landmark_alignment` `(x, y, θ)` mapping the map onto the
+/// surveyed landmarks or None, `has_ground_truth`) and the log the filter
+/// was given (commands corrected; ground truth decimated to 10 Hz).
+#[pyfunction(name = "evaluate_mrclam")]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None))]
+pub(crate) fn py_evaluate_mrclam<'py>(
+    py: Python<'py>,
+    dataset_dir: PathBuf,
+    robot: i64,
+    method: &str,
+    start: Option<f64>,
+    end: Option<f64>,
+) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
+    let method = parse_method(method)?;
+    let robot = u8::try_from(robot)
+        .ok()
+        .filter(|r| (1..=ROBOT_COUNT).contains(r))
+        .ok_or_else(|| {
+            errors::raise(
+                "DatasetError",
+                format!(
+                    "robot number {robot} is out of range: MRCLAM robots are numbered 1 to {ROBOT_COUNT}"
+                ),
+            )
+        })?;
+    let defaults = EvalOptions::default();
+    let load = LoadOptions {
+        start_s: start,
+        end_s: end,
+        ..defaults.load
+    };
+    let parameters = defaults.parameters;
+    let (scores, output, log, summary, alignment, t0) = py
+        .detach(|| {
+            let run = load_mrclam_with(&dataset_dir, robot, &load)?;
+            let log = filter_log(&run, method, &parameters)?;
+            let mut scores = evaluate_run(&run, method, &parameters)?;
+            // evaluate_run always keeps its output.
+            let output = scores.output.take().unwrap_or_default();
+            let summary = if output.track.iter().any(|p| p.truth.is_some()) {
+                Some(summarize(&log, &output)?)
+            } else {
+                None
+            };
+            let estimated: Vec<(u64, f64, f64)> = output
+                .trace
+                .snapshots
+                .last()
+                .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+                .unwrap_or_default();
+            let truth: Vec<(u64, f64, f64)> =
+                log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+            let alignment = align_landmarks_se2(&estimated, &truth).map(|(a, _)| a);
+            Ok::<_, RealDataError>((scores, output, log, summary, alignment, run.t0_epoch_s))
+        })
+        .map_err(real_data_error)?;
+    let metrics = to_py(py, &scores)?;
+    let has_truth = summary.is_some();
+    metrics.set_item("method", METHODS[method_index(method)])?;
+    metrics.set_item("has_ground_truth", has_truth)?;
+    metrics.set_item(
+        "landmark_alignment",
+        alignment.map(|a: Pose2| (a.x, a.y, a.theta)),
+    )?;
+    metrics.set_item("n_landmarks_truth", log.landmarks.len())?;
+    metrics.set_item("t0_epoch_s", t0)?;
+    metrics.set_item("start", start)?;
+    metrics.set_item("end", end)?;
+    let mut config = PyConfig::from_run_config(
+        &CALIBRATED_PARAMETERS
+            .run_config(method, log.info.initial_pose.unwrap_or_default())
+            .map_err(errors::slam)?,
+    );
+    if method == Method::RangeBearing {
+        config.use_range = true;
+    }
+    Ok((
+        PyRunResult {
+            output,
+            summary,
+            config,
+        },
+        metrics,
+        PySensorLog::new(log),
+    ))
+}
+
+fn method_index(method: Method) -> usize {
+    Method::ALL.iter().position(|m| *m == method).unwrap_or(0)
+}
