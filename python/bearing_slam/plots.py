@@ -111,6 +111,27 @@ def _path_box(result: RunResult) -> tuple[float, float, float, float]:
     )
 
 
+def _fit_to_points(ax: Axes, result: RunResult, log: SensorLog | None) -> None:
+    """Limits the axes to the paths and the landmark points (true and
+    estimated) with a 10 % margin, so that one badly constrained landmark's
+    ellipse is clipped instead of shrinking the whole map to a corner."""
+    pts = [result.estimate[:, :2], result.dead_reckoning[:, :2]]
+    truth = result.truth[:, :2]
+    pts.append(truth[np.isfinite(truth).all(axis=1)])
+    _, pos, _ = result.landmarks()
+    pts.append(pos)
+    if log is not None and len(log.landmarks):
+        pts.append(log.landmarks[:, 1:])
+    xy = np.concatenate([p for p in pts if len(p)])
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        return
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    margin = 0.1 * max(float((hi - lo).max()), 1.0)
+    ax.set_xlim(float(lo[0]) - margin, float(hi[0]) + margin)
+    ax.set_ylim(float(lo[1]) - margin, float(hi[1]) + margin)
+
+
 def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
     """Trajectories (truth, estimate, dead reckoning) and the map: true
     landmarks (red crosses) and estimates (blue dots) with 2σ ellipses, axes
@@ -135,6 +156,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
             1, 2, figsize=(13, 6), layout="constrained", width_ratios=[1, 1.3]
         )
         _draw_map(ax, result, log, legend=False)
+        _fit_to_points(ax, result, log)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_title("whole map")
         _draw_map(zoom, result, log, legend=True)
@@ -147,6 +169,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
     else:
         fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
         _draw_map(ax, result, log, legend=True)
+        _fit_to_points(ax, result, log)
         ax.set_aspect("equal", adjustable="datalim")
     fig.suptitle(f"Trajectory and map: {_title(result, log)}")
     return fig
