@@ -863,6 +863,10 @@ fn micro_tile(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
     acc
 }
 
+/// Edge of the square blocks in which [`lower_update_mirrored`] walks `P`
+/// (a multiple of `MR` and `NR`).
+const KB: usize = 64;
+
 /// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the
 /// column-major n×n `p`, each new entry also written to its mirror in the
 /// upper triangle, so one pass over `P`, half the flops of a full update,
@@ -871,50 +875,58 @@ fn micro_tile(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
 /// `b` is `B` packed likewise in panels of NR. Register-tiled: each MR×NR
 /// tile of `P` is read and written once, with its `depth` rank-one terms
 /// accumulated in registers.
+///
+/// The tiles are visited in KB×KB blocks of the lower triangle, so the
+/// mirror writes of a block land in one KB×KB block of the upper triangle
+/// (KB columns, a few cache lines each) instead of sweeping all n columns
+/// (n pages, at large n one TLB miss each) for every column panel; and the
+/// KB rows of `a` a block reads stay in L1.
 fn lower_update_mirrored(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize) {
     if n == 0 || depth == 0 {
         return;
     }
-    let row_panels = n.div_ceil(MR);
-    for (jp, bp) in b.chunks_exact(depth * NR).enumerate() {
-        let j0 = jp * NR;
-        let jn = NR.min(n - j0);
-        for (ip, ap) in a
-            .chunks_exact(depth * MR)
-            .enumerate()
-            .take(row_panels)
-            .skip(j0 / MR)
-        {
-            let i0 = ip * MR;
-            let im = MR.min(n - i0);
-            let acc = micro_tile(ap, bp);
-            if i0 >= j0 + NR && im == MR && jn == NR {
-                // Strictly below the diagonal and inside P: the fast path.
-                let mut new = [[0.0; MR]; NR];
-                for (jj, (acc_j, new_j)) in acc.iter().zip(new.iter_mut()).enumerate() {
-                    let col = &mut p[(j0 + jj) * n + i0..][..MR];
-                    for ((x, &d), y) in col.iter_mut().zip(acc_j).zip(new_j.iter_mut()) {
-                        *x -= d;
-                        *y = *x;
-                    }
-                }
-                for ii in 0..MR {
-                    let row = &mut p[(i0 + ii) * n + j0..][..NR];
-                    for (x, new_j) in row.iter_mut().zip(&new) {
-                        *x = new_j[ii];
-                    }
-                }
-            } else {
-                for (jj, acc_j) in acc.iter().enumerate().take(jn) {
-                    let j = j0 + jj;
-                    for (ii, &d) in acc_j.iter().enumerate().take(im) {
-                        let i = i0 + ii;
-                        if i < j {
-                            continue;
+    for jb in (0..n).step_by(KB) {
+        let jb_end = (jb + KB).min(n);
+        for ib in (jb..n).step_by(KB) {
+            let ib_end = (ib + KB).min(n);
+            for jp in jb / NR..jb_end.div_ceil(NR) {
+                let bp = &b[jp * depth * NR..][..depth * NR];
+                let j0 = jp * NR;
+                let jn = NR.min(n - j0);
+                for ip in (ib / MR).max(j0 / MR)..ib_end.div_ceil(MR) {
+                    let ap = &a[ip * depth * MR..][..depth * MR];
+                    let i0 = ip * MR;
+                    let im = MR.min(n - i0);
+                    let acc = micro_tile(ap, bp);
+                    if i0 >= j0 + NR && im == MR && jn == NR {
+                        // Strictly below the diagonal and inside P: the fast path.
+                        let mut new = [[0.0; MR]; NR];
+                        for (jj, (acc_j, new_j)) in acc.iter().zip(new.iter_mut()).enumerate() {
+                            let col = &mut p[(j0 + jj) * n + i0..][..MR];
+                            for ((x, &d), y) in col.iter_mut().zip(acc_j).zip(new_j.iter_mut()) {
+                                *x -= d;
+                                *y = *x;
+                            }
                         }
-                        let v = p[j * n + i] - d;
-                        p[j * n + i] = v;
-                        p[i * n + j] = v;
+                        for ii in 0..MR {
+                            let row = &mut p[(i0 + ii) * n + j0..][..NR];
+                            for (x, new_j) in row.iter_mut().zip(&new) {
+                                *x = new_j[ii];
+                            }
+                        }
+                    } else {
+                        for (jj, acc_j) in acc.iter().enumerate().take(jn) {
+                            let j = j0 + jj;
+                            for (ii, &d) in acc_j.iter().enumerate().take(im) {
+                                let i = i0 + ii;
+                                if i < j {
+                                    continue;
+                                }
+                                let v = p[j * n + i] - d;
+                                p[j * n + i] = v;
+                                p[i * n + j] = v;
+                            }
+                        }
                     }
                 }
             }
@@ -987,7 +999,7 @@ mod tests {
 
     #[test]
     fn update_matches_dense_joseph_in_both_forms() {
-        for (n, seed) in [(1, 1), (2, 2), (7, 3), (17, 4), (40, 5)] {
+        for (n, seed) in [(1, 1), (2, 2), (7, 3), (17, 4), (40, 5), (100, 6)] {
             let mut rng = StdRng::seed_from_u64(100 + seed);
             let ekf = random_filter(n, seed);
             let batch = bearing_batch(&ekf, n, &mut rng);
