@@ -39,17 +39,7 @@ impl Bench {
         let (x, y, th) = (mean[0], mean[1], mean[2]);
         let (s, c) = th.sin_cos();
         let dt = self.dt;
-        let f = Matrix3::new(
-            1.0,
-            0.0,
-            -v * dt * s,
-            0.0,
-            1.0,
-            v * dt * c,
-            0.0,
-            0.0,
-            1.0,
-        );
+        let f = Matrix3::new(1.0, 0.0, -v * dt * s, 0.0, 1.0, v * dt * c, 0.0, 0.0, 1.0);
         // Q = V diag(σv², σω²) Vᵀ, V = [[dt c, 0], [dt s, 0], [0, dt]].
         let (qv, qw) = (self.sigma_v * self.sigma_v, self.sigma_w * self.sigma_w);
         let (a, b) = (dt * c, dt * s);
@@ -78,7 +68,9 @@ impl Bench {
             let nu = BearingToPoint.residual(&Vector1::new(zi), &p.value);
             meas.innovation[0] = nu.x;
             meas.noise[(0, 0)] = self.noise.x;
-            meas.blocks[0].jacobian.copy_from_slice(p.j_z_vehicle.as_slice());
+            meas.blocks[0]
+                .jacobian
+                .copy_from_slice(p.j_z_vehicle.as_slice());
             meas.blocks[1].offset = offset;
             meas.blocks[1]
                 .jacobian
