@@ -119,7 +119,7 @@ impl PyEkfBenchmark {
                 p0.shape()
             )));
         }
-        if dim < 3 || (dim - 3) % 2 != 0 {
+        if dim < 3 || !(dim - 3).is_multiple_of(2) {
             return Err(PyValueError::new_err(format!(
                 "x0 must have 3 + 2n entries, got {dim}"
             )));
