@@ -12,12 +12,13 @@ STAMP := $(VENV)/.installed
 NATIVE_STAMP := $(VENV)/.native-built
 RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.toml Cargo.lock
 
-.PHONY: help test demo bench lint rust-setup rust-lint rust-test venv develop py-lint py-test
+.PHONY: help test demo bench bench-peers lint rust-setup rust-lint rust-test venv develop py-lint py-test
 
 help:
 	@echo "make demo   - simulate paper_fig4 and slip_patch, compare MTE, MTE-clone and PI-SR (Python CLI)"
 	@echo "make test   - Rust formatting, clippy and tests; ruff, mypy, stubtest and pytest"
-	@echo "make bench  - criterion benchmarks"
+	@echo "make bench  - criterion benchmarks, then the peer comparison (bench-peers)"
+	@echo "make bench-peers - our EKF step vs numpy, filterpy, GTSAM (benches/PEERS.md, peers.png)"
 	@echo "make lint   - formatting and lints only (Rust and Python)"
 
 rust-setup:
@@ -68,3 +69,16 @@ demo: develop
 
 bench: rust-setup
 	$(CARGO) bench -p bearing-slam
+	$(MAKE) bench-peers
+
+# The `bench` extra (filterpy, gtsam, scipy, ...), one package at a time: a
+# peer whose package cannot be installed here is skipped (and said so) by
+# compare_peers.py instead of failing the whole comparison.
+BENCH_STAMP := $(VENV)/.bench-installed
+$(BENCH_STAMP): $(STAMP)
+	$(VPY) -c 'import tomllib; print("\n".join(tomllib.load(open("pyproject.toml", "rb"))["project"]["optional-dependencies"]["bench"]))' > $(VENV)/requirements-bench.txt
+	while read -r req; do $(VPY) -m pip install --quiet "$$req" || echo "could not install $$req: its peer is skipped"; done < $(VENV)/requirements-bench.txt
+	touch $@
+
+bench-peers: develop $(BENCH_STAMP)
+	$(VPY) benches/compare_peers.py

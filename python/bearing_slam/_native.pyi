@@ -23,6 +23,7 @@ __all__ = [
     "DimensionMismatchError",
     "DivergedError",
     "DuplicateMeasurementError",
+    "EkfBenchmark",
     "InvalidNoiseError",
     "InvalidParameterError",
     "LandmarkAtInfinityError",
@@ -209,6 +210,32 @@ class SlamFilter:
     def copy(self) -> SlamFilter: ...
     def __copy__(self) -> SlamFilter: ...
     def __deepcopy__(self, memo: Any, /) -> SlamFilter: ...
+
+@final
+class EkfBenchmark:
+    """THE benchmark problem's EKF step (BENCHMARK.md) on the library's Ekf."""
+
+    def __new__(
+        cls,
+        x0: ArrayLike,
+        p0: ArrayLike,
+        ids: ArrayLike,
+        sigma_v: float,
+        sigma_w: float,
+        dt: float,
+        sigma_bearing: float,
+        symmetric: bool = False,
+    ) -> EkfBenchmark: ...
+    def step(self, u: tuple[float, float], z: ArrayLike) -> None: ...
+    def run(self, controls: ArrayLike, z: ArrayLike) -> None: ...
+    @property
+    def mean(self) -> _F64: ...
+    @property
+    def covariance(self) -> _F64: ...
+    @property
+    def symmetric(self) -> bool: ...
+    @property
+    def dim(self) -> int: ...
 
 @final
 class Trace:

@@ -5,6 +5,7 @@
 //! mapping only. Every algorithm lives in the Rust crates; long work (`run`,
 //! `simulate`, MCAP and dataset IO) releases the GIL.
 
+mod bench;
 mod config;
 mod convert;
 mod errors;
@@ -26,6 +27,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     errors::register(m)?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add_class::<config::PyConfig>()?;
+    m.add_class::<bench::PyEkfBenchmark>()?;
     m.add_class::<log::PySensorLog>()?;
     m.add_class::<filter::PySlamFilter>()?;
     m.add_class::<filter::PyUpdateReport>()?;
