@@ -346,3 +346,24 @@ pub fn decide(
     };
     (decision, p)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prior_covering_depths_follows_the_heuristic() {
+        // d_min = 2 m: ρ_max = 0.5, so ρ_ini = 0.25 and σ_ρ = 0.125; the 95 %
+        // region ρ_ini ± 2σ_ρ is exactly [0, ρ_max], i.e. depths [2 m, ∞).
+        let prior = InverseDepthPrior::covering_depths_from(2.0).expect("valid depth");
+        assert_eq!((prior.rho_ini, prior.sigma_rho), (0.25, 0.125));
+        assert_eq!(prior.rho_ini + 2.0 * prior.sigma_rho, 0.5);
+        assert_eq!(prior.rho_ini - 2.0 * prior.sigma_rho, 0.0);
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            assert!(
+                InverseDepthPrior::covering_depths_from(bad).is_err(),
+                "{bad}"
+            );
+        }
+    }
+}
