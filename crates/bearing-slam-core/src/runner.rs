@@ -158,11 +158,7 @@ impl Runner<'_> {
         self.output.track.push(TrackPoint {
             time,
             estimate: self.slam.pose(),
-            covariance: [
-                [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
-                [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
-                [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
-            ],
+            covariance: c.transpose().into(),
             dead_reckoning: self.dead_reckoning,
             truth,
         });

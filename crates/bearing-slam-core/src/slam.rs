@@ -349,11 +349,7 @@ impl BearingSlam {
         EstimateSnapshot {
             time: self.time.unwrap_or(0.0),
             pose: self.pose(),
-            pose_covariance: [
-                [c[(0, 0)], c[(0, 1)], c[(0, 2)]],
-                [c[(1, 0)], c[(1, 1)], c[(1, 2)]],
-                [c[(2, 0)], c[(2, 1)], c[(2, 2)]],
-            ],
+            pose_covariance: c.transpose().into(),
             landmarks: self
                 .landmarks()
                 .into_iter()
@@ -361,10 +357,7 @@ impl BearingSlam {
                     id: l.id,
                     x: l.position.x,
                     y: l.position.y,
-                    covariance: [
-                        [l.covariance[(0, 0)], l.covariance[(0, 1)]],
-                        [l.covariance[(1, 0)], l.covariance[(1, 1)]],
-                    ],
+                    covariance: l.covariance.transpose().into(),
                     inverse_depth: l.parameterization == Parameterization::InverseDepth,
                 })
                 .collect(),
