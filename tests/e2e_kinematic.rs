@@ -164,3 +164,38 @@ fn mte_converges_and_is_consistent_where_pi_sr_drifts() {
         mte.final_heading_deg
     );
 }
+
+/// Keeping the bearings seen while a candidate waits (pose cloning with a
+/// history) uses information plain MTE discards: on the same runs it must be
+/// more accurate than MTE-clone, and stay inside the NEES band.
+#[test]
+fn waiting_bearings_make_mte_more_accurate() {
+    let (_, upper) = chi2_interval(3.0, RUNS as usize, 0.99).expect("valid interval");
+    let clone = evaluate(InitializerConfig::TriangulationWithClone(
+        TriangulationConfig::default(),
+    ));
+    let history = evaluate(InitializerConfig::TriangulationWithClone(
+        TriangulationConfig {
+            history: 32,
+            ..TriangulationConfig::default()
+        },
+    ));
+    assert!(
+        history.ate_m < 0.9 * clone.ate_m,
+        "ATE with history {} m vs without {} m",
+        history.ate_m,
+        clone.ate_m
+    );
+    assert!(
+        history.final_position_m < clone.final_position_m,
+        "final position error with history {} m vs without {} m",
+        history.final_position_m,
+        clone.final_position_m
+    );
+    for (k, nees) in history.nees_at.iter().enumerate() {
+        assert!(
+            *nees < upper,
+            "MTE-history NEES {nees} at checkpoint {k} above the 99% bound {upper}"
+        );
+    }
+}

@@ -237,6 +237,12 @@ pub struct TriangulationConfig {
     /// (rays crossing almost at the robot: ρ and its Jacobian blow up as the
     /// first ray aligns with the baseline); the candidate restarts. Metres.
     pub min_depth: f64,
+    /// Most bearings a waiting candidate keeps, each with a clone of the pose
+    /// it was taken from, to apply once the landmark is in the state (pose
+    /// cloning only; 0 discards them, as the paper does). Beyond the limit
+    /// the kept sightings are thinned to every other one.
+    #[serde(default)]
+    pub history: usize,
 }
 
 impl Default for TriangulationConfig {
@@ -249,6 +255,7 @@ impl Default for TriangulationConfig {
             beta_min: 20f64.to_radians(),
             candidate_timeout: 5.0,
             min_depth: 0.1,
+            history: 0,
         }
     }
 }

@@ -4,7 +4,7 @@
 //! (MTE, optionally with a cloned first pose), converted from inverse depth to
 //! Euclidean once their depth is linear enough, and gated by a chi-square test.
 
-use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, MotionModel};
+use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, MeasurementModel, MotionModel};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{
@@ -47,7 +47,10 @@ pub enum InitializerConfig {
     /// simplification: the candidate keeps only the first pose's variances.
     Triangulation(TriangulationConfig),
     /// MTE with the first pose cloned into the state while the candidate
-    /// waits, so every cross-covariance at initialization is exact.
+    /// waits, so every cross-covariance at initialization is exact. With
+    /// [`TriangulationConfig::history`] > 0 the poses of later sightings are
+    /// cloned too, and their bearings are applied once the landmark is in:
+    /// the delayed initializer then discards no measurement.
     TriangulationWithClone(TriangulationConfig),
 }
 
@@ -148,9 +151,17 @@ impl SlamConfig {
                     InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
                 }
             }
-            InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c) => {
-                c.validate()?
+            InitializerConfig::Triangulation(c) => {
+                c.validate()?;
+                if c.history > 0 {
+                    return Err(SlamError::InvalidParameter {
+                        name: "history",
+                        value: c.history as f64,
+                        reason: "keeping the waiting bearings needs pose cloning (TriangulationWithClone)",
+                    });
+                }
             }
+            InitializerConfig::TriangulationWithClone(c) => c.validate()?,
         }
         Ok(())
     }
@@ -191,11 +202,17 @@ struct LandmarkSlot {
     method: InitMethod,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq)]
 struct PendingCandidate {
     candidate: Candidate,
     /// The pose clone holding the first pose (clone variant only).
     clone: Option<u64>,
+    /// Bearings seen while waiting, each with the clone of its pose.
+    history: Vec<(u64, f64)>,
+    /// Keep one waiting sighting out of `stride` (doubles at each thinning).
+    stride: usize,
+    /// Sightings skipped since the last one kept.
+    skipped: usize,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -288,6 +305,13 @@ impl BearingSlam {
     #[must_use]
     pub fn candidate_count(&self) -> usize {
         self.candidates.len()
+    }
+
+    /// Pose clones in the state (the cloned MTE initializer's first poses and
+    /// waiting sightings).
+    #[must_use]
+    pub fn clone_count(&self) -> usize {
+        self.clones.len()
     }
 
     /// The filter's decisions so far.
@@ -706,7 +730,7 @@ impl BearingSlam {
         };
         let time = self.time.unwrap_or(0.0);
         let pose = self.ekf.block::<3>(0)?;
-        let Some(pending) = self.candidates.get(&id).copied() else {
+        let Some(pending) = self.candidates.get(&id).cloned() else {
             self.create_candidate(id, z, cloning)?;
             return Ok(false);
         };
@@ -716,6 +740,9 @@ impl BearingSlam {
                 if let Some(c) = self.candidates.get_mut(&id) {
                     c.candidate.last_seen = time;
                 }
+                if cloning && config.history > 0 {
+                    self.remember_sighting(id, z, config.history)?;
+                }
                 Ok(false)
             }
             CandidateDecision::Restart => {
@@ -724,8 +751,15 @@ impl BearingSlam {
                 Ok(false)
             }
             CandidateDecision::Far => {
+                let inserted = self.initialize_with_prior(
+                    id,
+                    z,
+                    config.far_prior(&parallax)?,
+                    InitMethod::Far,
+                )?;
+                self.replay_history(id, &pending.history)?;
                 self.drop_candidate(id)?;
-                self.initialize_with_prior(id, z, config.far_prior(&parallax)?, InitMethod::Far)
+                Ok(inserted)
             }
             CandidateDecision::Triangulate => {
                 let init = triangulate_candidate(&pending.candidate, &pose, z)?;
@@ -771,6 +805,7 @@ impl BearingSlam {
                     method,
                     parallax.alpha,
                 )?;
+                self.replay_history(id, &pending.history)?;
                 self.drop_candidate(id)?;
                 Ok(inserted)
             }
@@ -784,21 +819,7 @@ impl BearingSlam {
         let pose = self.ekf.block::<3>(0)?;
         let variances = self.pose_covariance().diagonal();
         let clone = if cloning {
-            let clone_id = match self.batch_clone {
-                Some(c) => c,
-                None => {
-                    let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
-                    let c = self.next_clone_id;
-                    self.next_clone_id += 1;
-                    self.clones.insert(c, PoseClone { offset, users: 0 });
-                    self.batch_clone = Some(c);
-                    c
-                }
-            };
-            if let Some(c) = self.clones.get_mut(&clone_id) {
-                c.users += 1;
-            }
-            Some(clone_id)
+            Some(self.acquire_batch_clone()?)
         } else {
             None
         };
@@ -813,21 +834,163 @@ impl BearingSlam {
                     last_seen: time,
                 },
                 clone,
+                history: Vec::new(),
+                stride: 1,
+                skipped: 0,
             },
         );
         self.record(SlamEvent::CandidateCreated { id });
         Ok(())
     }
 
-    /// Forgets a candidate and releases its pose clone (removed from the state
-    /// when no candidate uses it any more).
+    /// The clone of the pose at the current batch's time (taken at the first
+    /// request of the batch), with one more user.
+    fn acquire_batch_clone(&mut self) -> Result<u64> {
+        let clone_id = match self.batch_clone {
+            Some(c) => c,
+            None => {
+                let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
+                let c = self.next_clone_id;
+                self.next_clone_id += 1;
+                self.clones.insert(c, PoseClone { offset, users: 0 });
+                self.batch_clone = Some(c);
+                c
+            }
+        };
+        if let Some(c) = self.clones.get_mut(&clone_id) {
+            c.users += 1;
+        }
+        Ok(clone_id)
+    }
+
+    /// Keeps a waiting candidate's bearing with a clone of the current pose,
+    /// one sighting out of `stride`; past `limit` kept sightings, every other
+    /// one is released and the stride doubles, so the history stays spread
+    /// over the whole wait with at most `limit` clones.
+    fn remember_sighting(&mut self, id: u64, z: f64, limit: usize) -> Result<()> {
+        let keep = match self.candidates.get_mut(&id) {
+            Some(c) => {
+                c.skipped += 1;
+                c.skipped >= c.stride
+            }
+            None => false,
+        };
+        if !keep {
+            return Ok(());
+        }
+        let clone = self.acquire_batch_clone()?;
+        let mut released = Vec::new();
+        if let Some(c) = self.candidates.get_mut(&id) {
+            c.skipped = 0;
+            c.history.push((clone, z));
+            if c.history.len() > limit {
+                let mut index = 0;
+                c.history.retain(|&(clone, _)| {
+                    index += 1;
+                    let keep = index % 2 == 0;
+                    if !keep {
+                        released.push(clone);
+                    }
+                    keep
+                });
+                c.stride *= 2;
+            }
+        }
+        for clone in released {
+            self.release_clone(clone)?;
+        }
+        Ok(())
+    }
+
+    /// Applies the bearings a candidate saw while waiting, from the clones of
+    /// their poses, to its landmark just added to the state: one gated,
+    /// batched update, so the delayed initializer discards no measurement.
+    fn replay_history(&mut self, id: u64, history: &[(u64, f64)]) -> Result<()> {
+        let Some(slot) = self.landmarks.get(&id).copied() else {
+            return Ok(());
+        };
+        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
+        let mut batch = Vec::new();
+        let mut report = BatchReport::default();
+        let mut events = Vec::new();
+        for &(clone_id, z) in history {
+            let Some(clone) = self.clones.get(&clone_id).copied() else {
+                continue;
+            };
+            let linearized = self.linearize_from_clone(clone.offset, slot, z, &noise);
+            self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
+        }
+        self.ekf.update(&batch)?;
+        for e in events {
+            self.record(e);
+        }
+        self.wrap_heading()?;
+        self.wrap_ray_azimuths()
+    }
+
+    /// A bearing of the landmark in `slot` taken from the pose held by the
+    /// clone at `clone_offset`.
+    fn linearize_from_clone(
+        &self,
+        clone_offset: usize,
+        slot: LandmarkSlot,
+        z: f64,
+        noise: &Matrix1<f64>,
+    ) -> Result<LinearizedMeasurement> {
+        let pose = self.ekf.block::<3>(clone_offset)?;
+        let measured = Vector1::new(wrap_angle(z));
+        let (value, j_pose, j_landmark) = match slot.parameterization {
+            Parameterization::Euclidean => {
+                let p = BearingToPoint.predict(&pose, &self.ekf.block::<2>(slot.offset)?)?;
+                (
+                    p.value,
+                    p.j_z_vehicle,
+                    DMatrix::from_column_slice(1, 2, p.j_z_landmark.as_slice()),
+                )
+            }
+            Parameterization::InverseDepth => {
+                let p = BearingToInverseDepth.predict(&pose, &self.ekf.block::<4>(slot.offset)?)?;
+                (
+                    p.value,
+                    p.j_z_vehicle,
+                    DMatrix::from_column_slice(1, 4, p.j_z_landmark.as_slice()),
+                )
+            }
+        };
+        Ok(LinearizedMeasurement {
+            innovation: DVector::from_element(1, wrap_angle(measured[0] - value[0])),
+            noise: DMatrix::from_column_slice(1, 1, noise.as_slice()),
+            blocks: vec![
+                BlockJacobian {
+                    offset: clone_offset,
+                    jacobian: DMatrix::from_column_slice(1, 3, j_pose.as_slice()),
+                },
+                BlockJacobian {
+                    offset: slot.offset,
+                    jacobian: j_landmark,
+                },
+            ],
+        })
+    }
+
+    /// Forgets a candidate and releases its pose clones (each removed from the
+    /// state when no candidate uses it any more).
     fn drop_candidate(&mut self, id: u64) -> Result<()> {
         let Some(pending) = self.candidates.remove(&id) else {
             return Ok(());
         };
-        let Some(clone_id) = pending.clone else {
-            return Ok(());
-        };
+        let clones = pending
+            .clone
+            .into_iter()
+            .chain(pending.history.iter().map(|&(c, _)| c));
+        for clone_id in clones.collect::<Vec<_>>() {
+            self.release_clone(clone_id)?;
+        }
+        Ok(())
+    }
+
+    /// One user less for a clone; it leaves the state at zero.
+    fn release_clone(&mut self, clone_id: u64) -> Result<()> {
         let Some(clone) = self.clones.get_mut(&clone_id) else {
             return Ok(());
         };

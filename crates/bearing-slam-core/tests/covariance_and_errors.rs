@@ -52,6 +52,12 @@ fn initializer() -> impl Strategy<Value = InitializerConfig> {
         Just(InitializerConfig::TriangulationWithClone(
             TriangulationConfig::default()
         )),
+        Just(InitializerConfig::TriangulationWithClone(
+            TriangulationConfig {
+                history: 3,
+                ..TriangulationConfig::default()
+            }
+        )),
         Just(InitializerConfig::pi_sr(InverseDepthPrior {
             rho_ini: 0.5,
             sigma_rho: 0.25

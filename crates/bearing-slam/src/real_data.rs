@@ -291,6 +291,7 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
         beta_min: 0.349_065_850_398_865_9, // 20°
         candidate_timeout: 5.0,
         min_depth: 0.1,
+        history: 0,
     },
     pi_sr_prior: InverseDepthPrior {
         rho_ini: 0.5,
