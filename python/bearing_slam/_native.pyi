@@ -104,6 +104,7 @@ class Config:
     beta_min: float
     candidate_timeout: float
     min_depth: float
+    history: int
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

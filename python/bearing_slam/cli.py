@@ -490,7 +490,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
     mc.add_argument("--runs", type=_positive_int, default=20, help="runs (default: %(default)s)")
     mc.add_argument(
         "--init",
-        choices=["mte", "mte-clone", "pi-sr", "pi-sr-mixed"],
+        choices=["mte", "mte-clone", "mte-history", "pi-sr", "pi-sr-mixed"],
         default="mte",
         help="landmark initializer (default: %(default)s)",
     )

@@ -7,8 +7,9 @@ each figure's markdown table, JSON and PNG plot.
 =============  ==============================================================
 name           what it runs and plots
 =============  ==============================================================
-``fig4``       ``paper_fig4``, five initializers, with and without the far
-               landmark: class fractions per method (``fig4.png``)
+``fig4``       ``paper_fig4``, six initializers, with and without the far
+               landmark: class fractions per method; then every initializer
+               on the scene scaled ×0.2 … ×4: ATE per scale (``fig4.png``)
 ``fig5``       depth σ_d and inverse-depth σ_ρ of a triangulation against
                parallax, first order and sampled, log y (``fig5.png``)
 ``fig8``       ``paper_fig8`` with 5, 10, 20, 40 landmarks (MTE): ATE of dead
@@ -39,6 +40,7 @@ mpl.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 from numpy.typing import NDArray
@@ -107,8 +109,14 @@ def _nan(values: Iterable[float | None]) -> NDArray[np.float64]:
 
 def plot_fig4(result: dict[str, Any]) -> Figure:
     """Class fractions (converged, drift, diverged) per method, with and
-    without the far landmark: horizontal stacked bars."""
-    fig, axes = plt.subplots(1, 2, figsize=(13, 4.2), sharey=True)
+    without the far landmark: horizontal stacked bars; below them, when the
+    result has the tuning study, each method's ATE against the scene scale."""
+    scales = result.get("across_scales") or []
+    fig = plt.figure(figsize=(13, 9.0 if scales else 4.2))
+    grid = fig.add_gridspec(2 if scales else 1, 2, height_ratios=[1, 1] if scales else [1])
+    axes = [fig.add_subplot(grid[0, 0])]
+    axes.append(fig.add_subplot(grid[0, 1], sharey=axes[0]))
+    plt.setp(axes[1].get_yticklabels(), visible=False)
     for ax, key, title in zip(
         axes,
         ("with_far", "without_far"),
@@ -134,9 +142,40 @@ def plot_fig4(result: dict[str, Any]) -> Figure:
         ax.set_title(f"paper_fig4, {title}, {runs} runs each")
         ax.grid(axis="x", alpha=0.3)
     handles, names = axes[0].get_legend_handles_labels()
-    fig.legend(handles, names, loc="lower center", ncol=3, fontsize=9, frameon=False)
-    fig.tight_layout(rect=(0, 0.06, 1, 1))
+    axes[0].legend(handles, names, loc="lower left", fontsize=8, framealpha=0.9)
+    if scales:
+        _plot_fig4_scales(fig.add_subplot(grid[1, :]), scales)
+    fig.tight_layout()
     return fig
+
+
+def _plot_fig4_scales(ax: Axes, rows: list[dict[str, Any]]) -> None:
+    """ATE (mean over the runs that did not diverge) against the factor on
+    the near landmarks' positions, one line per method; the marker is hollow
+    where fewer than 95 % of the runs converged."""
+    for row in rows:
+        cells = row["cells"]
+        x = np.array([c["scale"] for c in cells], dtype=np.float64)
+        ate = _nan(c["ate_rmse_m"] for c in cells)
+        ok = np.array([c["converged_fraction"] >= 0.95 for c in cells])
+        mte = row["label"].startswith("MTE")
+        style = "-" if mte else "--"
+        (line,) = ax.plot(x, ate, style, lw=2.2 if mte else 1.4, label=row["label"], zorder=3 if mte else 2)
+        color = line.get_color()
+        ax.plot(x[ok], ate[ok], "o", color=color, ms=6, zorder=4)
+        ax.plot(x[~ok], ate[~ok], "o", color=color, mfc="white", ms=6, zorder=4)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xticks([c["scale"] for c in rows[0]["cells"]], [f"×{c['scale']:g}" for c in rows[0]["cells"]])
+    ax.minorticks_off()
+    ax.set_xlabel("near landmarks' positions × (first depths 2.5–8.2 m at ×1)")
+    ax.set_ylabel("ATE [m] (mean, non-diverged runs)")
+    ax.set_title(
+        "paper_fig4 scaled: which initializer needs no tuning? "
+        "(hollow marker: < 95 % of the runs converged)"
+    )
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=8, ncol=2, loc="upper left")
 
 
 def plot_fig5(result: dict[str, Any]) -> Figure:

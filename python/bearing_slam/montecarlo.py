@@ -72,7 +72,7 @@ DEFAULT_THRESHOLDS: dict[str, float] = {
 }
 
 #: The initializers known by name.
-INIT_NAMES = ("mte", "mte-clone", "pi-sr", "pi-sr-mixed")
+INIT_NAMES = ("mte", "mte-clone", "mte-history", "pi-sr", "pi-sr-mixed")
 
 #: The per-run metrics (``MonteCarloResult.metrics`` keys; NaN where a run has none).
 METRICS = (
@@ -99,13 +99,14 @@ _FAR_PRIOR = {"rho_ini": 0.01, "sigma_rho": 0.005}
 def initializer_spec(
     init: str | Mapping[str, Any], *, rho_ini: float = 0.5, sigma_rho: float = 0.25
 ) -> dict[str, Any]:
-    """The initializer part of a spec: ``"mte"``, ``"mte-clone"``, ``"pi-sr"``
+    """The initializer part of a spec: ``"mte"``, ``"mte-clone"``,
+    ``"mte-history"`` (MTE-clone keeping the bearings seen while waiting), ``"pi-sr"``
     (prior ``rho_ini``, ``sigma_rho``), ``"pi-sr-mixed"`` (that prior for the
     near landmarks, (0.01, 0.005) for the scenario's far ones), or a dict such
     as ``{"method": "pi-sr", "rho_ini": 0.01, "sigma_rho": 0.005}`` (kept as is)."""
     if isinstance(init, Mapping):
         return dict(init)
-    if init in ("mte", "mte-clone"):
+    if init in ("mte", "mte-clone", "mte-history"):
         return {"method": init}
     if init == "pi-sr":
         return {"method": "pi-sr", "rho_ini": rho_ini, "sigma_rho": sigma_rho}

@@ -24,6 +24,9 @@ use std::collections::BTreeMap;
 /// Size of the vehicle block `[x, y, θ]`.
 const VEHICLE_DIM: usize = 3;
 
+/// Linearizations of the replayed waiting bearings (1 = a plain EKF update).
+const REPLAY_ITERATIONS: usize = 3;
+
 /// A pose variance past this (σ = 1000 km) means the input was garbage: the
 /// covariance would no longer be representable next to the landmarks' (its
 /// condition number passes 1/ε), so such a prediction is refused.
@@ -903,8 +906,12 @@ impl BearingSlam {
     }
 
     /// Applies the bearings a candidate saw while waiting, from the clones of
-    /// their poses, to its landmark just added to the state: one gated,
-    /// batched update, so the delayed initializer discards no measurement.
+    /// their poses, to its landmark just added to the state, so the delayed
+    /// initializer discards no measurement. The gated bearings form one
+    /// batch, relinearized [`REPLAY_ITERATIONS`] times at the latest estimate
+    /// (iterated EKF: every pass updates the same prior with
+    /// `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`), because the landmark was triangulated
+    /// a moment ago and the replay may move it by a good part of its depth.
     fn replay_history(&mut self, id: u64, history: &[(u64, f64)]) -> Result<()> {
         let Some(slot) = self.landmarks.get(&id).copied() else {
             return Ok(());
@@ -913,64 +920,47 @@ impl BearingSlam {
         let mut batch = Vec::new();
         let mut report = BatchReport::default();
         let mut events = Vec::new();
+        let mut accepted = Vec::new();
         for &(clone_id, z) in history {
             let Some(clone) = self.clones.get(&clone_id).copied() else {
                 continue;
             };
-            let linearized = self.linearize_from_clone(clone.offset, slot, z, &noise);
+            let linearized = bearing_from_pose_block(&self.ekf, clone.offset, slot, z, &noise);
+            let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
+            if batch.len() > before {
+                accepted.push((clone.offset, z));
+            }
         }
-        self.ekf.update(&batch)?;
+        let prior = self.ekf.clone();
+        let mut estimate = prior.clone();
+        estimate.update(&batch)?;
+        for _ in 1..REPLAY_ITERATIONS {
+            let mut relinearized = Vec::with_capacity(accepted.len());
+            for &(offset, z) in &accepted {
+                let mut m = bearing_from_pose_block(&estimate, offset, slot, z, &noise)?;
+                let mut shift = 0.0;
+                for block in &m.blocks {
+                    for (c, &h) in block.jacobian.iter().enumerate() {
+                        let index = block.offset + c;
+                        let d = estimate.mean()[index] - prior.mean()[index];
+                        // Entry 2 of a pose and of an inverse-depth landmark is an angle.
+                        shift += h * if c == 2 { wrap_angle(d) } else { d };
+                    }
+                }
+                m.innovation[0] = wrap_angle(m.innovation[0] + shift);
+                relinearized.push(m);
+            }
+            let mut next = prior.clone();
+            next.update(&relinearized)?;
+            estimate = next;
+        }
+        self.ekf = estimate;
         for e in events {
             self.record(e);
         }
         self.wrap_heading()?;
         self.wrap_ray_azimuths()
-    }
-
-    /// A bearing of the landmark in `slot` taken from the pose held by the
-    /// clone at `clone_offset`.
-    fn linearize_from_clone(
-        &self,
-        clone_offset: usize,
-        slot: LandmarkSlot,
-        z: f64,
-        noise: &Matrix1<f64>,
-    ) -> Result<LinearizedMeasurement> {
-        let pose = self.ekf.block::<3>(clone_offset)?;
-        let measured = Vector1::new(wrap_angle(z));
-        let (value, j_pose, j_landmark) = match slot.parameterization {
-            Parameterization::Euclidean => {
-                let p = BearingToPoint.predict(&pose, &self.ekf.block::<2>(slot.offset)?)?;
-                (
-                    p.value,
-                    p.j_z_vehicle,
-                    DMatrix::from_column_slice(1, 2, p.j_z_landmark.as_slice()),
-                )
-            }
-            Parameterization::InverseDepth => {
-                let p = BearingToInverseDepth.predict(&pose, &self.ekf.block::<4>(slot.offset)?)?;
-                (
-                    p.value,
-                    p.j_z_vehicle,
-                    DMatrix::from_column_slice(1, 4, p.j_z_landmark.as_slice()),
-                )
-            }
-        };
-        Ok(LinearizedMeasurement {
-            innovation: DVector::from_element(1, wrap_angle(measured[0] - value[0])),
-            noise: DMatrix::from_column_slice(1, 1, noise.as_slice()),
-            blocks: vec![
-                BlockJacobian {
-                    offset: clone_offset,
-                    jacobian: DMatrix::from_column_slice(1, 3, j_pose.as_slice()),
-                },
-                BlockJacobian {
-                    offset: slot.offset,
-                    jacobian: j_landmark,
-                },
-            ],
-        })
     }
 
     /// Forgets a candidate and releases its pose clones (each removed from the
@@ -1100,4 +1090,48 @@ impl BearingSlam {
             .ok_or(SlamError::UnknownLandmark(id))?;
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
+}
+
+/// A bearing of the landmark in `slot` taken from the pose held in the
+/// state at `pose_offset` (a pose clone), linearized at `ekf`'s estimate.
+fn bearing_from_pose_block(
+    ekf: &Ekf,
+    pose_offset: usize,
+    slot: LandmarkSlot,
+    z: f64,
+    noise: &Matrix1<f64>,
+) -> Result<LinearizedMeasurement> {
+    let pose = ekf.block::<3>(pose_offset)?;
+    let (value, j_pose, j_landmark) = match slot.parameterization {
+        Parameterization::Euclidean => {
+            let p = BearingToPoint.predict(&pose, &ekf.block::<2>(slot.offset)?)?;
+            (
+                p.value[0],
+                p.j_z_vehicle,
+                DMatrix::from_column_slice(1, 2, p.j_z_landmark.as_slice()),
+            )
+        }
+        Parameterization::InverseDepth => {
+            let p = BearingToInverseDepth.predict(&pose, &ekf.block::<4>(slot.offset)?)?;
+            (
+                p.value[0],
+                p.j_z_vehicle,
+                DMatrix::from_column_slice(1, 4, p.j_z_landmark.as_slice()),
+            )
+        }
+    };
+    Ok(LinearizedMeasurement {
+        innovation: DVector::from_element(1, wrap_angle(z - value)),
+        noise: DMatrix::from_column_slice(1, 1, noise.as_slice()),
+        blocks: vec![
+            BlockJacobian {
+                offset: pose_offset,
+                jacobian: DMatrix::from_column_slice(1, 3, j_pose.as_slice()),
+            },
+            BlockJacobian {
+                offset: slot.offset,
+                jacobian: j_landmark,
+            },
+        ],
+    })
 }

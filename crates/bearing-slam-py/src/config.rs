@@ -60,6 +60,10 @@ pub(crate) struct PyConfig {
     /// MTE: minimum depth of a triangulated landmark, m.
     #[pyo3(get, set)]
     pub min_depth: f64,
+    /// MTE-clone: bearings kept per waiting candidate (each with its pose
+    /// cloned) and applied once the landmark is in; 0 discards them (the paper).
+    #[pyo3(get, set)]
+    pub history: usize,
     /// PI-SR: initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
@@ -96,7 +100,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 23] = [
+const FIELDS: [&str; 24] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -109,6 +113,7 @@ const FIELDS: [&str; 23] = [
     "beta_min",
     "candidate_timeout",
     "min_depth",
+    "history",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -140,6 +145,7 @@ impl Default for PyConfig {
             beta_min: tri.beta_min,
             candidate_timeout: tri.candidate_timeout,
             min_depth: tri.min_depth,
+            history: tri.history,
             rho_ini: 0.5,
             sigma_rho: 0.25,
             per_landmark_priors: BTreeMap::new(),
@@ -196,6 +202,7 @@ impl PyConfig {
             c.beta_min = t.beta_min;
             c.candidate_timeout = t.candidate_timeout;
             c.min_depth = t.min_depth;
+            c.history = t.history;
         }
         match &rc.odometry {
             OdometryConfig::Wheels(m) => {
@@ -225,6 +232,7 @@ impl PyConfig {
             beta_min: self.beta_min,
             candidate_timeout: self.candidate_timeout,
             min_depth: self.min_depth,
+            history: self.history,
         }
     }
 

@@ -2,8 +2,8 @@
 //!
 //! ```text
 //! cargo run --release -p bearing-slam --example montecarlo -- SCENARIO \
-//!     --runs N --init mte|mte-clone|pi-sr|pi-sr-mixed \
-//!     [--rho-ini R --sigma-rho S] [--seed0 K] [--no-far] [--landmarks N] \
+//!     --runs N --init mte|mte-clone|mte-history|pi-sr|pi-sr-mixed \
+//!     [--rho-ini R --sigma-rho S] [--seed0 K] [--no-far] [--landmarks N] [--scale F] \
 //!     [--slip on|off] [--spec SPEC.json] [--verbose] --json OUT.json
 //! ```
 //!
@@ -21,8 +21,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::process::ExitCode;
 
 fn usage() -> String {
-    "usage: montecarlo SCENARIO --runs N --init mte|mte-clone|pi-sr|pi-sr-mixed \
-     [--rho-ini R --sigma-rho S] [--seed0 K] [--no-far] [--landmarks N] [--slip on|off] \
+    "usage: montecarlo SCENARIO --runs N --init mte|mte-clone|mte-history|pi-sr|pi-sr-mixed \
+     [--rho-ini R --sigma-rho S] [--seed0 K] [--no-far] [--landmarks N] [--scale F] [--slip on|off] \
      [--spec SPEC.json] [--verbose] --json OUT.json"
         .into()
 }
@@ -40,6 +40,7 @@ fn parse() -> Result<Args, String> {
         (20usize, "mte".to_owned(), 0.5, 0.25, 0u64);
     let (mut no_far, mut landmarks, mut slip, mut json, mut spec_path, mut verbose) =
         (false, None, None, None, None, false);
+    let mut scale = None;
     let num = |v: Option<String>, what: &str| -> Result<f64, String> {
         v.ok_or(format!("{what} needs a value"))?
             .parse::<f64>()
@@ -54,6 +55,7 @@ fn parse() -> Result<Args, String> {
             "--seed0" => seed0 = num(args.next(), "--seed0")? as u64,
             "--no-far" => no_far = true,
             "--landmarks" => landmarks = Some(num(args.next(), "--landmarks")? as usize),
+            "--scale" => scale = Some(num(args.next(), "--scale")?),
             "--slip" => {
                 slip = Some(match args.next().as_deref() {
                     Some("on") => true,
@@ -82,6 +84,7 @@ fn parse() -> Result<Args, String> {
     let initializer = match init.as_str() {
         "mte" => InitializerSpec::Mte,
         "mte-clone" => InitializerSpec::MteClone,
+        "mte-history" => InitializerSpec::MteHistory,
         "pi-sr" => InitializerSpec::PiSr {
             rho_ini: rho,
             sigma_rho: sigma,
@@ -104,6 +107,7 @@ fn parse() -> Result<Args, String> {
     spec.scenario.far_landmark = !no_far;
     spec.scenario.landmark_count = landmarks;
     spec.scenario.slip = slip;
+    spec.scenario.landmark_scale = scale;
     Ok(Args {
         spec,
         json,

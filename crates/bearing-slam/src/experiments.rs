@@ -4,10 +4,12 @@
 //! equal length for the series) and renders a markdown table;
 //! [`write_outputs`] stores both as `NAME.json` and `NAME.md`.
 //!
-//! - [`fig4`]: `paper_fig4`, every initializer (MTE, MTE-clone, PI-SR
-//!   (0.01, 0.005), PI-SR (0.5, 0.25), PI-SR mixed), with and without the far
-//!   landmark: class fractions, ATE, NEES ([`fig4_table`]), and the
-//!   consistency table ([`consistency_table`]).
+//! - [`fig4`]: `paper_fig4`, every initializer (MTE, MTE-clone,
+//!   MTE-history, PI-SR (0.01, 0.005), PI-SR (0.5, 0.25), PI-SR mixed), with
+//!   and without the far landmark: class fractions, ATE, NEES
+//!   ([`fig4_table`]), and the consistency table ([`consistency_table`]);
+//!   then the tuning study, every initializer on the scene scaled by
+//!   [`FIG4_SCALES`] ([`fig4_scales_table`]).
 //! - [`fig5`]: depth and inverse-depth uncertainty against parallax for
 //!   σ = 1°, analytic (first order, from the triangulation Jacobians) and
 //!   sampled.
@@ -63,7 +65,7 @@ pub fn write_outputs<T: Serialize>(
 
 // ------------------------------------------------------------------ Fig. 4
 
-/// The five initializers of Fig. 4, in table order.
+/// The six initializers of Fig. 4, in table order.
 #[must_use]
 pub fn fig4_initializers() -> Vec<InitializerSpec> {
     vec![
@@ -78,7 +80,41 @@ pub fn fig4_initializers() -> Vec<InitializerSpec> {
         InitializerSpec::paper_mixed(),
         InitializerSpec::Mte,
         InitializerSpec::MteClone,
+        InitializerSpec::MteHistory,
     ]
+}
+
+/// The scene scales of the tuning study: `paper_fig4` with its near
+/// landmarks' positions multiplied by each (first depths 0.5–1.6 m at 0.2,
+/// 10–33 m at 4), the same path and far landmark.
+pub const FIG4_SCALES: [f64; 5] = [0.2, 0.5, 1.0, 2.0, 4.0];
+
+/// One initializer on one scaled scene: the summary of its runs.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScaleCell {
+    /// The factor on the near landmarks' positions.
+    pub scale: f64,
+    /// Fraction of runs that converged.
+    pub converged_fraction: f64,
+    /// Fraction that drifted.
+    pub drift_fraction: f64,
+    /// Fraction that diverged.
+    pub diverged_fraction: f64,
+    /// Mean ATE over the runs that did not diverge, metres.
+    pub ate_rmse_m: Option<f64>,
+    /// Mean final position error over the same runs, metres.
+    pub final_position_error_m: Option<f64>,
+    /// Mean pose NEES.
+    pub mean_nees: Option<f64>,
+}
+
+/// One initializer across every scale of [`FIG4_SCALES`].
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ScaleRow {
+    /// The initializer's label.
+    pub label: String,
+    /// One cell per scale, in [`FIG4_SCALES`] order.
+    pub cells: Vec<ScaleCell>,
 }
 
 /// Fig. 4: one report per initializer, with and without the far landmark.
@@ -88,6 +124,9 @@ pub struct Fig4Result {
     pub with_far: Vec<MonteCarloReport>,
     /// Without it, same order.
     pub without_far: Vec<MonteCarloReport>,
+    /// The tuning study: every initializer on the scene scaled by each of
+    /// [`FIG4_SCALES`], same order.
+    pub across_scales: Vec<ScaleRow>,
 }
 
 /// Runs Fig. 4: `runs` runs of `paper_fig4` from `seed0` for every initializer,
@@ -99,6 +138,7 @@ pub fn fig4(runs: usize, seed0: u64, progress: Progress) -> crate::Result<Fig4Re
     let mut out = Fig4Result {
         with_far: Vec::new(),
         without_far: Vec::new(),
+        across_scales: Vec::new(),
     };
     for far in [true, false] {
         for init in fig4_initializers() {
@@ -118,7 +158,72 @@ pub fn fig4(runs: usize, seed0: u64, progress: Progress) -> crate::Result<Fig4Re
             }
         }
     }
+    for init in fig4_initializers() {
+        let mut row = ScaleRow {
+            label: init.label(),
+            cells: Vec::new(),
+        };
+        for scale in FIG4_SCALES {
+            let mut spec = MonteCarloSpec::new("paper_fig4", init.clone(), runs);
+            spec.scenario.seed0 = seed0;
+            spec.scenario.landmark_scale = Some(scale);
+            // The map threshold is a quarter of the landmarks' distance from
+            // the path (see the classification), which scales with the scene.
+            spec.thresholds.drift_landmark_rmse_m *= scale;
+            let what = format!("fig4 {} at scale {scale}", row.label);
+            let r = run_spec(&spec, &what, progress)?;
+            row.cells.push(ScaleCell {
+                scale,
+                converged_fraction: r.converged_fraction,
+                drift_fraction: r.drift_fraction,
+                diverged_fraction: r.diverged_fraction,
+                ate_rmse_m: r.all_finite.ate_rmse_m,
+                final_position_error_m: r.all_finite.final_position_error_m,
+                mean_nees: r.mean_nees,
+            });
+        }
+        out.across_scales.push(row);
+    }
     Ok(out)
+}
+
+/// The tuning-study table: converged fraction and ATE per scale, and each
+/// method's worst ATE relative to the best method at the same scale.
+#[must_use]
+pub fn fig4_scales_table(rows: &[ScaleRow]) -> String {
+    let mut s =
+        String::from("\n### paper_fig4 with the near landmarks scaled (converged % / ATE m)\n\n");
+    s += "| method |";
+    for scale in FIG4_SCALES {
+        s += &format!(" ×{scale} |");
+    }
+    s += " worst ATE / best |\n|---|";
+    s += &"---|".repeat(FIG4_SCALES.len() + 1);
+    s += "\n";
+    let best: Vec<Option<f64>> = (0..FIG4_SCALES.len())
+        .map(|k| {
+            rows.iter()
+                .filter_map(|r| r.cells.get(k).and_then(|c| c.ate_rmse_m))
+                .reduce(f64::min)
+        })
+        .collect();
+    for row in rows {
+        s += &format!("| {} |", row.label);
+        let mut worst: Option<f64> = None;
+        for (cell, best) in row.cells.iter().zip(&best) {
+            s += &format!(
+                " {:.0} % / {} |",
+                100.0 * cell.converged_fraction,
+                fmt(cell.ate_rmse_m, 3)
+            );
+            if let (Some(ate), Some(best)) = (cell.ate_rmse_m, best) {
+                let ratio = ate / best;
+                worst = Some(worst.map_or(ratio, |w| w.max(ratio)));
+            }
+        }
+        s += &format!(" {} |\n", fmt(worst, 2));
+    }
+    s
 }
 
 /// The Fig. 4 table: class fractions, ATE (mean over non-diverged runs and
@@ -154,7 +259,7 @@ pub fn fig4_table(result: &Fig4Result) -> String {
             );
         }
     }
-    s
+    s + &fig4_scales_table(&result.across_scales)
 }
 
 /// One method's NEES over time, as stored in `consistency.json`.
