@@ -172,7 +172,9 @@ def _plot_fig4_scales(ax: Axes, rows: list[dict[str, Any]]) -> None:
         ax.plot(x[~ok], ate[~ok], "o", color=color, mfc="white", ms=6, zorder=4)
     ax.set_xscale("log")
     ax.set_yscale("log")
-    ax.set_xticks([c["scale"] for c in rows[0]["cells"]], [f"×{c['scale']:g}" for c in rows[0]["cells"]])
+    ax.set_xticks(
+        [c["scale"] for c in rows[0]["cells"]], [f"×{c['scale']:g}" for c in rows[0]["cells"]]
+    )
     ax.minorticks_off()
     ax.set_yticks([0.03, 0.05, 0.1, 0.2, 0.5, 1.0])
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))

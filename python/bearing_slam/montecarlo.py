@@ -128,11 +128,14 @@ def make_spec(
     landmark_count: int | None = None,
     far_landmark: bool = True,
     slip: bool | None = None,
+    landmark_scale: float | None = None,
     thresholds: Mapping[str, float] | None = None,
     rho_ini: float = 0.5,
     sigma_rho: float = 0.25,
 ) -> dict[str, Any]:
-    """A Monte Carlo spec (the JSON of the Rust ``MonteCarloSpec``) as a dict."""
+    """A Monte Carlo spec (the JSON of the Rust ``MonteCarloSpec``) as a dict.
+    ``landmark_scale`` multiplies the positions of the scenario's near
+    landmarks (all but its far ones) about the world origin."""
     if runs < 1:
         raise ValueError(f"runs must be at least 1, got {runs}")
     return {
@@ -142,6 +145,7 @@ def make_spec(
             "landmark_count": landmark_count,
             "far_landmark": far_landmark,
             "slip": slip,
+            "landmark_scale": landmark_scale,
         },
         "initializer": initializer_spec(init, rho_ini=rho_ini, sigma_rho=sigma_rho),
         "runs": runs,
@@ -321,6 +325,7 @@ def montecarlo(
     landmark_count: int | None = None,
     far_landmark: bool = True,
     slip: bool | None = None,
+    landmark_scale: float | None = None,
     thresholds: Mapping[str, float] | None = None,
     progress: Progress = True,
     rho_ini: float = 0.5,
@@ -328,10 +333,11 @@ def montecarlo(
 ) -> dict[str, MonteCarloResult]:
     """``runs`` runs of ``scenario`` (seeds ``seed0 …``) for each initializer.
 
-    ``inits``: one or several of ``"mte"``, ``"mte-clone"``, ``"pi-sr"``
-    (prior ``rho_ini``, ``sigma_rho``), ``"pi-sr-mixed"``, or initializer
-    dicts (:func:`initializer_spec`). ``landmark_count``, ``far_landmark``
-    and ``slip`` change the scenario (``None``: its own); ``thresholds``
+    ``inits``: one or several of ``"mte"``, ``"mte-clone"``,
+    ``"mte-history"``, ``"pi-sr"`` (prior ``rho_ini``, ``sigma_rho``),
+    ``"pi-sr-mixed"``, or initializer dicts (:func:`initializer_spec`).
+    ``landmark_count``, ``far_landmark``, ``slip`` and ``landmark_scale``
+    change the scenario (``None``: its own); ``thresholds``
     override :data:`DEFAULT_THRESHOLDS`. Without ``executor`` the runs use
     every local core; with one (e.g. ``distributed.Client().get_executor()``)
     each run is a task, with the same result.
@@ -352,6 +358,7 @@ def montecarlo(
             landmark_count=landmark_count,
             far_landmark=far_landmark,
             slip=slip,
+            landmark_scale=landmark_scale,
             thresholds=thresholds,
             rho_ini=rho_ini,
             sigma_rho=sigma_rho,

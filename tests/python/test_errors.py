@@ -81,6 +81,9 @@ def test_invalid_config() -> None:
         bs.Config(init="pi-sr", rho_ini=0.0)
     with pytest.raises(bs.InvalidParameterError):
         bs.Config(alpha_min=0.0)
+    with pytest.raises(bs.InvalidParameterError, match="history"):
+        bs.Config(init="mte", history=8)
+    assert bs.Config(init="mte-clone", history=8).history == 8
     with pytest.raises(bs.InvalidParameterError):
         bs.Config(wheel_base=-0.2)
     with pytest.raises(ValueError, match="unknown initializer"):

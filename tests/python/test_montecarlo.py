@@ -95,6 +95,24 @@ def test_classes_and_fractions() -> None:
     assert np.all(pisr.metrics["near_landmark_rmse_m"] > 5.0)
 
 
+def test_history_and_scaled_scene() -> None:
+    """MTE-history on a scene scaled down: the spec carries the scale to the
+    simulator (the map error follows the smaller scene) and the waiting
+    bearings are used (a more accurate start than MTE-clone on the same seeds)."""
+    results = bs.montecarlo(
+        "paper_fig4", ["mte-clone", "mte-history"], runs=6, landmark_scale=0.5, progress=False
+    )
+    clone, history = results["mte-clone"], results["mte-history"]
+    assert history.report["spec"]["scenario"]["landmark_scale"] == 0.5
+    assert history.report["spec"]["initializer"] == {"method": "mte-history"}
+    assert history.converged_fraction == 1.0, history.reasons
+    assert np.mean(history.metrics["ate_rmse_m"]) < np.mean(clone.metrics["ate_rmse_m"])
+    # The near landmarks at half their distance are mapped to a few centimetres.
+    assert np.all(history.metrics["near_landmark_rmse_m"] < 0.15)
+    with pytest.raises(bs.SimulationError, match="landmark_scale"):
+        bs.montecarlo("paper_fig4", "mte", runs=1, landmark_scale=-1.0, progress=False)
+
+
 def test_progress_callback_counts_every_run() -> None:
     seen: list[tuple[int, int]] = []
     spec = make_spec("paper_fig4", "mte-clone", 3)
@@ -218,8 +236,12 @@ def test_experiment_plots_on_a_small_fig4(tmp_path: Path) -> None:
         for p in paths:
             assert p.stat().st_size > 500, p
     fig4 = json.loads((tmp_path / "fig4.json").read_text())
-    assert len(fig4["with_far"]) == len(fig4["without_far"]) == 5
+    assert len(fig4["with_far"]) == len(fig4["without_far"]) == 6
+    assert [r["label"] for r in fig4["across_scales"]] == [r["label"] for r in fig4["with_far"]]
+    for row in fig4["across_scales"]:
+        assert [c["scale"] for c in row["cells"]] == [0.2, 0.5, 1.0, 2.0, 4.0]
+    assert "worst ATE / best" in (tmp_path / "fig4.md").read_text()
     assert "consistency" not in fig4
     curves = json.loads((tmp_path / "consistency.json").read_text())["curves"]
-    assert len(curves) == 10
+    assert len(curves) == 12
     assert all(len(c["nees"]["time"]) <= 401 for c in curves)
