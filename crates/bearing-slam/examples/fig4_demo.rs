@@ -36,6 +36,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             "MTE-clone",
             InitializerConfig::TriangulationWithClone(TriangulationConfig::default()),
         ),
+        (
+            "MTE-history",
+            InitializerConfig::TriangulationWithClone(TriangulationConfig {
+                history: bearing_slam::montecarlo::MTE_HISTORY,
+                ..TriangulationConfig::default()
+            }),
+        ),
         ("PI-SR (0.01, 0.005)", InitializerConfig::pi_sr(far)),
         ("PI-SR (0.5, 0.25)", InitializerConfig::pi_sr(near)),
         (
