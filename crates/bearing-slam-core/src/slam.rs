@@ -932,32 +932,29 @@ impl BearingSlam {
                 accepted.push((clone.offset, z));
             }
         }
-        let prior = self.ekf.clone();
-        let mut estimate = prior.clone();
-        estimate.update(&batch)?;
-        for _ in 1..REPLAY_ITERATIONS {
-            let mut relinearized = Vec::with_capacity(accepted.len());
-            for &(offset, z) in &accepted {
-                let mut m = bearing_from_pose_block(&estimate, offset, slot, z, &noise)?;
-                let mut shift = 0.0;
-                for block in &m.blocks {
-                    for (c, &h) in block.jacobian.iter().enumerate() {
-                        let index = block.offset + c;
-                        let d = estimate.mean()[index] - prior.mean()[index];
-                        // Entry 2 of a pose and of an inverse-depth landmark is an angle.
-                        shift += h * if c == 2 { wrap_angle(d) } else { d };
-                    }
-                }
-                m.innovation[0] = wrap_angle(m.innovation[0] + shift);
-                relinearized.push(m);
-            }
-            let mut next = prior.clone();
-            next.update(&relinearized)?;
-            estimate = next;
-        }
-        self.ekf = estimate;
         for e in events {
             self.record(e);
+        }
+        if batch.is_empty() {
+            return Ok(());
+        }
+        let prior = self.ekf.clone();
+        self.ekf.update(&batch)?;
+        for _ in 1..REPLAY_ITERATIONS {
+            // A relinearization that fails (a degenerate geometry at the new
+            // estimate) keeps the last iterate, which is a valid update.
+            let Ok(relinearized) = accepted
+                .iter()
+                .map(|&(offset, z)| relinearize_about(&prior, &self.ekf, offset, slot, z, &noise))
+                .collect::<Result<Vec<_>>>()
+            else {
+                break;
+            };
+            let mut next = prior.clone();
+            if next.update(&relinearized).is_err() {
+                break;
+            }
+            self.ekf = next;
         }
         self.wrap_heading()?;
         self.wrap_ray_azimuths()
@@ -1090,6 +1087,31 @@ impl BearingSlam {
             .ok_or(SlamError::UnknownLandmark(id))?;
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
+}
+
+/// [`bearing_from_pose_block`] linearized at `estimate` for an update of
+/// `prior` (one iterated-EKF pass): `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`.
+fn relinearize_about(
+    prior: &Ekf,
+    estimate: &Ekf,
+    pose_offset: usize,
+    slot: LandmarkSlot,
+    z: f64,
+    noise: &Matrix1<f64>,
+) -> Result<LinearizedMeasurement> {
+    let mut m = bearing_from_pose_block(estimate, pose_offset, slot, z, noise)?;
+    let mut shift = 0.0;
+    for block in &m.blocks {
+        // One row: the Jacobian's entries are its columns in order.
+        for (c, &h) in block.jacobian.iter().enumerate() {
+            let index = block.offset + c;
+            let d = estimate.mean()[index] - prior.mean()[index];
+            // Entry 2 of a pose and of an inverse-depth landmark is an angle.
+            shift += h * if c == 2 { wrap_angle(d) } else { d };
+        }
+    }
+    m.innovation[0] = wrap_angle(m.innovation[0] + shift);
+    Ok(m)
 }
 
 /// A bearing of the landmark in `slot` taken from the pose held in the
