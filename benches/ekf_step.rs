@@ -8,7 +8,14 @@
 //! * `floor_plain/n`: `P -= K G` with `G = S Kᵀ` precomputed, K N×10, on the
 //!   whole matrix, a plain column loop (axpys).
 //! * `floor_tiled/n`: the same product on the lower triangle only, register
-//!   tiled on prepacked K and `K S` (packing not timed).
+//!   tiled on prepacked K and `K S` (packing not timed), with the library
+//!   triangle update's tiles (8×4 with AVX2, 4×4 without) and traversal
+//!   (64×64 blocks).
+//!
+//! Both floors are compiled like the step's kernel: for x86-64-v3
+//! (AVX2/FMA, through `pulp`, detected at run time) when the CPU has it,
+//! else for the baseline target; so `ekf_step / floor` compares like with
+//! like.
 //!
 //! At the end the binary prints `ekf_step / floor` per n from criterion's own
 //! medians (`target/criterion/<group>/<n>/new/estimates.json`) and the
@@ -210,16 +217,44 @@ fn timed_steps(
 
 // ---------------------------------------------------------------- the floor
 
-#[cfg(target_feature = "avx")]
+/// Rows of a register tile on the baseline target (SSE2).
 const MR: usize = 4;
-#[cfg(not(target_feature = "avx"))]
-const MR: usize = 4;
+/// Rows of a register tile with AVX2/FMA (x86-64-v3), as in the library's
+/// triangle update.
+const MR_WIDE: usize = 8;
 const NR: usize = 4;
+/// Edge of the square blocks in which the tiled floor walks the triangle
+/// (the library's kernel uses the same).
+const KB: usize = 64;
+
+/// Runs `f` compiled for x86-64-v3 (AVX2/FMA) when the CPU has it, as the
+/// library's triangle update does (pulp, detected at run time); else as is.
+#[inline(always)]
+fn on_best_target<R>(f: impl FnOnce() -> R) -> R {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = pulp::x86::V3::try_new() {
+        return v3.vectorize(f);
+    }
+    f()
+}
+
+fn wide() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        pulp::x86::V3::is_available()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
 
 /// Inputs of the floor kernel: `K` (N×m, column-major), `G = S Kᵀ`
-/// (m×N, column-major), and both packed for the tiled kernel.
+/// (m×N, column-major), and both packed for the tiled kernel (`K` in row
+/// panels of the tile height, `K S` in panels of NR).
 struct Floor {
     dim: usize,
+    wide: bool,
     k: Vec<f64>,
     g: Vec<f64>,
     a_packed: Vec<f64>,
@@ -237,16 +272,19 @@ impl Floor {
         let s = &r * r.transpose() + DMatrix::identity(M, M);
         let g = &s * k_mat.transpose(); // m×N
         let ks = g.transpose(); // N×m = K S
-        let mut a_packed = vec![0.0; dim.div_ceil(MR) * MR * M];
+        let wide = wide();
+        let mr = if wide { MR_WIDE } else { MR };
+        let mut a_packed = vec![0.0; dim.div_ceil(mr) * mr * M];
         let mut b_packed = vec![0.0; dim.div_ceil(NR) * NR * M];
         for i in 0..dim {
             for r in 0..M {
-                a_packed[((i / MR) * M + r) * MR + i % MR] = k_mat[(i, r)];
+                a_packed[((i / mr) * M + r) * mr + i % mr] = k_mat[(i, r)];
                 b_packed[((i / NR) * M + r) * NR + i % NR] = ks[(i, r)];
             }
         }
         Self {
             dim,
+            wide,
             k: k_mat.as_slice().to_vec(),
             g: g.as_slice().to_vec(),
             a_packed,
@@ -254,8 +292,14 @@ impl Floor {
         }
     }
 
-    /// `P -= K G` on the whole matrix, column by column (m axpys each).
+    /// `P -= K G` on the whole matrix, column by column (m axpys each),
+    /// compiled for AVX2/FMA when available.
     fn plain(&self, p: &mut [f64]) {
+        on_best_target(|| self.plain_kernel(p));
+    }
+
+    #[inline(always)]
+    fn plain_kernel(&self, p: &mut [f64]) {
         let n = self.dim;
         for (j, col) in p.chunks_exact_mut(n).enumerate() {
             for r in 0..M {
@@ -268,38 +312,58 @@ impl Floor {
         }
     }
 
-    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles.
+    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles in
+    /// KB×KB blocks: the library's triangle update (same tiles, same
+    /// traversal, same AVX2/FMA build) at rank m, with nothing else.
     fn tiled(&self, p: &mut [f64]) {
+        if self.wide {
+            on_best_target(|| self.tiled_kernel::<MR_WIDE>(p));
+        } else {
+            self.tiled_kernel::<MR>(p);
+        }
+    }
+
+    #[inline(always)]
+    fn tiled_kernel<const MR: usize>(&self, p: &mut [f64]) {
         let n = self.dim;
-        for (jp, bp) in self.b_packed.chunks_exact(M * NR).enumerate() {
-            let j0 = jp * NR;
-            let jn = NR.min(n - j0);
-            for (ip, ap) in self.a_packed.chunks_exact(M * MR).enumerate().skip(j0 / MR) {
-                let i0 = ip * MR;
-                let im = MR.min(n - i0);
-                let mut acc = [[0.0; MR]; NR];
-                let (a_cols, _) = ap.as_chunks::<MR>();
-                let (b_cols, _) = bp.as_chunks::<NR>();
-                for (ar, br) in a_cols.iter().zip(b_cols) {
-                    for (acc_j, &b) in acc.iter_mut().zip(br) {
-                        for (acc_ij, &a) in acc_j.iter_mut().zip(ar) {
-                            *acc_ij += a * b;
+        let (a, b) = (&self.a_packed, &self.b_packed);
+        for jb in (0..n).step_by(KB) {
+            let jb_end = (jb + KB).min(n);
+            for ib in (jb..n).step_by(KB) {
+                let ib_end = (ib + KB).min(n);
+                for jp in jb / NR..jb_end.div_ceil(NR) {
+                    let bp = &b[jp * M * NR..][..M * NR];
+                    let j0 = jp * NR;
+                    let jn = NR.min(n - j0);
+                    for ip in (ib / MR).max(j0 / MR)..ib_end.div_ceil(MR) {
+                        let ap = &a[ip * M * MR..][..M * MR];
+                        let i0 = ip * MR;
+                        let im = MR.min(n - i0);
+                        let mut acc = [[0.0; MR]; NR];
+                        let (a_cols, _) = ap.as_chunks::<MR>();
+                        let (b_cols, _) = bp.as_chunks::<NR>();
+                        for (ar, br) in a_cols.iter().zip(b_cols) {
+                            for (acc_j, &bv) in acc.iter_mut().zip(br) {
+                                for (acc_ij, &av) in acc_j.iter_mut().zip(ar) {
+                                    *acc_ij += av * bv;
+                                }
+                            }
                         }
-                    }
-                }
-                if i0 >= j0 + NR && im == MR && jn == NR {
-                    for (jj, acc_j) in acc.iter().enumerate() {
-                        let col = &mut p[(j0 + jj) * n + i0..][..MR];
-                        for (x, &d) in col.iter_mut().zip(acc_j) {
-                            *x -= d;
-                        }
-                    }
-                } else {
-                    for (jj, acc_j) in acc.iter().enumerate().take(jn) {
-                        let j = j0 + jj;
-                        for (ii, &d) in acc_j.iter().enumerate().take(im) {
-                            if i0 + ii >= j {
-                                p[j * n + i0 + ii] -= d;
+                        if i0 >= j0 + NR && im == MR && jn == NR {
+                            for (jj, acc_j) in acc.iter().enumerate() {
+                                let col = &mut p[(j0 + jj) * n + i0..][..MR];
+                                for (x, &d) in col.iter_mut().zip(acc_j) {
+                                    *x -= d;
+                                }
+                            }
+                        } else {
+                            for (jj, acc_j) in acc.iter().enumerate().take(jn) {
+                                let j = j0 + jj;
+                                for (ii, &d) in acc_j.iter().enumerate().take(im) {
+                                    if i0 + ii >= j {
+                                        p[j * n + i0 + ii] -= d;
+                                    }
+                                }
                             }
                         }
                     }
@@ -351,7 +415,7 @@ fn bench_size(c: &mut Criterion, n: usize) -> Interleaved {
         });
         group.finish();
         // The filter the timed steps left must still be a valid Gaussian.
-        if n <= 500 && ekf.covariance().clone().cholesky().is_none() {
+        if n <= 500 && ekf.covariance().cholesky().is_none() {
             panic!("{name}: covariance lost positive definiteness at n = {n}");
         }
     }

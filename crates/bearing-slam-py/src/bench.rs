@@ -215,6 +215,7 @@ impl PyEkfBenchmark {
     /// The state covariance (N, N).
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        // Mirrored from the filter's lower triangle (O(n²), on request only).
         let p = self.inner.ekf.covariance();
         let n = p.nrows();
         // P is symmetric, so its column-major storage is also its row-major one.
