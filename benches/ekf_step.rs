@@ -227,15 +227,39 @@ const NR: usize = 4;
 /// (the library's kernel uses the same).
 const KB: usize = 64;
 
-/// Runs `f` compiled for x86-64-v3 (AVX2/FMA) when the CPU has it, as the
-/// library's triangle update does (pulp, detected at run time); else as is.
-#[inline(always)]
-fn on_best_target<R>(f: impl FnOnce() -> R) -> R {
+/// One floor kernel on one matrix, as a [`pulp::NullaryFnOnce`] whose `call`
+/// is `#[inline(always)]`, so that the kernel is compiled inside pulp's
+/// x86-64-v3 function (a closure's body may stay out of line, built for the
+/// baseline target).
+struct Kernel<'a, const MR: usize> {
+    floor: &'a Floor,
+    p: &'a mut [f64],
+    tiled: bool,
+}
+
+impl<const MR: usize> pulp::NullaryFnOnce for Kernel<'_, MR> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        if self.tiled {
+            self.floor.tiled_kernel::<MR>(self.p);
+        } else {
+            self.floor.plain_kernel(self.p);
+        }
+    }
+}
+
+/// Runs `kernel` compiled for x86-64-v3 (AVX2/FMA) when the CPU has it, as
+/// the library's triangle update does (pulp, detected at run time); else as
+/// is.
+fn on_best_target<const MR: usize>(kernel: Kernel<'_, MR>) {
     #[cfg(target_arch = "x86_64")]
     if let Some(v3) = pulp::x86::V3::try_new() {
-        return v3.vectorize(f);
+        v3.vectorize(kernel);
+        return;
     }
-    f()
+    pulp::NullaryFnOnce::call(kernel);
 }
 
 fn wide() -> bool {
@@ -249,11 +273,31 @@ fn wide() -> bool {
     }
 }
 
+/// `A_tile B_tileᵀ` for one MR×NR tile, accumulated in registers (a
+/// function of its own, as in the library: inlined in the tile loop, the
+/// accumulators end up on the stack).
+#[inline(always)]
+fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
+    let mut acc = [[0.0; MR]; NR];
+    let (a_cols, _) = ap.as_chunks::<MR>();
+    let (b_cols, _) = bp.as_chunks::<NR>();
+    for (ar, br) in a_cols.iter().zip(b_cols) {
+        for (acc_j, &bv) in acc.iter_mut().zip(br) {
+            for (acc_ij, &av) in acc_j.iter_mut().zip(ar) {
+                *acc_ij += av * bv;
+            }
+        }
+    }
+    acc
+}
+
 /// Inputs of the floor kernel: `K` (N×m, column-major), `G = S Kᵀ`
 /// (m×N, column-major), and both packed for the tiled kernel (`K` in row
 /// panels of the tile height, `K S` in panels of NR).
 struct Floor {
     dim: usize,
+    /// The rank m of the update (= M, kept as a run-time value).
+    depth: usize,
     wide: bool,
     k: Vec<f64>,
     g: Vec<f64>,
@@ -284,6 +328,7 @@ impl Floor {
         }
         Self {
             dim,
+            depth: std::hint::black_box(M),
             wide,
             k: k_mat.as_slice().to_vec(),
             g: g.as_slice().to_vec(),
@@ -295,7 +340,11 @@ impl Floor {
     /// `P -= K G` on the whole matrix, column by column (m axpys each),
     /// compiled for AVX2/FMA when available.
     fn plain(&self, p: &mut [f64]) {
-        on_best_target(|| self.plain_kernel(p));
+        on_best_target(Kernel::<MR> {
+            floor: self,
+            p,
+            tiled: false,
+        });
     }
 
     #[inline(always)]
@@ -317,7 +366,11 @@ impl Floor {
     /// traversal, same AVX2/FMA build) at rank m, with nothing else.
     fn tiled(&self, p: &mut [f64]) {
         if self.wide {
-            on_best_target(|| self.tiled_kernel::<MR_WIDE>(p));
+            on_best_target(Kernel::<MR_WIDE> {
+                floor: self,
+                p,
+                tiled: true,
+            });
         } else {
             self.tiled_kernel::<MR>(p);
         }
@@ -327,28 +380,22 @@ impl Floor {
     fn tiled_kernel<const MR: usize>(&self, p: &mut [f64]) {
         let n = self.dim;
         let (a, b) = (&self.a_packed, &self.b_packed);
+        // The depth as a run-time value, as in the library's kernel (a
+        // constant 10 lets LLVM unroll the tile loop into worse code).
+        let depth = self.depth;
         for jb in (0..n).step_by(KB) {
             let jb_end = (jb + KB).min(n);
             for ib in (jb..n).step_by(KB) {
                 let ib_end = (ib + KB).min(n);
                 for jp in jb / NR..jb_end.div_ceil(NR) {
-                    let bp = &b[jp * M * NR..][..M * NR];
+                    let bp = &b[jp * depth * NR..][..depth * NR];
                     let j0 = jp * NR;
                     let jn = NR.min(n - j0);
                     for ip in (ib / MR).max(j0 / MR)..ib_end.div_ceil(MR) {
-                        let ap = &a[ip * M * MR..][..M * MR];
+                        let ap = &a[ip * depth * MR..][..depth * MR];
                         let i0 = ip * MR;
                         let im = MR.min(n - i0);
-                        let mut acc = [[0.0; MR]; NR];
-                        let (a_cols, _) = ap.as_chunks::<MR>();
-                        let (b_cols, _) = bp.as_chunks::<NR>();
-                        for (ar, br) in a_cols.iter().zip(b_cols) {
-                            for (acc_j, &bv) in acc.iter_mut().zip(br) {
-                                for (acc_ij, &av) in acc_j.iter_mut().zip(ar) {
-                                    *acc_ij += av * bv;
-                                }
-                            }
-                        }
+                        let acc = micro_tile::<MR>(ap, bp);
                         if i0 >= j0 + NR && im == MR && jn == NR {
                             for (jj, acc_j) in acc.iter().enumerate() {
                                 let col = &mut p[(j0 + jj) * n + i0..][..MR];

@@ -1007,7 +1007,7 @@ fn triangle_update(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize, 
         // vectorizes the tile over 4-wide registers. No FMA contraction (Rust
         // does not fuse `a * b + c`), so the result is bit-identical to the
         // baseline kernel's.
-        v3.vectorize(|| lower_update::<MR_WIDE>(p, n, a, b, depth));
+        v3.vectorize(LowerUpdate { p, n, a, b, depth });
         return;
     }
     if wide {
@@ -1016,6 +1016,27 @@ fn triangle_update(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize, 
         lower_update::<MR>(p, n, a, b, depth);
     }
 }
+/// [`lower_update`] with `MR_WIDE` as a [`pulp::NullaryFnOnce`] whose `call`
+/// is `#[inline(always)]`: unlike a closure's body, the kernel is then
+/// guaranteed to be inlined into (and compiled with the features of) pulp's
+/// x86-64-v3 function.
+struct LowerUpdate<'a> {
+    p: &'a mut [f64],
+    n: usize,
+    a: &'a [f64],
+    b: &'a [f64],
+    depth: usize,
+}
+
+impl pulp::NullaryFnOnce for LowerUpdate<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        lower_update::<MR_WIDE>(self.p, self.n, self.a, self.b, self.depth);
+    }
+}
+
 /// Columns of a register tile of the triangle update.
 const NR: usize = 4;
 
