@@ -2,7 +2,8 @@
 //! "the floor" it is measured against, in the same binary and run.
 //!
 //! * `ekf_step/n`: one prediction (velocity = unicycle model, vehicle rows and
-//!   columns only) + linearization of the 10 bearings + one batched update
+//!   columns only) + linearization of the 10 bearings (`Ekf::linearize_into`,
+//!   reusing the batch: no allocation per step) + one batched update
 //!   (Joseph form, the default). `ekf_step_symmetric/n`: the same with
 //!   [`CovarianceUpdate::Symmetric`].
 //! * `floor_plain/n`: `P -= K G` with `G = S Kᵀ` precomputed, K N×10, on the
@@ -43,7 +44,7 @@
 //! iterating; `EKF_SIZES=10,200` restricts the sizes, `EKF_RSS_STEPS=0`
 //! skips the memory run).
 
-use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement};
+use bearing_slam::core::ekf::{BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement};
 use bearing_slam::core::log::VelocityOdometry;
 use bearing_slam::core::measurement::BearingToPoint;
 use bearing_slam::core::motion::{VelocityModel, VelocityNoise};
@@ -169,22 +170,42 @@ impl Problem {
 }
 
 /// One EKF step: predict, linearize the 10 bearings at the predicted
-/// estimate, one batched update.
-fn step(ekf: &mut Ekf, problem: &Problem, z: &[f64; M]) {
+/// estimate (into the reused `batch`: no allocation), one batched update.
+fn step(ekf: &mut Ekf, problem: &Problem, z: &[f64; M], batch: &mut [LinearizedMeasurement; M]) {
     must(ekf.predict(&problem.model, &problem.control), "predict");
     let noise = Matrix1::new(SIGMA_BEARING * SIGMA_BEARING);
-    let batch: [LinearizedMeasurement; M] = std::array::from_fn(|i| {
+    for (i, meas) in batch.iter_mut().enumerate() {
         must(
-            ekf.linearize::<3, 2, 1, _>(
+            ekf.linearize_into::<3, 2, 1, _>(
                 &BearingToPoint,
                 3 + 2 * problem.ids[i],
                 &Vector1::new(z[i]),
                 &noise,
+                meas,
             ),
             "linearize",
-        )
-    });
-    black_box(must(ekf.update(&batch), "update"));
+        );
+    }
+    black_box(must(ekf.update(batch), "update"));
+}
+
+/// A batch of `M` bearings, already of the right shapes, for [`step`] to
+/// overwrite.
+fn empty_batch() -> [LinearizedMeasurement; M] {
+    std::array::from_fn(|_| LinearizedMeasurement {
+        innovation: DVector::zeros(1),
+        noise: DMatrix::zeros(1, 1),
+        blocks: vec![
+            BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(1, 3),
+            },
+            BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(1, 2),
+            },
+        ],
+    })
 }
 
 /// Runs `iters` steps of the stream, resetting to the initial filter
@@ -198,6 +219,7 @@ fn timed_steps(
 ) -> Duration {
     let mut left = iters;
     let mut total = Duration::ZERO;
+    let mut batch = empty_batch();
     while left > 0 {
         if *k == problem.stream.len() {
             *ekf = problem.initial.clone().with_covariance_update(form);
@@ -206,7 +228,7 @@ fn timed_steps(
         let chunk = left.min((problem.stream.len() - *k) as u64);
         let start = Instant::now();
         for z in &problem.stream[*k..*k + chunk as usize] {
-            step(ekf, problem, z);
+            step(ekf, problem, z, &mut batch);
         }
         total += start.elapsed();
         *k += chunk as usize;
@@ -225,7 +247,7 @@ const MR_WIDE: usize = 8;
 const NR: usize = 4;
 /// Edge of the square blocks in which the tiled floor walks the triangle
 /// (the library's kernel uses the same).
-const KB: usize = 64;
+const KB: usize = 256;
 
 /// One floor kernel on one matrix, as a [`pulp::NullaryFnOnce`] whose `call`
 /// is `#[inline(always)]`, so that the kernel is compiled inside pulp's
@@ -553,6 +575,7 @@ fn memory_flat(steps: u64) {
     let mut ekf = problem.initial.clone();
     let mut rng = StdRng::seed_from_u64(seed(&[7, 10, 1]));
     let mut pose = Vector3::zeros();
+    let mut batch = empty_batch();
     let mut run = |ekf: &mut Ekf, count: u64| {
         for _ in 0..count {
             pose = must(problem.model.propagate(&pose, &problem.control), "truth");
@@ -561,7 +584,7 @@ fn memory_flat(steps: u64) {
                 let noise: f64 = StandardNormal.sample(&mut rng);
                 wrap_angle((ly - pose.y).atan2(lx - pose.x) - pose.z + SIGMA_BEARING * noise)
             });
-            step(ekf, &problem, &z);
+            step(ekf, &problem, &z, &mut batch);
         }
     };
     let warm = 1000.min(steps);

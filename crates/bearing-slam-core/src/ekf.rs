@@ -447,6 +447,7 @@ impl Ekf {
 
     /// Linearizes a measurement of the vehicle block `[0, V)` and the block at
     /// `landmark_offset`, returning the innovation and `H`'s non-zero blocks.
+    /// Allocates the result; [`Ekf::linearize_into`] reuses one.
     pub fn linearize<const V: usize, const L: usize, const M: usize, Model>(
         &self,
         model: &Model,
@@ -457,6 +458,29 @@ impl Ekf {
     where
         Model: MeasurementModel<V, L, M>,
     {
+        let mut out = LinearizedMeasurement {
+            innovation: DVector::zeros(M),
+            noise: DMatrix::zeros(M, M),
+            blocks: Vec::with_capacity(2),
+        };
+        self.linearize_into::<V, L, M, Model>(model, landmark_offset, measured, noise, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Ekf::linearize`] written into `out`, reusing its buffers: once `out`
+    /// has the shapes of this measurement (e.g. from an earlier call), no
+    /// allocation. On error `out` is left unchanged.
+    pub fn linearize_into<const V: usize, const L: usize, const M: usize, Model>(
+        &self,
+        model: &Model,
+        landmark_offset: usize,
+        measured: &SVector<f64, M>,
+        noise: &SMatrix<f64, M, M>,
+        out: &mut LinearizedMeasurement,
+    ) -> Result<()>
+    where
+        Model: MeasurementModel<V, L, M>,
+    {
         for &z in measured.iter() {
             ensure_finite("measurement", z)?;
         }
@@ -464,20 +488,30 @@ impl Ekf {
         let landmark = self.block::<L>(landmark_offset)?;
         let prediction = model.predict(&vehicle, &landmark)?;
         let innovation = model.residual(measured, &prediction.value);
-        Ok(LinearizedMeasurement {
-            innovation: DVector::from_column_slice(innovation.as_slice()),
-            noise: DMatrix::from_column_slice(M, M, noise.as_slice()),
-            blocks: vec![
-                BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(M, V, prediction.j_z_vehicle.as_slice()),
-                },
-                BlockJacobian {
-                    offset: landmark_offset,
-                    jacobian: DMatrix::from_column_slice(M, L, prediction.j_z_landmark.as_slice()),
-                },
-            ],
-        })
+        fill(&mut out.innovation, M, 1, innovation.as_slice());
+        fill(&mut out.noise, M, M, noise.as_slice());
+        out.blocks.truncate(2);
+        while out.blocks.len() < 2 {
+            out.blocks.push(BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(0, 0),
+            });
+        }
+        out.blocks[0].offset = 0;
+        fill(
+            &mut out.blocks[0].jacobian,
+            M,
+            V,
+            prediction.j_z_vehicle.as_slice(),
+        );
+        out.blocks[1].offset = landmark_offset;
+        fill(
+            &mut out.blocks[1].jacobian,
+            M,
+            L,
+            prediction.j_z_landmark.as_slice(),
+        );
+        Ok(())
     }
 
     /// `H P Hᵀ` for a block-sparse `H`, touching only the blocks' covariances.
@@ -552,7 +586,21 @@ impl Ekf {
     /// [`CovarianceUpdate`] for the evaluation and the faster optional
     /// form). Only the lower triangle of `P` is read and written (see the
     /// storage contract of [`Ekf`]). Errors leave the filter unchanged.
+    ///
+    /// Where the CPU has AVX2/FMA (x86-64-v3, detected at run time) the whole
+    /// update is compiled for it; Rust never fuses `a * b + c` and keeps the
+    /// order of every sum, so the result is bit for bit the baseline build's.
     pub fn update(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = pulp::x86::V3::try_new() {
+            return v3.vectorize(UpdateOp { ekf: self, batch });
+        }
+        self.update_impl(batch)
+    }
+
+    /// [`Ekf::update`], inlined into the caller's target features.
+    #[inline(always)]
+    fn update_impl(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
         for m in batch {
             self.check_measurement(m)?;
         }
@@ -908,13 +956,50 @@ fn mirror_lower_to_upper(p: &mut [f64], n: usize) {
     }
 }
 
+/// Overwrites the column-major `rows × cols` matrix `m` with `values`,
+/// reallocating only when its shape differs.
+fn fill<C: nalgebra::Dim>(
+    m: &mut nalgebra::Matrix<f64, nalgebra::Dyn, C, nalgebra::VecStorage<f64, nalgebra::Dyn, C>>,
+    rows: usize,
+    cols: usize,
+    values: &[f64],
+) {
+    if m.shape() != (rows, cols) {
+        *m = nalgebra::Matrix::from_iterator_generic(
+            nalgebra::Dyn(rows),
+            C::from_usize(cols),
+            values.iter().copied(),
+        );
+    } else {
+        m.as_mut_slice().copy_from_slice(values);
+    }
+}
+
+/// [`Ekf::update`] as a [`pulp::NullaryFnOnce`] with an `#[inline(always)]`
+/// `call`, so that it is compiled inside pulp's x86-64-v3 function.
+struct UpdateOp<'a> {
+    ekf: &'a mut Ekf,
+    batch: &'a [LinearizedMeasurement],
+}
+
+impl pulp::NullaryFnOnce for UpdateOp<'_> {
+    type Output = Result<UpdateStats>;
+
+    #[inline(always)]
+    fn call(self) -> Self::Output {
+        self.ekf.update_impl(self.batch)
+    }
+}
+
 /// Clears `buf` and fills it with `len` zeros, reusing its capacity.
+#[inline(always)]
 fn reset(buf: &mut Vec<f64>, len: usize) {
     buf.clear();
     buf.resize(len, 0.0);
 }
 
 /// `y += alpha x`.
+#[inline(always)]
 fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
     for (yi, &xi) in y.iter_mut().zip(x) {
         *yi += alpha * xi;
@@ -922,6 +1007,7 @@ fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
 }
 
 /// `x *= alpha`.
+#[inline(always)]
 fn scale(alpha: f64, x: &mut [f64]) {
     for xi in x {
         *xi *= alpha;
@@ -930,6 +1016,7 @@ fn scale(alpha: f64, x: &mut [f64]) {
 
 /// Writes `col` as column `r` of a factor packed in row panels of `W`
 /// (`packed[(panel·depth + r)·W + i % W] = col[i]`).
+#[inline(always)]
 fn pack<const W: usize>(packed: &mut [f64], depth: usize, r: usize, col: &[f64]) {
     for (dst, src) in packed.chunks_exact_mut(depth * W).zip(col.chunks(W)) {
         dst[r * W..r * W + src.len()].copy_from_slice(src);
@@ -937,6 +1024,7 @@ fn pack<const W: usize>(packed: &mut [f64], depth: usize, r: usize, col: &[f64])
 }
 
 /// [`pack`] in row panels of the triangle update's tile height.
+#[inline(always)]
 fn pack_rows(wide: bool, packed: &mut [f64], depth: usize, r: usize, col: &[f64]) {
     if wide {
         pack::<MR_WIDE>(packed, depth, r, col);
@@ -945,6 +1033,7 @@ fn pack_rows(wide: bool, packed: &mut [f64], depth: usize, r: usize, col: &[f64]
     }
 }
 
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -1059,7 +1148,7 @@ fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
 
 /// Edge of the square blocks in which [`lower_update`] walks `P`
 /// (a multiple of `MR`, `MR_WIDE` and `NR`).
-const KB: usize = 64;
+const KB: usize = 256;
 
 /// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the
 /// column-major n×n `p`; the strict upper triangle is neither read nor
@@ -1689,6 +1778,47 @@ mod tests {
             let cross = ekf.covariance_cross_block(2, 5, 1, 4).expect("cross block");
             assert_eq!(cross, eager.cov.view((2, 1), (5, 4)).into_owned());
         }
+    }
+
+    /// `linearize_into` gives `linearize`'s result, reshapes a mismatched
+    /// output, and then reuses its buffers.
+    #[test]
+    fn linearize_into_matches_linearize_and_reuses_buffers() {
+        let ekf = random_filter(6, 60);
+        let noise = Matrix1::new(1e-4);
+        let mut out = LinearizedMeasurement {
+            innovation: DVector::zeros(3),
+            noise: DMatrix::zeros(2, 5),
+            blocks: Vec::new(),
+        };
+        for (offset, z) in [(5, 0.3), (9, -1.2), (3, 2.0)] {
+            let z = Vector1::new(z);
+            let expected = ekf
+                .linearize::<3, 2, 1, _>(&BearingToPoint, offset, &z, &noise)
+                .expect("linearizes");
+            ekf.linearize_into::<3, 2, 1, _>(&BearingToPoint, offset, &z, &noise, &mut out)
+                .expect("linearizes");
+            assert_eq!(out, expected);
+        }
+        let pointers = (out.innovation.as_ptr(), out.blocks[1].jacobian.as_ptr());
+        ekf.linearize_into::<3, 2, 1, _>(&BearingToPoint, 7, &Vector1::new(0.1), &noise, &mut out)
+            .expect("linearizes");
+        assert_eq!(
+            pointers,
+            (out.innovation.as_ptr(), out.blocks[1].jacobian.as_ptr())
+        );
+        let before = out.clone();
+        assert!(
+            ekf.linearize_into::<3, 2, 1, _>(
+                &BearingToPoint,
+                14,
+                &Vector1::new(0.1),
+                &noise,
+                &mut out
+            )
+            .is_err()
+        );
+        assert_eq!(out, before, "an error leaves the output unchanged");
     }
 
     /// Equality ignores the unspecified upper triangle of the storage.
