@@ -11,7 +11,7 @@
 //! * `floor_tiled/n`: the same product on the lower triangle only, register
 //!   tiled on prepacked K and `K S` (packing not timed), with the library
 //!   triangle update's tiles (8×4 with AVX2, 4×4 without) and traversal
-//!   (64×64 blocks).
+//!   (256×256 blocks).
 //!
 //! Both floors are compiled like the step's kernel: for x86-64-v3
 //! (AVX2/FMA, through `pulp`, detected at run time) when the CPU has it,

@@ -182,6 +182,13 @@ impl std::fmt::Debug for Workspace {
 /// triangle is the one of an eagerly mirrored `P`, so results are bit for bit
 /// those of a filter that keeps both triangles.
 ///
+/// The storage is a `cap × cap` column-major matrix (leading dimension
+/// `cap ≥ N`) whose top-left N×N corner holds `P`; what lies outside that
+/// corner is unspecified too. [`Ekf::augment`] grows the capacity
+/// geometrically (×1.5) and otherwise writes the new rows in place, so adding
+/// a block costs amortized O(N) instead of an O(N²) copy; removing a block
+/// shifts the lower triangle in place and keeps the capacity.
+///
 /// Reading the covariance:
 /// * [`Ekf::covariance`] builds the full symmetric matrix (an owned copy,
 ///   O(n²): the mirror is made only when asked for), for export and tests;
@@ -197,7 +204,8 @@ impl std::fmt::Debug for Workspace {
 #[derive(Clone)]
 pub struct Ekf {
     mean: DVector<f64>,
-    /// `P`; only the lower triangle (diagonal included) is meaningful.
+    /// `P` in its top-left N×N corner (N = `mean.len()`); only the lower
+    /// triangle (diagonal included) of that corner is meaningful.
     cov: DMatrix<f64>,
     covariance_update: CovarianceUpdate,
     workspace: Workspace,
@@ -207,13 +215,12 @@ impl PartialEq for Ekf {
     /// Same form, same mean, and the same lower triangle of `P` (the stored
     /// upper triangle is not part of the value).
     fn eq(&self, other: &Self) -> bool {
+        let (n, ld, other_ld) = (self.dim(), self.cov.nrows(), other.cov.nrows());
         self.covariance_update == other.covariance_update
             && self.mean == other.mean
-            && self.cov.shape() == other.cov.shape()
-            && (0..self.cov.ncols()).all(|j| {
-                let n = self.cov.nrows();
-                self.cov.as_slice()[j * n + j..(j + 1) * n]
-                    == other.cov.as_slice()[j * n + j..(j + 1) * n]
+            && (0..n).all(|j| {
+                self.cov.as_slice()[j * ld + j..j * ld + n]
+                    == other.cov.as_slice()[j * other_ld + j..j * other_ld + n]
             })
     }
 }
@@ -304,8 +311,9 @@ impl Ekf {
     /// or [`Ekf::covariance_cross_block`].
     #[must_use]
     pub fn covariance(&self) -> DMatrix<f64> {
-        let mut p = self.cov.clone();
-        mirror_lower_to_upper(p.as_mut_slice(), self.dim());
+        let n = self.dim();
+        let mut p = self.cov.view((0, 0), (n, n)).into_owned();
+        mirror_lower_to_upper(p.as_mut_slice(), n);
         p
     }
 
@@ -316,6 +324,7 @@ impl Ekf {
     #[must_use]
     pub fn covariance_entry(&self, i: usize, j: usize) -> f64 {
         let (r, c) = if i >= j { (i, j) } else { (j, i) };
+        assert!(r < self.dim(), "covariance entry ({i}, {j}) out of range");
         self.cov[(r, c)]
     }
 
@@ -414,6 +423,7 @@ impl Ekf {
         // P_mv ← P_mv Fᵀ ((n − V) × V), read from the contiguous vehicle
         // columns below the vehicle block (lower triangle) into a reusable
         // buffer: O(n), no allocation, no n×n work.
+        let ld = self.cov.nrows();
         let p = self.cov.as_slice();
         let vm = &mut self.workspace.vm;
         vm.clear();
@@ -421,7 +431,7 @@ impl Ekf {
         for (c, out) in vm.chunks_exact_mut(m.max(1)).enumerate().take(V) {
             for k in 0..V {
                 let f_ck = f[(c, k)];
-                let src = &p[k * n + V..(k + 1) * n];
+                let src = &p[k * ld + V..k * ld + n];
                 for (o, &s) in out.iter_mut().zip(src) {
                     *o += f_ck * s;
                 }
@@ -434,7 +444,7 @@ impl Ekf {
         // Lower triangle only: P_mv, not its mirror P_vm.
         let p = self.cov.as_mut_slice();
         for c in 0..V {
-            p[c * n + V..(c + 1) * n].copy_from_slice(&vm[c * m..(c + 1) * m]);
+            p[c * ld + V..c * ld + n].copy_from_slice(&vm[c * m..(c + 1) * m]);
         }
         self.cov
             .fixed_view_mut::<V, V>(0, 0)
@@ -611,6 +621,7 @@ impl Ekf {
         let n = self.dim();
         let m = rows;
         let ws = &mut self.workspace;
+        let ld = self.cov.nrows();
         let p = self.cov.as_slice();
 
         // Stack ν and R (block diagonal, into S), and C = P Hᵀ column by
@@ -636,7 +647,7 @@ impl Ekf {
                 // Rows above the block: P[i, off + c] = P[off + c, i], the
                 // `cols` adjacent entries of column i at row off.
                 for i in 0..off {
-                    let p_row = &p[i * n + off..][..cols];
+                    let p_row = &p[i * ld + off..][..cols];
                     for a in 0..k {
                         let ci = &mut ws.c[(row + a) * n + i];
                         for (col, &pi) in p_row.iter().enumerate() {
@@ -651,9 +662,9 @@ impl Ekf {
                         let h = block.jacobian[(a, col)];
                         let j = off + col;
                         for (i, ci) in c_col.iter_mut().enumerate().take(j).skip(off) {
-                            *ci += h * p[i * n + j];
+                            *ci += h * p[i * ld + j];
                         }
-                        for (ci, &pi) in c_col[j..].iter_mut().zip(&p[j * n + j..(j + 1) * n]) {
+                        for (ci, &pi) in c_col[j..].iter_mut().zip(&p[j * ld + j..j * ld + n]) {
                             *ci += h * pi;
                         }
                     }
@@ -776,7 +787,7 @@ impl Ekf {
                 }
             }
         }
-        triangle_update(self.cov.as_mut_slice(), n, &ws.a, &ws.b, depth, wide);
+        triangle_update(self.cov.as_mut_slice(), n, ld, &ws.a, &ws.b, depth, wide);
         Ok(UpdateStats { nis, dof: rows })
     }
 
@@ -858,16 +869,31 @@ impl Ekf {
             ensure_finite("augmented covariance", v)?;
         }
 
-        let old_cov = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
-        let mut cov = old_cov.resize(n + k, n + k, 0.0);
-        cov.view_mut((n, 0), (k, n)).copy_from(&cross);
-        cov.view_mut((n, n), (k, k)).copy_from(&p_yy);
-        self.cov = cov;
+        self.reserve(k);
+        self.cov.view_mut((n, 0), (k, n)).copy_from(&cross);
+        self.cov.view_mut((n, n), (k, k)).copy_from(&p_yy);
         let old_mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
         let mut mean = old_mean.resize_vertically(n + k, 0.0);
         mean.rows_mut(n, k).copy_from(new_mean);
         self.mean = mean;
         Ok(n)
+    }
+
+    /// Makes room for `extra` more state entries in the covariance storage:
+    /// when the capacity is short, a new one of `max(N + extra, 1.5 cap)`
+    /// and a copy of the lower triangle (amortized O(N) per added entry).
+    fn reserve(&mut self, extra: usize) {
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        if n + extra <= ld {
+            return;
+        }
+        let cap = (n + extra).max(ld + ld / 2);
+        let mut cov = DMatrix::zeros(cap, cap);
+        let (dst, src) = (cov.as_mut_slice(), self.cov.as_slice());
+        for j in 0..n {
+            dst[j * cap + j..j * cap + n].copy_from_slice(&src[j * ld + j..j * ld + n]);
+        }
+        self.cov = cov;
     }
 
     /// Appends an exact copy of the block at `offset` (stochastic cloning):
@@ -889,8 +915,16 @@ impl Ekf {
     /// dropping its rows and columns. Later blocks move down by `len`.
     pub fn remove_block(&mut self, offset: usize, len: usize) -> Result<()> {
         self.check_range("removed block", offset, len)?;
-        let cov = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
-        self.cov = cov.remove_rows(offset, len).remove_columns(offset, len);
+        // In place, lower triangle only, keeping the capacity: the rows
+        // below the block move up by `len` and the columns past it left.
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        let p = self.cov.as_mut_slice();
+        for j in 0..offset {
+            p.copy_within(j * ld + offset + len..j * ld + n, j * ld + offset);
+        }
+        for j in offset + len..n {
+            p.copy_within(j * ld + j..j * ld + n, (j - len) * ld + j - len);
+        }
         let mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
         self.mean = mean.remove_rows(offset, len);
         Ok(())
@@ -925,9 +959,11 @@ impl Ekf {
         let diag = rows.columns(offset, old_len) * j_new_old.transpose();
         // Rows and columns both: their lower parts make up the lower
         // triangle's new entries (the upper parts are unspecified storage).
-        self.cov.rows_mut(offset, new_len).copy_from(&rows);
         self.cov
-            .columns_mut(offset, new_len)
+            .view_mut((offset, 0), (new_len, n))
+            .copy_from(&rows);
+        self.cov
+            .view_mut((0, offset), (n, new_len))
             .copy_from(&rows.transpose());
         self.cov
             .view_mut((offset, offset), (new_len, new_len))
@@ -1089,20 +1125,35 @@ fn wide_kernel() -> bool {
 
 /// [`lower_update`] with the tile height matching how `a` was
 /// packed (`MR_WIDE` when `wide`), compiled for x86-64-v3 when `wide`.
-fn triangle_update(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize, wide: bool) {
+fn triangle_update(
+    p: &mut [f64],
+    n: usize,
+    ld: usize,
+    a: &[f64],
+    b: &[f64],
+    depth: usize,
+    wide: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     if wide && let Some(v3) = pulp::x86::V3::try_new() {
         // The same code, inlined into a function compiled with AVX2/FMA: LLVM
         // vectorizes the tile over 4-wide registers. No FMA contraction (Rust
         // does not fuse `a * b + c`), so the result is bit-identical to the
         // baseline kernel's.
-        v3.vectorize(LowerUpdate { p, n, a, b, depth });
+        v3.vectorize(LowerUpdate {
+            p,
+            n,
+            ld,
+            a,
+            b,
+            depth,
+        });
         return;
     }
     if wide {
-        lower_update::<MR_WIDE>(p, n, a, b, depth);
+        lower_update::<MR_WIDE>(p, n, ld, a, b, depth);
     } else {
-        lower_update::<MR>(p, n, a, b, depth);
+        lower_update::<MR>(p, n, ld, a, b, depth);
     }
 }
 /// [`lower_update`] with `MR_WIDE` as a [`pulp::NullaryFnOnce`] whose `call`
@@ -1112,6 +1163,7 @@ fn triangle_update(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize, 
 struct LowerUpdate<'a> {
     p: &'a mut [f64],
     n: usize,
+    ld: usize,
     a: &'a [f64],
     b: &'a [f64],
     depth: usize,
@@ -1122,7 +1174,7 @@ impl pulp::NullaryFnOnce for LowerUpdate<'_> {
 
     #[inline(always)]
     fn call(self) {
-        lower_update::<MR_WIDE>(self.p, self.n, self.a, self.b, self.depth);
+        lower_update::<MR_WIDE>(self.p, self.n, self.ld, self.a, self.b, self.depth);
     }
 }
 
@@ -1150,9 +1202,9 @@ fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
 /// (a multiple of `MR`, `MR_WIDE` and `NR`).
 const KB: usize = 256;
 
-/// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the
-/// column-major n×n `p`; the strict upper triangle is neither read nor
-/// written. One pass over half of `P`, half the flops of a full update.
+/// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the n×n
+/// top-left corner of the column-major `p` of leading dimension `ld`; the
+/// strict upper triangle is neither read nor written. One pass over half of `P`, half the flops of a full update.
 /// `a` is `A` (n×depth) packed in row panels of MR
 /// (`a[(panel·depth + r)·MR + i % MR] = A[i, r]`, zero padded), `b` is `B`
 /// packed likewise in panels of NR. Register-tiled: each MR×NR tile of `P`
@@ -1160,9 +1212,17 @@ const KB: usize = 256;
 /// registers (in the order r = 0, 1, …, then subtracted from `P`).
 ///
 /// The tiles are visited in KB×KB blocks of the lower triangle, so the KB
-/// rows of `a` a block reads stay in L1.
+/// rows of `a` a block reads stay in cache (L2) while its columns are
+/// swept.
 #[inline(always)]
-fn lower_update<const MR: usize>(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize) {
+fn lower_update<const MR: usize>(
+    p: &mut [f64],
+    n: usize,
+    ld: usize,
+    a: &[f64],
+    b: &[f64],
+    depth: usize,
+) {
     if n == 0 || depth == 0 {
         return;
     }
@@ -1182,7 +1242,7 @@ fn lower_update<const MR: usize>(p: &mut [f64], n: usize, a: &[f64], b: &[f64], 
                     if i0 >= j0 + NR && im == MR && jn == NR {
                         // Strictly below the diagonal and inside P: the fast path.
                         for (jj, acc_j) in acc.iter().enumerate() {
-                            let col = &mut p[(j0 + jj) * n + i0..][..MR];
+                            let col = &mut p[(j0 + jj) * ld + i0..][..MR];
                             for (x, &d) in col.iter_mut().zip(acc_j) {
                                 *x -= d;
                             }
@@ -1192,7 +1252,7 @@ fn lower_update<const MR: usize>(p: &mut [f64], n: usize, a: &[f64], b: &[f64], 
                             let j = j0 + jj;
                             for (ii, &d) in acc_j.iter().enumerate().take(im) {
                                 if i0 + ii >= j {
-                                    p[j * n + i0 + ii] -= d;
+                                    p[j * ld + i0 + ii] -= d;
                                 }
                             }
                         }
@@ -1315,7 +1375,7 @@ mod tests {
                     pack::<NR>(&mut b, depth, r, g.column(r).as_slice());
                 }
                 let mut p = p0.clone();
-                triangle_update(p.as_mut_slice(), n, &a, &b, depth, wide);
+                triangle_update(p.as_mut_slice(), n, n, &a, &b, depth, wide);
                 results.push(p);
             }
             assert_eq!(results[0], results[1], "n={n} depth={depth}");
@@ -1645,6 +1705,7 @@ mod tests {
                 scale * e
             };
             let mut ops = [0_usize; 6];
+            let mut spare_capacity = 0;
             for step in 0..300 {
                 let dim = ekf.dim();
                 let landmarks = (dim - 3) / 2;
@@ -1758,6 +1819,9 @@ mod tests {
                 if ekf.dim() != dim || kind <= 2 {
                     ops[kind.min(5)] += 1;
                 }
+                if ekf.cov.nrows() > ekf.dim() {
+                    spare_capacity += 1;
+                }
                 let full = ekf.covariance();
                 assert_eq!(full, eager.cov, "step {step} ({form:?}), op {kind}");
                 assert_eq!(ekf.mean(), &eager.mean, "step {step}");
@@ -1775,6 +1839,7 @@ mod tests {
             }
             // (Clones make P singular, so no Cholesky check here.)
             assert!(ops.iter().all(|&c| c >= 10), "every operation ran: {ops:?}");
+            assert!(spare_capacity > 100, "the storage had spare capacity");
             let cross = ekf.covariance_cross_block(2, 5, 1, 4).expect("cross block");
             assert_eq!(cross, eager.cov.view((2, 1), (5, 4)).into_owned());
         }
@@ -1819,6 +1884,29 @@ mod tests {
             .is_err()
         );
         assert_eq!(out, before, "an error leaves the output unchanged");
+    }
+
+    /// Growing the state reallocates the covariance storage only
+    /// geometrically often (amortized O(N) per added block).
+    #[test]
+    fn augment_grows_the_storage_geometrically() {
+        let mut ekf = random_filter(3, 70);
+        let mut ptr = ekf.cov.as_ptr();
+        let mut reallocations = 0;
+        for _ in 0..200 {
+            ekf.clone_block(0, 2).expect("clones");
+            if ekf.cov.as_ptr() != ptr {
+                reallocations += 1;
+                ptr = ekf.cov.as_ptr();
+            }
+        }
+        // 9 → 409 entries: ⌈log_1.5(409 / 9)⌉ = 10 growths.
+        assert!(reallocations <= 10, "{reallocations} reallocations");
+        assert_eq!(ekf.dim(), 409);
+        assert!(ekf.cov.nrows() >= 409);
+        ekf.remove_block(3, 400).expect("removes");
+        assert_eq!(ekf.cov.as_ptr(), ptr, "removal keeps the storage");
+        assert_eq!(ekf.covariance().nrows(), 9);
     }
 
     /// Equality ignores the unspecified upper triangle of the storage.
