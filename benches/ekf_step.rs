@@ -2,13 +2,21 @@
 //! "the floor" it is measured against, in the same binary and run.
 //!
 //! * `ekf_step/n`: one prediction (velocity = unicycle model, vehicle rows and
-//!   columns only) + linearization of the 10 bearings + one batched update
+//!   columns only) + linearization of the 10 bearings (`Ekf::linearize_into`,
+//!   reusing the batch: no allocation per step) + one batched update
 //!   (Joseph form, the default). `ekf_step_symmetric/n`: the same with
 //!   [`CovarianceUpdate::Symmetric`].
 //! * `floor_plain/n`: `P -= K G` with `G = S Kᵀ` precomputed, K N×10, on the
 //!   whole matrix, a plain column loop (axpys).
 //! * `floor_tiled/n`: the same product on the lower triangle only, register
-//!   tiled on prepacked K and `K S` (packing not timed).
+//!   tiled on prepacked K and `K S` (packing not timed), with the library
+//!   triangle update's tiles (8×4 with AVX2, 4×4 without) and traversal
+//!   (256×256 blocks).
+//!
+//! Both floors are compiled like the step's kernel: for x86-64-v3
+//! (AVX2/FMA, through `pulp`, detected at run time) when the CPU has it,
+//! else for the baseline target; so `ekf_step / floor` compares like with
+//! like.
 //!
 //! At the end the binary prints `ekf_step / floor` per n from criterion's own
 //! medians (`target/criterion/<group>/<n>/new/estimates.json`) and the
@@ -36,7 +44,7 @@
 //! iterating; `EKF_SIZES=10,200` restricts the sizes, `EKF_RSS_STEPS=0`
 //! skips the memory run).
 
-use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement};
+use bearing_slam::core::ekf::{BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement};
 use bearing_slam::core::log::VelocityOdometry;
 use bearing_slam::core::measurement::BearingToPoint;
 use bearing_slam::core::motion::{VelocityModel, VelocityNoise};
@@ -162,22 +170,42 @@ impl Problem {
 }
 
 /// One EKF step: predict, linearize the 10 bearings at the predicted
-/// estimate, one batched update.
-fn step(ekf: &mut Ekf, problem: &Problem, z: &[f64; M]) {
+/// estimate (into the reused `batch`: no allocation), one batched update.
+fn step(ekf: &mut Ekf, problem: &Problem, z: &[f64; M], batch: &mut [LinearizedMeasurement; M]) {
     must(ekf.predict(&problem.model, &problem.control), "predict");
     let noise = Matrix1::new(SIGMA_BEARING * SIGMA_BEARING);
-    let batch: [LinearizedMeasurement; M] = std::array::from_fn(|i| {
+    for (i, meas) in batch.iter_mut().enumerate() {
         must(
-            ekf.linearize::<3, 2, 1, _>(
+            ekf.linearize_into::<3, 2, 1, _>(
                 &BearingToPoint,
                 3 + 2 * problem.ids[i],
                 &Vector1::new(z[i]),
                 &noise,
+                meas,
             ),
             "linearize",
-        )
-    });
-    black_box(must(ekf.update(&batch), "update"));
+        );
+    }
+    black_box(must(ekf.update(batch), "update"));
+}
+
+/// A batch of `M` bearings, already of the right shapes, for [`step`] to
+/// overwrite.
+fn empty_batch() -> [LinearizedMeasurement; M] {
+    std::array::from_fn(|_| LinearizedMeasurement {
+        innovation: DVector::zeros(1),
+        noise: DMatrix::zeros(1, 1),
+        blocks: vec![
+            BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(1, 3),
+            },
+            BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(1, 2),
+            },
+        ],
+    })
 }
 
 /// Runs `iters` steps of the stream, resetting to the initial filter
@@ -191,6 +219,7 @@ fn timed_steps(
 ) -> Duration {
     let mut left = iters;
     let mut total = Duration::ZERO;
+    let mut batch = empty_batch();
     while left > 0 {
         if *k == problem.stream.len() {
             *ekf = problem.initial.clone().with_covariance_update(form);
@@ -199,7 +228,7 @@ fn timed_steps(
         let chunk = left.min((problem.stream.len() - *k) as u64);
         let start = Instant::now();
         for z in &problem.stream[*k..*k + chunk as usize] {
-            step(ekf, problem, z);
+            step(ekf, problem, z, &mut batch);
         }
         total += start.elapsed();
         *k += chunk as usize;
@@ -210,16 +239,88 @@ fn timed_steps(
 
 // ---------------------------------------------------------------- the floor
 
-#[cfg(target_feature = "avx")]
+/// Rows of a register tile on the baseline target (SSE2).
 const MR: usize = 4;
-#[cfg(not(target_feature = "avx"))]
-const MR: usize = 4;
+/// Rows of a register tile with AVX2/FMA (x86-64-v3), as in the library's
+/// triangle update.
+const MR_WIDE: usize = 8;
 const NR: usize = 4;
+/// Edge of the square blocks in which the tiled floor walks the triangle
+/// (the library's kernel uses the same).
+const KB: usize = 256;
+
+/// One floor kernel on one matrix, as a [`pulp::NullaryFnOnce`] whose `call`
+/// is `#[inline(always)]`, so that the kernel is compiled inside pulp's
+/// x86-64-v3 function (a closure's body may stay out of line, built for the
+/// baseline target).
+struct Kernel<'a, const MR: usize> {
+    floor: &'a Floor,
+    p: &'a mut [f64],
+    tiled: bool,
+}
+
+impl<const MR: usize> pulp::NullaryFnOnce for Kernel<'_, MR> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        if self.tiled {
+            self.floor.tiled_kernel::<MR>(self.p);
+        } else {
+            self.floor.plain_kernel(self.p);
+        }
+    }
+}
+
+/// Runs `kernel` compiled for x86-64-v3 (AVX2/FMA) when the CPU has it, as
+/// the library's triangle update does (pulp, detected at run time); else as
+/// is.
+fn on_best_target<const MR: usize>(kernel: Kernel<'_, MR>) {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(v3) = pulp::x86::V3::try_new() {
+        v3.vectorize(kernel);
+        return;
+    }
+    pulp::NullaryFnOnce::call(kernel);
+}
+
+fn wide() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        pulp::x86::V3::is_available()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+/// `A_tile B_tileᵀ` for one MR×NR tile, accumulated in registers (a
+/// function of its own, as in the library: inlined in the tile loop, the
+/// accumulators end up on the stack).
+#[inline(always)]
+fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
+    let mut acc = [[0.0; MR]; NR];
+    let (a_cols, _) = ap.as_chunks::<MR>();
+    let (b_cols, _) = bp.as_chunks::<NR>();
+    for (ar, br) in a_cols.iter().zip(b_cols) {
+        for (acc_j, &bv) in acc.iter_mut().zip(br) {
+            for (acc_ij, &av) in acc_j.iter_mut().zip(ar) {
+                *acc_ij += av * bv;
+            }
+        }
+    }
+    acc
+}
 
 /// Inputs of the floor kernel: `K` (N×m, column-major), `G = S Kᵀ`
-/// (m×N, column-major), and both packed for the tiled kernel.
+/// (m×N, column-major), and both packed for the tiled kernel (`K` in row
+/// panels of the tile height, `K S` in panels of NR).
 struct Floor {
     dim: usize,
+    /// The rank m of the update (= M, kept as a run-time value).
+    depth: usize,
+    wide: bool,
     k: Vec<f64>,
     g: Vec<f64>,
     a_packed: Vec<f64>,
@@ -237,16 +338,20 @@ impl Floor {
         let s = &r * r.transpose() + DMatrix::identity(M, M);
         let g = &s * k_mat.transpose(); // m×N
         let ks = g.transpose(); // N×m = K S
-        let mut a_packed = vec![0.0; dim.div_ceil(MR) * MR * M];
+        let wide = wide();
+        let mr = if wide { MR_WIDE } else { MR };
+        let mut a_packed = vec![0.0; dim.div_ceil(mr) * mr * M];
         let mut b_packed = vec![0.0; dim.div_ceil(NR) * NR * M];
         for i in 0..dim {
             for r in 0..M {
-                a_packed[((i / MR) * M + r) * MR + i % MR] = k_mat[(i, r)];
+                a_packed[((i / mr) * M + r) * mr + i % mr] = k_mat[(i, r)];
                 b_packed[((i / NR) * M + r) * NR + i % NR] = ks[(i, r)];
             }
         }
         Self {
             dim,
+            depth: std::hint::black_box(M),
+            wide,
             k: k_mat.as_slice().to_vec(),
             g: g.as_slice().to_vec(),
             a_packed,
@@ -254,8 +359,18 @@ impl Floor {
         }
     }
 
-    /// `P -= K G` on the whole matrix, column by column (m axpys each).
+    /// `P -= K G` on the whole matrix, column by column (m axpys each),
+    /// compiled for AVX2/FMA when available.
     fn plain(&self, p: &mut [f64]) {
+        on_best_target(Kernel::<MR> {
+            floor: self,
+            p,
+            tiled: false,
+        });
+    }
+
+    #[inline(always)]
+    fn plain_kernel(&self, p: &mut [f64]) {
         let n = self.dim;
         for (j, col) in p.chunks_exact_mut(n).enumerate() {
             for r in 0..M {
@@ -268,38 +383,56 @@ impl Floor {
         }
     }
 
-    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles.
+    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles in
+    /// KB×KB blocks: the library's triangle update (same tiles, same
+    /// traversal, same AVX2/FMA build) at rank m, with nothing else.
     fn tiled(&self, p: &mut [f64]) {
+        if self.wide {
+            on_best_target(Kernel::<MR_WIDE> {
+                floor: self,
+                p,
+                tiled: true,
+            });
+        } else {
+            self.tiled_kernel::<MR>(p);
+        }
+    }
+
+    #[inline(always)]
+    fn tiled_kernel<const MR: usize>(&self, p: &mut [f64]) {
         let n = self.dim;
-        for (jp, bp) in self.b_packed.chunks_exact(M * NR).enumerate() {
-            let j0 = jp * NR;
-            let jn = NR.min(n - j0);
-            for (ip, ap) in self.a_packed.chunks_exact(M * MR).enumerate().skip(j0 / MR) {
-                let i0 = ip * MR;
-                let im = MR.min(n - i0);
-                let mut acc = [[0.0; MR]; NR];
-                let (a_cols, _) = ap.as_chunks::<MR>();
-                let (b_cols, _) = bp.as_chunks::<NR>();
-                for (ar, br) in a_cols.iter().zip(b_cols) {
-                    for (acc_j, &b) in acc.iter_mut().zip(br) {
-                        for (acc_ij, &a) in acc_j.iter_mut().zip(ar) {
-                            *acc_ij += a * b;
-                        }
-                    }
-                }
-                if i0 >= j0 + NR && im == MR && jn == NR {
-                    for (jj, acc_j) in acc.iter().enumerate() {
-                        let col = &mut p[(j0 + jj) * n + i0..][..MR];
-                        for (x, &d) in col.iter_mut().zip(acc_j) {
-                            *x -= d;
-                        }
-                    }
-                } else {
-                    for (jj, acc_j) in acc.iter().enumerate().take(jn) {
-                        let j = j0 + jj;
-                        for (ii, &d) in acc_j.iter().enumerate().take(im) {
-                            if i0 + ii >= j {
-                                p[j * n + i0 + ii] -= d;
+        let (a, b) = (&self.a_packed, &self.b_packed);
+        // The depth as a run-time value, as in the library's kernel (a
+        // constant 10 lets LLVM unroll the tile loop into worse code).
+        let depth = self.depth;
+        for jb in (0..n).step_by(KB) {
+            let jb_end = (jb + KB).min(n);
+            for ib in (jb..n).step_by(KB) {
+                let ib_end = (ib + KB).min(n);
+                for jp in jb / NR..jb_end.div_ceil(NR) {
+                    let bp = &b[jp * depth * NR..][..depth * NR];
+                    let j0 = jp * NR;
+                    let jn = NR.min(n - j0);
+                    for ip in (ib / MR).max(j0 / MR)..ib_end.div_ceil(MR) {
+                        let ap = &a[ip * depth * MR..][..depth * MR];
+                        let i0 = ip * MR;
+                        let im = MR.min(n - i0);
+                        let acc = micro_tile::<MR>(ap, bp);
+                        if i0 >= j0 + NR && im == MR && jn == NR {
+                            for (jj, acc_j) in acc.iter().enumerate() {
+                                let col = &mut p[(j0 + jj) * n + i0..][..MR];
+                                for (x, &d) in col.iter_mut().zip(acc_j) {
+                                    *x -= d;
+                                }
+                            }
+                        } else {
+                            for (jj, acc_j) in acc.iter().enumerate().take(jn) {
+                                let j = j0 + jj;
+                                for (ii, &d) in acc_j.iter().enumerate().take(im) {
+                                    if i0 + ii >= j {
+                                        p[j * n + i0 + ii] -= d;
+                                    }
+                                }
                             }
                         }
                     }
@@ -351,7 +484,7 @@ fn bench_size(c: &mut Criterion, n: usize) -> Interleaved {
         });
         group.finish();
         // The filter the timed steps left must still be a valid Gaussian.
-        if n <= 500 && ekf.covariance().clone().cholesky().is_none() {
+        if n <= 500 && ekf.covariance().cholesky().is_none() {
             panic!("{name}: covariance lost positive definiteness at n = {n}");
         }
     }
@@ -442,6 +575,7 @@ fn memory_flat(steps: u64) {
     let mut ekf = problem.initial.clone();
     let mut rng = StdRng::seed_from_u64(seed(&[7, 10, 1]));
     let mut pose = Vector3::zeros();
+    let mut batch = empty_batch();
     let mut run = |ekf: &mut Ekf, count: u64| {
         for _ in 0..count {
             pose = must(problem.model.propagate(&pose, &problem.control), "truth");
@@ -450,7 +584,7 @@ fn memory_flat(steps: u64) {
                 let noise: f64 = StandardNormal.sample(&mut rng);
                 wrap_angle((ly - pose.y).atan2(lx - pose.x) - pose.z + SIGMA_BEARING * noise)
             });
-            step(ekf, &problem, &z);
+            step(ekf, &problem, &z, &mut batch);
         }
     };
     let warm = 1000.min(steps);

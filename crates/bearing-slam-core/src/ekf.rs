@@ -98,9 +98,9 @@ pub struct UpdateStats {
 
 /// How [`Ekf::update`] corrects the covariance.
 ///
-/// Both forms are evaluated on one triangle of `P` only (the other is
-/// mirrored from it, so `P` stays exactly symmetric), in one fused pass over
-/// `P`, with no N×N temporary.
+/// Both forms are evaluated on the lower triangle of `P` only (the filter's
+/// storage contract, see [`Ekf`]), in one fused pass over it, with no N×N
+/// temporary.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum CovarianceUpdate {
     /// The Joseph form `P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ`, valid for any
@@ -170,15 +170,69 @@ impl std::fmt::Debug for Workspace {
 /// update (Joseph form by default), augmentation, removal and
 /// reparameterization.
 ///
-/// Equality and cloning concern the mean, the covariance and the
-/// [`CovarianceUpdate`] form; the internal scratch buffers are not part of
-/// the filter's value.
-#[derive(Clone, Debug, PartialEq)]
+/// # Storage contract: one triangle, mirrored lazily
+///
+/// The covariance `P` is symmetric, and the filter stores only its **lower
+/// triangle** (diagonal included) authoritatively: every operation
+/// (prediction, update, augmentation, removal, reparameterization) reads
+/// `P[i, j]` for `i < j` from `P[j, i]` and computes and writes the lower
+/// triangle only. The strict upper triangle of the storage is scratch with
+/// unspecified contents. This halves the memory traffic of the O(n²) update
+/// (no transposed, strided mirror stores); the arithmetic on the lower
+/// triangle is the one of an eagerly mirrored `P`, so results are bit for bit
+/// those of a filter that keeps both triangles.
+///
+/// The storage is a `cap × cap` column-major matrix (leading dimension
+/// `cap ≥ N`) whose top-left N×N corner holds `P`; what lies outside that
+/// corner is unspecified too. [`Ekf::augment`] grows the capacity
+/// geometrically (×1.5) and otherwise writes the new rows in place, so adding
+/// a block costs amortized O(N) instead of an O(N²) copy; removing a block
+/// shifts the lower triangle in place and keeps the capacity.
+///
+/// Reading the covariance:
+/// * [`Ekf::covariance`] builds the full symmetric matrix (an owned copy,
+///   O(n²): the mirror is made only when asked for), for export and tests;
+/// * [`Ekf::covariance_entry`] and [`Ekf::covariance_block`] read single
+///   entries and diagonal blocks in O(1), and
+///   [`Ekf::covariance_cross_block`] an off-diagonal block, for per-step
+///   callers.
+///
+/// Equality and cloning concern the mean, the (logical, symmetric)
+/// covariance and the [`CovarianceUpdate`] form; the unspecified upper
+/// triangle and the internal scratch buffers are not part of the filter's
+/// value.
+#[derive(Clone)]
 pub struct Ekf {
     mean: DVector<f64>,
+    /// `P` in its top-left N×N corner (N = `mean.len()`); only the lower
+    /// triangle (diagonal included) of that corner is meaningful.
     cov: DMatrix<f64>,
     covariance_update: CovarianceUpdate,
     workspace: Workspace,
+}
+
+impl PartialEq for Ekf {
+    /// Same form, same mean, and the same lower triangle of `P` (the stored
+    /// upper triangle is not part of the value).
+    fn eq(&self, other: &Self) -> bool {
+        let (n, ld, other_ld) = (self.dim(), self.cov.nrows(), other.cov.nrows());
+        self.covariance_update == other.covariance_update
+            && self.mean == other.mean
+            && (0..n).all(|j| {
+                self.cov.as_slice()[j * ld + j..j * ld + n]
+                    == other.cov.as_slice()[j * other_ld + j..j * other_ld + n]
+            })
+    }
+}
+
+impl std::fmt::Debug for Ekf {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Ekf")
+            .field("mean", &self.mean)
+            .field("cov", &self.covariance())
+            .field("covariance_update", &self.covariance_update)
+            .finish_non_exhaustive()
+    }
 }
 
 impl Ekf {
@@ -213,8 +267,8 @@ impl Ekf {
             covariance_update: CovarianceUpdate::default(),
             workspace: Workspace::default(),
         };
-        // Keep P exactly symmetric from here on: every operation updates one
-        // triangle and mirrors it.
+        // Exactly symmetric to start with; from here on only the lower
+        // triangle is maintained.
         ekf.symmetrize();
         Ok(ekf)
     }
@@ -249,10 +303,29 @@ impl Ekf {
         &self.mean
     }
 
-    /// The state covariance.
+    /// The full state covariance, an owned, exactly symmetric N×N matrix.
+    ///
+    /// O(n²): it copies the stored lower triangle and mirrors it into the
+    /// upper one (the filter itself never keeps the mirror, see [`Ekf`]). For
+    /// per-step reads use [`Ekf::covariance_entry`], [`Ekf::covariance_block`]
+    /// or [`Ekf::covariance_cross_block`].
     #[must_use]
-    pub fn covariance(&self) -> &DMatrix<f64> {
-        &self.cov
+    pub fn covariance(&self) -> DMatrix<f64> {
+        let n = self.dim();
+        let mut p = self.cov.view((0, 0), (n, n)).into_owned();
+        mirror_lower_to_upper(p.as_mut_slice(), n);
+        p
+    }
+
+    /// `P[i, j]` (read from the stored lower triangle), O(1).
+    ///
+    /// # Panics
+    /// If `i` or `j` is not below [`Ekf::dim`], as indexing does.
+    #[must_use]
+    pub fn covariance_entry(&self, i: usize, j: usize) -> f64 {
+        let (r, c) = if i >= j { (i, j) } else { (j, i) };
+        assert!(r < self.dim(), "covariance entry ({i}, {j}) out of range");
+        self.cov[(r, c)]
     }
 
     /// The `L` entries of the state starting at `offset`.
@@ -261,10 +334,40 @@ impl Ekf {
         Ok(self.mean.fixed_rows::<L>(offset).into_owned())
     }
 
-    /// The `L×L` covariance block starting at `offset`.
+    /// The `L×L` (symmetric) covariance block starting at `offset`, O(L²).
     pub fn covariance_block<const L: usize>(&self, offset: usize) -> Result<SMatrix<f64, L, L>> {
         self.check_range("covariance block", offset, L)?;
-        Ok(self.cov.fixed_view::<L, L>(offset, offset).into_owned())
+        Ok(SMatrix::from_fn(|i, j| {
+            self.covariance_entry(offset + i, offset + j)
+        }))
+    }
+
+    /// The `rows × cols` covariance block `P[row_offset.., col_offset..]`
+    /// (any position, across the diagonal too), read from the stored lower
+    /// triangle in O(rows · cols).
+    pub fn covariance_cross_block(
+        &self,
+        row_offset: usize,
+        rows: usize,
+        col_offset: usize,
+        cols: usize,
+    ) -> Result<DMatrix<f64>> {
+        self.check_range("covariance block rows", row_offset, rows)?;
+        self.check_range("covariance block columns", col_offset, cols)?;
+        Ok(self.sym_block(row_offset, rows, col_offset, cols))
+    }
+
+    /// [`Ekf::covariance_cross_block`] without the range check.
+    fn sym_block(
+        &self,
+        row_offset: usize,
+        rows: usize,
+        col_offset: usize,
+        cols: usize,
+    ) -> DMatrix<f64> {
+        DMatrix::from_fn(rows, cols, |i, j| {
+            self.covariance_entry(row_offset + i, col_offset + j)
+        })
     }
 
     /// Overwrites `L` entries of the mean (e.g. to wrap an angle after an update).
@@ -315,10 +418,12 @@ impl Ekf {
         let f = &prediction.j_state_state;
         let n = self.dim();
         let m = n - V;
-        let p_vv = self.cov.fixed_view::<V, V>(0, 0).into_owned();
+        let p_vv = SMatrix::<f64, V, V>::from_fn(|i, j| self.covariance_entry(i, j));
         let new_vv = f * p_vv * f.transpose() + prediction.process_noise;
         // P_mv ← P_mv Fᵀ ((n − V) × V), read from the contiguous vehicle
-        // columns into a reusable buffer: O(n), no allocation, no n×n work.
+        // columns below the vehicle block (lower triangle) into a reusable
+        // buffer: O(n), no allocation, no n×n work.
+        let ld = self.cov.nrows();
         let p = self.cov.as_slice();
         let vm = &mut self.workspace.vm;
         vm.clear();
@@ -326,7 +431,7 @@ impl Ekf {
         for (c, out) in vm.chunks_exact_mut(m.max(1)).enumerate().take(V) {
             for k in 0..V {
                 let f_ck = f[(c, k)];
-                let src = &p[k * n + V..(k + 1) * n];
+                let src = &p[k * ld + V..k * ld + n];
                 for (o, &s) in out.iter_mut().zip(src) {
                     *o += f_ck * s;
                 }
@@ -336,13 +441,10 @@ impl Ekf {
         for &v in new_vv.iter().chain(vm.iter()) {
             ensure_finite("predicted covariance", v)?;
         }
+        // Lower triangle only: P_mv, not its mirror P_vm.
         let p = self.cov.as_mut_slice();
         for c in 0..V {
-            let col = &vm[c * m..(c + 1) * m];
-            p[c * n + V..(c + 1) * n].copy_from_slice(col);
-            for (i, &v) in col.iter().enumerate() {
-                p[(V + i) * n + c] = v;
-            }
+            p[c * ld + V..c * ld + n].copy_from_slice(&vm[c * m..(c + 1) * m]);
         }
         self.cov
             .fixed_view_mut::<V, V>(0, 0)
@@ -355,6 +457,7 @@ impl Ekf {
 
     /// Linearizes a measurement of the vehicle block `[0, V)` and the block at
     /// `landmark_offset`, returning the innovation and `H`'s non-zero blocks.
+    /// Allocates the result; [`Ekf::linearize_into`] reuses one.
     pub fn linearize<const V: usize, const L: usize, const M: usize, Model>(
         &self,
         model: &Model,
@@ -365,6 +468,29 @@ impl Ekf {
     where
         Model: MeasurementModel<V, L, M>,
     {
+        let mut out = LinearizedMeasurement {
+            innovation: DVector::zeros(M),
+            noise: DMatrix::zeros(M, M),
+            blocks: Vec::with_capacity(2),
+        };
+        self.linearize_into::<V, L, M, Model>(model, landmark_offset, measured, noise, &mut out)?;
+        Ok(out)
+    }
+
+    /// [`Ekf::linearize`] written into `out`, reusing its buffers: once `out`
+    /// has the shapes of this measurement (e.g. from an earlier call), no
+    /// allocation. On error `out` is left unchanged.
+    pub fn linearize_into<const V: usize, const L: usize, const M: usize, Model>(
+        &self,
+        model: &Model,
+        landmark_offset: usize,
+        measured: &SVector<f64, M>,
+        noise: &SMatrix<f64, M, M>,
+        out: &mut LinearizedMeasurement,
+    ) -> Result<()>
+    where
+        Model: MeasurementModel<V, L, M>,
+    {
         for &z in measured.iter() {
             ensure_finite("measurement", z)?;
         }
@@ -372,20 +498,30 @@ impl Ekf {
         let landmark = self.block::<L>(landmark_offset)?;
         let prediction = model.predict(&vehicle, &landmark)?;
         let innovation = model.residual(measured, &prediction.value);
-        Ok(LinearizedMeasurement {
-            innovation: DVector::from_column_slice(innovation.as_slice()),
-            noise: DMatrix::from_column_slice(M, M, noise.as_slice()),
-            blocks: vec![
-                BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(M, V, prediction.j_z_vehicle.as_slice()),
-                },
-                BlockJacobian {
-                    offset: landmark_offset,
-                    jacobian: DMatrix::from_column_slice(M, L, prediction.j_z_landmark.as_slice()),
-                },
-            ],
-        })
+        fill(&mut out.innovation, M, 1, innovation.as_slice());
+        fill(&mut out.noise, M, M, noise.as_slice());
+        out.blocks.truncate(2);
+        while out.blocks.len() < 2 {
+            out.blocks.push(BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::zeros(0, 0),
+            });
+        }
+        out.blocks[0].offset = 0;
+        fill(
+            &mut out.blocks[0].jacobian,
+            M,
+            V,
+            prediction.j_z_vehicle.as_slice(),
+        );
+        out.blocks[1].offset = landmark_offset;
+        fill(
+            &mut out.blocks[1].jacobian,
+            M,
+            L,
+            prediction.j_z_landmark.as_slice(),
+        );
+        Ok(())
     }
 
     /// `H P Hᵀ` for a block-sparse `H`, touching only the blocks' covariances.
@@ -393,10 +529,8 @@ impl Ekf {
         let mut s = DMatrix::zeros(rows, rows);
         for a in blocks {
             for b in blocks {
-                let p_ab = self.cov.view(
-                    (a.offset, b.offset),
-                    (a.jacobian.ncols(), b.jacobian.ncols()),
-                );
+                let p_ab =
+                    self.sym_block(a.offset, a.jacobian.ncols(), b.offset, b.jacobian.ncols());
                 s += &a.jacobian * p_ab * b.jacobian.transpose();
             }
         }
@@ -460,9 +594,23 @@ impl Ekf {
     /// `P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K Cᵀ − C Kᵀ + K S Kᵀ`,
     /// evaluated in O(n² m) without forming `I − KH` (see
     /// [`CovarianceUpdate`] for the evaluation and the faster optional
-    /// form). Only one triangle of `P` is computed; the other is its mirror,
-    /// so `P` stays exactly symmetric. Errors leave the filter unchanged.
+    /// form). Only the lower triangle of `P` is read and written (see the
+    /// storage contract of [`Ekf`]). Errors leave the filter unchanged.
+    ///
+    /// Where the CPU has AVX2/FMA (x86-64-v3, detected at run time) the whole
+    /// update is compiled for it; Rust never fuses `a * b + c` and keeps the
+    /// order of every sum, so the result is bit for bit the baseline build's.
     pub fn update(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = pulp::x86::V3::try_new() {
+            return v3.vectorize(UpdateOp { ekf: self, batch });
+        }
+        self.update_impl(batch)
+    }
+
+    /// [`Ekf::update`], inlined into the caller's target features.
+    #[inline(always)]
+    fn update_impl(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
         for m in batch {
             self.check_measurement(m)?;
         }
@@ -473,10 +621,14 @@ impl Ekf {
         let n = self.dim();
         let m = rows;
         let ws = &mut self.workspace;
+        let ld = self.cov.nrows();
         let p = self.cov.as_slice();
 
         // Stack ν and R (block diagonal, into S), and C = P Hᵀ column by
-        // column: C[:, r] += J[r, c] P[:, offset + c] (contiguous columns).
+        // column: C[:, r] += J[r, c] P[:, offset + c]. Column j = offset + c
+        // of P is its stored column from row j down (contiguous), and above
+        // row j it is row j of the lower triangle: P[i, j] = P[j, i], read
+        // for the block's columns at once (they are adjacent in row j).
         reset(&mut ws.nu, m);
         reset(&mut ws.s, m * m);
         reset(&mut ws.c, n * m);
@@ -490,12 +642,29 @@ impl Ekf {
                 }
             }
             for block in &meas.blocks {
+                let off = block.offset;
+                let cols = block.jacobian.ncols();
+                // Rows above the block: P[i, off + c] = P[off + c, i], the
+                // `cols` adjacent entries of column i at row off.
+                for i in 0..off {
+                    let p_row = &p[i * ld + off..][..cols];
+                    for a in 0..k {
+                        let ci = &mut ws.c[(row + a) * n + i];
+                        for (col, &pi) in p_row.iter().enumerate() {
+                            *ci += block.jacobian[(a, col)] * pi;
+                        }
+                    }
+                }
+                // Rows from the block down.
                 for a in 0..k {
                     let c_col = &mut ws.c[(row + a) * n..(row + a + 1) * n];
-                    for col in 0..block.jacobian.ncols() {
+                    for col in 0..cols {
                         let h = block.jacobian[(a, col)];
-                        let p_col = &p[(block.offset + col) * n..(block.offset + col + 1) * n];
-                        for (ci, &pi) in c_col.iter_mut().zip(p_col) {
+                        let j = off + col;
+                        for (i, ci) in c_col.iter_mut().enumerate().take(j).skip(off) {
+                            *ci += h * p[i * ld + j];
+                        }
+                        for (ci, &pi) in c_col[j..].iter_mut().zip(&p[j * ld + j..j * ld + n]) {
                             *ci += h * pi;
                         }
                     }
@@ -618,7 +787,7 @@ impl Ekf {
                 }
             }
         }
-        triangle_update(self.cov.as_mut_slice(), n, &ws.a, &ws.b, depth, wide);
+        triangle_update(self.cov.as_mut_slice(), n, ld, &ws.a, &ws.b, depth, wide);
         Ok(UpdateStats { nis, dof: rows })
     }
 
@@ -641,7 +810,8 @@ impl Ekf {
     /// block's offset.
     ///
     /// `P_yy = G_x P G_xᵀ + added_noise`, `P_yx = G_x P`; O(n) for the cross
-    /// terms plus the copy into the grown matrix.
+    /// terms plus the copy into the grown matrix. Only the new lower rows
+    /// `P_yx` and `P_yy` are written (see the storage contract of [`Ekf`]).
     pub fn augment(
         &mut self,
         new_mean: &DVector<f64>,
@@ -677,10 +847,11 @@ impl Ekf {
         // Cross covariance G_x P (k × n).
         let mut cross = DMatrix::zeros(k, n);
         for block in jacobians {
+            let cols = block.jacobian.ncols();
             cross.gemm(
                 1.0,
                 &block.jacobian,
-                &self.cov.rows(block.offset, block.jacobian.ncols()),
+                &self.sym_block(block.offset, cols, 0, n),
                 1.0,
             );
         }
@@ -698,17 +869,31 @@ impl Ekf {
             ensure_finite("augmented covariance", v)?;
         }
 
-        let old_cov = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
-        let mut cov = old_cov.resize(n + k, n + k, 0.0);
-        cov.view_mut((n, 0), (k, n)).copy_from(&cross);
-        cov.view_mut((0, n), (n, k)).copy_from(&cross.transpose());
-        cov.view_mut((n, n), (k, k)).copy_from(&p_yy);
-        self.cov = cov;
+        self.reserve(k);
+        self.cov.view_mut((n, 0), (k, n)).copy_from(&cross);
+        self.cov.view_mut((n, n), (k, k)).copy_from(&p_yy);
         let old_mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
         let mut mean = old_mean.resize_vertically(n + k, 0.0);
         mean.rows_mut(n, k).copy_from(new_mean);
         self.mean = mean;
         Ok(n)
+    }
+
+    /// Makes room for `extra` more state entries in the covariance storage:
+    /// when the capacity is short, a new one of `max(N + extra, 1.5 cap)`
+    /// and a copy of the lower triangle (amortized O(N) per added entry).
+    fn reserve(&mut self, extra: usize) {
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        if n + extra <= ld {
+            return;
+        }
+        let cap = (n + extra).max(ld + ld / 2);
+        let mut cov = DMatrix::zeros(cap, cap);
+        let (dst, src) = (cov.as_mut_slice(), self.cov.as_slice());
+        for j in 0..n {
+            dst[j * cap + j..j * cap + n].copy_from_slice(&src[j * ld + j..j * ld + n]);
+        }
+        self.cov = cov;
     }
 
     /// Appends an exact copy of the block at `offset` (stochastic cloning):
@@ -730,8 +915,16 @@ impl Ekf {
     /// dropping its rows and columns. Later blocks move down by `len`.
     pub fn remove_block(&mut self, offset: usize, len: usize) -> Result<()> {
         self.check_range("removed block", offset, len)?;
-        let cov = std::mem::replace(&mut self.cov, DMatrix::zeros(0, 0));
-        self.cov = cov.remove_rows(offset, len).remove_columns(offset, len);
+        // In place, lower triangle only, keeping the capacity: the rows
+        // below the block move up by `len` and the columns past it left.
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        let p = self.cov.as_mut_slice();
+        for j in 0..offset {
+            p.copy_within(j * ld + offset + len..j * ld + n, j * ld + offset);
+        }
+        for j in offset + len..n {
+            p.copy_within(j * ld + j..j * ld + n, (j - len) * ld + j - len);
+        }
         let mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
         self.mean = mean.remove_rows(offset, len);
         Ok(())
@@ -761,11 +954,16 @@ impl Ekf {
         for &v in new_mean.iter().chain(j_new_old.iter()) {
             ensure_finite("reparameterized block", v)?;
         }
-        let rows = j_new_old * self.cov.rows(offset, old_len); // new_len × n
+        let n = self.dim();
+        let rows = j_new_old * self.sym_block(offset, old_len, 0, n); // new_len × n
         let diag = rows.columns(offset, old_len) * j_new_old.transpose();
-        self.cov.rows_mut(offset, new_len).copy_from(&rows);
+        // Rows and columns both: their lower parts make up the lower
+        // triangle's new entries (the upper parts are unspecified storage).
         self.cov
-            .columns_mut(offset, new_len)
+            .view_mut((offset, 0), (new_len, n))
+            .copy_from(&rows);
+        self.cov
+            .view_mut((0, offset), (n, new_len))
             .copy_from(&rows.transpose());
         self.cov
             .view_mut((offset, offset), (new_len, new_len))
@@ -778,13 +976,66 @@ impl Ekf {
     }
 }
 
+/// Copies the strict lower triangle of the column-major n×n `p` into its
+/// upper triangle, in square tiles so that both the reads (down columns) and
+/// the transposed writes stay within a few pages at a time.
+fn mirror_lower_to_upper(p: &mut [f64], n: usize) {
+    const TILE: usize = 32;
+    for jb in (0..n).step_by(TILE) {
+        for ib in (jb..n).step_by(TILE) {
+            for j in jb..(jb + TILE).min(n) {
+                for i in ib.max(j + 1)..(ib + TILE).min(n) {
+                    p[i * n + j] = p[j * n + i];
+                }
+            }
+        }
+    }
+}
+
+/// Overwrites the column-major `rows × cols` matrix `m` with `values`,
+/// reallocating only when its shape differs.
+fn fill<C: nalgebra::Dim>(
+    m: &mut nalgebra::Matrix<f64, nalgebra::Dyn, C, nalgebra::VecStorage<f64, nalgebra::Dyn, C>>,
+    rows: usize,
+    cols: usize,
+    values: &[f64],
+) {
+    if m.shape() != (rows, cols) {
+        *m = nalgebra::Matrix::from_iterator_generic(
+            nalgebra::Dyn(rows),
+            C::from_usize(cols),
+            values.iter().copied(),
+        );
+    } else {
+        m.as_mut_slice().copy_from_slice(values);
+    }
+}
+
+/// [`Ekf::update`] as a [`pulp::NullaryFnOnce`] with an `#[inline(always)]`
+/// `call`, so that it is compiled inside pulp's x86-64-v3 function.
+struct UpdateOp<'a> {
+    ekf: &'a mut Ekf,
+    batch: &'a [LinearizedMeasurement],
+}
+
+impl pulp::NullaryFnOnce for UpdateOp<'_> {
+    type Output = Result<UpdateStats>;
+
+    #[inline(always)]
+    fn call(self) -> Self::Output {
+        self.ekf.update_impl(self.batch)
+    }
+}
+
 /// Clears `buf` and fills it with `len` zeros, reusing its capacity.
+#[inline(always)]
 fn reset(buf: &mut Vec<f64>, len: usize) {
     buf.clear();
     buf.resize(len, 0.0);
 }
 
 /// `y += alpha x`.
+#[inline(always)]
 fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
     for (yi, &xi) in y.iter_mut().zip(x) {
         *yi += alpha * xi;
@@ -792,6 +1043,7 @@ fn axpy(alpha: f64, x: &[f64], y: &mut [f64]) {
 }
 
 /// `x *= alpha`.
+#[inline(always)]
 fn scale(alpha: f64, x: &mut [f64]) {
     for xi in x {
         *xi *= alpha;
@@ -800,6 +1052,7 @@ fn scale(alpha: f64, x: &mut [f64]) {
 
 /// Writes `col` as column `r` of a factor packed in row panels of `W`
 /// (`packed[(panel·depth + r)·W + i % W] = col[i]`).
+#[inline(always)]
 fn pack<const W: usize>(packed: &mut [f64], depth: usize, r: usize, col: &[f64]) {
     for (dst, src) in packed.chunks_exact_mut(depth * W).zip(col.chunks(W)) {
         dst[r * W..r * W + src.len()].copy_from_slice(src);
@@ -807,6 +1060,7 @@ fn pack<const W: usize>(packed: &mut [f64], depth: usize, r: usize, col: &[f64])
 }
 
 /// [`pack`] in row panels of the triangle update's tile height.
+#[inline(always)]
 fn pack_rows(wide: bool, packed: &mut [f64], depth: usize, r: usize, col: &[f64]) {
     if wide {
         pack::<MR_WIDE>(packed, depth, r, col);
@@ -815,6 +1069,7 @@ fn pack_rows(wide: bool, packed: &mut [f64], depth: usize, r: usize, col: &[f64]
     }
 }
 
+#[inline(always)]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }
@@ -868,24 +1123,61 @@ fn wide_kernel() -> bool {
     }
 }
 
-/// [`lower_update_mirrored`] with the tile height matching how `a` was
+/// [`lower_update`] with the tile height matching how `a` was
 /// packed (`MR_WIDE` when `wide`), compiled for x86-64-v3 when `wide`.
-fn triangle_update(p: &mut [f64], n: usize, a: &[f64], b: &[f64], depth: usize, wide: bool) {
+fn triangle_update(
+    p: &mut [f64],
+    n: usize,
+    ld: usize,
+    a: &[f64],
+    b: &[f64],
+    depth: usize,
+    wide: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     if wide && let Some(v3) = pulp::x86::V3::try_new() {
         // The same code, inlined into a function compiled with AVX2/FMA: LLVM
         // vectorizes the tile over 4-wide registers. No FMA contraction (Rust
         // does not fuse `a * b + c`), so the result is bit-identical to the
         // baseline kernel's.
-        v3.vectorize(|| lower_update_mirrored::<MR_WIDE>(p, n, a, b, depth));
+        v3.vectorize(LowerUpdate {
+            p,
+            n,
+            ld,
+            a,
+            b,
+            depth,
+        });
         return;
     }
     if wide {
-        lower_update_mirrored::<MR_WIDE>(p, n, a, b, depth);
+        lower_update::<MR_WIDE>(p, n, ld, a, b, depth);
     } else {
-        lower_update_mirrored::<MR>(p, n, a, b, depth);
+        lower_update::<MR>(p, n, ld, a, b, depth);
     }
 }
+/// [`lower_update`] with `MR_WIDE` as a [`pulp::NullaryFnOnce`] whose `call`
+/// is `#[inline(always)]`: unlike a closure's body, the kernel is then
+/// guaranteed to be inlined into (and compiled with the features of) pulp's
+/// x86-64-v3 function.
+struct LowerUpdate<'a> {
+    p: &'a mut [f64],
+    n: usize,
+    ld: usize,
+    a: &'a [f64],
+    b: &'a [f64],
+    depth: usize,
+}
+
+impl pulp::NullaryFnOnce for LowerUpdate<'_> {
+    type Output = ();
+
+    #[inline(always)]
+    fn call(self) {
+        lower_update::<MR_WIDE>(self.p, self.n, self.ld, self.a, self.b, self.depth);
+    }
+}
+
 /// Columns of a register tile of the triangle update.
 const NR: usize = 4;
 
@@ -906,28 +1198,27 @@ fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
     acc
 }
 
-/// Edge of the square blocks in which [`lower_update_mirrored`] walks `P`
+/// Edge of the square blocks in which [`lower_update`] walks `P`
 /// (a multiple of `MR`, `MR_WIDE` and `NR`).
-const KB: usize = 64;
+const KB: usize = 256;
 
-/// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the
-/// column-major n×n `p`, each new entry also written to its mirror in the
-/// upper triangle, so one pass over `P`, half the flops of a full update,
-/// and an exactly symmetric result. `a` is `A` (n×depth) packed in row
-/// panels of MR (`a[(panel·depth + r)·MR + i % MR] = A[i, r]`, zero padded),
-/// `b` is `B` packed likewise in panels of NR. Register-tiled: each MR×NR
-/// tile of `P` is read and written once, with its `depth` rank-one terms
-/// accumulated in registers.
+/// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the n×n
+/// top-left corner of the column-major `p` of leading dimension `ld`; the
+/// strict upper triangle is neither read nor written. One pass over half of `P`, half the flops of a full update.
+/// `a` is `A` (n×depth) packed in row panels of MR
+/// (`a[(panel·depth + r)·MR + i % MR] = A[i, r]`, zero padded), `b` is `B`
+/// packed likewise in panels of NR. Register-tiled: each MR×NR tile of `P`
+/// is read and written once, with its `depth` rank-one terms accumulated in
+/// registers (in the order r = 0, 1, …, then subtracted from `P`).
 ///
-/// The tiles are visited in KB×KB blocks of the lower triangle, so the
-/// mirror writes of a block land in one KB×KB block of the upper triangle
-/// (KB columns, a few cache lines each) instead of sweeping all n columns
-/// (n pages, at large n one TLB miss each) for every column panel; and the
-/// KB rows of `a` a block reads stay in L1.
+/// The tiles are visited in KB×KB blocks of the lower triangle, so the KB
+/// rows of `a` a block reads stay in cache (L2) while its columns are
+/// swept.
 #[inline(always)]
-fn lower_update_mirrored<const MR: usize>(
+fn lower_update<const MR: usize>(
     p: &mut [f64],
     n: usize,
+    ld: usize,
     a: &[f64],
     b: &[f64],
     depth: usize,
@@ -950,31 +1241,19 @@ fn lower_update_mirrored<const MR: usize>(
                     let acc = micro_tile::<MR>(ap, bp);
                     if i0 >= j0 + NR && im == MR && jn == NR {
                         // Strictly below the diagonal and inside P: the fast path.
-                        let mut new = [[0.0; MR]; NR];
-                        for (jj, (acc_j, new_j)) in acc.iter().zip(new.iter_mut()).enumerate() {
-                            let col = &mut p[(j0 + jj) * n + i0..][..MR];
-                            for ((x, &d), y) in col.iter_mut().zip(acc_j).zip(new_j.iter_mut()) {
+                        for (jj, acc_j) in acc.iter().enumerate() {
+                            let col = &mut p[(j0 + jj) * ld + i0..][..MR];
+                            for (x, &d) in col.iter_mut().zip(acc_j) {
                                 *x -= d;
-                                *y = *x;
-                            }
-                        }
-                        for ii in 0..MR {
-                            let row = &mut p[(i0 + ii) * n + j0..][..NR];
-                            for (x, new_j) in row.iter_mut().zip(&new) {
-                                *x = new_j[ii];
                             }
                         }
                     } else {
                         for (jj, acc_j) in acc.iter().enumerate().take(jn) {
                             let j = j0 + jj;
                             for (ii, &d) in acc_j.iter().enumerate().take(im) {
-                                let i = i0 + ii;
-                                if i < j {
-                                    continue;
+                                if i0 + ii >= j {
+                                    p[j * ld + i0 + ii] -= d;
                                 }
-                                let v = p[j * n + i] - d;
-                                p[j * n + i] = v;
-                                p[i * n + j] = v;
                             }
                         }
                     }
@@ -1039,11 +1318,11 @@ mod tests {
             row += k;
         }
         let p = ekf.covariance();
-        let s = &h * p * h.transpose() + &r;
+        let s = &h * &p * h.transpose() + &r;
         let s_inv = s.try_inverse().expect("S invertible");
-        let k = p * h.transpose() * s_inv;
+        let k = &p * h.transpose() * s_inv;
         let i_kh = DMatrix::identity(dim, dim) - &k * &h;
-        let cov = &i_kh * p * i_kh.transpose() + &k * r * k.transpose();
+        let cov = &i_kh * &p * i_kh.transpose() + &k * r * k.transpose();
         (ekf.mean() + k * nu, cov)
     }
 
@@ -1069,7 +1348,7 @@ mod tests {
                 );
                 assert_eq!(
                     f.covariance(),
-                    &f.covariance().transpose(),
+                    f.covariance().transpose(),
                     "exactly symmetric"
                 );
             }
@@ -1096,7 +1375,7 @@ mod tests {
                     pack::<NR>(&mut b, depth, r, g.column(r).as_slice());
                 }
                 let mut p = p0.clone();
-                triangle_update(p.as_mut_slice(), n, &a, &b, depth, wide);
+                triangle_update(p.as_mut_slice(), n, n, &a, &b, depth, wide);
                 results.push(p);
             }
             assert_eq!(results[0], results[1], "n={n} depth={depth}");
@@ -1123,7 +1402,7 @@ mod tests {
         })
         .expect("predicts");
         assert!((ekf.covariance() - expected).amax() < 1e-12);
-        assert_eq!(ekf.covariance(), &ekf.covariance().transpose());
+        assert_eq!(ekf.covariance(), ekf.covariance().transpose());
     }
 
     /// Numerical justification of [`CovarianceUpdate::Symmetric`]: over a long
@@ -1162,5 +1441,483 @@ mod tests {
         for ekf in [&joseph, &symmetric] {
             assert!(ekf.covariance().clone().cholesky().is_some());
         }
+    }
+
+    /// The filter as it was before the lazy mirror: a full, eagerly mirrored
+    /// `P`, every operation written densely on it with the same arithmetic
+    /// (same products, same summation order, no FMA) as [`Ekf`]'s.
+    struct EagerReference {
+        mean: DVector<f64>,
+        cov: DMatrix<f64>,
+    }
+
+    impl EagerReference {
+        fn predict(&mut self, prediction: &MotionPrediction<3>) {
+            let f = &prediction.j_state_state;
+            let n = self.mean.len();
+            let p_vv = self.cov.fixed_view::<3, 3>(0, 0).into_owned();
+            let new_vv = f * p_vv * f.transpose() + prediction.process_noise;
+            for c in 0..3 {
+                for i in 3..n {
+                    let mut acc = 0.0;
+                    for k in 0..3 {
+                        acc += f[(c, k)] * self.cov[(i, k)];
+                    }
+                    self.cov[(i, c)] = acc;
+                    self.cov[(c, i)] = acc;
+                }
+            }
+            self.cov
+                .fixed_view_mut::<3, 3>(0, 0)
+                .copy_from(&(0.5 * (new_vv + new_vv.transpose())));
+            self.mean
+                .fixed_rows_mut::<3>(0)
+                .copy_from(&prediction.state);
+        }
+
+        fn nis(&self, meas: &LinearizedMeasurement) -> f64 {
+            let rows = meas.innovation.len();
+            let mut s = DMatrix::zeros(rows, rows);
+            for a in &meas.blocks {
+                for b in &meas.blocks {
+                    let p_ab = self.cov.view(
+                        (a.offset, b.offset),
+                        (a.jacobian.ncols(), b.jacobian.ncols()),
+                    );
+                    s += &a.jacobian * p_ab * b.jacobian.transpose();
+                }
+            }
+            let s = s + &meas.noise;
+            let chol = s.cholesky().expect("S positive definite");
+            meas.innovation.dot(&chol.solve(&meas.innovation))
+        }
+
+        fn update(&mut self, batch: &[LinearizedMeasurement], form: CovarianceUpdate) {
+            let n = self.mean.len();
+            let m: usize = batch.iter().map(|b| b.innovation.len()).sum();
+            let p = &self.cov;
+            let mut nu = DVector::<f64>::zeros(m);
+            let mut s = DMatrix::<f64>::zeros(m, m);
+            let mut c = DMatrix::<f64>::zeros(n, m);
+            let mut row = 0;
+            for meas in batch {
+                let k = meas.innovation.len();
+                nu.rows_mut(row, k).copy_from(&meas.innovation);
+                s.view_mut((row, row), (k, k)).copy_from(&meas.noise);
+                for block in &meas.blocks {
+                    for a in 0..k {
+                        for col in 0..block.jacobian.ncols() {
+                            let h = block.jacobian[(a, col)];
+                            for i in 0..n {
+                                c[(i, row + a)] += h * p[(i, block.offset + col)];
+                            }
+                        }
+                    }
+                }
+                row += k;
+            }
+            let mut row = 0;
+            for meas in batch {
+                let k = meas.innovation.len();
+                for block in &meas.blocks {
+                    for a in 0..k {
+                        for col_s in 0..m {
+                            let mut acc = 0.0;
+                            for col in 0..block.jacobian.ncols() {
+                                acc += block.jacobian[(a, col)] * c[(block.offset + col, col_s)];
+                            }
+                            s[(row + a, col_s)] += acc;
+                        }
+                    }
+                }
+                row += k;
+            }
+            for j in 0..m {
+                for i in (j + 1)..m {
+                    let avg = 0.5 * (s[(i, j)] + s[(j, i)]);
+                    s[(i, j)] = avg;
+                    s[(j, i)] = avg;
+                }
+            }
+            let mut l = s.clone();
+            assert!(cholesky_in_place(l.as_mut_slice(), m));
+            let mut w = DVector::zeros(m);
+            for r in 0..m {
+                let mut v = nu[r];
+                for k in 0..r {
+                    v -= l[(r, k)] * w[k];
+                }
+                w[r] = v * (1.0 / l[(r, r)]);
+            }
+            let mut u = c.clone();
+            for r in 0..m {
+                for k in 0..r {
+                    for i in 0..n {
+                        u[(i, r)] += -l[(r, k)] * u[(i, k)];
+                    }
+                }
+                for i in 0..n {
+                    u[(i, r)] *= 1.0 / l[(r, r)];
+                }
+            }
+            let (a, b) = match form {
+                CovarianceUpdate::Joseph => {
+                    let mut k_mat = u;
+                    for r in (0..m).rev() {
+                        for k in (r + 1)..m {
+                            for i in 0..n {
+                                k_mat[(i, r)] += -l[(k, r)] * k_mat[(i, k)];
+                            }
+                        }
+                        for i in 0..n {
+                            k_mat[(i, r)] *= 1.0 / l[(r, r)];
+                        }
+                    }
+                    for r in 0..m {
+                        for i in 0..n {
+                            self.mean[i] += nu[r] * k_mat[(i, r)];
+                        }
+                    }
+                    let mut y = c;
+                    for r in 0..m {
+                        for k in 0..m {
+                            for i in 0..n {
+                                y[(i, r)] += -0.5 * s[(k, r)] * k_mat[(i, k)];
+                            }
+                        }
+                    }
+                    let mut a = DMatrix::zeros(n, 2 * m);
+                    let mut b = DMatrix::zeros(n, 2 * m);
+                    a.columns_mut(0, m).copy_from(&k_mat);
+                    a.columns_mut(m, m).copy_from(&y);
+                    b.columns_mut(0, m).copy_from(&y);
+                    b.columns_mut(m, m).copy_from(&k_mat);
+                    (a, b)
+                }
+                CovarianceUpdate::Symmetric => {
+                    for r in 0..m {
+                        for i in 0..n {
+                            self.mean[i] += w[r] * u[(i, r)];
+                        }
+                    }
+                    (u.clone(), u)
+                }
+            };
+            for j in 0..n {
+                for i in j..n {
+                    let mut acc = 0.0;
+                    for r in 0..a.ncols() {
+                        acc += a[(i, r)] * b[(j, r)];
+                    }
+                    let v = self.cov[(i, j)] - acc;
+                    self.cov[(i, j)] = v;
+                    self.cov[(j, i)] = v;
+                }
+            }
+        }
+
+        fn augment(
+            &mut self,
+            new_mean: &DVector<f64>,
+            jacobians: &[BlockJacobian],
+            added_noise: &DMatrix<f64>,
+        ) {
+            let (k, n) = (new_mean.len(), self.mean.len());
+            let mut cross = DMatrix::zeros(k, n);
+            for block in jacobians {
+                cross.gemm(
+                    1.0,
+                    &block.jacobian,
+                    &self.cov.rows(block.offset, block.jacobian.ncols()),
+                    1.0,
+                );
+            }
+            let mut p_yy = added_noise.clone();
+            for block in jacobians {
+                p_yy.gemm(
+                    1.0,
+                    &cross.columns(block.offset, block.jacobian.ncols()),
+                    &block.jacobian.transpose(),
+                    1.0,
+                );
+            }
+            let p_yy = 0.5 * (&p_yy + p_yy.transpose());
+            let mut cov = self.cov.clone().resize(n + k, n + k, 0.0);
+            cov.view_mut((n, 0), (k, n)).copy_from(&cross);
+            cov.view_mut((0, n), (n, k)).copy_from(&cross.transpose());
+            cov.view_mut((n, n), (k, k)).copy_from(&p_yy);
+            self.cov = cov;
+            self.mean = self.mean.clone().resize_vertically(n + k, 0.0);
+            self.mean.rows_mut(n, k).copy_from(new_mean);
+        }
+
+        fn remove(&mut self, offset: usize, len: usize) {
+            self.cov = self
+                .cov
+                .clone()
+                .remove_rows(offset, len)
+                .remove_columns(offset, len);
+            self.mean = self.mean.clone().remove_rows(offset, len);
+        }
+
+        fn reparameterize(
+            &mut self,
+            offset: usize,
+            old_len: usize,
+            new_mean: &DVector<f64>,
+            j: &DMatrix<f64>,
+        ) {
+            let new_len = new_mean.len();
+            let rows = j * self.cov.rows(offset, old_len);
+            let diag = rows.columns(offset, old_len) * j.transpose();
+            self.cov.rows_mut(offset, new_len).copy_from(&rows);
+            self.cov
+                .columns_mut(offset, new_len)
+                .copy_from(&rows.transpose());
+            self.cov
+                .view_mut((offset, offset), (new_len, new_len))
+                .copy_from(&(0.5 * (&diag + diag.transpose())));
+            self.mean.rows_mut(offset, new_len).copy_from(new_mean);
+            if new_len < old_len {
+                self.remove(offset + new_len, old_len - new_len);
+            }
+        }
+    }
+
+    /// The lazily mirrored filter gives, bit for bit, the covariance (and
+    /// mean, and NIS) of an eagerly mirrored one over a random sequence of
+    /// predictions, updates (both forms), augmentations, clones, removals and
+    /// reparameterizations; and its cheap accessors agree with the full
+    /// matrix.
+    #[test]
+    fn lazy_mirror_equals_eager_reference_exactly() {
+        for form in [CovarianceUpdate::Joseph, CovarianceUpdate::Symmetric] {
+            let mut rng = StdRng::seed_from_u64(41);
+            let mut ekf = random_filter(12, 40).with_covariance_update(form);
+            let mut eager = EagerReference {
+                mean: ekf.mean().clone(),
+                cov: ekf.covariance(),
+            };
+            let unit = Uniform::new(0.0, 1.0).expect("valid range");
+            let mut normal_rng = StdRng::seed_from_u64(42);
+            let mut normal = |scale: f64| -> f64 {
+                let e: f64 = StandardNormal.sample(&mut normal_rng);
+                scale * e
+            };
+            let mut ops = [0_usize; 6];
+            let mut spare_capacity = 0;
+            for step in 0..300 {
+                let dim = ekf.dim();
+                let landmarks = (dim - 3) / 2;
+                let kind = (unit.sample(&mut rng) * 6.0) as usize;
+                match kind {
+                    0 => {
+                        let prediction = MotionPrediction {
+                            state: Vector3::new(normal(1.0), normal(1.0), normal(1.0)),
+                            j_state_state: Matrix3::new(
+                                1.0,
+                                0.0,
+                                normal(0.1),
+                                0.0,
+                                1.0,
+                                normal(0.1),
+                                0.0,
+                                0.0,
+                                1.0,
+                            ),
+                            process_noise: Matrix3::from_diagonal(&Vector3::new(1e-4, 2e-4, 5e-5)),
+                        };
+                        ekf.apply_prediction(&prediction).expect("predicts");
+                        eager.predict(&prediction);
+                    }
+                    1 | 2 if landmarks > 0 => {
+                        // Blocks in either order, the landmark anywhere.
+                        // Random rows of H (1 or 2 per measurement) on the
+                        // vehicle and one 2-block anywhere past it.
+                        let count = 1 + landmarks.min(9);
+                        let mut batch: Vec<LinearizedMeasurement> = (0..count)
+                            .map(|i| {
+                                let k = 1 + i % 2;
+                                let offset =
+                                    3 + ((dim - 4) as f64 * unit.sample(&mut rng)) as usize;
+                                LinearizedMeasurement {
+                                    innovation: DVector::from_fn(k, |_, _| normal(0.05)),
+                                    noise: DMatrix::identity(k, k) * 1e-4,
+                                    blocks: vec![
+                                        BlockJacobian {
+                                            offset: 0,
+                                            jacobian: DMatrix::from_fn(k, 3, |_, _| normal(1.0)),
+                                        },
+                                        BlockJacobian {
+                                            offset: offset.min(dim - 2),
+                                            jacobian: DMatrix::from_fn(k, 2, |_, _| normal(1.0)),
+                                        },
+                                    ],
+                                }
+                            })
+                            .collect();
+                        if kind == 2 {
+                            for m in &mut batch {
+                                m.blocks.reverse();
+                            }
+                        }
+                        for m in &batch {
+                            assert_eq!(ekf.nis(m).expect("nis"), eager.nis(m), "step {step}");
+                        }
+                        ekf.update(&batch).expect("updates");
+                        eager.update(&batch, form);
+                    }
+                    3 => {
+                        // A new 2-block depending on the vehicle and one other block.
+                        let other = 3 + ((dim - 3) as f64 * unit.sample(&mut rng)) as usize;
+                        let other = other.min(dim - 1);
+                        let mut jacobians = vec![BlockJacobian {
+                            offset: 0,
+                            jacobian: DMatrix::from_fn(2, 3, |_, _| normal(1.0)),
+                        }];
+                        if other >= 3 {
+                            jacobians.push(BlockJacobian {
+                                offset: other,
+                                jacobian: DMatrix::from_fn(2, 1, |_, _| normal(0.5)),
+                            });
+                        }
+                        let new_mean = DVector::from_fn(2, |_, _| normal(10.0));
+                        let noise = DMatrix::from_diagonal(&DVector::from_vec(vec![0.01, 0.02]));
+                        ekf.augment(&new_mean, &jacobians, &noise)
+                            .expect("augments");
+                        eager.augment(&new_mean, &jacobians, &noise);
+                        if dim > 40 {
+                            ekf.remove_block(3, 4).expect("removes");
+                            eager.remove(3, 4);
+                        }
+                    }
+                    4 if dim >= 7 => {
+                        let offset = 3 + ((dim - 6) as f64 * unit.sample(&mut rng)) as usize;
+                        let offset = offset.min(dim - 4);
+                        let new_mean = DVector::from_fn(2, |_, _| normal(5.0));
+                        let j = DMatrix::from_fn(2, 4, |_, _| normal(1.0));
+                        ekf.reparameterize(offset, 4, &new_mean, &j)
+                            .expect("reparameterizes");
+                        eager.reparameterize(offset, 4, &new_mean, &j);
+                        // Keep the state growing: clone the vehicle back in.
+                        let mean = eager.mean.rows(0, 3).into_owned();
+                        let id = BlockJacobian {
+                            offset: 0,
+                            jacobian: DMatrix::identity(3, 3),
+                        };
+                        ekf.clone_block(0, 3).expect("clones");
+                        eager.augment(&mean, &[id], &DMatrix::zeros(3, 3));
+                    }
+                    _ if dim > 9 => {
+                        let offset = 3 + ((dim - 5) as f64 * unit.sample(&mut rng)) as usize;
+                        let len = 2.min(dim - offset);
+                        ekf.remove_block(offset, len).expect("removes");
+                        eager.remove(offset, len);
+                    }
+                    _ => {}
+                }
+                if ekf.dim() != dim || kind <= 2 {
+                    ops[kind.min(5)] += 1;
+                }
+                if ekf.cov.nrows() > ekf.dim() {
+                    spare_capacity += 1;
+                }
+                let full = ekf.covariance();
+                assert_eq!(full, eager.cov, "step {step} ({form:?}), op {kind}");
+                assert_eq!(ekf.mean(), &eager.mean, "step {step}");
+                let n = ekf.dim();
+                assert_eq!(ekf.covariance_entry(n - 1, 0), eager.cov[(n - 1, 0)]);
+                assert_eq!(ekf.covariance_entry(0, n - 1), eager.cov[(0, n - 1)]);
+                assert_eq!(
+                    ekf.covariance_block::<3>(0).expect("block"),
+                    eager.cov.fixed_view::<3, 3>(0, 0).into_owned()
+                );
+                let rebuilt = Ekf::new(eager.mean.clone(), eager.cov.clone())
+                    .expect("valid")
+                    .with_covariance_update(form);
+                assert!(rebuilt == ekf, "equality compares the logical matrices");
+            }
+            // (Clones make P singular, so no Cholesky check here.)
+            assert!(ops.iter().all(|&c| c >= 10), "every operation ran: {ops:?}");
+            assert!(spare_capacity > 100, "the storage had spare capacity");
+            let cross = ekf.covariance_cross_block(2, 5, 1, 4).expect("cross block");
+            assert_eq!(cross, eager.cov.view((2, 1), (5, 4)).into_owned());
+        }
+    }
+
+    /// `linearize_into` gives `linearize`'s result, reshapes a mismatched
+    /// output, and then reuses its buffers.
+    #[test]
+    fn linearize_into_matches_linearize_and_reuses_buffers() {
+        let ekf = random_filter(6, 60);
+        let noise = Matrix1::new(1e-4);
+        let mut out = LinearizedMeasurement {
+            innovation: DVector::zeros(3),
+            noise: DMatrix::zeros(2, 5),
+            blocks: Vec::new(),
+        };
+        for (offset, z) in [(5, 0.3), (9, -1.2), (3, 2.0)] {
+            let z = Vector1::new(z);
+            let expected = ekf
+                .linearize::<3, 2, 1, _>(&BearingToPoint, offset, &z, &noise)
+                .expect("linearizes");
+            ekf.linearize_into::<3, 2, 1, _>(&BearingToPoint, offset, &z, &noise, &mut out)
+                .expect("linearizes");
+            assert_eq!(out, expected);
+        }
+        let pointers = (out.innovation.as_ptr(), out.blocks[1].jacobian.as_ptr());
+        ekf.linearize_into::<3, 2, 1, _>(&BearingToPoint, 7, &Vector1::new(0.1), &noise, &mut out)
+            .expect("linearizes");
+        assert_eq!(
+            pointers,
+            (out.innovation.as_ptr(), out.blocks[1].jacobian.as_ptr())
+        );
+        let before = out.clone();
+        assert!(
+            ekf.linearize_into::<3, 2, 1, _>(
+                &BearingToPoint,
+                14,
+                &Vector1::new(0.1),
+                &noise,
+                &mut out
+            )
+            .is_err()
+        );
+        assert_eq!(out, before, "an error leaves the output unchanged");
+    }
+
+    /// Growing the state reallocates the covariance storage only
+    /// geometrically often (amortized O(N) per added block).
+    #[test]
+    fn augment_grows_the_storage_geometrically() {
+        let mut ekf = random_filter(3, 70);
+        let mut ptr = ekf.cov.as_ptr();
+        let mut reallocations = 0;
+        for _ in 0..200 {
+            ekf.clone_block(0, 2).expect("clones");
+            if ekf.cov.as_ptr() != ptr {
+                reallocations += 1;
+                ptr = ekf.cov.as_ptr();
+            }
+        }
+        // 9 → 409 entries: ⌈log_1.5(409 / 9)⌉ = 10 growths.
+        assert!(reallocations <= 10, "{reallocations} reallocations");
+        assert_eq!(ekf.dim(), 409);
+        assert!(ekf.cov.nrows() >= 409);
+        ekf.remove_block(3, 400).expect("removes");
+        assert_eq!(ekf.cov.as_ptr(), ptr, "removal keeps the storage");
+        assert_eq!(ekf.covariance().nrows(), 9);
+    }
+
+    /// Equality ignores the unspecified upper triangle of the storage.
+    #[test]
+    fn equality_ignores_the_stored_upper_triangle() {
+        let a = random_filter(5, 50);
+        let mut b = a.clone();
+        b.cov[(0, 4)] = 123.0;
+        assert_eq!(a, b);
+        assert_eq!(b.covariance()[(0, 4)], a.covariance()[(4, 0)]);
+        b.cov[(4, 0)] = 123.0;
+        assert_ne!(a, b);
     }
 }

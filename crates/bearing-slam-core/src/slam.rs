@@ -295,7 +295,7 @@ impl BearingSlam {
     /// The covariance of `[x, y, θ]`.
     #[must_use]
     pub fn pose_covariance(&self) -> Matrix3<f64> {
-        self.ekf.covariance().fixed_view::<3, 3>(0, 0).into_owned()
+        Matrix3::from_fn(|i, j| self.ekf.covariance_entry(i, j))
     }
 
     /// The ids of the landmarks in the state, ascending.
@@ -1053,7 +1053,7 @@ impl BearingSlam {
                 continue;
             };
             let y = self.ekf.block::<4>(slot.offset)?;
-            let rho_variance = self.ekf.covariance()[(slot.offset + 3, slot.offset + 3)];
+            let rho_variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
             let Ok(index) = linearity_index(&y, rho_variance, &sensor) else {
                 continue;
             };

@@ -113,7 +113,7 @@ proptest! {
                     let _ = slam.remove_landmark(i as u64);
                 }
             }
-            check_covariance(slam.ekf().covariance()).map_err(TestCaseError::fail)?;
+            check_covariance(&slam.ekf().covariance()).map_err(TestCaseError::fail)?;
             prop_assert_eq!(slam.ekf().covariance().nrows(), slam.ekf().mean().len());
         }
     }
@@ -150,7 +150,7 @@ proptest! {
                 4 if n > 5 => { ekf.remove_block(3, 2).map_err(|e| TestCaseError::fail(e.to_string()))?; }
                 _ => {}
             }
-            check_covariance(ekf.covariance()).map_err(TestCaseError::fail)?;
+            check_covariance(&ekf.covariance()).map_err(TestCaseError::fail)?;
         }
     }
 
@@ -166,7 +166,7 @@ proptest! {
             } else {
                 slam.update_bearings(time, &[(id, v)]).map(|_| ())
             };
-            check_covariance(slam.ekf().covariance()).map_err(TestCaseError::fail)?;
+            check_covariance(&slam.ekf().covariance()).map_err(TestCaseError::fail)?;
         }
     }
 }

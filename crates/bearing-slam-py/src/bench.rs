@@ -10,9 +10,7 @@
 
 use crate::convert::{In1, In2, arr1, arr2};
 use crate::errors::SlamResultExt;
-use bearing_slam::core::ekf::{
-    CovarianceUpdate, Ekf, LinearizedMeasurement, MeasurementModel, MotionPrediction,
-};
+use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement, MotionPrediction};
 use bearing_slam::core::measurement::BearingToPoint;
 use bearing_slam::core::nalgebra::{DMatrix, DVector, Matrix1, Matrix3, Vector1, Vector3};
 use numpy::{PyArray1, PyArray2};
@@ -59,22 +57,16 @@ impl Bench {
             j_state_state: f,
             process_noise: q,
         })?;
-        let vehicle = self.ekf.block::<3>(0)?;
         for ((meas, &offset), &zi) in self.batch.iter_mut().zip(&self.offsets).zip(z) {
-            // The library's bearing model and residual, written into the
-            // reused measurement (no allocation per step).
-            let landmark = self.ekf.block::<2>(offset)?;
-            let p = BearingToPoint.predict(&vehicle, &landmark)?;
-            let nu = BearingToPoint.residual(&Vector1::new(zi), &p.value);
-            meas.innovation[0] = nu.x;
-            meas.noise[(0, 0)] = self.noise.x;
-            meas.blocks[0]
-                .jacobian
-                .copy_from_slice(p.j_z_vehicle.as_slice());
-            meas.blocks[1].offset = offset;
-            meas.blocks[1]
-                .jacobian
-                .copy_from_slice(p.j_z_landmark.as_slice());
+            // The library's bearing model, written into the reused
+            // measurement (no allocation per step).
+            self.ekf.linearize_into::<3, 2, 1, _>(
+                &BearingToPoint,
+                offset,
+                &Vector1::new(zi),
+                &self.noise,
+                meas,
+            )?;
         }
         self.ekf.update(&self.batch)?;
         Ok(())
@@ -215,6 +207,7 @@ impl PyEkfBenchmark {
     /// The state covariance (N, N).
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        // Mirrored from the filter's lower triangle (O(n²), on request only).
         let p = self.inner.ekf.covariance();
         let n = p.nrows();
         // P is symmetric, so its column-major storage is also its row-major one.

@@ -292,15 +292,11 @@ impl PySlamFilter {
     /// The full covariance, (n, n).
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        // Mirrored from the filter's lower triangle (O(n²)); exactly
+        // symmetric, so its column-major storage is also its row-major one.
         let p = self.slam.ekf().covariance();
         let n = p.nrows();
-        let mut flat = Vec::with_capacity(n * n);
-        for r in 0..n {
-            for c in 0..n {
-                flat.push(p[(r, c)]);
-            }
-        }
-        arr2(py, flat, n.max(1))
+        arr2(py, p.as_slice().to_vec(), n.max(1))
     }
 
     /// Ids of the landmarks in the state, ascending.
