@@ -11,6 +11,7 @@
 //!   independent-first-pose simplification (22) is mildly over-confident,
 //!   bounded here at twice the band's upper end.
 
+use bearing_slam::core::ekf::CovarianceUpdate;
 use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
 use bearing_slam::core::metrics::{chi2_interval, pose_nees};
 use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
@@ -197,5 +198,56 @@ fn waiting_bearings_make_mte_more_accurate() {
             *nees < upper,
             "MTE-history NEES {nees} at checkpoint {k} above the 99% bound {upper}"
         );
+    }
+}
+
+/// The symmetric (optimal-gain) covariance update is the Joseph form in exact
+/// arithmetic: a whole SLAM run, clones and replays included, must end at
+/// the same estimate to rounding.
+#[test]
+fn symmetric_update_runs_the_same_filter() {
+    let scenario = KinematicScenario::paper_fig4(true);
+    let noise = WheelNoise {
+        floor_sigma_m: scenario.encoder_floor_sigma_m,
+        scale_sqrt_m: scenario.encoder_scale_sqrt_m,
+    };
+    let config = |form| RunConfig {
+        slam: SlamConfig {
+            bearing_sigma: scenario.bearing_sigma,
+            initializer: InitializerConfig::TriangulationWithClone(TriangulationConfig {
+                history: 32,
+                ..TriangulationConfig::default()
+            }),
+            covariance_update: form,
+            ..SlamConfig::default()
+        },
+        odometry: OdometryConfig::Wheels(
+            DiffDriveModel::new(scenario.wheel_base_m, noise).expect("valid model"),
+        ),
+        use_range: false,
+    };
+    for seed in 0..5 {
+        let log = scenario.simulate(seed);
+        let joseph = run(&log, &config(CovarianceUpdate::Joseph)).expect("runs");
+        let symmetric = run(&log, &config(CovarianceUpdate::Symmetric)).expect("runs");
+        let (a, b) = (
+            joseph.track.last().expect("track"),
+            symmetric.track.last().expect("track"),
+        );
+        assert_ne!(
+            a.covariance, b.covariance,
+            "seed {seed}: the forms do differ in rounding"
+        );
+        let d = (a.estimate.position() - b.estimate.position()).norm();
+        assert!(d < 1e-9, "seed {seed}: final positions differ by {d} m");
+        for r in 0..3 {
+            for c in 0..3 {
+                let (x, y) = (a.covariance[r][c], b.covariance[r][c]);
+                assert!(
+                    (x - y).abs() <= 1e-9 * x.abs().max(1e-12),
+                    "seed {seed}: P[{r}][{c}] {x} vs {y}"
+                );
+            }
+        }
     }
 }

@@ -99,6 +99,7 @@ class Config:
     initial_pose_sigma: tuple[float, float, float]
     gate_probability: float | None
     conversion_threshold: float | None
+    covariance_update: str
     alpha_min: float
     baseline_min: float
     beta_min: float

@@ -90,6 +90,8 @@ def test_invalid_config() -> None:
         bs.Config(init="ekf")
     with pytest.raises(ValueError, match="unknown odometry"):
         bs.Config(odometry="legs")
+    with pytest.raises(ValueError, match="unknown covariance update"):
+        bs.Config(covariance_update="cholesky")
 
 
 def test_metrics_errors() -> None:

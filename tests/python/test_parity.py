@@ -141,3 +141,16 @@ def test_config_defaults_are_the_papers() -> None:
     assert c.replace(rho_ini=0.01).rho_ini == 0.01
     with pytest.raises(TypeError, match="no parameter"):
         bs.Config(bogus=1)
+
+
+def test_symmetric_covariance_update_matches_joseph(fig4_log: bs.SensorLog) -> None:
+    """The faster optimal-gain update runs the same filter to rounding."""
+    joseph = bs.run(fig4_log, bs.Config.for_log(fig4_log, init="mte"))
+    config = bs.Config.for_log(fig4_log, init="mte", covariance_update="symmetric")
+    assert config.covariance_update == "symmetric"
+    symmetric = bs.run(fig4_log, config)
+    assert not np.array_equal(joseph.trace.pose_covariances, symmetric.trace.pose_covariances)
+    np.testing.assert_allclose(symmetric.trace.poses, joseph.trace.poses, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(
+        symmetric.trace.pose_covariances, joseph.trace.pose_covariances, rtol=1e-8, atol=1e-15
+    )

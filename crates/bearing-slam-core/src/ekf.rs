@@ -10,6 +10,7 @@
 
 use crate::error::{Result, SlamError, ensure_finite};
 use nalgebra::{DMatrix, DVector, SMatrix, SVector};
+use serde::{Deserialize, Serialize};
 
 /// A motion model's output for one step: the new vehicle state, its Jacobian
 /// with respect to the old vehicle state, and the process noise already mapped
@@ -101,7 +102,8 @@ pub struct UpdateStats {
 /// Both forms are evaluated on the lower triangle of `P` only (the filter's
 /// storage contract, see [`Ekf`]), in one fused pass over it, with no N×N
 /// temporary.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum CovarianceUpdate {
     /// The Joseph form `P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ`, valid for any
     /// gain and insensitive to first order to errors in `K`. Evaluated as the

@@ -4,7 +4,9 @@
 //! (MTE, optionally with a cloned first pose), converted from inverse depth to
 //! Euclidean once their depth is linear enough, and gated by a chi-square test.
 
-use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, MeasurementModel, MotionModel};
+use crate::ekf::{
+    BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement, MeasurementModel, MotionModel,
+};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{
@@ -86,6 +88,11 @@ pub struct SlamConfig {
     /// Linearity index below which an inverse-depth landmark becomes Euclidean
     /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
     pub conversion_threshold: Option<f64>,
+    /// How each update corrects the covariance: the Joseph form (default,
+    /// robust to gain errors) or the optimal-gain symmetric form, about
+    /// twice as fast on large maps (see [`CovarianceUpdate`]).
+    #[serde(default)]
+    pub covariance_update: CovarianceUpdate,
 }
 
 impl Default for SlamConfig {
@@ -102,6 +109,7 @@ impl Default for SlamConfig {
             initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
             gate_probability: Some(0.999),
             conversion_threshold: Some(0.1),
+            covariance_update: CovarianceUpdate::Joseph,
         }
     }
 }
@@ -254,7 +262,7 @@ impl BearingSlam {
             None => None,
         };
         Ok(Self {
-            ekf: Ekf::new(mean, cov)?,
+            ekf: Ekf::new(mean, cov)?.with_covariance_update(config.covariance_update),
             config,
             landmarks: BTreeMap::new(),
             candidates: BTreeMap::new(),

@@ -5,6 +5,7 @@
 use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::ekf::CovarianceUpdate;
 use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::runner::{OdometryConfig, RunConfig};
@@ -17,6 +18,17 @@ use std::collections::BTreeMap;
 
 /// The initializer names accepted by `Config.init`.
 pub(crate) const INITS: [&str; 3] = ["mte", "mte-clone", "pi-sr"];
+/// The covariance-update names accepted by `Config.covariance_update`.
+pub(crate) const COVARIANCE_UPDATES: [&str; 2] = ["joseph", "symmetric"];
+
+/// The Python name of a covariance-update form.
+fn covariance_update_name(form: CovarianceUpdate) -> &'static str {
+    match form {
+        CovarianceUpdate::Joseph => COVARIANCE_UPDATES[0],
+        CovarianceUpdate::Symmetric => COVARIANCE_UPDATES[1],
+    }
+}
+
 /// The odometry names accepted by `Config.odometry`.
 pub(crate) const ODOMETRIES: [&str; 2] = ["wheels", "velocity"];
 
@@ -45,6 +57,9 @@ pub(crate) struct PyConfig {
     /// Linearity-index threshold for inverse depth → Euclidean, or None.
     #[pyo3(get, set)]
     pub conversion_threshold: Option<f64>,
+    /// `"joseph"` (default) or `"symmetric"` (the faster optimal-gain form).
+    #[pyo3(get, set)]
+    pub covariance_update: String,
     /// MTE: minimum parallax α_min, rad.
     #[pyo3(get, set)]
     pub alpha_min: f64,
@@ -100,7 +115,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 24] = [
+const FIELDS: [&str; 25] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -108,6 +123,7 @@ const FIELDS: [&str; 24] = [
     "initial_pose_sigma",
     "gate_probability",
     "conversion_threshold",
+    "covariance_update",
     "alpha_min",
     "baseline_min",
     "beta_min",
@@ -140,6 +156,7 @@ impl Default for PyConfig {
             initial_pose_sigma: (0.0, 0.0, 0.0),
             gate_probability: slam.gate_probability,
             conversion_threshold: slam.conversion_threshold,
+            covariance_update: covariance_update_name(slam.covariance_update).into(),
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
@@ -173,6 +190,7 @@ impl PyConfig {
         c.initial_pose_sigma = (sg[0], sg[1], sg[2]);
         c.gate_probability = s.gate_probability;
         c.conversion_threshold = s.conversion_threshold;
+        c.covariance_update = covariance_update_name(s.covariance_update).into();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
                 prior,
@@ -258,6 +276,15 @@ impl PyConfig {
         };
         let (x, y, t) = self.initial_pose;
         let (sx, sy, st) = self.initial_pose_sigma;
+        let covariance_update = match self.covariance_update.as_str() {
+            "joseph" => CovarianceUpdate::Joseph,
+            "symmetric" => CovarianceUpdate::Symmetric,
+            other => {
+                return Err(PyValueError::new_err(format!(
+                    "unknown covariance update {other:?}: expected one of {COVARIANCE_UPDATES:?}"
+                )));
+            }
+        };
         let cfg = SlamConfig {
             initial_pose: Pose2::new(x, y, t),
             initial_pose_sigma: [sx, sy, st],
@@ -266,6 +293,7 @@ impl PyConfig {
             initializer,
             gate_probability: self.gate_probability,
             conversion_threshold: self.conversion_threshold,
+            covariance_update,
         };
         cfg.validate().py()?;
         Ok(cfg)

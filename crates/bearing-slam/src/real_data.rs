@@ -337,6 +337,7 @@ impl FilterParameters {
             initializer,
             gate_probability: Some(self.gate_probability),
             conversion_threshold: Some(0.1),
+            ..SlamConfig::default()
         };
         let config = RunConfig {
             slam,
