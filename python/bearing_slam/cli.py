@@ -41,6 +41,7 @@ DEMO_SCENARIOS = ("paper_fig4", "slip_patch")
 DEMO_RUNS: tuple[tuple[str, str, dict[str, float]], ...] = (
     ("mte", "mte", {}),
     ("mte-clone", "mte-clone", {}),
+    ("mte-history", "mte-clone", {"history": 32}),
     ("pi-sr_0.01_0.005", "pi-sr", {"rho_ini": 0.01, "sigma_rho": 0.005}),
 )
 
@@ -279,9 +280,10 @@ def _parser() -> argparse.ArgumentParser:
 
     demo = sub.add_parser(
         "demo",
-        help="simulate paper_fig4 and slip_patch, compare MTE, MTE-clone and PI-SR",
+        help="simulate paper_fig4 and slip_patch, compare MTE, MTE-clone, MTE-history and PI-SR",
         description="Simulates the paper's Fig. 4 run and the slippery-room scenario "
-        "(physics), runs MTE, MTE with pose cloning and PI-SR (rho_ini=0.01, sigma_rho=0.005) "
+        "(physics), runs MTE, MTE with pose cloning, MTE-history (cloning, with the bearings "
+        "seen while waiting kept: history=32) and PI-SR (rho_ini=0.01, sigma_rho=0.005) "
         "on each, prints a table of metrics and writes one folder per run into --out with "
         "metrics.json, trajectory.png, pose_errors.png, nees.png and estimate.mcap "
         "(log + estimate, opens in Foxglove), plus metrics_table.txt.",

@@ -56,6 +56,8 @@ def _title(result: RunResult, log: SensorLog | None) -> str:
     init = config.init
     if init == "pi-sr":
         init = f"pi-sr (ρ_ini={config.rho_ini:g}, σ_ρ={config.sigma_rho:g})"
+    elif init == "mte-clone" and config.history > 0:
+        init = f"mte-clone (waiting bearings kept: history={config.history})"
     return f"{source} — {init}" if source else init
 
 
@@ -157,7 +159,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         )
         _draw_map(ax, result, log, legend=False)
         _fit_to_points(ax, result, log)
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")
         ax.set_title("whole map")
         _draw_map(zoom, result, log, legend=True)
         half = 0.5 * size + 0.2 * size
@@ -170,7 +172,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
         _draw_map(ax, result, log, legend=True)
         _fit_to_points(ax, result, log)
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")
     fig.suptitle(f"Trajectory and map: {_title(result, log)}")
     return fig
 

@@ -99,11 +99,13 @@ def test_demo(tmp_path: Path) -> None:
     assert "slip_patch" in r.stdout
     assert "ATE [m]" in r.stdout
     folders = sorted(p.name for p in out.iterdir() if p.is_dir())
-    assert len(folders) == 6
+    assert len(folders) == 8
     for scenario in ("paper_fig4", "slip_patch"):
         m = check_outputs(out / f"{scenario}_mte")
         assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
         check_outputs(out / f"{scenario}_mte-clone")
+        h = check_outputs(out / f"{scenario}_mte-history")
+        assert h["ate_rmse_m"] < h["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
         check_outputs(out / f"{scenario}_pi-sr_0.01_0.005")
     assert check_outputs(out / "paper_fig4_mte")["n_landmarks_initialized"] == 5
 
