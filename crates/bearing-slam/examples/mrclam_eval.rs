@@ -11,7 +11,9 @@
 //!
 //! Options: `--data DIR` (the directory holding `MRCLAM_Dataset1/` and
 //! `MRCLAM_Dataset6/`; default `../shared/datasets/mrclam` next to the
-//! repository), `--out DIR` (default `docs/results/mrclam`), `--no-ablation`.
+//! repository), `--out DIR` (default `docs/results/mrclam`), `--no-ablation`,
+//! `--history N` (MTE-clone keeps N waiting bearings per candidate: the
+//! `mte_clone` columns then show MTE-history; default 0, the paper's method).
 //! The evaluation writes `results.md` and `results.json` to the output
 //! directory and, when `gtsam.json` (from `benches/gtsam_mrclam.py`) is there,
 //! adds the GTSAM batch smoother to the tables.
@@ -35,6 +37,8 @@ struct Args {
     calibrate: bool,
     export: Option<PathBuf>,
     ablation: bool,
+    /// Waiting bearings kept per candidate by MTE-clone (0: the paper's method).
+    history: usize,
 }
 
 fn parse_args() -> Result<Args, BoxError> {
@@ -45,6 +49,7 @@ fn parse_args() -> Result<Args, BoxError> {
         calibrate: false,
         export: None,
         ablation: true,
+        history: 0,
     };
     let mut it = std::env::args().skip(1);
     while let Some(a) = it.next() {
@@ -54,6 +59,13 @@ fn parse_args() -> Result<Args, BoxError> {
             "--export" => args.export = Some(it.next().ok_or("--export needs a directory")?.into()),
             "--calibrate" => args.calibrate = true,
             "--no-ablation" => args.ablation = false,
+            "--history" => {
+                args.history = it
+                    .next()
+                    .ok_or("--history needs a number")?
+                    .parse()
+                    .map_err(|e| format!("--history: {e}"))?;
+            }
             other => return Err(format!("unknown argument {other}").into()),
         }
     }
@@ -197,7 +209,8 @@ struct Results<'a> {
 }
 
 fn evaluate(args: &Args) -> Result<(), BoxError> {
-    let options = EvalOptions::default();
+    let mut options = EvalOptions::default();
+    options.parameters.triangulation.history = args.history;
     let mut d6 = Vec::new();
     let mut d1 = Vec::new();
     let mut ablation = Vec::new();

@@ -327,7 +327,11 @@ impl FilterParameters {
         let initializer = match method {
             Method::MteClone => InitializerConfig::TriangulationWithClone(self.triangulation),
             Method::PiSr => InitializerConfig::pi_sr(self.pi_sr_prior),
-            _ => InitializerConfig::Triangulation(self.triangulation),
+            // The waiting bearings need pose clones: plain MTE is the paper's.
+            _ => InitializerConfig::Triangulation(TriangulationConfig {
+                history: 0,
+                ..self.triangulation
+            }),
         };
         let slam = SlamConfig {
             initial_pose,
