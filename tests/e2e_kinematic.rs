@@ -33,23 +33,33 @@ struct MethodResult {
     nees_at: Vec<f64>,
 }
 
-fn evaluate(initializer: InitializerConfig) -> MethodResult {
-    let scenario = KinematicScenario::paper_fig4(true);
+/// The filter matched to the scenario's sensors, with `initializer` and `form`.
+fn run_config(
+    scenario: &KinematicScenario,
+    initializer: InitializerConfig,
+    form: CovarianceUpdate,
+) -> RunConfig {
     let noise = WheelNoise {
         floor_sigma_m: scenario.encoder_floor_sigma_m,
         scale_sqrt_m: scenario.encoder_scale_sqrt_m,
     };
-    let config = RunConfig {
+    RunConfig {
         slam: SlamConfig {
             bearing_sigma: scenario.bearing_sigma,
             initializer,
+            covariance_update: form,
             ..SlamConfig::default()
         },
         odometry: OdometryConfig::Wheels(
             DiffDriveModel::new(scenario.wheel_base_m, noise).expect("valid model"),
         ),
         use_range: false,
-    };
+    }
+}
+
+fn evaluate(initializer: InitializerConfig) -> MethodResult {
+    let scenario = KinematicScenario::paper_fig4(true);
+    let config = run_config(&scenario, initializer, CovarianceUpdate::Joseph);
     let checkpoints = [50usize, 100, 150, 200];
     let mut nees_at = vec![0.0; checkpoints.len()];
     let mut sums = [0.0f64; 4];
@@ -207,25 +217,11 @@ fn waiting_bearings_make_mte_more_accurate() {
 #[test]
 fn symmetric_update_runs_the_same_filter() {
     let scenario = KinematicScenario::paper_fig4(true);
-    let noise = WheelNoise {
-        floor_sigma_m: scenario.encoder_floor_sigma_m,
-        scale_sqrt_m: scenario.encoder_scale_sqrt_m,
-    };
-    let config = |form| RunConfig {
-        slam: SlamConfig {
-            bearing_sigma: scenario.bearing_sigma,
-            initializer: InitializerConfig::TriangulationWithClone(TriangulationConfig {
-                history: 32,
-                ..TriangulationConfig::default()
-            }),
-            covariance_update: form,
-            ..SlamConfig::default()
-        },
-        odometry: OdometryConfig::Wheels(
-            DiffDriveModel::new(scenario.wheel_base_m, noise).expect("valid model"),
-        ),
-        use_range: false,
-    };
+    let history = InitializerConfig::TriangulationWithClone(TriangulationConfig {
+        history: 32,
+        ..TriangulationConfig::default()
+    });
+    let config = |form| run_config(&scenario, history.clone(), form);
     for seed in 0..5 {
         let log = scenario.simulate(seed);
         let joseph = run(&log, &config(CovarianceUpdate::Joseph)).expect("runs");
