@@ -17,6 +17,7 @@ pub mod landmark;
 pub mod log;
 pub mod measurement;
 pub mod metrics;
+pub mod model;
 pub mod motion;
 pub mod runner;
 pub mod slam;

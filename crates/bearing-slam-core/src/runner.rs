@@ -10,11 +10,11 @@
 //! predicted up to that event's time with the active command (for at most the
 //! command's `dt`).
 
-use crate::ekf::MotionModel;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::{EventKind, SensorLog, VelocityOdometry, WheelOdometry};
 use crate::metrics::{Alignment, ate, pose_nees};
+use crate::model::MotionModel;
 use crate::motion::{DiffDriveModel, VelocityModel};
 use crate::slam::{BearingSlam, SlamConfig};
 use crate::trace::{EstimateSnapshot, SlamTrace};

@@ -4,9 +4,7 @@
 //! (MTE, optionally with a cloned first pose), converted from inverse depth to
 //! Euclidean once their depth is linear enough, and gated by a chi-square test.
 
-use crate::ekf::{
-    BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement, MeasurementModel, MotionModel,
-};
+use crate::ekf::{BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{
@@ -18,6 +16,7 @@ use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
 use crate::metrics::chi2_quantile;
+use crate::model::{MeasurementModel, MotionModel};
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
 use serde::{Deserialize, Serialize};

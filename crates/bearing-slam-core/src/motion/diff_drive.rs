@@ -1,10 +1,10 @@
 //! Differential drive from wheel encoders, Munguía & Grau (2)(3).
 
 use super::{Propagation, check_state, ensure_nonnegative_noise, planar_state_jacobian};
-use crate::ekf::{MotionModel, MotionPrediction};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::wrap_angle;
 use crate::log::WheelOdometry;
+use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix2, Matrix3x2, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 

@@ -12,8 +12,8 @@
 //! Each model offers a value function (`propagate`), a value-with-Jacobians
 //! function (`propagate_with_jacobians`, returning a [`Propagation`]), the
 //! covariance of its control (`control_covariance`), and implements
-//! [`MotionModel<3>`](crate::ekf::MotionModel), whose
-//! [`MotionPrediction`](crate::ekf::MotionPrediction) carries the process noise
+//! [`MotionModel<3>`](crate::model::MotionModel), whose
+//! [`MotionPrediction`](crate::model::MotionPrediction) carries the process noise
 //! `J_u Q J_uᵀ` already mapped into state space (METHOD.md §1).
 //!
 //! Output headings are wrapped to (−π, π]; input headings may be any finite
