@@ -407,10 +407,29 @@ impl Ekf {
     where
         Model: MeasurementModel<V, L, M>,
     {
+        self.linearize_from_into(model, 0, landmark_offset, measured, noise, out)
+    }
+
+    /// [`Ekf::linearize_into`] for a measurement taken from the `V`-entry
+    /// block at `vehicle_offset` rather than from the vehicle block at 0: a
+    /// pose held in the state, such as a pose clone. `H`'s blocks are then
+    /// on `vehicle_offset` and `landmark_offset`.
+    pub fn linearize_from_into<const V: usize, const L: usize, const M: usize, Model>(
+        &self,
+        model: &Model,
+        vehicle_offset: usize,
+        landmark_offset: usize,
+        measured: &SVector<f64, M>,
+        noise: &SMatrix<f64, M, M>,
+        out: &mut LinearizedMeasurement,
+    ) -> Result<()>
+    where
+        Model: MeasurementModel<V, L, M>,
+    {
         for &z in measured.iter() {
             ensure_finite("measurement", z)?;
         }
-        let vehicle = self.block::<V>(0)?;
+        let vehicle = self.block::<V>(vehicle_offset)?;
         let landmark = self.block::<L>(landmark_offset)?;
         let prediction = model.predict(&vehicle, &landmark)?;
         let innovation = model.residual(measured, &prediction.value);
@@ -423,7 +442,7 @@ impl Ekf {
                 jacobian: DMatrix::zeros(0, 0),
             });
         }
-        out.blocks[0].offset = 0;
+        out.blocks[0].offset = vehicle_offset;
         fill(
             &mut out.blocks[0].jacobian,
             M,
