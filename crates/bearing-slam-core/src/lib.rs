@@ -21,6 +21,7 @@ pub mod model;
 pub mod motion;
 pub mod runner;
 pub mod slam;
+pub mod stats;
 pub mod trace;
 
 #[cfg(feature = "testing")]

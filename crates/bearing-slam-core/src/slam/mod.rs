@@ -24,8 +24,8 @@ use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index}
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
-use crate::metrics::chi2_quantile;
 use crate::model::MotionModel;
+use crate::stats::chi2_quantile;
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
 use std::collections::BTreeMap;
