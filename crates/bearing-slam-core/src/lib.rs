@@ -20,6 +20,7 @@ pub mod metrics;
 pub mod model;
 pub mod motion;
 pub mod runner;
+pub mod score;
 pub mod slam;
 pub mod stats;
 pub mod trace;

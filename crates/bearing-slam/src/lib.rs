@@ -6,7 +6,8 @@
 //! MCAP logs and dataset loaders ([`io`]).
 //!
 //! ```
-//! use bearing_slam::core::runner::{run, summarize};
+//! use bearing_slam::core::runner::run;
+//! use bearing_slam::core::score::summarize;
 //! use bearing_slam::sim::{Scenario, simulate};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let log = simulate(&Scenario::named("paper_fig4", 7)?)?;
