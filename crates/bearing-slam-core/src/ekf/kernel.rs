@@ -108,8 +108,13 @@ pub fn wide_kernel() -> bool {
     }
 }
 
-/// [`lower_update`] with the tile height matching how `a` was
-/// packed (`MR_WIDE` when `wide`), compiled for x86-64-v3 when `wide`.
+/// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the n×n
+/// top-left corner of the column-major `p` (leading dimension `ld`), the
+/// strict upper triangle neither read nor written. `a` holds `A`
+/// (n×`depth`) packed by [`pack_rows`] (row panels of [`MR_WIDE`] when
+/// `wide`, else [`MR`]), `b` holds `B` packed by [`pack`] in panels of
+/// [`NR`], both zero padded to whole panels. With `wide` (see
+/// [`wide_kernel`]) the register-tiled loop is compiled for x86-64-v3.
 pub fn triangle_update(
     p: &mut [f64],
     n: usize,
@@ -141,7 +146,8 @@ pub fn triangle_update(
         lower_update::<MR>(p, n, ld, a, b, depth);
     }
 }
-/// [`lower_update`] with `MR_WIDE` as a [`pulp::NullaryFnOnce`] whose `call`
+
+/// `lower_update` with `MR_WIDE` as a [`pulp::NullaryFnOnce`] whose `call`
 /// is `#[inline(always)]`: unlike a closure's body, the kernel is then
 /// guaranteed to be inlined into (and compiled with the features of) pulp's
 /// x86-64-v3 function.
@@ -185,12 +191,13 @@ fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
 
 /// Edge of the square blocks in which [`lower_update`] walks `P`
 /// (a multiple of `MR`, `MR_WIDE` and `NR`).
-pub const KB: usize = 256;
+const KB: usize = 256;
 
 /// `P ← P − A Bᵀ` on the lower triangle (diagonal included) of the n×n
 /// top-left corner of the column-major `p` of leading dimension `ld`; the
-/// strict upper triangle is neither read nor written. One pass over half of `P`, half the flops of a full update.
-/// `a` is `A` (n×depth) packed in row panels of MR
+/// strict upper triangle is neither read nor written. One pass over half of
+/// `P`, half the flops of a full update. `a` is `A` (n×depth) packed in row
+/// panels of MR
 /// (`a[(panel·depth + r)·MR + i % MR] = A[i, r]`, zero padded), `b` is `B`
 /// packed likewise in panels of NR. Register-tiled: each MR×NR tile of `P`
 /// is read and written once, with its `depth` rank-one terms accumulated in

@@ -6,7 +6,7 @@
 //! block, a measurement model reads the vehicle block and one other block.
 //! The filter applies their Jacobians to the touched blocks only, so that a
 //! prediction costs O(n) and an update O(n²); no n×n Jacobian is ever built
-//! (convention 4 of docs/architecture.md).
+//! (a convention of docs/architecture.md).
 //!
 //! The filter is split by job: this module holds the [`Ekf`] type, its
 //! storage and the operations on the state's structure (prediction,

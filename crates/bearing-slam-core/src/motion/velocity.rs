@@ -1,4 +1,4 @@
-//! Thrun et al.'s velocity motion model (survey §2.4, METHOD.md §1).
+//! Thrun et al.'s velocity motion model (survey §2.4, docs/method.md).
 
 use super::{
     Propagation, check_state, ensure_nonnegative_noise, planar_state_jacobian, sinc_with_derivative,

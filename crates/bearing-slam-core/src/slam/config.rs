@@ -60,8 +60,9 @@ pub struct SlamConfig {
     /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
     pub conversion_threshold: Option<f64>,
     /// How each update corrects the covariance: the Joseph form (default,
-    /// robust to gain errors) or the optimal-gain symmetric form, about
-    /// twice as fast on large maps (see [`CovarianceUpdate`]).
+    /// robust to gain errors) or the optimal-gain symmetric form, with about
+    /// half the flops per update (see [`CovarianceUpdate`]; measured step
+    /// times are in benches/RESULTS.md).
     #[serde(default)]
     pub covariance_update: CovarianceUpdate,
 }
