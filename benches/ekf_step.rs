@@ -8,10 +8,10 @@
 //!   [`CovarianceUpdate::Symmetric`].
 //! * `floor_plain/n`: `P -= K G` with `G = S Kᵀ` precomputed, K N×10, on the
 //!   whole matrix, a plain column loop (axpys).
-//! * `floor_tiled/n`: the same product on the lower triangle only, register
-//!   tiled on prepacked K and `K S` (packing not timed), with the library
-//!   triangle update's tiles (8×4 with AVX2, 4×4 without) and traversal
-//!   (256×256 blocks).
+//! * `floor_tiled/n`: the same product on the lower triangle only, on
+//!   prepacked K and `K S` (packing not timed), by the library's own
+//!   triangle kernel (`ekf::kernel::triangle_update`: register tiles 8×4
+//!   with AVX2, 4×4 without, in 256×256 blocks), called, not copied.
 //!
 //! Both floors are compiled like the step's kernel: for x86-64-v3
 //! (AVX2/FMA, through `pulp`, detected at run time) when the CPU has it,
@@ -44,7 +44,9 @@
 //! iterating; `EKF_SIZES=10,200` restricts the sizes, `EKF_RSS_STEPS=0`
 //! skips the memory run).
 
-use bearing_slam::core::ekf::{BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement};
+use bearing_slam::core::ekf::{
+    BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement, kernel,
+};
 use bearing_slam::core::log::VelocityOdometry;
 use bearing_slam::core::measurement::BearingToPoint;
 use bearing_slam::core::motion::{VelocityModel, VelocityNoise};
@@ -239,83 +241,27 @@ fn timed_steps(
 
 // ---------------------------------------------------------------- the floor
 
-/// Rows of a register tile on the baseline target (SSE2).
-const MR: usize = 4;
-/// Rows of a register tile with AVX2/FMA (x86-64-v3), as in the library's
-/// triangle update.
-const MR_WIDE: usize = 8;
-const NR: usize = 4;
-/// Edge of the square blocks in which the tiled floor walks the triangle
-/// (the library's kernel uses the same).
-const KB: usize = 256;
-
-/// One floor kernel on one matrix, as a [`pulp::NullaryFnOnce`] whose `call`
-/// is `#[inline(always)]`, so that the kernel is compiled inside pulp's
+/// The plain floor kernel on one matrix, as a [`pulp::NullaryFnOnce`] whose
+/// `call` is `#[inline(always)]`, so that it is compiled inside pulp's
 /// x86-64-v3 function (a closure's body may stay out of line, built for the
 /// baseline target).
-struct Kernel<'a, const MR: usize> {
+struct PlainKernel<'a> {
     floor: &'a Floor,
     p: &'a mut [f64],
-    tiled: bool,
 }
 
-impl<const MR: usize> pulp::NullaryFnOnce for Kernel<'_, MR> {
+impl pulp::NullaryFnOnce for PlainKernel<'_> {
     type Output = ();
 
     #[inline(always)]
     fn call(self) {
-        if self.tiled {
-            self.floor.tiled_kernel::<MR>(self.p);
-        } else {
-            self.floor.plain_kernel(self.p);
-        }
+        self.floor.plain_kernel(self.p);
     }
 }
 
-/// Runs `kernel` compiled for x86-64-v3 (AVX2/FMA) when the CPU has it, as
-/// the library's triangle update does (pulp, detected at run time); else as
-/// is.
-fn on_best_target<const MR: usize>(kernel: Kernel<'_, MR>) {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(v3) = pulp::x86::V3::try_new() {
-        v3.vectorize(kernel);
-        return;
-    }
-    pulp::NullaryFnOnce::call(kernel);
-}
-
-fn wide() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        pulp::x86::V3::is_available()
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        false
-    }
-}
-
-/// `A_tile B_tileᵀ` for one MR×NR tile, accumulated in registers (a
-/// function of its own, as in the library: inlined in the tile loop, the
-/// accumulators end up on the stack).
-#[inline(always)]
-fn micro_tile<const MR: usize>(ap: &[f64], bp: &[f64]) -> [[f64; MR]; NR] {
-    let mut acc = [[0.0; MR]; NR];
-    let (a_cols, _) = ap.as_chunks::<MR>();
-    let (b_cols, _) = bp.as_chunks::<NR>();
-    for (ar, br) in a_cols.iter().zip(b_cols) {
-        for (acc_j, &bv) in acc.iter_mut().zip(br) {
-            for (acc_ij, &av) in acc_j.iter_mut().zip(ar) {
-                *acc_ij += av * bv;
-            }
-        }
-    }
-    acc
-}
-
-/// Inputs of the floor kernel: `K` (N×m, column-major), `G = S Kᵀ`
-/// (m×N, column-major), and both packed for the tiled kernel (`K` in row
-/// panels of the tile height, `K S` in panels of NR).
+/// Inputs of the floor kernels: `K` (N×m, column-major), `G = S Kᵀ`
+/// (m×N, column-major), and both packed for the library's triangle kernel
+/// (`K` in row panels of its tile height, `K S` in panels of `NR`).
 struct Floor {
     dim: usize,
     /// The rank m of the update (= M, kept as a run-time value).
@@ -338,15 +284,13 @@ impl Floor {
         let s = &r * r.transpose() + DMatrix::identity(M, M);
         let g = &s * k_mat.transpose(); // m×N
         let ks = g.transpose(); // N×m = K S
-        let wide = wide();
-        let mr = if wide { MR_WIDE } else { MR };
+        let wide = kernel::wide_kernel();
+        let mr = if wide { kernel::MR_WIDE } else { kernel::MR };
         let mut a_packed = vec![0.0; dim.div_ceil(mr) * mr * M];
-        let mut b_packed = vec![0.0; dim.div_ceil(NR) * NR * M];
-        for i in 0..dim {
-            for r in 0..M {
-                a_packed[((i / mr) * M + r) * mr + i % mr] = k_mat[(i, r)];
-                b_packed[((i / NR) * M + r) * NR + i % NR] = ks[(i, r)];
-            }
+        let mut b_packed = vec![0.0; dim.div_ceil(kernel::NR) * kernel::NR * M];
+        for r in 0..M {
+            kernel::pack_rows(wide, &mut a_packed, M, r, k_mat.column(r).as_slice());
+            kernel::pack::<{ kernel::NR }>(&mut b_packed, M, r, ks.column(r).as_slice());
         }
         Self {
             dim,
@@ -360,13 +304,15 @@ impl Floor {
     }
 
     /// `P -= K G` on the whole matrix, column by column (m axpys each),
-    /// compiled for AVX2/FMA when available.
+    /// compiled for AVX2/FMA when available, as the library's update is.
     fn plain(&self, p: &mut [f64]) {
-        on_best_target(Kernel::<MR> {
-            floor: self,
-            p,
-            tiled: false,
-        });
+        let kernel = PlainKernel { floor: self, p };
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = pulp::x86::V3::try_new() {
+            v3.vectorize(kernel);
+            return;
+        }
+        pulp::NullaryFnOnce::call(kernel);
     }
 
     #[inline(always)]
@@ -383,62 +329,21 @@ impl Floor {
         }
     }
 
-    /// `P -= K S Kᵀ` on the lower triangle only, MR×NR register tiles in
-    /// KB×KB blocks: the library's triangle update (same tiles, same
-    /// traversal, same AVX2/FMA build) at rank m, with nothing else.
+    /// `P -= K S Kᵀ` on the lower triangle only: the library's own triangle
+    /// kernel (`ekf::kernel::triangle_update`, the one the update calls:
+    /// same tiles, traversal and AVX2/FMA build) at rank m, with nothing
+    /// else.
     fn tiled(&self, p: &mut [f64]) {
-        if self.wide {
-            on_best_target(Kernel::<MR_WIDE> {
-                floor: self,
-                p,
-                tiled: true,
-            });
-        } else {
-            self.tiled_kernel::<MR>(p);
-        }
-    }
-
-    #[inline(always)]
-    fn tiled_kernel<const MR: usize>(&self, p: &mut [f64]) {
         let n = self.dim;
-        let (a, b) = (&self.a_packed, &self.b_packed);
-        // The depth as a run-time value, as in the library's kernel (a
-        // constant 10 lets LLVM unroll the tile loop into worse code).
-        let depth = self.depth;
-        for jb in (0..n).step_by(KB) {
-            let jb_end = (jb + KB).min(n);
-            for ib in (jb..n).step_by(KB) {
-                let ib_end = (ib + KB).min(n);
-                for jp in jb / NR..jb_end.div_ceil(NR) {
-                    let bp = &b[jp * depth * NR..][..depth * NR];
-                    let j0 = jp * NR;
-                    let jn = NR.min(n - j0);
-                    for ip in (ib / MR).max(j0 / MR)..ib_end.div_ceil(MR) {
-                        let ap = &a[ip * depth * MR..][..depth * MR];
-                        let i0 = ip * MR;
-                        let im = MR.min(n - i0);
-                        let acc = micro_tile::<MR>(ap, bp);
-                        if i0 >= j0 + NR && im == MR && jn == NR {
-                            for (jj, acc_j) in acc.iter().enumerate() {
-                                let col = &mut p[(j0 + jj) * n + i0..][..MR];
-                                for (x, &d) in col.iter_mut().zip(acc_j) {
-                                    *x -= d;
-                                }
-                            }
-                        } else {
-                            for (jj, acc_j) in acc.iter().enumerate().take(jn) {
-                                let j = j0 + jj;
-                                for (ii, &d) in acc_j.iter().enumerate().take(im) {
-                                    if i0 + ii >= j {
-                                        p[j * n + i0 + ii] -= d;
-                                    }
-                                }
-                            }
-                        }
-                    }
-                }
-            }
-        }
+        kernel::triangle_update(
+            p,
+            n,
+            n,
+            &self.a_packed,
+            &self.b_packed,
+            self.depth,
+            self.wide,
+        );
     }
 }
 

@@ -13,10 +13,10 @@
 //! Inputs are fixed, non-degenerate values behind `black_box`.
 //! `cargo bench -p bearing-slam --bench jacobians`
 
-use bearing_slam::core::ekf::{MeasurementModel, MotionModel};
 use bearing_slam::core::init::{Candidate, triangulate_candidate};
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam::core::measurement::{BearingToInverseDepth, BearingToPoint, RangeBearing};
+use bearing_slam::core::model::{MeasurementModel, MotionModel};
 use bearing_slam::core::motion::{
     DiffDriveModel, OdometryIncrement, OdometryModel, OdometryNoise, VelocityModel, VelocityNoise,
     WheelNoise,

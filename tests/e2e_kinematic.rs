@@ -13,11 +13,13 @@
 
 use bearing_slam::core::ekf::CovarianceUpdate;
 use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
-use bearing_slam::core::metrics::{chi2_interval, pose_nees};
+use bearing_slam::core::metrics::pose_nees;
 use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam::core::nalgebra::Matrix3;
-use bearing_slam::core::runner::{OdometryConfig, RunConfig, run, summarize};
+use bearing_slam::core::runner::{OdometryConfig, RunConfig, run};
+use bearing_slam::core::score::summarize;
 use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
+use bearing_slam::core::stats::chi2_interval;
 use bearing_slam::core::testing::kinematic::KinematicScenario;
 
 const RUNS: u64 = 20;

@@ -4,7 +4,8 @@
 //! an MCAP file gives the same result, bit for bit, as the run from memory.
 
 use bearing_slam::core::init::TriangulationConfig;
-use bearing_slam::core::runner::{RunConfig, run, summarize};
+use bearing_slam::core::runner::{RunConfig, run};
+use bearing_slam::core::score::summarize;
 use bearing_slam::core::slam::InitializerConfig;
 use bearing_slam::default_run_config;
 use bearing_slam::io::{read_log, write_log};

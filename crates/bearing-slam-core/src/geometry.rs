@@ -10,7 +10,7 @@ use std::f64::consts::{PI, TAU};
 
 /// Wraps an angle to the half-open interval (−π, π].
 ///
-/// Every bearing residual goes through this (METHOD.md §1, "innovations of
+/// Every bearing residual goes through this (docs/method.md, "innovations of
 /// angles are always wrapped"). Non-finite input is returned unchanged so that
 /// callers' validation, not this function, reports it.
 #[must_use]

@@ -35,7 +35,7 @@ impl InverseDepthPrior {
         Ok(Self { rho_ini, sigma_rho })
     }
 
-    /// The heuristic of METHOD.md §1 to cover depths `[d_min, ∞)` with 95 %:
+    /// The heuristic of docs/method.md (PI-SR) to cover depths `[d_min, ∞)` with 95 %:
     /// `ρ_min = 1/d_min`, `ρ_ini = ρ_min/2`, `σ_ρ = ρ_min/4`.
     pub fn covering_depths_from(min_depth: f64) -> Result<Self> {
         if !(min_depth.is_finite() && min_depth > 0.0) {
@@ -110,7 +110,7 @@ pub struct Parallax {
 }
 
 /// Parallax of two rays, (17)–(20), with the numerically safe formulas of
-/// METHOD.md: every angle is `atan2(|a × b|, a·b)` instead of `acos`, whose
+/// docs/method.md: every angle is `atan2(|a × b|, a·b)` instead of `acos`, whose
 /// derivative is infinite at ±1. `α` is the angle between the ray directions
 /// `h₁ = m(θ₁ + z₁)` and `h₂ = m(θ_v + z)`, which equals `π − (β + γ)` whenever
 /// the rays meet in front of both poses.

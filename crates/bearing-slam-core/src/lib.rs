@@ -7,7 +7,8 @@
 //! the metrics to score it (ATE, RPE, NEES, NIS).
 //!
 //! Equation numbers `(n)` in the docs are those of Munguía & Grau's paper,
-//! as digested in the project's METHOD.md.
+//! as digested in the repository's `docs/method.md`; the crates and the
+//! data flow are drawn in `docs/architecture.md`.
 
 pub mod ekf;
 pub mod error;
@@ -17,9 +18,12 @@ pub mod landmark;
 pub mod log;
 pub mod measurement;
 pub mod metrics;
+pub mod model;
 pub mod motion;
 pub mod runner;
+pub mod score;
 pub mod slam;
+pub mod stats;
 pub mod trace;
 
 #[cfg(feature = "testing")]

@@ -1,6 +1,6 @@
 //! The sensor log: a time-ordered stream of what a robot measured, plus the
 //! ground truth when it is known. Simulators and dataset loaders produce it,
-//! the SLAM filter consumes it ([`crate::slam::BearingSlam::process`]), the IO
+//! the SLAM filter consumes it (through [`crate::runner::run`]), the IO
 //! crate stores it. Pure data: no I/O here.
 
 use crate::error::{Result, SlamError, ensure_finite};

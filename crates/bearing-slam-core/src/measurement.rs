@@ -5,9 +5,9 @@
 //! Vehicle state `[x, y, θ]`; bearings are measured counter-clockwise from the
 //! robot's x-axis and their residuals are wrapped to (−π, π].
 
-use crate::ekf::{MeasurementModel, MeasurementPrediction};
 use crate::error::{Result, SlamError};
 use crate::geometry::{cross2, unit_direction, wrap_angle};
+use crate::model::{MeasurementModel, MeasurementPrediction};
 use nalgebra::{Matrix1x2, Matrix2, Matrix2x3, SMatrix, Vector1, Vector2, Vector3, Vector4};
 
 /// Squared distances below this are treated as "the landmark is at the sensor".

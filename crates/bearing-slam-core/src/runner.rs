@@ -1,8 +1,8 @@
 //! Runs a whole [`SensorLog`] through the [`BearingSlam`] filter: odometry
 //! events predict, bearing scans update, ground-truth events record the
 //! estimate (and a dead-reckoning integration of the same odometry) for
-//! scoring. This is the loop the CLI, the Monte Carlo runner and the Python
-//! `run` call.
+//! scoring ([`crate::score`]). This is the loop the CLI, the Monte Carlo
+//! runner and the Python `run` call; it runs and records, it does not score.
 //!
 //! Time semantics: a `Wheels` event carries the distances rolled since the
 //! previous one and is applied at once; a `Velocity` event is a command held
@@ -10,15 +10,13 @@
 //! predicted up to that event's time with the active command (for at most the
 //! command's `dt`).
 
-use crate::ekf::MotionModel;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::{EventKind, SensorLog, VelocityOdometry, WheelOdometry};
-use crate::metrics::{Alignment, ate, pose_nees};
-use crate::motion::{DiffDriveModel, VelocityModel};
+use crate::model::MotionModel;
+use crate::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use crate::slam::{BearingSlam, SlamConfig};
-use crate::trace::{EstimateSnapshot, SlamTrace};
-use nalgebra::Matrix3;
+use crate::trace::SlamTrace;
 use serde::{Deserialize, Serialize};
 
 /// Which odometry the filter predicts with, and its noise model.
@@ -40,6 +38,52 @@ pub struct RunConfig {
     pub odometry: OdometryConfig,
     /// Use the ranges too (classic range-bearing EKF-SLAM, a reference).
     pub use_range: bool,
+}
+
+/// Encoder noise assumed for logs with wheel odometry: 0.1 mm per reading
+/// plus 1 cm after one metre rolled (σ² = 1e-8 + 1e-4·|δ|), which covers the
+/// simulator's quantization and moderate slip.
+pub const DEFAULT_WHEEL_NOISE: WheelNoise = WheelNoise {
+    floor_sigma_m: 1e-4,
+    scale_sqrt_m: 0.01,
+};
+
+/// Velocity-model noise assumed for logs with velocity commands only.
+pub const DEFAULT_VELOCITY_NOISE: VelocityNoise = VelocityNoise {
+    alpha: [0.05, 0.001, 0.05, 0.05, 0.001, 0.001],
+    sigma_v_min: 0.01,
+    sigma_omega_min: 0.02,
+};
+
+/// A run configuration matched to what the log says about itself: wheel
+/// odometry through the diff-drive model when the log has wheel events (with
+/// its wheel base), velocity commands otherwise; the bearing noise of the
+/// log's sensor; the paper's MTE initializer.
+pub fn default_run_config(log: &SensorLog) -> Result<RunConfig> {
+    let has_wheels = log
+        .events
+        .iter()
+        .any(|e| matches!(e.kind, EventKind::Wheels(_)));
+    let odometry = match (has_wheels, log.info.wheel_base_m) {
+        (true, Some(base)) => {
+            OdometryConfig::Wheels(DiffDriveModel::new(base, DEFAULT_WHEEL_NOISE)?)
+        }
+        (true, None) => {
+            return Err(SlamError::Mismatch(
+                "the log has wheel odometry but no wheel base",
+            ));
+        }
+        (false, _) => OdometryConfig::Velocity(VelocityModel::new(DEFAULT_VELOCITY_NOISE)?),
+    };
+    let mut slam = SlamConfig::default();
+    if let Some(sigma) = log.info.bearing_sigma_rad {
+        slam.bearing_sigma = sigma;
+    }
+    Ok(RunConfig {
+        slam,
+        odometry,
+        use_range: false,
+    })
 }
 
 /// The estimate next to the truth and to dead reckoning at one instant.
@@ -215,97 +259,4 @@ pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
     }
     runner.output.trace.events = runner.slam.take_events();
     Ok(runner.output)
-}
-
-/// The numbers a run is judged by (`metrics.json` of the CLI).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RunSummary {
-    /// RMSE of the position over the ground-truth times, no alignment, metres.
-    pub ate_rmse_m: f64,
-    /// The same after the best SE(2) alignment, metres.
-    pub ate_aligned_rmse_m: f64,
-    /// Position error at the last ground-truth time, metres.
-    pub final_position_error_m: f64,
-    /// Absolute heading error at the last ground-truth time, degrees.
-    pub final_heading_error_deg: f64,
-    /// Dead reckoning's position RMSE over the same times, metres.
-    pub dead_reckoning_ate_rmse_m: f64,
-    /// Dead reckoning's final position error, metres.
-    pub dead_reckoning_final_position_error_m: f64,
-    /// RMSE of the mapped landmarks' positions against the truth (map frame =
-    /// the log's world frame, as the filter starts at the true initial pose), metres.
-    pub landmark_rmse_m: Option<f64>,
-    /// Mean pose NEES over the ground-truth times where the covariance is
-    /// positive definite (3 dof: consistent ≈ 3; NaN when there is none).
-    pub mean_nees_pose: f64,
-    /// Landmarks in the map at the end.
-    pub n_landmarks_initialized: usize,
-    /// Whether every covariance stayed finite (a non-finite one is divergence).
-    pub finite: bool,
-}
-
-/// Scores a run against the log's ground truth. Errors when the log has no
-/// ground truth (use the landmark truth alone through [`landmark_rmse`]).
-pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
-    let scored: Vec<(&TrackPoint, Pose2)> = output
-        .track
-        .iter()
-        .filter_map(|p| p.truth.map(|t| (p, t)))
-        .collect();
-    if scored.is_empty() {
-        return Err(SlamError::Mismatch(
-            "the log has no ground truth to score against",
-        ));
-    }
-    let estimate: Vec<Pose2> = scored.iter().map(|(p, _)| p.estimate).collect();
-    let dead_reckoning: Vec<Pose2> = scored.iter().map(|(p, _)| p.dead_reckoning).collect();
-    let truth: Vec<Pose2> = scored.iter().map(|(_, t)| *t).collect();
-    let raw = ate(&estimate, &truth, Alignment::None)?;
-    let aligned = ate(&estimate, &truth, Alignment::Se2)?;
-    let dr = ate(&dead_reckoning, &truth, Alignment::None)?;
-    // NEES is scored where the covariance is positive definite: a start pose
-    // known exactly (zero covariance) has no NEES.
-    let mut nees_sum = 0.0;
-    let mut nees_count = 0usize;
-    let mut finite = true;
-    for (p, t) in &scored {
-        let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
-        finite &= cov.iter().all(|v| v.is_finite());
-        if let Ok(nees) = pose_nees(&p.estimate, &cov, t) {
-            nees_sum += nees;
-            nees_count += 1;
-        }
-    }
-    let last = output.trace.snapshots.last();
-    Ok(RunSummary {
-        ate_rmse_m: raw.rmse_m,
-        ate_aligned_rmse_m: aligned.rmse_m,
-        final_position_error_m: raw.final_position_m,
-        final_heading_error_deg: raw.final_heading_rad.to_degrees(),
-        dead_reckoning_ate_rmse_m: dr.rmse_m,
-        dead_reckoning_final_position_error_m: dr.final_position_m,
-        landmark_rmse_m: last.and_then(|s| landmark_rmse(log, s)),
-        mean_nees_pose: if nees_count > 0 {
-            nees_sum / nees_count as f64
-        } else {
-            f64::NAN
-        },
-        n_landmarks_initialized: last.map_or(0, |s| s.landmarks.len()),
-        finite,
-    })
-}
-
-/// RMSE of a snapshot's landmarks against the log's landmark truth, over the
-/// landmarks that have both; `None` when none do.
-#[must_use]
-pub fn landmark_rmse(log: &SensorLog, snapshot: &EstimateSnapshot) -> Option<f64> {
-    let errors: Vec<f64> = snapshot
-        .landmarks
-        .iter()
-        .filter_map(|l| {
-            log.landmark_truth(l.id)
-                .map(|t| (l.x - t.x).powi(2) + (l.y - t.y).powi(2))
-        })
-        .collect();
-    (!errors.is_empty()).then(|| (errors.iter().sum::<f64>() / errors.len() as f64).sqrt())
 }

@@ -2,7 +2,6 @@
 //! the inverse-depth conversion against central differences, over random
 //! inputs and the hard regions (heading near ±π, ρ → 0, small parallax).
 
-use bearing_slam_core::ekf::MeasurementModel;
 use bearing_slam_core::init::{
     Candidate, pi_sr, triangulate_candidate, triangulated_inverse_depth,
 };
@@ -10,6 +9,7 @@ use bearing_slam_core::landmark::inverse_depth_to_point;
 use bearing_slam_core::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing, triangulate,
 };
+use bearing_slam_core::model::MeasurementModel;
 use bearing_slam_core::testing::{compare_jacobians, numeric_jacobian};
 use nalgebra::{DMatrix, DVector, Vector2, Vector3, Vector4};
 use proptest::prelude::*;

@@ -7,8 +7,10 @@ use approx::assert_relative_eq;
 use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::metrics::{
-    Alignment, CHI2_MAX_DOF, CHI2_MIN_DOF, CHI2_MIN_TAIL, ConsistencyStats, align_se2, ate,
-    average_over_runs, chi2_interval, chi2_quantile, nees, nis, pose_nees, rpe,
+    Alignment, ConsistencyStats, align_se2, ate, average_over_runs, nees, nis, pose_nees, rpe,
+};
+use bearing_slam_core::stats::{
+    CHI2_MAX_DOF, CHI2_MIN_DOF, CHI2_MIN_TAIL, chi2_interval, chi2_quantile,
 };
 use nalgebra::{DMatrix, DVector, Matrix3};
 use proptest::prelude::*;

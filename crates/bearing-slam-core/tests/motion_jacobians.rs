@@ -6,9 +6,9 @@
 #![allow(clippy::unwrap_used)]
 
 use approx::assert_relative_eq;
-use bearing_slam_core::ekf::MotionModel;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
+use bearing_slam_core::model::MotionModel;
 use bearing_slam_core::motion::{
     DiffDriveModel, MIN_TRANSLATION_FOR_ROT1_M, OdometryIncrement, OdometryModel, OdometryNoise,
     VelocityModel, VelocityNoise, WheelNoise, sinc_with_derivative,
@@ -251,7 +251,7 @@ fn check_odometry(
 /// covariance as `J_u Q J_uᵀ`, which must be symmetric PSD.
 fn check_prediction<const K: usize>(
     name: &str,
-    predicted: &bearing_slam_core::ekf::MotionPrediction<3>,
+    predicted: &bearing_slam_core::model::MotionPrediction<3>,
     propagation: &bearing_slam_core::motion::Propagation<K>,
     q: &SMatrix<f64, K, K>,
 ) -> std::result::Result<(), String> {

@@ -10,8 +10,9 @@
 
 use crate::convert::{In1, In2, arr1, arr2};
 use crate::errors::SlamResultExt;
-use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement, MotionPrediction};
+use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement};
 use bearing_slam::core::measurement::BearingToPoint;
+use bearing_slam::core::model::MotionPrediction;
 use bearing_slam::core::nalgebra::{DMatrix, DVector, Matrix1, Matrix3, Vector1, Vector3};
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;

@@ -5,6 +5,7 @@ use crate::errors::SlamResultExt;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::metrics::{self, Alignment};
 use bearing_slam::core::nalgebra::{DMatrix, DVector};
+use bearing_slam::core::stats;
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -103,7 +104,7 @@ pub(crate) fn nis(innovation: In1<'_>, s: In2<'_>) -> PyResult<f64> {
 /// The `p`-quantile of the χ² distribution with `dof` degrees of freedom.
 #[pyfunction]
 pub(crate) fn chi2_quantile(dof: f64, p: f64) -> PyResult<f64> {
-    metrics::chi2_quantile(dof, p).py()
+    stats::chi2_quantile(dof, p).py()
 }
 
 /// Two-sided `confidence` interval of the average of `runs` NEES/NIS values
@@ -111,5 +112,5 @@ pub(crate) fn chi2_quantile(dof: f64, p: f64) -> PyResult<f64> {
 #[pyfunction]
 #[pyo3(signature = (dof, runs = 1, confidence = 0.95))]
 pub(crate) fn chi2_interval(dof: f64, runs: usize, confidence: f64) -> PyResult<(f64, f64)> {
-    metrics::chi2_interval(dof, runs, confidence).py()
+    stats::chi2_interval(dof, runs, confidence).py()
 }

@@ -3,11 +3,11 @@
 
 use crate::convert::{In1, fixed, matrix, vec2, vec3, vector};
 use crate::errors::SlamResultExt;
-use bearing_slam::core::ekf::MeasurementModel;
 use bearing_slam::core::init::{self, Candidate};
 use bearing_slam::core::landmark;
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam::core::measurement::{self, BearingToInverseDepth, BearingToPoint, RangeBearing};
+use bearing_slam::core::model::MeasurementModel;
 use bearing_slam::core::motion::{
     DiffDriveModel, OdometryIncrement, OdometryModel, OdometryNoise, Propagation, VelocityModel,
     VelocityNoise, WheelNoise,

@@ -9,7 +9,7 @@ use crate::errors;
 use crate::log::PySensorLog;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
-use bearing_slam::core::runner::summarize;
+use bearing_slam::core::score::summarize;
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use bearing_slam::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,

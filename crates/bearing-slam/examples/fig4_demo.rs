@@ -6,7 +6,8 @@
 
 use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
 use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam::core::runner::{OdometryConfig, RunConfig, run, summarize};
+use bearing_slam::core::runner::{OdometryConfig, RunConfig, run};
+use bearing_slam::core::score::summarize;
 use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
 use bearing_slam::core::testing::kinematic::KinematicScenario;
 use std::collections::BTreeMap;

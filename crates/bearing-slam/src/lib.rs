@@ -6,7 +6,8 @@
 //! MCAP logs and dataset loaders ([`io`]).
 //!
 //! ```
-//! use bearing_slam::core::runner::{run, summarize};
+//! use bearing_slam::core::runner::run;
+//! use bearing_slam::core::score::summarize;
 //! use bearing_slam::sim::{Scenario, simulate};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
 //! let log = simulate(&Scenario::named("paper_fig4", 7)?)?;
@@ -19,6 +20,9 @@
 //! ```
 
 pub use bearing_slam_core as core;
+pub use bearing_slam_core::runner::{
+    DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, default_run_config,
+};
 pub use bearing_slam_core::{Pose2, Result, SlamError};
 pub use bearing_slam_io as io;
 pub use bearing_slam_sim as sim;
@@ -26,54 +30,3 @@ pub use bearing_slam_sim as sim;
 pub mod experiments;
 pub mod montecarlo;
 pub mod real_data;
-
-use bearing_slam_core::log::{EventKind, SensorLog};
-use bearing_slam_core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
-use bearing_slam_core::runner::{OdometryConfig, RunConfig};
-use bearing_slam_core::slam::SlamConfig;
-
-/// Encoder noise assumed for logs with wheel odometry: 0.1 mm per reading
-/// plus 1 cm after one metre rolled (σ² = 1e-8 + 1e-4·|δ|), which covers the
-/// simulator's quantization and moderate slip.
-pub const DEFAULT_WHEEL_NOISE: WheelNoise = WheelNoise {
-    floor_sigma_m: 1e-4,
-    scale_sqrt_m: 0.01,
-};
-
-/// Velocity-model noise assumed for logs with velocity commands only.
-pub const DEFAULT_VELOCITY_NOISE: VelocityNoise = VelocityNoise {
-    alpha: [0.05, 0.001, 0.05, 0.05, 0.001, 0.001],
-    sigma_v_min: 0.01,
-    sigma_omega_min: 0.02,
-};
-
-/// A run configuration matched to what the log says about itself: wheel
-/// odometry through the diff-drive model when the log has wheel events (with
-/// its wheel base), velocity commands otherwise; the bearing noise of the
-/// log's sensor; the paper's MTE initializer.
-pub fn default_run_config(log: &SensorLog) -> Result<RunConfig> {
-    let has_wheels = log
-        .events
-        .iter()
-        .any(|e| matches!(e.kind, EventKind::Wheels(_)));
-    let odometry = match (has_wheels, log.info.wheel_base_m) {
-        (true, Some(base)) => {
-            OdometryConfig::Wheels(DiffDriveModel::new(base, DEFAULT_WHEEL_NOISE)?)
-        }
-        (true, None) => {
-            return Err(SlamError::Mismatch(
-                "the log has wheel odometry but no wheel base",
-            ));
-        }
-        (false, _) => OdometryConfig::Velocity(VelocityModel::new(DEFAULT_VELOCITY_NOISE)?),
-    };
-    let mut slam = SlamConfig::default();
-    if let Some(sigma) = log.info.bearing_sigma_rad {
-        slam.bearing_sigma = sigma;
-    }
-    Ok(RunConfig {
-        slam,
-        odometry,
-        use_range: false,
-    })
-}

@@ -62,10 +62,12 @@
 use crate::core::geometry::wrap_angle;
 use crate::core::init::{InverseDepthPrior, TriangulationConfig};
 use crate::core::log::SensorLog;
-use crate::core::metrics::{chi2_interval, pose_nees};
+use crate::core::metrics::pose_nees;
 use crate::core::nalgebra::{Matrix3, SymmetricEigen};
-use crate::core::runner::{RunConfig, RunOutput, run, summarize};
+use crate::core::runner::{RunConfig, RunOutput, run};
+use crate::core::score::summarize;
 use crate::core::slam::InitializerConfig;
+use crate::core::stats::chi2_interval;
 use crate::core::trace::SlamEvent;
 use crate::sim::{Scenario, simulate};
 use rayon::prelude::*;

@@ -100,7 +100,8 @@ use crate::core::init::{InverseDepthPrior, TriangulationConfig};
 use crate::core::log::{EventKind, SensorLog};
 use crate::core::metrics::{Alignment, align_se2, ate};
 use crate::core::motion::{VelocityModel, VelocityNoise};
-use crate::core::runner::{OdometryConfig, RunConfig, RunOutput, landmark_rmse, run, summarize};
+use crate::core::runner::{OdometryConfig, RunConfig, RunOutput, run};
+use crate::core::score::{landmark_rmse, summarize};
 use crate::core::slam::{InitializerConfig, SlamConfig};
 use crate::core::trace::{InitMethod, SlamEvent};
 use crate::io::mrclam::{

@@ -1,15 +1,15 @@
 //! Differential drive from wheel encoders, Munguía & Grau (2)(3).
 
 use super::{Propagation, check_state, ensure_nonnegative_noise, planar_state_jacobian};
-use crate::ekf::{MotionModel, MotionPrediction};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::wrap_angle;
 use crate::log::WheelOdometry;
+use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix2, Matrix3x2, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 
 /// Noise of the wheel encoders, per wheel and independent between wheels
-/// (METHOD.md §1: "noise lives in wheel space").
+/// (docs/method.md: "noise lives in wheel space").
 ///
 /// The variance of the distance `δ_w` one wheel rolled in a step is
 /// `σ_w² = floor_sigma_m² + scale_sqrt_m² · |δ_w|`:
@@ -46,7 +46,7 @@ impl WheelNoise {
 }
 
 /// The differential-drive encoder model of Munguía & Grau (2)(3), integrated
-/// at the mid heading (METHOD.md §1, the paper's typo fixed):
+/// at the mid heading (docs/method.md, the paper's typo fixed):
 ///
 /// `δ = (δ_r + δ_l)/2`, `Δθ = (δ_r − δ_l)/a`,
 /// `x' = x + δ cos(θ + Δθ/2)`, `y' = y + δ sin(θ + Δθ/2)`,

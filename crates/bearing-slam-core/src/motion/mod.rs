@@ -3,7 +3,7 @@
 //!
 //! * [`DiffDriveModel`]: wheel-encoder odometry of a differential-drive robot,
 //!   Munguía & Grau (2)(3), integrated at the *mid* heading (the paper prints
-//!   the end heading; METHOD.md §1 explains the typo).
+//!   the end heading; docs/method.md explains the typo).
 //! * [`VelocityModel`]: Thrun et al.'s velocity motion model, exact circular
 //!   arc for a `(v, ω)` command held `Δt` seconds, with the final rotation `γ`.
 //! * [`OdometryModel`]: Thrun et al.'s odometry motion model,
@@ -12,9 +12,9 @@
 //! Each model offers a value function (`propagate`), a value-with-Jacobians
 //! function (`propagate_with_jacobians`, returning a [`Propagation`]), the
 //! covariance of its control (`control_covariance`), and implements
-//! [`MotionModel<3>`](crate::ekf::MotionModel), whose
-//! [`MotionPrediction`](crate::ekf::MotionPrediction) carries the process noise
-//! `J_u Q J_uᵀ` already mapped into state space (METHOD.md §1).
+//! [`MotionModel<3>`](crate::model::MotionModel), whose
+//! [`MotionPrediction`](crate::model::MotionPrediction) carries the process noise
+//! `J_u Q J_uᵀ` already mapped into state space (docs/method.md).
 //!
 //! Output headings are wrapped to (−π, π]; input headings may be any finite
 //! angle. The derivative of the wrap is taken as 1 (it is, everywhere except
@@ -47,7 +47,7 @@ pub struct Propagation<const K: usize> {
 
 impl<const K: usize> Propagation<K> {
     /// The process noise `J_u Q J_uᵀ` for a control covariance `Q`
-    /// (METHOD.md §1), symmetrized.
+    /// (docs/method.md), symmetrized.
     #[must_use]
     pub fn process_noise(&self, control_covariance: &SMatrix<f64, K, K>) -> Matrix3<f64> {
         let q = self.j_state_control * control_covariance * self.j_state_control.transpose();

@@ -1,9 +1,9 @@
-//! Thrun et al.'s odometry motion model (survey §2.4, METHOD.md §1).
+//! Thrun et al.'s odometry motion model (survey §2.4, docs/method.md).
 
 use super::{Propagation, check_state, ensure_nonnegative_noise, planar_state_jacobian};
-use crate::ekf::{MotionModel, MotionPrediction};
 use crate::error::{Result, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
+use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::FRAC_PI_2;

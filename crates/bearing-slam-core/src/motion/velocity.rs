@@ -1,12 +1,12 @@
-//! Thrun et al.'s velocity motion model (survey §2.4, METHOD.md §1).
+//! Thrun et al.'s velocity motion model (survey §2.4, docs/method.md).
 
 use super::{
     Propagation, check_state, ensure_nonnegative_noise, planar_state_jacobian, sinc_with_derivative,
 };
-use crate::ekf::{MotionModel, MotionPrediction};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::wrap_angle;
 use crate::log::VelocityOdometry;
+use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 

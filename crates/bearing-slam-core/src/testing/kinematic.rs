@@ -37,7 +37,7 @@ pub struct KinematicScenario {
 }
 
 impl KinematicScenario {
-    /// The straight run of METHOD.md's Fig. 4: 10 m along +x at 0.5 m/s past
+    /// The straight run of the paper's Fig. 4 (docs/method.md): 10 m along +x at 0.5 m/s past
     /// four near landmarks (ids 1–4) and, when `with_far`, one far landmark
     /// (id 5, 75 m away), bearing σ = 1°, 20 cm wheel base, 10 Hz. The paper
     /// gives no coordinates; these are ours and the physics scenario

@@ -3,31 +3,35 @@
 //! association), initialized undelayed (PI-SR) or by stochastic triangulation
 //! (MTE, optionally with a cloned first pose), converted from inverse depth to
 //! Euclidean once their depth is linear enough, and gated by a chi-square test.
+//!
+//! By job: `config` holds the configuration and its validation; this module
+//! the filter itself (landmark slots, prediction, gating, batched updates,
+//! undelayed initialization, conversion); `delayed` the delayed
+//! initialization (waiting candidates, pose clones, replay of the bearings
+//! seen while waiting).
 
-use crate::ekf::{
-    BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement, MeasurementModel, MotionModel,
-};
-use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
+mod config;
+mod delayed;
+
+pub use config::{InitializerConfig, SlamConfig};
+use delayed::{PendingCandidate, PoseClone};
+
+use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
+use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
-use crate::init::{
-    Candidate, CandidateDecision, InverseDepthPrior, TriangulationConfig, decide, pi_sr,
-    triangulate_candidate,
-};
+use crate::init::{InverseDepthPrior, pi_sr};
 use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
-use crate::metrics::chi2_quantile;
+use crate::model::MotionModel;
+use crate::stats::chi2_quantile;
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
-use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
 /// Size of the vehicle block `[x, y, θ]`.
 const VEHICLE_DIM: usize = 3;
-
-/// Linearizations of the replayed waiting bearings (1 = a plain EKF update).
-const REPLAY_ITERATIONS: usize = 3;
 
 /// A pose variance past this (σ = 1000 km) means the input was garbage: the
 /// covariance would no longer be representable next to the landmarks' (its
@@ -36,147 +40,6 @@ const MAX_POSE_VARIANCE: f64 = 1e12;
 
 /// Positions beyond this many metres from the origin are refused likewise.
 const MAX_POSITION_M: f64 = 1e9;
-
-/// Which landmark initializer the filter uses.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "method", rename_all = "snake_case")]
-pub enum InitializerConfig {
-    /// Undelayed inverse depth with a fixed prior, Munguía & Grau (13)(15).
-    PiSr {
-        /// The prior used for every landmark without its own.
-        prior: InverseDepthPrior,
-        /// Per-landmark priors (the paper's "mixed" setting of Fig. 4d).
-        per_landmark: BTreeMap<u64, InverseDepthPrior>,
-    },
-    /// Delayed stochastic triangulation (MTE), (16)–(24), with the paper's
-    /// simplification: the candidate keeps only the first pose's variances.
-    Triangulation(TriangulationConfig),
-    /// MTE with the first pose cloned into the state while the candidate
-    /// waits, so every cross-covariance at initialization is exact. With
-    /// [`TriangulationConfig::history`] > 0 the poses of later sightings are
-    /// cloned too, and their bearings are applied once the landmark is in:
-    /// the delayed initializer then discards no measurement.
-    TriangulationWithClone(TriangulationConfig),
-}
-
-impl InitializerConfig {
-    /// PI-SR with one prior for every landmark.
-    #[must_use]
-    pub fn pi_sr(prior: InverseDepthPrior) -> Self {
-        Self::PiSr {
-            prior,
-            per_landmark: BTreeMap::new(),
-        }
-    }
-}
-
-/// Everything the filter needs to start.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-pub struct SlamConfig {
-    /// Where the robot starts (the map frame is defined by it).
-    pub initial_pose: Pose2,
-    /// Standard deviations of the initial pose `[σ_x, σ_y, σ_θ]` (≥ 0).
-    pub initial_pose_sigma: [f64; 3],
-    /// Standard deviation of the bearing noise, radians.
-    pub bearing_sigma: f64,
-    /// Standard deviation of the range noise for range-bearing updates, metres.
-    pub range_sigma: f64,
-    /// The landmark initializer.
-    pub initializer: InitializerConfig,
-    /// Probability of the chi-square gate (e.g. 0.999); `None` disables gating.
-    pub gate_probability: Option<f64>,
-    /// Linearity index below which an inverse-depth landmark becomes Euclidean
-    /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
-    pub conversion_threshold: Option<f64>,
-    /// How each update corrects the covariance: the Joseph form (default,
-    /// robust to gain errors) or the optimal-gain symmetric form, about
-    /// twice as fast on large maps (see [`CovarianceUpdate`]).
-    #[serde(default)]
-    pub covariance_update: CovarianceUpdate,
-}
-
-impl Default for SlamConfig {
-    fn default() -> Self {
-        Self {
-            initial_pose: Pose2::default(),
-            // A robot placed by hand is known to about a millimetre and a
-            // milliradian. Zero would leave P singular for the first steps
-            // (two wheels drive a 3-D pose), where a second-order model
-            // mismatch then reads as a huge NEES.
-            initial_pose_sigma: [1e-3, 1e-3, 1e-3],
-            bearing_sigma: 1f64.to_radians(),
-            range_sigma: 0.1,
-            initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
-            gate_probability: Some(0.999),
-            conversion_threshold: Some(0.1),
-            covariance_update: CovarianceUpdate::Joseph,
-        }
-    }
-}
-
-impl SlamConfig {
-    /// Checks every parameter's range.
-    pub fn validate(&self) -> Result<()> {
-        for (what, v) in [
-            ("initial x", self.initial_pose.x),
-            ("initial y", self.initial_pose.y),
-            ("initial theta", self.initial_pose.theta),
-        ] {
-            ensure_finite(what, v)?;
-        }
-        for s in self.initial_pose_sigma {
-            if !(s.is_finite() && s >= 0.0) {
-                return Err(SlamError::InvalidNoise {
-                    what: "initial pose sigma",
-                    value: s,
-                });
-            }
-        }
-        ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
-        ensure_positive_noise("range sigma", self.range_sigma)?;
-        if let Some(p) = self.gate_probability
-            && !(p > 0.0 && p < 1.0)
-        {
-            return Err(SlamError::InvalidParameter {
-                name: "gate_probability",
-                value: p,
-                reason: "must be in (0, 1)",
-            });
-        }
-        if let Some(t) = self.conversion_threshold
-            && !(t > 0.0 && t.is_finite())
-        {
-            return Err(SlamError::InvalidParameter {
-                name: "conversion_threshold",
-                value: t,
-                reason: "must be positive",
-            });
-        }
-        match &self.initializer {
-            InitializerConfig::PiSr {
-                prior,
-                per_landmark,
-            } => {
-                InverseDepthPrior::new(prior.rho_ini, prior.sigma_rho)?;
-                for p in per_landmark.values() {
-                    InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
-                }
-            }
-            InitializerConfig::Triangulation(c) => {
-                c.validate()?;
-                if c.history > 0 {
-                    return Err(SlamError::InvalidParameter {
-                        name: "history",
-                        value: c.history as f64,
-                        reason: "keeping the waiting bearings needs pose cloning (TriangulationWithClone)",
-                    });
-                }
-            }
-            InitializerConfig::TriangulationWithClone(c) => c.validate()?,
-        }
-        Ok(())
-    }
-}
 
 /// A landmark's estimate as a Euclidean point, whatever its parameterization.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -211,26 +74,6 @@ struct LandmarkSlot {
     offset: usize,
     parameterization: Parameterization,
     method: InitMethod,
-}
-
-#[derive(Clone, Debug, PartialEq)]
-struct PendingCandidate {
-    candidate: Candidate,
-    /// The pose clone holding the first pose (clone variant only).
-    clone: Option<u64>,
-    /// Bearings seen while waiting, each with the clone of its pose.
-    history: Vec<(u64, f64)>,
-    /// Keep one waiting sighting out of `stride` (doubles at each thinning).
-    stride: usize,
-    /// Sightings skipped since the last one kept.
-    skipped: usize,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct PoseClone {
-    offset: usize,
-    /// Candidates that refer to it; it leaves the state at zero.
-    users: usize,
 }
 
 /// The bearing-only EKF SLAM filter.
@@ -479,17 +322,7 @@ impl BearingSlam {
                 new_sightings.push((id, z));
                 continue;
             };
-            let measured = Vector1::new(wrap_angle(z));
-            let linearized = match slot.parameterization {
-                Parameterization::Euclidean => {
-                    self.ekf
-                        .linearize(&BearingToPoint, slot.offset, &measured, &noise)
-                }
-                Parameterization::InverseDepth => {
-                    self.ekf
-                        .linearize(&BearingToInverseDepth, slot.offset, &measured, &noise)
-                }
-            };
+            let linearized = linearize_bearing(&self.ekf, 0, slot, wrap_angle(z), &noise);
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
         }
         self.commit_batch(time, &batch, &mut report, pending_events)?;
@@ -725,282 +558,6 @@ impl BearingSlam {
         )
     }
 
-    /// Routes a first or repeated sighting of an unmapped landmark to the
-    /// configured initializer. Returns whether the landmark entered the state.
-    fn initialize_from_bearing(&mut self, id: u64, z: f64) -> Result<bool> {
-        let (config, cloning) = match &self.config.initializer {
-            InitializerConfig::PiSr {
-                prior,
-                per_landmark,
-            } => {
-                let prior = per_landmark.get(&id).copied().unwrap_or(*prior);
-                return self.initialize_with_prior(id, z, prior, InitMethod::PiSr);
-            }
-            InitializerConfig::Triangulation(c) => (*c, false),
-            InitializerConfig::TriangulationWithClone(c) => (*c, true),
-        };
-        let time = self.time.unwrap_or(0.0);
-        let pose = self.ekf.block::<3>(0)?;
-        let Some(pending) = self.candidates.get(&id).cloned() else {
-            self.create_candidate(id, z, cloning)?;
-            return Ok(false);
-        };
-        let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
-        match decision {
-            CandidateDecision::Wait => {
-                if let Some(c) = self.candidates.get_mut(&id) {
-                    c.candidate.last_seen = time;
-                }
-                if cloning && config.history > 0 {
-                    self.remember_sighting(id, z, config.history)?;
-                }
-                Ok(false)
-            }
-            CandidateDecision::Restart => {
-                self.drop_candidate(id)?;
-                self.create_candidate(id, z, cloning)?;
-                Ok(false)
-            }
-            CandidateDecision::Far => {
-                let inserted = self.initialize_with_prior(
-                    id,
-                    z,
-                    config.far_prior(&parallax)?,
-                    InitMethod::Far,
-                )?;
-                self.replay_history(id, &pending.history)?;
-                self.drop_candidate(id)?;
-                Ok(inserted)
-            }
-            CandidateDecision::Triangulate => {
-                let init = triangulate_candidate(&pending.candidate, &pose, z)?;
-                let sz2 = self.config.bearing_sigma.powi(2);
-                // (22)(23): the current bearing z always adds its noise; the first
-                // bearing z₁ was never used in an update, so it adds its own too.
-                let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
-                    + init.j_landmark_first_bearing
-                        * sz2
-                        * init.j_landmark_first_bearing.transpose();
-                let mut jacobians = vec![BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
-                }];
-                let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
-                    Some(clone) => {
-                        // Exact: the first pose is a state block correlated with everything.
-                        jacobians.push(BlockJacobian {
-                            offset: clone.offset,
-                            jacobian: DMatrix::from_column_slice(
-                                4,
-                                3,
-                                init.j_landmark_first_pose.as_slice(),
-                            ),
-                        });
-                        InitMethod::TriangulatedClone
-                    }
-                    None => {
-                        // The paper's R_i of (22): the first pose as independent noise
-                        // with the variances stored in the candidate.
-                        let j1 = init.j_landmark_first_pose;
-                        added += j1
-                            * Matrix3::from_diagonal(&pending.candidate.pose_variances)
-                            * j1.transpose();
-                        InitMethod::Triangulated
-                    }
-                };
-                let inserted = self.insert_inverse_depth(
-                    id,
-                    &init.landmark,
-                    &jacobians,
-                    &added,
-                    method,
-                    parallax.alpha,
-                )?;
-                self.replay_history(id, &pending.history)?;
-                self.drop_candidate(id)?;
-                Ok(inserted)
-            }
-        }
-    }
-
-    /// (16): store the first sighting. The clone variant also clones the pose
-    /// into the state (one clone per batch, shared by its candidates).
-    fn create_candidate(&mut self, id: u64, z: f64, cloning: bool) -> Result<()> {
-        let time = self.time.unwrap_or(0.0);
-        let pose = self.ekf.block::<3>(0)?;
-        let variances = self.pose_covariance().diagonal();
-        let clone = if cloning {
-            Some(self.acquire_batch_clone()?)
-        } else {
-            None
-        };
-        self.candidates.insert(
-            id,
-            PendingCandidate {
-                candidate: Candidate {
-                    pose,
-                    bearing: z,
-                    pose_variances: variances,
-                    created: time,
-                    last_seen: time,
-                },
-                clone,
-                history: Vec::new(),
-                stride: 1,
-                skipped: 0,
-            },
-        );
-        self.record(SlamEvent::CandidateCreated { id });
-        Ok(())
-    }
-
-    /// The clone of the pose at the current batch's time (taken at the first
-    /// request of the batch), with one more user.
-    fn acquire_batch_clone(&mut self) -> Result<u64> {
-        let clone_id = match self.batch_clone {
-            Some(c) => c,
-            None => {
-                let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
-                let c = self.next_clone_id;
-                self.next_clone_id += 1;
-                self.clones.insert(c, PoseClone { offset, users: 0 });
-                self.batch_clone = Some(c);
-                c
-            }
-        };
-        if let Some(c) = self.clones.get_mut(&clone_id) {
-            c.users += 1;
-        }
-        Ok(clone_id)
-    }
-
-    /// Keeps a waiting candidate's bearing with a clone of the current pose,
-    /// one sighting out of `stride`; past `limit` kept sightings, every other
-    /// one is released and the stride doubles, so the history stays spread
-    /// over the whole wait with at most `limit` clones.
-    fn remember_sighting(&mut self, id: u64, z: f64, limit: usize) -> Result<()> {
-        let keep = match self.candidates.get_mut(&id) {
-            Some(c) => {
-                c.skipped += 1;
-                c.skipped >= c.stride
-            }
-            None => false,
-        };
-        if !keep {
-            return Ok(());
-        }
-        let clone = self.acquire_batch_clone()?;
-        let mut released = Vec::new();
-        if let Some(c) = self.candidates.get_mut(&id) {
-            c.skipped = 0;
-            c.history.push((clone, z));
-            if c.history.len() > limit {
-                let mut index = 0;
-                c.history.retain(|&(clone, _)| {
-                    index += 1;
-                    let keep = index % 2 == 0;
-                    if !keep {
-                        released.push(clone);
-                    }
-                    keep
-                });
-                c.stride *= 2;
-            }
-        }
-        for clone in released {
-            self.release_clone(clone)?;
-        }
-        Ok(())
-    }
-
-    /// Applies the bearings a candidate saw while waiting, from the clones of
-    /// their poses, to its landmark just added to the state, so the delayed
-    /// initializer discards no measurement. The gated bearings form one
-    /// batch, relinearized [`REPLAY_ITERATIONS`] times at the latest estimate
-    /// (iterated EKF: every pass updates the same prior with
-    /// `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`), because the landmark was triangulated
-    /// a moment ago and the replay may move it by a good part of its depth.
-    fn replay_history(&mut self, id: u64, history: &[(u64, f64)]) -> Result<()> {
-        let Some(slot) = self.landmarks.get(&id).copied() else {
-            return Ok(());
-        };
-        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
-        let mut batch = Vec::new();
-        let mut report = BatchReport::default();
-        let mut events = Vec::new();
-        let mut accepted = Vec::new();
-        for &(clone_id, z) in history {
-            let Some(clone) = self.clones.get(&clone_id).copied() else {
-                continue;
-            };
-            let linearized = bearing_from_pose_block(&self.ekf, clone.offset, slot, z, &noise);
-            let before = batch.len();
-            self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
-            if batch.len() > before {
-                accepted.push((clone.offset, z));
-            }
-        }
-        for e in events {
-            self.record(e);
-        }
-        if batch.is_empty() {
-            return Ok(());
-        }
-        let prior = self.ekf.clone();
-        self.ekf.update(&batch)?;
-        for _ in 1..REPLAY_ITERATIONS {
-            // A relinearization that fails (a degenerate geometry at the new
-            // estimate) keeps the last iterate, which is a valid update.
-            let Ok(relinearized) = accepted
-                .iter()
-                .map(|&(offset, z)| relinearize_about(&prior, &self.ekf, offset, slot, z, &noise))
-                .collect::<Result<Vec<_>>>()
-            else {
-                break;
-            };
-            let mut next = prior.clone();
-            if next.update(&relinearized).is_err() {
-                break;
-            }
-            self.ekf = next;
-        }
-        self.wrap_heading()?;
-        self.wrap_ray_azimuths()
-    }
-
-    /// Forgets a candidate and releases its pose clones (each removed from the
-    /// state when no candidate uses it any more).
-    fn drop_candidate(&mut self, id: u64) -> Result<()> {
-        let Some(pending) = self.candidates.remove(&id) else {
-            return Ok(());
-        };
-        let clones = pending
-            .clone
-            .into_iter()
-            .chain(pending.history.iter().map(|&(c, _)| c));
-        for clone_id in clones.collect::<Vec<_>>() {
-            self.release_clone(clone_id)?;
-        }
-        Ok(())
-    }
-
-    /// One user less for a clone; it leaves the state at zero.
-    fn release_clone(&mut self, clone_id: u64) -> Result<()> {
-        let Some(clone) = self.clones.get_mut(&clone_id) else {
-            return Ok(());
-        };
-        clone.users = clone.users.saturating_sub(1);
-        if clone.users == 0 {
-            let offset = clone.offset;
-            self.clones.remove(&clone_id);
-            if self.batch_clone == Some(clone_id) {
-                self.batch_clone = None;
-            }
-            self.remove_state_block(offset, VEHICLE_DIM)?;
-        }
-        Ok(())
-    }
-
     /// Removes a block and shifts every later block's offset.
     fn remove_state_block(&mut self, offset: usize, len: usize) -> Result<()> {
         self.ekf.remove_block(offset, len)?;
@@ -1018,27 +575,6 @@ impl BearingSlam {
         for o in offsets {
             if *o > offset {
                 *o -= len;
-            }
-        }
-    }
-
-    fn expire_candidates(&mut self) {
-        let (InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c)) =
-            &self.config.initializer
-        else {
-            return;
-        };
-        let now = self.time.unwrap_or(0.0);
-        let stale: Vec<u64> = self
-            .candidates
-            .iter()
-            .filter(|(_, p)| now - p.candidate.last_seen > c.candidate_timeout)
-            .map(|(&id, _)| id)
-            .collect();
-        for id in stale {
-            // Only fails on an internal offset error, which would be a bug.
-            if self.drop_candidate(id).is_ok() {
-                self.record(SlamEvent::CandidateExpired { id });
             }
         }
     }
@@ -1097,71 +633,40 @@ impl BearingSlam {
     }
 }
 
-/// [`bearing_from_pose_block`] linearized at `estimate` for an update of
-/// `prior` (one iterated-EKF pass): `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`.
-fn relinearize_about(
-    prior: &Ekf,
-    estimate: &Ekf,
-    pose_offset: usize,
-    slot: LandmarkSlot,
-    z: f64,
-    noise: &Matrix1<f64>,
-) -> Result<LinearizedMeasurement> {
-    let mut m = bearing_from_pose_block(estimate, pose_offset, slot, z, noise)?;
-    let mut shift = 0.0;
-    for block in &m.blocks {
-        // One row: the Jacobian's entries are its columns in order.
-        for (c, &h) in block.jacobian.iter().enumerate() {
-            let index = block.offset + c;
-            let d = estimate.mean()[index] - prior.mean()[index];
-            // Entry 2 of a pose and of an inverse-depth landmark is an angle.
-            shift += h * if c == 2 { wrap_angle(d) } else { d };
-        }
-    }
-    m.innovation[0] = wrap_angle(m.innovation[0] + shift);
-    Ok(m)
-}
-
-/// A bearing of the landmark in `slot` taken from the pose held in the
-/// state at `pose_offset` (a pose clone), linearized at `ekf`'s estimate.
-fn bearing_from_pose_block(
+/// A bearing `z` of the landmark in `slot` taken from the pose held in the
+/// state at `pose_offset` (0: the vehicle; else a pose clone), linearized at
+/// `ekf`'s estimate with the model of the landmark's parameterization
+/// ((8)(9) for a point, (11)(12) for inverse depth).
+fn linearize_bearing(
     ekf: &Ekf,
     pose_offset: usize,
     slot: LandmarkSlot,
     z: f64,
     noise: &Matrix1<f64>,
 ) -> Result<LinearizedMeasurement> {
-    let pose = ekf.block::<3>(pose_offset)?;
-    let (value, j_pose, j_landmark) = match slot.parameterization {
-        Parameterization::Euclidean => {
-            let p = BearingToPoint.predict(&pose, &ekf.block::<2>(slot.offset)?)?;
-            (
-                p.value[0],
-                p.j_z_vehicle,
-                DMatrix::from_column_slice(1, 2, p.j_z_landmark.as_slice()),
-            )
-        }
-        Parameterization::InverseDepth => {
-            let p = BearingToInverseDepth.predict(&pose, &ekf.block::<4>(slot.offset)?)?;
-            (
-                p.value[0],
-                p.j_z_vehicle,
-                DMatrix::from_column_slice(1, 4, p.j_z_landmark.as_slice()),
-            )
-        }
+    let mut out = LinearizedMeasurement {
+        innovation: DVector::zeros(1),
+        noise: DMatrix::zeros(1, 1),
+        blocks: Vec::with_capacity(2),
     };
-    Ok(LinearizedMeasurement {
-        innovation: DVector::from_element(1, wrap_angle(z - value)),
-        noise: DMatrix::from_column_slice(1, 1, noise.as_slice()),
-        blocks: vec![
-            BlockJacobian {
-                offset: pose_offset,
-                jacobian: DMatrix::from_column_slice(1, 3, j_pose.as_slice()),
-            },
-            BlockJacobian {
-                offset: slot.offset,
-                jacobian: j_landmark,
-            },
-        ],
-    })
+    let measured = Vector1::new(z);
+    match slot.parameterization {
+        Parameterization::Euclidean => ekf.linearize_from_into(
+            &BearingToPoint,
+            pose_offset,
+            slot.offset,
+            &measured,
+            noise,
+            &mut out,
+        ),
+        Parameterization::InverseDepth => ekf.linearize_from_into(
+            &BearingToInverseDepth,
+            pose_offset,
+            slot.offset,
+            &measured,
+            noise,
+            &mut out,
+        ),
+    }?;
+    Ok(out)
 }

@@ -1,0 +1,394 @@
+//! The batched EKF update, in three steps over reusable buffers:
+//! [`Workspace::innovation`] (`ν`, `C = P Hᵀ`, `S = H C + R`),
+//! [`Workspace::factor`] (`S = L Lᵀ`, the NIS, `U = C L⁻ᵀ`) and
+//! [`Workspace::apply`] (the mean and the lower triangle of `P`, through the
+//! kernel's [`triangle_update`]). Also the per-measurement NIS for gating.
+
+use super::kernel::{
+    MR, MR_WIDE, NR, axpy, cholesky_in_place, dot, pack, pack_rows, reset, scale, triangle_update,
+    wide_kernel,
+};
+use super::{BlockJacobian, CovarianceUpdate, Ekf, LinearizedMeasurement, UpdateStats};
+use crate::error::{Result, SlamError, ensure_finite};
+use nalgebra::DMatrix;
+
+impl Ekf {
+    /// `H P Hᵀ` for a block-sparse `H`, touching only the blocks' covariances.
+    fn project_covariance(&self, blocks: &[BlockJacobian], rows: usize) -> DMatrix<f64> {
+        let mut s = DMatrix::zeros(rows, rows);
+        for a in blocks {
+            for b in blocks {
+                let p_ab =
+                    self.sym_block(a.offset, a.jacobian.ncols(), b.offset, b.jacobian.ncols());
+                s += &a.jacobian * p_ab * b.jacobian.transpose();
+            }
+        }
+        s
+    }
+
+    fn check_measurement(&self, m: &LinearizedMeasurement) -> Result<()> {
+        let rows = m.innovation.len();
+        if m.noise.nrows() != rows || m.noise.ncols() != rows {
+            return Err(SlamError::DimensionMismatch {
+                what: "measurement noise",
+                expected: rows,
+                got: m.noise.nrows(),
+            });
+        }
+        for block in &m.blocks {
+            if block.jacobian.nrows() != rows {
+                return Err(SlamError::DimensionMismatch {
+                    what: "measurement Jacobian rows",
+                    expected: rows,
+                    got: block.jacobian.nrows(),
+                });
+            }
+            self.check_range(
+                "measurement Jacobian block",
+                block.offset,
+                block.jacobian.ncols(),
+            )?;
+        }
+        for &v in m.innovation.iter().chain(m.noise.iter()) {
+            ensure_finite("innovation or measurement noise", v)?;
+        }
+        for block in &m.blocks {
+            for &v in block.jacobian.iter() {
+                ensure_finite("measurement Jacobian", v)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// The normalized innovation squared `νᵀ S⁻¹ ν` of one measurement, with
+    /// `S = H P Hᵀ + R` (Munguía & Grau (30)), for gating before an update.
+    pub fn nis(&self, measurement: &LinearizedMeasurement) -> Result<f64> {
+        self.check_measurement(measurement)?;
+        let rows = measurement.innovation.len();
+        let s = self.project_covariance(&measurement.blocks, rows) + &measurement.noise;
+        let chol = s.cholesky().ok_or(SlamError::NotPositiveDefinite {
+            what: "innovation covariance S",
+        })?;
+        Ok(measurement
+            .innovation
+            .dot(&chol.solve(&measurement.innovation)))
+    }
+
+    /// One EKF update with all measurements of a batch stacked into a single
+    /// rank-m correction.
+    ///
+    /// With `C = P Hᵀ` (only the touched columns of `P` are read),
+    /// `S = H C + R = L Lᵀ`, `K = C S⁻¹`: `x ← x + K ν` and, by default, the
+    /// Joseph form
+    /// `P ← (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K Cᵀ − C Kᵀ + K S Kᵀ`,
+    /// evaluated in O(n² m) without forming `I − KH` (see
+    /// [`CovarianceUpdate`] for the evaluation and the faster optional
+    /// form). Only the lower triangle of `P` is read and written (see the
+    /// storage contract of [`Ekf`]). Errors leave the filter unchanged.
+    ///
+    /// Where the CPU has AVX2/FMA (x86-64-v3, detected at run time) the whole
+    /// update is compiled for it; Rust never fuses `a * b + c` and keeps the
+    /// order of every sum, so the result is bit for bit the baseline build's.
+    pub fn update(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
+        #[cfg(target_arch = "x86_64")]
+        if let Some(v3) = pulp::x86::V3::try_new() {
+            return v3.vectorize(UpdateOp { ekf: self, batch });
+        }
+        self.update_impl(batch)
+    }
+
+    /// [`Ekf::update`], inlined into the caller's target features: checks,
+    /// then the three steps [`Workspace::innovation`], [`Workspace::factor`]
+    /// and [`Workspace::apply`].
+    #[inline(always)]
+    fn update_impl(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
+        for m in batch {
+            self.check_measurement(m)?;
+        }
+        let rows: usize = batch.iter().map(|m| m.innovation.len()).sum();
+        if rows == 0 {
+            return Ok(UpdateStats { nis: 0.0, dof: 0 });
+        }
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        let ws = &mut self.workspace;
+        ws.innovation(batch, self.cov.as_slice(), n, ld, rows);
+        let nis = ws.factor(n, rows)?;
+        // No error past this point: the filter is only modified from here.
+        ws.apply(
+            self.covariance_update,
+            self.mean.as_mut_slice(),
+            self.cov.as_mut_slice(),
+            n,
+            ld,
+            rows,
+        );
+        Ok(UpdateStats { nis, dof: rows })
+    }
+}
+
+/// Reusable scratch buffers of [`Ekf::update`] and [`Ekf::apply_prediction`],
+/// so that a step allocates nothing once the buffers have grown. Scratch only:
+/// a clone starts empty and equality ignores it.
+#[derive(Default)]
+pub(super) struct Workspace {
+    /// `C = P Hᵀ`, column-major N×m.
+    c: Vec<f64>,
+    /// The stacked innovation ν (m).
+    nu: Vec<f64>,
+    /// `S` (m×m, column-major), then kept for `Y = C − ½ K S`.
+    s: Vec<f64>,
+    /// The Cholesky factor `L` of `S` (m×m, column-major, lower).
+    l: Vec<f64>,
+    /// `U = C L⁻ᵀ`, then `K = U L⁻¹` in place (column-major N×m).
+    u: Vec<f64>,
+    /// `Y = C − ½ K S` (column-major N×m), Joseph form only.
+    y: Vec<f64>,
+    /// `L⁻¹ ν` (m).
+    w: Vec<f64>,
+    /// `1 / L[r, r]` (m).
+    diag_inv: Vec<f64>,
+    /// Left factor of the triangle update, packed in row panels of `MR`.
+    a: Vec<f64>,
+    /// Right factor of the triangle update, packed in row panels of `NR`.
+    b: Vec<f64>,
+    /// The new vehicle columns `P_mv Fᵀ` during a prediction.
+    pub(super) vm: Vec<f64>,
+}
+
+impl Clone for Workspace {
+    fn clone(&self) -> Self {
+        Self::default()
+    }
+}
+
+impl PartialEq for Workspace {
+    fn eq(&self, _: &Self) -> bool {
+        true
+    }
+}
+
+impl std::fmt::Debug for Workspace {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Workspace")
+    }
+}
+
+impl Workspace {
+    /// Step 1, the innovation and its covariance: stacks the batch's `ν`
+    /// and `R` (block diagonal, into `S`), forms `C = P Hᵀ` from the touched
+    /// columns of `P` (lower triangle of the column-major `p`, leading
+    /// dimension `ld`), then `S = H C + R` (Munguía & Grau (30) for the
+    /// stacked batch), symmetrized. `m` is the batch's number of rows.
+    #[inline(always)]
+    fn innovation(
+        &mut self,
+        batch: &[LinearizedMeasurement],
+        p: &[f64],
+        n: usize,
+        ld: usize,
+        m: usize,
+    ) {
+        // Stack ν and R (block diagonal, into S), and C = P Hᵀ column by
+        // column: C[:, r] += J[r, c] P[:, offset + c]. Column j = offset + c
+        // of P is its stored column from row j down (contiguous), and above
+        // row j it is row j of the lower triangle: P[i, j] = P[j, i], read
+        // for the block's columns at once (they are adjacent in row j).
+        reset(&mut self.nu, m);
+        reset(&mut self.s, m * m);
+        reset(&mut self.c, n * m);
+        let mut row = 0;
+        for meas in batch {
+            let k = meas.innovation.len();
+            for a in 0..k {
+                self.nu[row + a] = meas.innovation[a];
+                for b in 0..k {
+                    self.s[(row + a) + (row + b) * m] = meas.noise[(a, b)];
+                }
+            }
+            for block in &meas.blocks {
+                let off = block.offset;
+                let cols = block.jacobian.ncols();
+                // Rows above the block: P[i, off + c] = P[off + c, i], the
+                // `cols` adjacent entries of column i at row off.
+                for i in 0..off {
+                    let p_row = &p[i * ld + off..][..cols];
+                    for a in 0..k {
+                        let ci = &mut self.c[(row + a) * n + i];
+                        for (col, &pi) in p_row.iter().enumerate() {
+                            *ci += block.jacobian[(a, col)] * pi;
+                        }
+                    }
+                }
+                // Rows from the block down.
+                for a in 0..k {
+                    let c_col = &mut self.c[(row + a) * n..(row + a + 1) * n];
+                    for col in 0..cols {
+                        let h = block.jacobian[(a, col)];
+                        let j = off + col;
+                        for (i, ci) in c_col.iter_mut().enumerate().take(j).skip(off) {
+                            *ci += h * p[i * ld + j];
+                        }
+                        for (ci, &pi) in c_col[j..].iter_mut().zip(&p[j * ld + j..j * ld + n]) {
+                            *ci += h * pi;
+                        }
+                    }
+                }
+            }
+            row += k;
+        }
+        // S = H C + R: each batch row block reads only its own blocks' rows of C.
+        let mut row = 0;
+        for meas in batch {
+            let k = meas.innovation.len();
+            for block in &meas.blocks {
+                let cols = block.jacobian.ncols();
+                for a in 0..k {
+                    for col_s in 0..m {
+                        let c_rows = &self.c[col_s * n + block.offset..][..cols];
+                        let mut acc = 0.0;
+                        for (col, &cv) in c_rows.iter().enumerate() {
+                            acc += block.jacobian[(a, col)] * cv;
+                        }
+                        self.s[(row + a) + col_s * m] += acc;
+                    }
+                }
+            }
+            row += k;
+        }
+        for j in 0..m {
+            for i in (j + 1)..m {
+                let avg = 0.5 * (self.s[i + j * m] + self.s[j + i * m]);
+                self.s[i + j * m] = avg;
+                self.s[j + i * m] = avg;
+            }
+        }
+    }
+
+    /// Step 2, the factorization: `S = L Lᵀ` (Cholesky), `w = L⁻¹ ν` and
+    /// `U = C L⁻ᵀ`. Returns the batch's NIS `νᵀ S⁻¹ ν = |w|²`, or an error
+    /// when `S` is not positive definite (the filter is untouched so far).
+    #[inline(always)]
+    fn factor(&mut self, n: usize, m: usize) -> Result<f64> {
+        self.l.clear();
+        self.l.extend_from_slice(&self.s);
+        if !cholesky_in_place(&mut self.l, m) {
+            return Err(SlamError::NotPositiveDefinite {
+                what: "innovation covariance S",
+            });
+        }
+        self.diag_inv.clear();
+        self.diag_inv
+            .extend((0..m).map(|r| 1.0 / self.l[r + r * m]));
+        let diag_inv = &self.diag_inv;
+        // w = L⁻¹ ν, nis = |w|².
+        reset(&mut self.w, m);
+        for (r, &d) in diag_inv.iter().enumerate() {
+            let mut v = self.nu[r];
+            for k in 0..r {
+                v -= self.l[r + k * m] * self.w[k];
+            }
+            self.w[r] = v * d;
+        }
+        let nis = dot(&self.w, &self.w);
+
+        // Column by column (contiguous, vectorized over the N rows):
+        // U = C L⁻ᵀ (U[:, r] = (C[:, r] − Σ_{k<r} L[r, k] U[:, k]) / L[r, r]).
+        self.u.clear();
+        self.u.extend_from_slice(&self.c);
+        for (r, &d) in diag_inv.iter().enumerate() {
+            let (done, rest) = self.u.split_at_mut(r * n);
+            let col = &mut rest[..n];
+            for k in 0..r {
+                axpy(-self.l[r + k * m], &done[k * n..(k + 1) * n], col);
+            }
+            scale(d, col);
+        }
+        Ok(nis)
+    }
+
+    /// Step 3, the correction: `x ← x + K ν` and `P ← P − A Bᵀ` on the lower
+    /// triangle, with the factors `A`, `B` of the chosen [`CovarianceUpdate`]
+    /// form packed for [`triangle_update`]: `[K Y]`, `[Y K]` (Joseph, with
+    /// `K = U L⁻¹` and `Y = C − ½ K S`), or `U`, `U` (symmetric).
+    #[inline(always)]
+    fn apply(
+        &mut self,
+        form: CovarianceUpdate,
+        mean: &mut [f64],
+        p: &mut [f64],
+        n: usize,
+        ld: usize,
+        m: usize,
+    ) {
+        let depth = match form {
+            CovarianceUpdate::Joseph => 2 * m,
+            CovarianceUpdate::Symmetric => m,
+        };
+        let wide = wide_kernel();
+        let mr = if wide { MR_WIDE } else { MR };
+        reset(&mut self.a, n.div_ceil(mr) * mr * depth);
+        reset(&mut self.b, n.div_ceil(NR) * NR * depth);
+        match form {
+            CovarianceUpdate::Joseph => {
+                // K = U L⁻¹ = C S⁻¹, in place over U, last column first:
+                // K[:, r] = (U[:, r] − Σ_{k>r} K[:, k] L[k, r]) / L[r, r].
+                for r in (0..m).rev() {
+                    let (head, done) = self.u.split_at_mut((r + 1) * n);
+                    let col = &mut head[r * n..];
+                    for k in (r + 1)..m {
+                        axpy(-self.l[k + r * m], &done[(k - r - 1) * n..(k - r) * n], col);
+                    }
+                    scale(self.diag_inv[r], col);
+                }
+                let k_mat = &self.u;
+                // x += K ν.
+                for r in 0..m {
+                    axpy(self.nu[r], &k_mat[r * n..(r + 1) * n], mean);
+                }
+                // Y = C − ½ K S; P −= [K Y] [Y K]ᵀ = K Yᵀ + Y Kᵀ.
+                self.y.clear();
+                self.y.extend_from_slice(&self.c);
+                for r in 0..m {
+                    let col = &mut self.y[r * n..(r + 1) * n];
+                    for k in 0..m {
+                        axpy(-0.5 * self.s[k + r * m], &k_mat[k * n..(k + 1) * n], col);
+                    }
+                }
+                for r in 0..m {
+                    let k_col = &k_mat[r * n..(r + 1) * n];
+                    let y_col = &self.y[r * n..(r + 1) * n];
+                    pack_rows(wide, &mut self.a, depth, r, k_col);
+                    pack_rows(wide, &mut self.a, depth, m + r, y_col);
+                    pack::<NR>(&mut self.b, depth, r, y_col);
+                    pack::<NR>(&mut self.b, depth, m + r, k_col);
+                }
+            }
+            CovarianceUpdate::Symmetric => {
+                // x += K ν = U (L⁻¹ ν); P −= U Uᵀ.
+                for r in 0..m {
+                    let u_col = &self.u[r * n..(r + 1) * n];
+                    axpy(self.w[r], u_col, mean);
+                    pack_rows(wide, &mut self.a, depth, r, u_col);
+                    pack::<NR>(&mut self.b, depth, r, u_col);
+                }
+            }
+        }
+        triangle_update(p, n, ld, &self.a, &self.b, depth, wide);
+    }
+}
+
+/// [`Ekf::update`] as a [`pulp::NullaryFnOnce`] with an `#[inline(always)]`
+/// `call`, so that it is compiled inside pulp's x86-64-v3 function.
+struct UpdateOp<'a> {
+    ekf: &'a mut Ekf,
+    batch: &'a [LinearizedMeasurement],
+}
+
+impl pulp::NullaryFnOnce for UpdateOp<'_> {
+    type Output = Result<UpdateStats>;
+
+    #[inline(always)]
+    fn call(self) -> Self::Output {
+        self.ekf.update_impl(self.batch)
+    }
+}

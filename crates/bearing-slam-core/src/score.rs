@@ -1,0 +1,105 @@
+//! Scoring of a run: the numbers a [`RunOutput`] is judged by against its
+//! log's ground truth (trajectory error against the truth and dead
+//! reckoning, landmark RMSE, pose NEES), from the [`crate::metrics`].
+
+use crate::error::{Result, SlamError};
+use crate::geometry::Pose2;
+use crate::log::SensorLog;
+use crate::metrics::{Alignment, ate, pose_nees};
+use crate::runner::{RunOutput, TrackPoint};
+use crate::trace::EstimateSnapshot;
+use nalgebra::Matrix3;
+use serde::{Deserialize, Serialize};
+
+/// The numbers a run is judged by (`metrics.json` of the CLI).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    /// RMSE of the position over the ground-truth times, no alignment, metres.
+    pub ate_rmse_m: f64,
+    /// The same after the best SE(2) alignment, metres.
+    pub ate_aligned_rmse_m: f64,
+    /// Position error at the last ground-truth time, metres.
+    pub final_position_error_m: f64,
+    /// Absolute heading error at the last ground-truth time, degrees.
+    pub final_heading_error_deg: f64,
+    /// Dead reckoning's position RMSE over the same times, metres.
+    pub dead_reckoning_ate_rmse_m: f64,
+    /// Dead reckoning's final position error, metres.
+    pub dead_reckoning_final_position_error_m: f64,
+    /// RMSE of the mapped landmarks' positions against the truth (map frame =
+    /// the log's world frame, as the filter starts at the true initial pose), metres.
+    pub landmark_rmse_m: Option<f64>,
+    /// Mean pose NEES over the ground-truth times where the covariance is
+    /// positive definite (3 dof: consistent ≈ 3; NaN when there is none).
+    pub mean_nees_pose: f64,
+    /// Landmarks in the map at the end.
+    pub n_landmarks_initialized: usize,
+    /// Whether every covariance stayed finite (a non-finite one is divergence).
+    pub finite: bool,
+}
+
+/// Scores a run against the log's ground truth. Errors when the log has no
+/// ground truth (use the landmark truth alone through [`landmark_rmse`]).
+pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
+    let scored: Vec<(&TrackPoint, Pose2)> = output
+        .track
+        .iter()
+        .filter_map(|p| p.truth.map(|t| (p, t)))
+        .collect();
+    if scored.is_empty() {
+        return Err(SlamError::Mismatch(
+            "the log has no ground truth to score against",
+        ));
+    }
+    let estimate: Vec<Pose2> = scored.iter().map(|(p, _)| p.estimate).collect();
+    let dead_reckoning: Vec<Pose2> = scored.iter().map(|(p, _)| p.dead_reckoning).collect();
+    let truth: Vec<Pose2> = scored.iter().map(|(_, t)| *t).collect();
+    let raw = ate(&estimate, &truth, Alignment::None)?;
+    let aligned = ate(&estimate, &truth, Alignment::Se2)?;
+    let dr = ate(&dead_reckoning, &truth, Alignment::None)?;
+    // NEES is scored where the covariance is positive definite: a start pose
+    // known exactly (zero covariance) has no NEES.
+    let mut nees_sum = 0.0;
+    let mut nees_count = 0usize;
+    let mut finite = true;
+    for (p, t) in &scored {
+        let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+        finite &= cov.iter().all(|v| v.is_finite());
+        if let Ok(nees) = pose_nees(&p.estimate, &cov, t) {
+            nees_sum += nees;
+            nees_count += 1;
+        }
+    }
+    let last = output.trace.snapshots.last();
+    Ok(RunSummary {
+        ate_rmse_m: raw.rmse_m,
+        ate_aligned_rmse_m: aligned.rmse_m,
+        final_position_error_m: raw.final_position_m,
+        final_heading_error_deg: raw.final_heading_rad.to_degrees(),
+        dead_reckoning_ate_rmse_m: dr.rmse_m,
+        dead_reckoning_final_position_error_m: dr.final_position_m,
+        landmark_rmse_m: last.and_then(|s| landmark_rmse(log, s)),
+        mean_nees_pose: if nees_count > 0 {
+            nees_sum / nees_count as f64
+        } else {
+            f64::NAN
+        },
+        n_landmarks_initialized: last.map_or(0, |s| s.landmarks.len()),
+        finite,
+    })
+}
+
+/// RMSE of a snapshot's landmarks against the log's landmark truth, over the
+/// landmarks that have both; `None` when none do.
+#[must_use]
+pub fn landmark_rmse(log: &SensorLog, snapshot: &EstimateSnapshot) -> Option<f64> {
+    let errors: Vec<f64> = snapshot
+        .landmarks
+        .iter()
+        .filter_map(|l| {
+            log.landmark_truth(l.id)
+                .map(|t| (l.x - t.x).powi(2) + (l.y - t.y).powi(2))
+        })
+        .collect();
+    (!errors.is_empty()).then(|| (errors.iter().sum::<f64>() / errors.len() as f64).sqrt())
+}

@@ -1,0 +1,151 @@
+//! What [`BearingSlam`](super::BearingSlam) needs to start, and the checks
+//! of every parameter's range.
+
+use crate::ekf::CovarianceUpdate;
+use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
+use crate::geometry::Pose2;
+use crate::init::{InverseDepthPrior, TriangulationConfig};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Which landmark initializer the filter uses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "method", rename_all = "snake_case")]
+pub enum InitializerConfig {
+    /// Undelayed inverse depth with a fixed prior, Munguía & Grau (13)(15).
+    PiSr {
+        /// The prior used for every landmark without its own.
+        prior: InverseDepthPrior,
+        /// Per-landmark priors (the paper's "mixed" setting of Fig. 4d).
+        per_landmark: BTreeMap<u64, InverseDepthPrior>,
+    },
+    /// Delayed stochastic triangulation (MTE), (16)–(24), with the paper's
+    /// simplification: the candidate keeps only the first pose's variances.
+    Triangulation(TriangulationConfig),
+    /// MTE with the first pose cloned into the state while the candidate
+    /// waits, so every cross-covariance at initialization is exact. With
+    /// [`TriangulationConfig::history`] > 0 the poses of later sightings are
+    /// cloned too, and their bearings are applied once the landmark is in:
+    /// the delayed initializer then discards no measurement.
+    TriangulationWithClone(TriangulationConfig),
+}
+
+impl InitializerConfig {
+    /// PI-SR with one prior for every landmark.
+    #[must_use]
+    pub fn pi_sr(prior: InverseDepthPrior) -> Self {
+        Self::PiSr {
+            prior,
+            per_landmark: BTreeMap::new(),
+        }
+    }
+}
+
+/// Everything the filter needs to start.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SlamConfig {
+    /// Where the robot starts (the map frame is defined by it).
+    pub initial_pose: Pose2,
+    /// Standard deviations of the initial pose `[σ_x, σ_y, σ_θ]` (≥ 0).
+    pub initial_pose_sigma: [f64; 3],
+    /// Standard deviation of the bearing noise, radians.
+    pub bearing_sigma: f64,
+    /// Standard deviation of the range noise for range-bearing updates, metres.
+    pub range_sigma: f64,
+    /// The landmark initializer.
+    pub initializer: InitializerConfig,
+    /// Probability of the chi-square gate (e.g. 0.999); `None` disables gating.
+    pub gate_probability: Option<f64>,
+    /// Linearity index below which an inverse-depth landmark becomes Euclidean
+    /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
+    pub conversion_threshold: Option<f64>,
+    /// How each update corrects the covariance: the Joseph form (default,
+    /// robust to gain errors) or the optimal-gain symmetric form, with about
+    /// half the flops per update (see [`CovarianceUpdate`]; measured step
+    /// times are in benches/RESULTS.md).
+    #[serde(default)]
+    pub covariance_update: CovarianceUpdate,
+}
+
+impl Default for SlamConfig {
+    fn default() -> Self {
+        Self {
+            initial_pose: Pose2::default(),
+            // A robot placed by hand is known to about a millimetre and a
+            // milliradian. Zero would leave P singular for the first steps
+            // (two wheels drive a 3-D pose), where a second-order model
+            // mismatch then reads as a huge NEES.
+            initial_pose_sigma: [1e-3, 1e-3, 1e-3],
+            bearing_sigma: 1f64.to_radians(),
+            range_sigma: 0.1,
+            initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
+            gate_probability: Some(0.999),
+            conversion_threshold: Some(0.1),
+            covariance_update: CovarianceUpdate::Joseph,
+        }
+    }
+}
+
+impl SlamConfig {
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<()> {
+        for (what, v) in [
+            ("initial x", self.initial_pose.x),
+            ("initial y", self.initial_pose.y),
+            ("initial theta", self.initial_pose.theta),
+        ] {
+            ensure_finite(what, v)?;
+        }
+        for s in self.initial_pose_sigma {
+            if !(s.is_finite() && s >= 0.0) {
+                return Err(SlamError::InvalidNoise {
+                    what: "initial pose sigma",
+                    value: s,
+                });
+            }
+        }
+        ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        ensure_positive_noise("range sigma", self.range_sigma)?;
+        if let Some(p) = self.gate_probability
+            && !(p > 0.0 && p < 1.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "gate_probability",
+                value: p,
+                reason: "must be in (0, 1)",
+            });
+        }
+        if let Some(t) = self.conversion_threshold
+            && !(t > 0.0 && t.is_finite())
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "conversion_threshold",
+                value: t,
+                reason: "must be positive",
+            });
+        }
+        match &self.initializer {
+            InitializerConfig::PiSr {
+                prior,
+                per_landmark,
+            } => {
+                InverseDepthPrior::new(prior.rho_ini, prior.sigma_rho)?;
+                for p in per_landmark.values() {
+                    InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
+                }
+            }
+            InitializerConfig::Triangulation(c) => {
+                c.validate()?;
+                if c.history > 0 {
+                    return Err(SlamError::InvalidParameter {
+                        name: "history",
+                        value: c.history as f64,
+                        reason: "keeping the waiting bearings needs pose cloning (TriangulationWithClone)",
+                    });
+                }
+            }
+            InitializerConfig::TriangulationWithClone(c) => c.validate()?,
+        }
+        Ok(())
+    }
+}
