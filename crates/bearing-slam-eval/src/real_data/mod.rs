@@ -58,6 +58,11 @@
 //! * **Dataset 1** has no robot ground truth: the filter starts at the origin,
 //!   the map is in an arbitrary frame and only the aligned landmark RMSE is
 //!   meaningful (`landmark_rmse_m` is `None`).
+//!
+//! [`RunOutput`]: bearing_slam_core::runner::RunOutput
+//! [`MrclamRun`]: bearing_slam_io::mrclam::MrclamRun
+//! [`TriangulationConfig::default`]: bearing_slam_core::init::TriangulationConfig
+//! [`align_se2`]: bearing_slam_core::metrics::align_se2
 
 mod export;
 mod method;
