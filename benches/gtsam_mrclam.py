@@ -1,11 +1,11 @@
 """Full-batch bearing-only smoother on GTSAM: the yardstick for the filters on
 MRCLAM Dataset 6 (issue 6).
 
-Reads the logs exported by the Rust example (the very data the filters see:
+Reads the logs exported by ``bearing-slam-eval export`` (the very data the filters see:
 velocity commands after the calibrated command model, landmark bearings,
 decimated Vicon ground truth, and the filter parameters):
 
-    cargo run --release -p bearing-slam --example mrclam_eval -- --export /tmp/mrclam_export
+    cargo run --release -p bearing-slam-eval -- export /tmp/mrclam_export
     python3 -m venv /tmp/gtsam-venv
     /tmp/gtsam-venv/bin/pip install -r benches/requirements-yardstick.txt
     /tmp/gtsam-venv/bin/python benches/gtsam_mrclam.py /tmp/mrclam_export docs/results/mrclam/gtsam.json

@@ -1,4 +1,5 @@
-//! MRCLAM loader and calibration tests on the real files.
+//! MRCLAM loader tests on the real files (the calibration's are
+//! `bearing-slam-eval`'s, `crates/bearing-slam-eval/tests/calibration.rs`).
 //!
 //! The data live outside the repository, in `shared/datasets/mrclam/` beside
 //! the clone, or wherever `BEARING_SLAM_DATA` points (the directory holding
@@ -8,8 +9,8 @@
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::EventKind;
 use bearing_slam_io::mrclam::{
-    LoadOptions, MrclamError, MrclamRun, calibrate, interpolate_pose, load_mrclam,
-    load_mrclam_with, read_barcodes,
+    LoadOptions, MrclamError, MrclamRun, interpolate_pose, load_mrclam, load_mrclam_with,
+    read_barcodes,
 };
 use std::f64::consts::PI;
 use std::fs;
@@ -155,9 +156,8 @@ fn dataset1_has_no_ground_truth_but_loads() {
     assert_eq!(run.log.info.initial_pose, None);
     assert!(run.log.ground_truth().is_empty());
     assert_eq!(run.log.landmarks.len(), 15);
-    let error = calibrate(&run).expect_err("calibration without ground truth must fail");
-    assert!(matches!(error, MrclamError::Calibration { .. }), "{error}");
-    assert!(error.to_string().contains("no ground truth"), "{error}");
+    // Its calibration fails: bearing-slam-eval's
+    // `calibration_without_ground_truth_fails`.
 }
 
 #[test]
@@ -481,50 +481,6 @@ fn missing_inputs_are_clear_errors() {
         "{error}"
     );
     let _ = fs::remove_dir_all(&dir);
-}
-
-#[test]
-fn calibration_dataset6_robot2_is_plausible() {
-    let run = load(6, 2);
-    let c = calibrate(&run).expect("calibration");
-    assert_eq!(c.robots, vec![2]);
-    // SOURCE.md: residual IQR about ±0.005–0.01 rad, gross outliers 0–0.2 %.
-    assert!(c.bearing.n > 3000, "{}", c.bearing.n);
-    assert!(
-        (0.002..0.03).contains(&c.bearing.robust_sigma),
-        "{}",
-        c.bearing.robust_sigma
-    );
-    assert!(c.bearing.median.abs() < 0.01, "{}", c.bearing.median);
-    assert!(c.bearing.outlier_fraction.is_some_and(|f| f < 0.01));
-    assert!(c.range.robust_sigma > 0.01 && c.range.robust_sigma < 0.5);
-    // Velocity commands of at most 0.086 m/s: the speed error per 1 s window
-    // is a few mm/s, the turn-rate error a few hundredths of a rad/s.
-    let m = &c.motion;
-    assert!(m.n_windows > 500, "{}", m.n_windows);
-    assert!((0.0005..0.05).contains(&m.sigma_v_mps), "{}", m.sigma_v_mps);
-    assert!(
-        (0.001..0.2).contains(&m.sigma_omega_radps),
-        "{}",
-        m.sigma_omega_radps
-    );
-    assert!(
-        (0.02..0.09).contains(&m.mean_distance_m),
-        "{}",
-        m.mean_distance_m
-    );
-}
-
-#[test]
-fn calibration_sees_robot4_bearing_bias() {
-    // SOURCE.md caveat 6: robot 4 has a bias of about -0.01 to -0.014 rad. Seeing
-    // it checks the sign convention of the residual (measured − predicted).
-    let c = calibrate(&load(6, 4)).expect("calibration");
-    assert!(
-        (-0.02..-0.007).contains(&c.bearing.median),
-        "{}",
-        c.bearing.median
-    );
 }
 
 #[test]

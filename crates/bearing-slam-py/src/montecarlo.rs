@@ -7,7 +7,7 @@
 //! - `montecarlo_run_many(spec_json, progress)`: every run on rayon's pool;
 //! - `experiment_fig4`, `experiment_fig5`, `experiment_fig8`,
 //!   `experiment_fig10`, `experiment_consistency`: the drivers of
-//!   `bearing_slam::experiments`, as plot-ready dicts with their markdown tables.
+//!   `bearing_slam::eval::experiments`, as plot-ready dicts with their markdown tables.
 //!
 //! A record crosses the boundary without going through text: the metrics
 //! (finite numbers or `None`) through a `serde_json::Value`, the series as
@@ -22,11 +22,11 @@
 
 use crate::convert::to_py;
 use crate::errors::{SlamResultExt, sim};
-use bearing_slam::experiments::{
+use bearing_slam::eval::experiments::{
     consistency_curves, consistency_table, fig4, fig4_table, fig5, fig5_table, fig8, fig8_table,
     fig10, fig10_table,
 };
-use bearing_slam::montecarlo::{
+use bearing_slam::eval::montecarlo::{
     MonteCarloReport, MonteCarloSpec, RunMetrics, RunRecord, RunSeries, run_one,
 };
 use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};

@@ -1,5 +1,5 @@
 //! `evaluate_mrclam(...)`: one method on one real MRCLAM robot with the
-//! calibrated parameters (`bearing_slam::real_data`), in Rust with the GIL
+//! calibrated parameters (`bearing_slam::eval::real_data`), in Rust with the GIL
 //! released; the run as a `RunResult`, its real-data scores as a dict and the
 //! log the filter was given.
 
@@ -10,11 +10,11 @@ use crate::log::PySensorLog;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::score::summarize;
-use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
-use bearing_slam::real_data::{
+use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
     filter_log,
 };
+use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -43,7 +43,7 @@ fn real_data_error(e: RealDataError) -> PyErr {
     match e {
         RealDataError::Load(e) => errors::dataset(e),
         RealDataError::Slam(e) => errors::slam(e),
-        RealDataError::Calibration(m) => errors::raise("DatasetError", m),
+        other => errors::raise("DatasetError", other.to_string()),
     }
 }
 

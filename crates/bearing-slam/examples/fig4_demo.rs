@@ -2,7 +2,7 @@
 //! past four near landmarks and one far one, comparing the delayed
 //! stochastic-triangulation initializer (MTE) with undelayed PI-SR priors.
 //!
-//! `cargo run --release -p bearing-slam --example fig4_demo [runs]`
+//! `cargo run --release -p bearing-slam --example fig4_demo`
 
 use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
 use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
@@ -12,12 +12,11 @@ use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
 use bearing_slam::core::testing::kinematic::KinematicScenario;
 use std::collections::BTreeMap;
 
+/// Seeded runs per method (seeds `0..RUNS`).
+const RUNS: u64 = 50;
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let runs: u64 = std::env::args()
-        .nth(1)
-        .map(|s| s.parse())
-        .transpose()?
-        .unwrap_or(20);
+    let runs = RUNS;
     let scenario = KinematicScenario::paper_fig4(true);
     let odometry = OdometryConfig::Wheels(DiffDriveModel::new(
         scenario.wheel_base_m,
@@ -40,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (
             "MTE-history",
             InitializerConfig::TriangulationWithClone(TriangulationConfig {
-                history: bearing_slam::montecarlo::MTE_HISTORY,
+                history: bearing_slam::eval::montecarlo::MTE_HISTORY,
                 ..TriangulationConfig::default()
             }),
         ),

@@ -2,8 +2,10 @@
 //!
 //! Bearing-only EKF SLAM with the delayed stochastic-triangulation
 //! initialization of Munguía & Grau. This is the crate users depend on; it
-//! re-exports the estimator ([`core`]), the physics simulator ([`sim`]) and
-//! MCAP logs and dataset loaders ([`io`]).
+//! re-exports the estimator ([`core`]), the physics simulator ([`sim`]), MCAP
+//! logs and dataset loaders ([`io`]) and the evaluations: Monte Carlo runs,
+//! the paper's experiments, the MRCLAM evaluation and calibration
+//! ([`eval`]).
 //!
 //! ```
 //! use bearing_slam::core::runner::run;
@@ -24,9 +26,7 @@ pub use bearing_slam_core::runner::{
     DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, default_run_config,
 };
 pub use bearing_slam_core::{Pose2, Result, SlamError};
+pub use bearing_slam_eval as eval;
 pub use bearing_slam_io as io;
 pub use bearing_slam_sim as sim;
 
-pub mod experiments;
-pub mod montecarlo;
-pub mod real_data;

@@ -1,6 +1,6 @@
 //! Loader for the UTIAS Multi-Robot Cooperative Localization and Mapping
-//! dataset (MRCLAM, Leung et al., IJRR 2011) and a noise calibration from its
-//! ground truth.
+//! dataset (MRCLAM, Leung et al., IJRR 2011). The noise calibration from its
+//! ground truth and the evaluation on it are `bearing-slam-eval`'s.
 //!
 //! [`load_mrclam`] turns one robot of one dataset directory
 //! (`MRCLAM_DatasetN/`) into a [`SensorLog`] of velocity commands, landmark
@@ -48,14 +48,8 @@
 //!   [`MrclamError::Parse`] naming the file and line. The real files load
 //!   without any error.
 
-pub mod calibration;
 mod parse;
 
-pub use calibration::{
-    BearingResidual, CalibrationOptions, DatasetCalibration, MotionCalibration, MotionResidual,
-    NoiseCalibration, ResidualStats, bearing_residuals, calibrate, calibrate_dataset,
-    calibrate_with, integrate_velocity, motion_residuals,
-};
 pub use parse::{BarcodeTable, LandmarkRecord, read_barcodes, read_landmarks};
 
 use bearing_slam_core::SlamError;
@@ -77,7 +71,7 @@ pub const LAST_ROBOT_SUBJECT: u32 = 5;
 /// dropouts in Dataset 6 last up to 0.33 s, robot 4's gap lasts 2 s.
 pub const DEFAULT_MAX_GROUND_TRUTH_GAP_S: f64 = 0.5;
 
-/// Everything that can go wrong while loading or calibrating MRCLAM data.
+/// Everything that can go wrong while loading MRCLAM data.
 #[derive(Debug, thiserror::Error)]
 pub enum MrclamError {
     /// The dataset directory does not exist or is not a directory.
@@ -122,7 +116,7 @@ pub enum MrclamError {
         /// The file.
         file: PathBuf,
     },
-    /// An invalid load or calibration option.
+    /// An invalid load option.
     #[error("invalid option {name} = {value}: {reason}")]
     InvalidOption {
         /// The option's name.
@@ -139,14 +133,6 @@ pub enum MrclamError {
         start_s: f64,
         /// Window end, seconds since t0.
         end_s: f64,
-    },
-    /// Calibration needs ground truth (robot poses and landmarks).
-    #[error("cannot calibrate {source_name}: {problem}")]
-    Calibration {
-        /// The log's source (`MRCLAM_DatasetN robot R`).
-        source_name: String,
-        /// What is missing.
-        problem: String,
     },
     /// The assembled log failed [`SensorLog::validate`] (a loader bug).
     #[error("the assembled log is invalid: {0}")]
@@ -168,7 +154,7 @@ pub struct LoadOptions {
     /// holds the full track.
     pub ground_truth_interval_s: Option<f64>,
     /// Written to `info.bearing_sigma_rad` (for example a value measured by
-    /// [`calibrate`]); `None` leaves it unknown.
+    /// `bearing-slam-eval`'s calibration); `None` leaves it unknown.
     pub bearing_sigma_rad: Option<f64>,
 }
 

@@ -4,7 +4,7 @@
 //! converges) from PI-SR (0.01, 0.005) (which drifts: its prior puts the near
 //! landmarks at 100 m).
 
-use bearing_slam::montecarlo::{
+use bearing_slam_eval::montecarlo::{
     InitializerSpec, MonteCarloReport, MonteCarloSpec, RunClass, RunMetrics, RunRecord, RunSeries,
     Thresholds, classify, run_many, run_one,
 };

@@ -1,26 +1,34 @@
 //! Bearing-only SLAM on a short stretch of a real MRCLAM robot (Dataset 6,
 //! robot 2), scored against the Vicon ground truth. The dataset is read from
-//! the shared directory next to the repository; these tests fail (they do not
-//! skip) when it is missing.
+//! the shared directory next to the repository (or wherever
+//! `BEARING_SLAM_DATA` points); these tests fail (they do not skip) when it is
+//! missing.
 
-use bearing_slam::core::geometry::Pose2;
-use bearing_slam::core::log::EventKind;
-use bearing_slam::io::mrclam::load_mrclam_with;
-use bearing_slam::real_data::{
-    CALIBRATED_PARAMETERS, CommandModel, EvalOptions, Method, align_landmarks_se2, ar1_inflation,
-    evaluate_mrclam, evaluate_run,
+use bearing_slam_core::geometry::Pose2;
+use bearing_slam_core::log::EventKind;
+use bearing_slam_eval::calibration::ar1_inflation;
+use bearing_slam_eval::real_data::{
+    CALIBRATED_PARAMETERS, CommandModel, EvalOptions, Method, align_landmarks_se2, evaluate_mrclam,
+    evaluate_run,
 };
-use std::path::{Path, PathBuf};
+use bearing_slam_io::mrclam::load_mrclam_with;
+use std::path::PathBuf;
 
 fn dataset6() -> PathBuf {
-    let dir = Path::new(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/../../../shared/datasets/mrclam"
-    ))
-    .join("MRCLAM_Dataset6");
+    let root = std::env::var_os("BEARING_SLAM_DATA").map_or_else(
+        || {
+            PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../../shared/datasets/mrclam"
+            ))
+        },
+        PathBuf::from,
+    );
+    let dir = root.join("MRCLAM_Dataset6");
     assert!(
         dir.is_dir(),
-        "MRCLAM Dataset 6 is required at {} (see shared/datasets/mrclam/SOURCE.md)",
+        "MRCLAM Dataset 6 is required at {} (see shared/datasets/mrclam/SOURCE.md; \
+         BEARING_SLAM_DATA names another directory holding MRCLAM_Dataset6/)",
         dir.display()
     );
     dir
@@ -118,7 +126,7 @@ fn command_model_delays_and_scales_only_the_commands() {
     };
     let shifted = model.apply(&run.log).expect("apply");
     assert_eq!(shifted.events.len(), run.log.events.len());
-    let commands = |log: &bearing_slam::core::log::SensorLog| -> Vec<(f64, f64)> {
+    let commands = |log: &bearing_slam_core::log::SensorLog| -> Vec<(f64, f64)> {
         log.events
             .iter()
             .filter_map(|e| match e.kind {
@@ -154,7 +162,7 @@ fn landmark_alignment_recovers_a_rigid_motion() {
     let estimated: Vec<(u64, f64, f64)> = truth
         .iter()
         .map(|&(id, x, y)| {
-            let p = inverse.transform_point(&bearing_slam::core::nalgebra::Vector2::new(x, y));
+            let p = inverse.transform_point(&bearing_slam_core::nalgebra::Vector2::new(x, y));
             (id, p.x, p.y)
         })
         .collect();

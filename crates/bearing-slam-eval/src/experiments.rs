@@ -1,8 +1,8 @@
 //! The experiment drivers that reproduce Munguía & Grau's figures (METHOD.md
 //! §1 "Reported results to reproduce"). Each returns a serializable result
 //! whose JSON is plot-ready (one object per curve or table row, arrays of
-//! equal length for the series) and renders a markdown table;
-//! [`write_outputs`] stores both as `NAME.json` and `NAME.md`.
+//! equal length for the series) and renders a markdown table (the Python
+//! package's `bearing-slam experiment` writes both, with a plot).
 //!
 //! - [`fig4`]: `paper_fig4`, every initializer (MTE, MTE-clone,
 //!   MTE-history, PI-SR (0.01, 0.005), PI-SR (0.5, 0.25), PI-SR mixed), with
@@ -18,14 +18,14 @@
 //! - [`fig10`]: the single-source oval and figure-eight, 6 laps, with and
 //!   without slip: position error over time, dead reckoning against SLAM.
 
-use crate::core::init::triangulated_inverse_depth;
-use crate::core::nalgebra::Vector3;
 use crate::montecarlo::{InitializerSpec, MonteCarloReport, MonteCarloSpec, run_many};
+use crate::stats;
+use bearing_slam_core::init::triangulated_inverse_depth;
+use bearing_slam_core::nalgebra::Vector3;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
-use std::path::Path;
 
 /// Progress of an experiment: `(what, runs done, runs in this part)`.
 pub type Progress<'a> = &'a (dyn Fn(&str, usize, usize) + Sync);
@@ -35,32 +35,13 @@ fn run_spec(
     spec: &MonteCarloSpec,
     what: &str,
     progress: Progress,
-) -> crate::Result<MonteCarloReport> {
+) -> bearing_slam_core::Result<MonteCarloReport> {
     run_many(spec, |done| progress(what, done, spec.runs))
 }
 
 /// Formats an optional number, `-` for `None`.
 fn fmt(v: Option<f64>, digits: usize) -> String {
     v.map_or_else(|| "-".to_owned(), |v| format!("{v:.digits$}"))
-}
-
-/// Writes `DIR/NAME.json` (pretty) and `DIR/NAME.md`, creating `DIR`.
-///
-/// # Errors
-/// On a file-system or serialization error, as text.
-pub fn write_outputs<T: Serialize>(
-    dir: &Path,
-    name: &str,
-    value: &T,
-    markdown: &str,
-) -> Result<(), String> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    let json = serde_json::to_string(value).map_err(|e| format!("{name}: {e}"))?;
-    for (ext, text) in [("json", json.as_str()), ("md", markdown)] {
-        let path = dir.join(format!("{name}.{ext}"));
-        std::fs::write(&path, text).map_err(|e| format!("{}: {e}", path.display()))?;
-    }
-    Ok(())
 }
 
 // ------------------------------------------------------------------ Fig. 4
@@ -134,7 +115,7 @@ pub struct Fig4Result {
 ///
 /// # Errors
 /// As [`run_many`].
-pub fn fig4(runs: usize, seed0: u64, progress: Progress) -> crate::Result<Fig4Result> {
+pub fn fig4(runs: usize, seed0: u64, progress: Progress) -> bearing_slam_core::Result<Fig4Result> {
     let mut out = Fig4Result {
         with_far: Vec::new(),
         without_far: Vec::new(),
@@ -316,10 +297,7 @@ pub fn consistency_table(reports: &[MonteCarloReport]) -> String {
         let n = &c.nees;
         let last = n.runs.iter().rposition(|&k| k > 0);
         let band = last.and_then(|k| Some((n.lower[k]?, n.upper[k]?)));
-        let mean = {
-            let v: Vec<f64> = n.mean.iter().flatten().copied().collect();
-            (!v.is_empty()).then(|| v.iter().sum::<f64>() / v.len() as f64)
-        };
+        let mean = stats::mean_of_present(n.mean.iter().copied());
         s += &format!(
             "| {} | {} | {} | {} | {} | {} | {} | {} |\n",
             c.scenario,
@@ -393,12 +371,13 @@ pub fn fig5(
     parallax_deg: &[f64],
     samples: usize,
     seed: u64,
-) -> crate::Result<Fig5Result> {
+) -> bearing_slam_core::Result<Fig5Result> {
     let sigma = sigma_deg.to_radians();
-    let normal = Normal::new(0.0, sigma).map_err(|_| crate::SlamError::InvalidNoise {
-        what: "fig5 bearing sigma",
-        value: sigma,
-    })?;
+    let normal =
+        Normal::new(0.0, sigma).map_err(|_| bearing_slam_core::SlamError::InvalidNoise {
+            what: "fig5 bearing sigma",
+            value: sigma,
+        })?;
     let mut rng = StdRng::seed_from_u64(seed);
     let first = Vector3::new(0.0, 0.0, 0.0);
     let z1 = std::f64::consts::FRAC_PI_2;
@@ -427,16 +406,9 @@ pub fn fig5(
                 Err(_) => behind += 1,
             }
         }
-        let n = rhos.len().max(1) as f64;
-        let mean = rhos.iter().sum::<f64>() / n;
-        let sampled_sigma_rho = (rhos.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+        let sampled_sigma_rho = stats::population_std_dev(&rhos);
         depths.sort_by(f64::total_cmp);
-        let q = |p: f64| {
-            depths
-                .get(((depths.len() as f64 - 1.0) * p).round() as usize)
-                .copied()
-                .unwrap_or(f64::NAN)
-        };
+        let q = |p: f64| stats::nearest_rank_quantile(&depths, p);
         points.push(Fig5Point {
             parallax_deg: a,
             baseline_m: b,
@@ -510,7 +482,7 @@ pub fn fig8(
     runs: usize,
     seed0: u64,
     progress: Progress,
-) -> crate::Result<Fig8Result> {
+) -> bearing_slam_core::Result<Fig8Result> {
     let mut rows = Vec::new();
     for &n in counts {
         let mut spec = MonteCarloSpec::new("paper_fig8", InitializerSpec::Mte, runs);
@@ -565,7 +537,11 @@ pub struct Fig10Result {
 ///
 /// # Errors
 /// As [`run_many`].
-pub fn fig10(runs: usize, seed0: u64, progress: Progress) -> crate::Result<Fig10Result> {
+pub fn fig10(
+    runs: usize,
+    seed0: u64,
+    progress: Progress,
+) -> bearing_slam_core::Result<Fig10Result> {
     let mut reports = Vec::new();
     for name in ["single_source_oval", "single_source_figure8"] {
         for slip in [false, true] {

@@ -1,28 +1,17 @@
-//! Calibrates the bearing, range and velocity-model noise of an MRCLAM
-//! dataset from its ground truth, per robot and pooled.
-//!
-//! ```text
-//! cargo run --release -p bearing-slam-io --example mrclam_calibrate -- /path/to/MRCLAM_Dataset6 [window_s]
-//! ```
-//!
-//! Prints a table, a window-length scaling table of the motion noise, then
-//! the calibration (default window, 1 s) as JSON. The numbers come from the
-//! sensor data and the Vicon ground truth only (no filter is run).
+//! `bearing-slam-eval residuals`: the noise statistics of an MRCLAM dataset
+//! per robot and pooled ([`bearing_slam_eval::calibration::calibrate_dataset`]).
 //!
 //! Reading the scaling table on Dataset 6: the along-track error grows about
-//! linearly with the window (≈ 0.002 m at 0.25 s, 0.008 m at 1 s, 0.017 m at
-//! 2 s), so the speed error is correlated over seconds rather than white. A
-//! white-noise velocity model matched at 1 s (`σ_v(Δt) = √(q_v / Δt)`)
-//! therefore overstates the drift over shorter horizons and understates it
-//! over longer ones. Choose the window that matches the horizon the filter
-//! must bridge between bearing updates (scans come every ~0.24 s, with gaps
-//! of tens of seconds when nothing is in view).
+//! linearly with the window, so the speed error is correlated over seconds
+//! rather than white. A white-noise velocity model matched at one window
+//! (`σ_v(Δt) = √(q_v / Δt)`) therefore overstates the drift over shorter
+//! horizons and understates it over longer ones: the tuning rule
+//! (`bearing-slam-eval calibrate`) matches it at the median blind stretch.
 
-use bearing_slam_io::mrclam::{
+use bearing_slam_eval::calibration::{
     CalibrationOptions, DatasetCalibration, NoiseCalibration, calibrate_dataset,
 };
-use std::path::PathBuf;
-use std::process::ExitCode;
+use std::path::Path;
 
 fn row(c: &NoiseCalibration, label: &str) {
     let b = &c.bearing;
@@ -76,29 +65,14 @@ fn table(calibration: &DatasetCalibration) {
     row(&calibration.pooled, "pooled");
 }
 
-fn main() -> ExitCode {
-    let mut args = std::env::args().skip(1);
-    let Some(dir) = args.next().map(PathBuf::from) else {
-        eprintln!("usage: mrclam_calibrate /path/to/MRCLAM_DatasetN [window_s]");
-        return ExitCode::FAILURE;
+/// Prints the per-robot table, the window-length scaling table and the
+/// calibration with windows of `window_s` seconds as JSON.
+pub fn print(dir: &Path, window_s: f64) -> Result<(), Box<dyn std::error::Error>> {
+    let options = CalibrationOptions {
+        window_s,
+        ..CalibrationOptions::default()
     };
-    let mut options = CalibrationOptions::default();
-    if let Some(w) = args.next() {
-        match w.parse::<f64>() {
-            Ok(w) => options.window_s = w,
-            Err(e) => {
-                eprintln!("window_s {w:?}: {e}");
-                return ExitCode::FAILURE;
-            }
-        }
-    }
-    let calibration = match calibrate_dataset(&dir, &options) {
-        Ok(c) => c,
-        Err(e) => {
-            eprintln!("error: {e}");
-            return ExitCode::FAILURE;
-        }
-    };
+    let calibration = calibrate_dataset(dir, &options)?;
     println!("# {}", calibration.pooled.source);
     println!(
         "# bearing residual = wrap(measured - predicted from interpolated Vicon pose and surveyed landmark), rad; \
@@ -129,7 +103,7 @@ fn main() -> ExitCode {
             window_s,
             ..options.clone()
         };
-        match calibrate_dataset(&dir, &o) {
+        match calibrate_dataset(dir, &o) {
             Ok(c) => {
                 let m = &c.pooled.motion;
                 println!(
@@ -148,12 +122,6 @@ fn main() -> ExitCode {
     }
 
     println!();
-    match serde_json::to_string_pretty(&calibration) {
-        Ok(json) => println!("{json}"),
-        Err(e) => {
-            eprintln!("error: cannot serialise the calibration: {e}");
-            return ExitCode::FAILURE;
-        }
-    }
-    ExitCode::SUCCESS
+    println!("{}", serde_json::to_string_pretty(&calibration)?);
+    Ok(())
 }

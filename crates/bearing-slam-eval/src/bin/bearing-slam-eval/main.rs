@@ -1,0 +1,162 @@
+//! `bearing-slam-eval`: the MRCLAM evaluation from the command line.
+//!
+//! ```text
+//! bearing-slam-eval tables                       # docs/results/mrclam/results.{md,json}
+//! bearing-slam-eval calibrate                    # the tuning rule on Dataset 6
+//! bearing-slam-eval export /tmp/mrclam_export    # logs for benches/gtsam_mrclam.py
+//! bearing-slam-eval residuals                    # noise statistics per robot and pooled
+//! ```
+//!
+//! The Monte Carlo runs and the paper's experiments are the Python CLI's
+//! (`bearing-slam montecarlo`, `bearing-slam experiment`).
+
+mod residuals;
+
+use bearing_slam_eval::calibration::{calibrate_parameters, comparison_table};
+use bearing_slam_eval::real_data::export_logs;
+use bearing_slam_eval::real_data::report::{evaluate_tables, markdown, read_gtsam};
+use clap::{Args, Parser, Subcommand};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+type BoxError = Box<dyn std::error::Error>;
+
+/// The repository root of this build (the defaults below are relative to it).
+const ROOT: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../..");
+
+/// Bearing-only SLAM on the real UTIAS MRCLAM robots: tables, calibration
+/// and the export for the GTSAM yardstick.
+#[derive(Parser)]
+#[command(name = "bearing-slam-eval", version)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+/// Where the datasets are.
+#[derive(Args)]
+struct Data {
+    /// The directory holding `MRCLAM_Dataset1/` and `MRCLAM_Dataset6/`
+    /// (default: `shared/datasets/mrclam` beside the repository).
+    #[arg(long, value_name = "DIR")]
+    data: Option<PathBuf>,
+}
+
+impl Data {
+    fn dir(&self) -> PathBuf {
+        self.data
+            .clone()
+            .unwrap_or_else(|| Path::new(ROOT).join("../shared/datasets/mrclam"))
+    }
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Every method on robots 1-5 of Datasets 6 and 1 (and the ablation of
+    /// the calibration rules): prints the tables and writes `results.md` and
+    /// `results.json` to --out, with the GTSAM columns when --out holds a
+    /// `gtsam.json` (from `benches/gtsam_mrclam.py`).
+    Tables {
+        #[command(flatten)]
+        data: Data,
+        /// Output directory (default: `docs/results/mrclam` of the repository).
+        #[arg(long, value_name = "DIR")]
+        out: Option<PathBuf>,
+        /// Skip the ablation of the calibration rules.
+        #[arg(long)]
+        no_ablation: bool,
+        /// Waiting bearings MTE-clone keeps per candidate (the `mte_clone`
+        /// columns then show MTE-history; 0 is the paper's method).
+        #[arg(long, default_value_t = 0, value_name = "N")]
+        history: usize,
+    },
+    /// The tuning rule: derives the filter parameters from Dataset 6's ground
+    /// truth (no filter is run), prints them as JSON and beside the
+    /// constants the evaluation uses.
+    Calibrate {
+        #[command(flatten)]
+        data: Data,
+    },
+    /// Writes the logs the filters see (commands corrected) with MTE's map
+    /// and poses, one JSON file per robot and dataset, for
+    /// `benches/gtsam_mrclam.py`.
+    Export {
+        /// Output directory.
+        #[arg(value_name = "OUT_DIR")]
+        out: PathBuf,
+        #[command(flatten)]
+        data: Data,
+    },
+    /// Bearing, range and velocity-model residual statistics per robot and
+    /// pooled, a table of the motion noise against the window length, and
+    /// the calibration as JSON (no filter is run).
+    Residuals {
+        /// The dataset directory (default: `MRCLAM_Dataset6` under --data).
+        #[arg(value_name = "DATASET_DIR")]
+        dataset: Option<PathBuf>,
+        /// Length of the motion windows, seconds.
+        #[arg(long, default_value_t = 1.0, value_name = "SECONDS")]
+        window: f64,
+        #[command(flatten)]
+        data: Data,
+    },
+}
+
+fn tables(data: &Path, out: &Path, ablation: bool, history: usize) -> Result<(), BoxError> {
+    let tables = evaluate_tables(data, history, ablation, &mut |line| eprintln!("{line}"))?;
+    let md = markdown(&tables, &read_gtsam(out))?;
+    println!("{md}");
+    std::fs::create_dir_all(out)?;
+    std::fs::write(out.join("results.md"), &md)?;
+    std::fs::write(
+        out.join("results.json"),
+        serde_json::to_string_pretty(&tables)?,
+    )?;
+    eprintln!("wrote {}/results.md and results.json", out.display());
+    Ok(())
+}
+
+fn calibrate(data: &Path) -> Result<(), BoxError> {
+    let c = calibrate_parameters(&data.join("MRCLAM_Dataset6"))?;
+    println!("{}", serde_json::to_string_pretty(&c)?);
+    print!("{}", comparison_table(&c.parameters));
+    Ok(())
+}
+
+fn export(data: &Path, out: &Path) -> Result<(), BoxError> {
+    for path in export_logs(data, out)? {
+        println!("wrote {}", path.display());
+    }
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let result = match Cli::parse().command {
+        Command::Tables {
+            data,
+            out,
+            no_ablation,
+            history,
+        } => {
+            let out = out.unwrap_or_else(|| Path::new(ROOT).join("docs/results/mrclam"));
+            tables(&data.dir(), &out, !no_ablation, history)
+        }
+        Command::Calibrate { data } => calibrate(&data.dir()),
+        Command::Export { out, data } => export(&data.dir(), &out),
+        Command::Residuals {
+            dataset,
+            window,
+            data,
+        } => {
+            let dataset = dataset.unwrap_or_else(|| data.dir().join("MRCLAM_Dataset6"));
+            residuals::print(&dataset, window)
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}

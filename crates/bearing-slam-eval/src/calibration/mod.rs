@@ -1,0 +1,115 @@
+//! Noise calibration from the MRCLAM ground truth, and the tuning rule that
+//! turns it into the filter parameters of the real-data evaluation
+//! ([`crate::real_data`]).
+//!
+//! Nothing here looks at a filter's output: the numbers come only from the
+//! sensor data and the Vicon ground truth, so that anyone can rerun them
+//! (`bearing-slam-eval calibrate`, `bearing-slam-eval residuals`) and nobody
+//! tunes them to a score.
+//!
+//! # Residuals ([`residuals`])
+//!
+//! For every landmark bearing `z` at time `t`, the true pose is interpolated
+//! at `t` ([`interpolate_pose_with_max_gap`]; bearings in a ground-truth gap
+//! are skipped and counted) and the residual is
+//! `wrap(z − (atan2(l_y − y, l_x − x) − θ))` with the landmark's surveyed
+//! position `l`. The range residual is `r − ‖l − (x, y)‖`.
+//!
+//! For the motion, the log is cut into consecutive, non-overlapping windows
+//! of `T` seconds from its first command. In each window the commands are
+//! integrated by the filter's velocity model
+//! ([`VelocityModel::propagate`](bearing_slam_core::motion::VelocityModel::propagate):
+//! the exact arc, no noise) from the **true** pose at the window start; the
+//! error is the true end pose seen from that prediction,
+//! `e = predicted⁻¹ ∘ true = (along, cross, heading)`: along-track, cross-track
+//! and heading error in the predicted end frame. Windows with a ground-truth
+//! gap at either end are skipped; windows where the robot is commanded to
+//! stand still (`v = ω = 0` throughout) are left out and counted.
+//!
+//! # Descriptive statistics ([`calibrate`], [`calibrate_dataset`])
+//!
+//! Per robot and pooled: the [`ResidualStats`] of the bearing, range and
+//! window residuals. For the **velocity motion model** with additive,
+//! zero-mean, independent noise on `v` and `ω`,
+//! [`MotionCalibration::sigma_v_mps`] `= σ(along) / T` and
+//! [`MotionCalibration::sigma_omega_radps`] `= σ(heading) / T` are the noise
+//! standard deviations for a prediction step of `Δt = T` (σ the robust
+//! `1.4826 · MAD`), and with white noise the densities are
+//! [`MotionCalibration::q_v`] `= σ(along)² / T` and
+//! [`MotionCalibration::q_omega`] `= σ(heading)² / T`. Errors that are partly
+//! systematic (speed scale, command delay) grow faster than `√T`: the window
+//! length matters, which the rule below takes into account.
+//!
+//! # The tuning rule ([`calibrate_parameters`])
+//!
+//! Every noise parameter of [`CALIBRATED_PARAMETERS`] comes from this rule run
+//! on Dataset 6, and the same numbers are used for every robot, every method
+//! and both datasets. No parameter was chosen by looking at a trajectory or
+//! map score.
+//!
+//! 1. **Bearing σ.** The bearing residuals, gross outliers
+//!    (|r| > [`BEARING_OUTLIER_RAD`]) removed: their standard deviation `s`
+//!    (not the robust MAD σ: the filter must cover the tails it gates with).
+//!    Consecutive scans of one landmark (≤ [`CORRELATION_PAIR_MAX_S`] apart)
+//!    have correlated errors (the error depends on where the barcode sits in
+//!    the image, which changes slowly), but the filter treats every scan as
+//!    independent. For an AR(1) error of lag-one correlation `ρ` the filter
+//!    must inflate σ by [`ar1_inflation`]`(ρ, n)` so that the variance it
+//!    gives the mean of a visit of `n` scans is the true one, `n` being the
+//!    measurement-weighted median visit length (half of the measurements
+//!    belong to longer visits): `σ_z = s·ar1_inflation(ρ, n)` (→
+//!    `s·√((1+ρ)/(1−ρ))` for long visits). The range σ of the range-bearing
+//!    reference filter follows the same rule on the range residuals (gross
+//!    outliers |r| > [`RANGE_OUTLIER_M`] removed).
+//! 2. **Command model** ([`CommandModel`]). Delay: the value on a 0.05 s grid
+//!    in `[0, 0.5]` s that minimizes the pooled RMS heading error of
+//!    [`COMMAND_WINDOW_S`] windows. Speed scale: `Σ d_true d_cmd / Σ d_cmd²`
+//!    over those windows after the delay (`d_true = d_cmd + along-track
+//!    error`).
+//! 3. **Velocity noise.** The velocity model's noise is white (variances per
+//!    one-second hold), but the real command error is not: with the
+//!    corrections above the heading error grows about like √T (white) but
+//!    the along-track error still grows faster. A white model can only match
+//!    one horizon `T`; it is matched at the horizon where a bearing-only
+//!    filter depends on odometry alone: the **median blind stretch**, the
+//!    time-weighted median length of the gaps between consecutive landmark
+//!    scans longer than [`BLIND_GAP_THRESHOLD_S`] (half of the blind time is
+//!    spent in longer stretches). With `T` that median, the 1 s floors are
+//!    `σ_v_min² = mean(along²)/T` and `σ_ω_min² = mean(heading²)/T` over the
+//!    T-second windows in which the robot was commanded to move (RMS, not
+//!    robust σ, for the same reason as the bearings); the α's are zero. Over
+//!    shorter horizons this overstates the drift (conservative), over longer
+//!    ones it understates it.
+//!
+//! [`interpolate_pose_with_max_gap`]: bearing_slam_io::mrclam::interpolate_pose_with_max_gap
+//! [`CALIBRATED_PARAMETERS`]: crate::real_data::CALIBRATED_PARAMETERS
+//! [`CommandModel`]: crate::real_data::CommandModel
+
+mod noise;
+pub mod residuals;
+mod rule;
+
+pub use noise::{
+    CalibrationOptions, DatasetCalibration, MotionCalibration, NoiseCalibration, ResidualStats,
+    calibrate, calibrate_dataset, calibrate_with,
+};
+pub use residuals::{BearingResidual, MotionResidual, bearing_residuals, motion_residuals};
+pub use rule::{ParameterCalibration, ar1_inflation, calibrate_parameters, comparison_table};
+
+/// Gaps between landmark scans longer than this are "blind stretches"
+/// (more than four missed camera frames at ~0.24 s), seconds.
+pub const BLIND_GAP_THRESHOLD_S: f64 = 1.0;
+
+/// Consecutive scans of one landmark at most this far apart are a pair for
+/// the lag-one correlation of the measurement errors, seconds.
+pub const CORRELATION_PAIR_MAX_S: f64 = 0.5;
+
+/// Bearing residuals larger than this are gross outliers (MRCLAM's
+/// convention), radians.
+pub const BEARING_OUTLIER_RAD: f64 = 0.2;
+
+/// Range residuals larger than this are gross outliers, metres.
+pub const RANGE_OUTLIER_M: f64 = 1.0;
+
+/// The window of the command-model calibration (delay, speed scale), seconds.
+pub const COMMAND_WINDOW_S: f64 = 1.0;

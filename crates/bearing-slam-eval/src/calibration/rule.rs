@@ -1,0 +1,376 @@
+//! The tuning rule: the filter parameters derived from Dataset 6's ground
+//! truth (see the [calibration documentation](super) for the rule).
+
+use super::noise::{dataset_name, is_moving, require_truth};
+use super::residuals::{bearing_residuals, motion_residuals};
+use super::{
+    BEARING_OUTLIER_RAD, BLIND_GAP_THRESHOLD_S, COMMAND_WINDOW_S, CORRELATION_PAIR_MAX_S,
+    RANGE_OUTLIER_M,
+};
+use crate::real_data::{CALIBRATED_PARAMETERS, CommandModel, FilterParameters, RealDataError};
+use crate::stats;
+use bearing_slam_core::SlamError;
+use bearing_slam_core::log::EventKind;
+use bearing_slam_core::motion::VelocityNoise;
+use bearing_slam_io::mrclam::{
+    DEFAULT_MAX_GROUND_TRUTH_GAP_S, MrclamRun, ROBOT_COUNT, load_mrclam,
+};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::Path;
+
+/// What [`calibrate_parameters`] measured, and the parameters its rule gives.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParameterCalibration {
+    /// The dataset calibrated from.
+    pub source: String,
+    /// Time-weighted median length of the blind stretches (scan gaps >
+    /// [`BLIND_GAP_THRESHOLD_S`]; half of the blind time is spent in longer
+    /// ones), seconds: the matching horizon `T`.
+    pub blind_stretch_median_s: f64,
+    /// How many blind stretches there were.
+    pub n_blind_stretches: usize,
+    /// Fraction of the log time spent in blind stretches.
+    pub blind_time_fraction: f64,
+    /// Pooled RMS heading error of 1 s windows for each delay tried:
+    /// `(delay_s, rms_rad)`.
+    pub delay_scan: Vec<(f64, f64)>,
+    /// Pooled true/commanded distance ratio per robot (after the delay).
+    pub speed_ratio_per_robot: Vec<f64>,
+    /// Standard deviation of the bearing residuals (outliers removed), rad.
+    pub bearing_std_rad: f64,
+    /// Lag-one correlation of consecutive bearing residuals of one landmark.
+    pub bearing_lag1_correlation: f64,
+    /// Standard deviation of the range residuals (outliers removed), m.
+    pub range_std_m: f64,
+    /// Lag-one correlation of consecutive range residuals of one landmark.
+    pub range_lag1_correlation: f64,
+    /// Number of consecutive scans (≤ [`CORRELATION_PAIR_MAX_S`] apart) in
+    /// which one landmark is seen, measurement-weighted median (half of the
+    /// measurements belong to longer visits): `n` of [`ar1_inflation`].
+    pub scans_per_visit: usize,
+    /// The factor applied to the bearing standard deviation.
+    pub bearing_inflation: f64,
+    /// The factor applied to the range standard deviation.
+    pub range_inflation: f64,
+    /// `√(mean(along²)/T)` and `√(mean(heading²)/T)` for windows of
+    /// `T` seconds after the command correction: `(T, √q_v, √q_ω, n)`.
+    pub noise_vs_window: Vec<(f64, f64, f64, usize)>,
+    /// The parameters the rule gives (unrounded).
+    pub parameters: FilterParameters,
+}
+
+/// The factor by which a filter that treats `n` consecutive AR(1) errors of
+/// lag-one correlation `rho` as independent must inflate their standard
+/// deviation so that the variance it gives their mean is the true one:
+/// `√(1 + (2/n) Σ_{k=1}^{n−1} (n−k) ρ^k)`, which tends to `√((1+ρ)/(1−ρ))`
+/// for long runs and never exceeds `√n` (fully correlated errors).
+#[must_use]
+pub fn ar1_inflation(rho: f64, n: usize) -> f64 {
+    let nf = n as f64;
+    let mut sum = 0.0;
+    let mut power = 1.0;
+    for k in 1..n {
+        power *= rho;
+        sum += (nf - k as f64) * power;
+    }
+    (1.0 + 2.0 * sum / nf).max(0.0).sqrt()
+}
+
+/// A run with the command model applied to its log (for the residuals).
+fn corrected(run: &MrclamRun, command: &CommandModel) -> Result<MrclamRun, SlamError> {
+    let mut out = run.clone();
+    out.log = command.apply(&run.log)?;
+    Ok(out)
+}
+
+/// Moving windows only: `(along, heading, commanded distance)` per window.
+fn moving_windows(run: &MrclamRun, window_s: f64) -> Result<Vec<(f64, f64, f64)>, SlamError> {
+    Ok(
+        motion_residuals(run, window_s, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?
+            .0
+            .into_iter()
+            .filter(is_moving)
+            .map(|r| (r.along_m, r.heading_rad, r.commanded_distance_m))
+            .collect(),
+    )
+}
+
+/// The RMS of one column of the windows (NaN for none) and their number.
+fn rms_of(windows: &[(f64, f64, f64)], column: fn(&(f64, f64, f64)) -> f64) -> (f64, usize) {
+    let values: Vec<f64> = windows.iter().map(column).collect();
+    (stats::rms(&values).unwrap_or(f64::NAN), values.len())
+}
+
+/// The weighted median of `sorted`: the first item at which the running
+/// total of `weight` reaches half of the whole (`None` when empty).
+fn weighted_median<T: Copy>(sorted: &[T], weight: impl Fn(T) -> f64) -> Option<T> {
+    let total: f64 = sorted.iter().map(|&x| weight(x)).sum();
+    let mut cumulative = 0.0;
+    for &x in sorted {
+        cumulative += weight(x);
+        if 2.0 * cumulative >= total {
+            return Some(x);
+        }
+    }
+    sorted.last().copied()
+}
+
+/// The lengths of the gaps between consecutive landmark scans longer than
+/// [`BLIND_GAP_THRESHOLD_S`], and the total log time, over `runs`.
+fn blind_stretches(runs: &[MrclamRun]) -> (Vec<f64>, f64) {
+    let mut gaps = Vec::new();
+    let mut total_time = 0.0;
+    for run in runs {
+        let times: Vec<f64> = run
+            .log
+            .events
+            .iter()
+            .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
+            .map(|e| e.time)
+            .collect();
+        gaps.extend(
+            times
+                .windows(2)
+                .map(|w| w[1] - w[0])
+                .filter(|g| *g > BLIND_GAP_THRESHOLD_S),
+        );
+        total_time += run.report.log_end_s - run.report.log_start_s;
+    }
+    gaps.sort_by(f64::total_cmp);
+    (gaps, total_time)
+}
+
+/// The bearing and range residuals of `runs` (gross outliers removed), the
+/// lag-one pairs of consecutive scans of one landmark, and the lengths of
+/// the visits (runs of consecutive scans of one landmark).
+#[derive(Default)]
+struct MeasurementNoise {
+    bearings: Vec<f64>,
+    ranges: Vec<f64>,
+    bearing_pairs: Vec<(f64, f64)>,
+    range_pairs: Vec<(f64, f64)>,
+    visits: Vec<usize>,
+}
+
+fn measurement_noise(runs: &[MrclamRun]) -> MeasurementNoise {
+    let mut out = MeasurementNoise::default();
+    for run in runs {
+        let (residuals, _) = bearing_residuals(run, DEFAULT_MAX_GROUND_TRUTH_GAP_S);
+        let mut last: BTreeMap<u64, (f64, f64, Option<f64>)> = BTreeMap::new();
+        let mut visit: BTreeMap<u64, usize> = BTreeMap::new();
+        for r in residuals {
+            let b_ok = r.bearing.abs() <= BEARING_OUTLIER_RAD;
+            let range = r.range.filter(|x| x.abs() <= RANGE_OUTLIER_M);
+            if b_ok {
+                out.bearings.push(r.bearing);
+            }
+            if let Some(x) = range {
+                out.ranges.push(x);
+            }
+            let previous = last
+                .get(&r.landmark_id)
+                .filter(|&&(t, _, _)| r.time - t <= CORRELATION_PAIR_MAX_S)
+                .copied();
+            match (previous.is_some(), visit.get_mut(&r.landmark_id)) {
+                (true, Some(n)) => *n += 1,
+                (_, current) => {
+                    if let Some(n) = current {
+                        out.visits.push(*n);
+                    }
+                    visit.insert(r.landmark_id, 1);
+                }
+            }
+            if let Some((_, b, rg)) = previous {
+                if b_ok && b.abs() <= BEARING_OUTLIER_RAD {
+                    out.bearing_pairs.push((b, r.bearing));
+                }
+                if let (Some(a), Some(c)) = (rg, range) {
+                    out.range_pairs.push((a, c));
+                }
+            }
+            last.insert(r.landmark_id, (r.time, r.bearing, range));
+        }
+        out.visits.extend(visit.values().copied());
+    }
+    out
+}
+
+/// Derives the filter parameters from the ground truth of every robot of the
+/// dataset in `dataset_dir` (Dataset 6) by the rule of the
+/// [calibration documentation](super). Runs no filter.
+///
+/// # Errors
+/// A load error, or [`RealDataError::Calibration`] for a dataset without
+/// ground truth.
+pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, RealDataError> {
+    let mut runs = Vec::new();
+    for robot in 1..=ROBOT_COUNT {
+        let run = load_mrclam(dataset_dir, robot)?;
+        require_truth(&run)?;
+        runs.push(run);
+    }
+    let source = runs.first().map(dataset_name).unwrap_or_default();
+    let calibration_error = |problem: &str| RealDataError::Calibration {
+        source_name: source.clone(),
+        problem: problem.to_owned(),
+    };
+
+    // Blind stretches: the time-weighted median gap is the horizon T (half
+    // of the blind time is spent in shorter stretches, half in longer ones).
+    let (gaps, total_time) = blind_stretches(&runs);
+    let horizon =
+        weighted_median(&gaps, |g| g).ok_or_else(|| calibration_error("no blind stretch"))?;
+    let blind_fraction = gaps.iter().sum::<f64>() / total_time;
+
+    // Delay.
+    let mut delay_scan = Vec::new();
+    for k in 0..=10 {
+        let delay = 0.05 * f64::from(k);
+        let command = CommandModel {
+            delay_s: delay,
+            speed_scale: 1.0,
+        };
+        let mut windows = Vec::new();
+        for run in &runs {
+            windows.extend(moving_windows(
+                &corrected(run, &command)?,
+                COMMAND_WINDOW_S,
+            )?);
+        }
+        delay_scan.push((delay, rms_of(&windows, |w| w.1).0));
+    }
+    let delay_s = delay_scan
+        .iter()
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(0.0, |d| d.0);
+
+    // Speed scale.
+    let delayed = CommandModel {
+        delay_s,
+        speed_scale: 1.0,
+    };
+    let (mut num, mut den) = (0.0, 0.0);
+    let mut speed_ratio_per_robot = Vec::new();
+    for run in &runs {
+        let (mut n, mut d) = (0.0, 0.0);
+        for (along, _, dist) in moving_windows(&corrected(run, &delayed)?, COMMAND_WINDOW_S)? {
+            n += (dist + along) * dist;
+            d += dist * dist;
+        }
+        speed_ratio_per_robot.push(n / d);
+        num += n;
+        den += d;
+    }
+    let command = CommandModel {
+        delay_s,
+        speed_scale: num / den,
+    };
+    let fixed: Vec<MrclamRun> = runs
+        .iter()
+        .map(|r| corrected(r, &command))
+        .collect::<Result<_, _>>()?;
+
+    // Velocity noise at several horizons, and at the blind-stretch median.
+    let noise_at = |window: f64| -> Result<(f64, f64, f64, usize), SlamError> {
+        let mut windows = Vec::new();
+        for run in &fixed {
+            windows.extend(moving_windows(run, window)?);
+        }
+        let (along, n) = rms_of(&windows, |w| w.0);
+        let (heading, _) = rms_of(&windows, |w| w.1);
+        Ok((window, along / window.sqrt(), heading / window.sqrt(), n))
+    };
+    let noise_vs_window = [0.25, 1.0, 2.0, 4.0, 8.0, 16.0]
+        .into_iter()
+        .map(noise_at)
+        .collect::<Result<Vec<_>, _>>()?;
+    let matched = noise_at(horizon)?;
+
+    // Bearing and range noise with the lag-one correlation.
+    let mut noise = measurement_noise(&runs);
+    if noise.bearings.len() < 3 || noise.bearing_pairs.len() < 3 || noise.range_pairs.len() < 3 {
+        return Err(calibration_error("too few bearing residuals"));
+    }
+    let bearing_std = stats::std_dev(&noise.bearings);
+    let bearing_rho = stats::correlation(&noise.bearing_pairs);
+    let range_std = stats::std_dev(&noise.ranges);
+    let range_rho = stats::correlation(&noise.range_pairs);
+    // Measurement-weighted median: half of the measurements belong to visits
+    // at least this long.
+    noise.visits.sort_unstable();
+    let scans_per_visit = weighted_median(&noise.visits, |n| n as f64).unwrap_or(1);
+    let inflate = |rho: f64| ar1_inflation(rho, scans_per_visit);
+
+    let parameters = FilterParameters {
+        bearing_sigma_rad: bearing_std * inflate(bearing_rho),
+        range_sigma_m: range_std * inflate(range_rho),
+        velocity_noise: VelocityNoise {
+            alpha: [0.0; 6],
+            sigma_v_min: matched.1,
+            sigma_omega_min: matched.2,
+        },
+        command,
+        ..CALIBRATED_PARAMETERS
+    };
+    Ok(ParameterCalibration {
+        source,
+        blind_stretch_median_s: horizon,
+        n_blind_stretches: gaps.len(),
+        blind_time_fraction: blind_fraction,
+        delay_scan,
+        speed_ratio_per_robot,
+        bearing_std_rad: bearing_std,
+        bearing_lag1_correlation: bearing_rho,
+        range_std_m: range_std,
+        range_lag1_correlation: range_rho,
+        scans_per_visit,
+        bearing_inflation: inflate(bearing_rho),
+        range_inflation: inflate(range_rho),
+        noise_vs_window,
+        parameters,
+    })
+}
+
+/// The parameters the rule gives beside [`CALIBRATED_PARAMETERS`], as a
+/// markdown table (four decimals), with a warning line when a constant is
+/// more than 5 % off the rule's output.
+#[must_use]
+pub fn comparison_table(rule: &FilterParameters) -> String {
+    let k = &CALIBRATED_PARAMETERS;
+    let rows = [
+        (
+            "bearing σ [rad]",
+            rule.bearing_sigma_rad,
+            k.bearing_sigma_rad,
+        ),
+        ("range σ [m]", rule.range_sigma_m, k.range_sigma_m),
+        (
+            "σ_v_min [m/s, 1 s hold]",
+            rule.velocity_noise.sigma_v_min,
+            k.velocity_noise.sigma_v_min,
+        ),
+        (
+            "σ_ω_min [rad/s, 1 s hold]",
+            rule.velocity_noise.sigma_omega_min,
+            k.velocity_noise.sigma_omega_min,
+        ),
+        ("command delay [s]", rule.command.delay_s, k.command.delay_s),
+        (
+            "speed scale",
+            rule.command.speed_scale,
+            k.command.speed_scale,
+        ),
+    ];
+    let mut table =
+        String::from("\n| parameter | rule output | CALIBRATED_PARAMETERS |\n|---|---|---|\n");
+    let mut off = false;
+    for (name, value, constant) in rows {
+        off |= (value - constant).abs() / constant.abs().max(1e-12) > 0.05;
+        table.push_str(&format!("| {name} | {value:.4} | {constant:.4} |\n"));
+    }
+    if off {
+        table.push_str("\nWARNING: a constant differs from the rule's output by more than 5 %\n");
+    }
+    table
+}
