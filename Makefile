@@ -12,14 +12,19 @@ STAMP := $(VENV)/.installed
 NATIVE_STAMP := $(VENV)/.native-built
 RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.toml Cargo.lock
 
-.PHONY: help test demo bench bench-peers lint rust-setup rust-lint rust-test venv develop py-lint py-test
+.PHONY: help test demo bench bench-peers lint format clean rust-setup rust-lint rust-doc \
+	rust-test venv develop py-lint py-test
 
 help:
-	@echo "make demo   - simulate paper_fig4 and slip_patch, compare MTE, MTE-clone and PI-SR (Python CLI)"
-	@echo "make test   - Rust formatting, clippy and tests; ruff, mypy, stubtest and pytest"
-	@echo "make bench  - criterion benchmarks, then the peer comparison (bench-peers)"
+	@echo "make demo        - simulate paper_fig4 and slip_patch; MTE, MTE-clone, MTE-history and PI-SR on each (demo_output/)"
+	@echo "make test        - lint (Rust fmt, clippy, rustdoc; ruff, mypy, stubtest), then cargo test and pytest"
+	@echo "make lint        - formatting checks, lints and rustdoc only (Rust and Python)"
+	@echo "make format      - rewrite the sources: cargo fmt, ruff format, ruff check --fix"
+	@echo "make bench       - criterion benchmarks, then the peer comparison (bench-peers)"
 	@echo "make bench-peers - our EKF step vs numpy, filterpy, GTSAM (benches/PEERS.md, peers.png)"
-	@echo "make lint   - formatting and lints only (Rust and Python)"
+	@echo "make venv        - the Python venv (.venv/) with the runtime and dev dependencies"
+	@echo "make develop     - build the extension (release) into the venv"
+	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true
@@ -27,6 +32,10 @@ rust-setup:
 rust-lint: rust-setup
 	$(CARGO) fmt --all -- --check
 	$(CARGO) clippy --workspace --all-targets -- -D warnings
+
+# Rustdoc with every warning an error: broken intra-doc links, missing docs.
+rust-doc: rust-setup
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --workspace
 
 rust-test: rust-setup
 	$(CARGO) test --workspace
@@ -49,9 +58,11 @@ $(NATIVE_STAMP): $(STAMP) $(RUST_SOURCES) pyproject.toml
 
 develop: $(NATIVE_STAMP)
 
+# Every Python file of the repository: ruff walks the tree (skipping what
+# .gitignore names), mypy takes its list from pyproject.toml.
 py-lint: develop
-	$(VENV)/bin/ruff check python tests/python
-	$(VENV)/bin/ruff format --check python tests/python
+	$(VENV)/bin/ruff check .
+	$(VENV)/bin/ruff format --check .
 	$(VENV)/bin/mypy
 	$(VPY) -m mypy.stubtest bearing_slam._native --allowlist python/stubtest-allowlist.txt
 
@@ -60,9 +71,20 @@ py-lint: develop
 py-test: develop
 	$(VPY) -m pytest
 
-lint: rust-lint py-lint
+lint: rust-lint rust-doc py-lint
 
-test: rust-lint rust-test py-lint py-test
+test: lint rust-test py-test
+
+format: rust-setup $(STAMP)
+	$(CARGO) fmt --all
+	$(VENV)/bin/ruff format .
+	$(VENV)/bin/ruff check --fix .
+
+clean:
+	$(CARGO) clean
+	rm -rf $(VENV) demo_output .mypy_cache .ruff_cache .pytest_cache .hypothesis
+	find . -name __pycache__ -type d -prune -not -path './target/*' -exec rm -rf {} +
+	rm -f python/bearing_slam/_native*.so python/bearing_slam/_native*.pyd
 
 demo: develop
 	$(VENV)/bin/bearing-slam demo --out demo_output

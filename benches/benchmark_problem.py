@@ -1,4 +1,4 @@
-"""THE benchmark problem of shared/docs/BENCHMARK.md, generated once, in numpy.
+"""THE benchmark problem of the EKF step, defined here and generated once, in numpy.
 
 Every implementation timed by ``compare_peers.py`` (the numpy peers, filterpy,
 GTSAM and ours through ``bearing_slam.EkfBenchmark``) gets its initial state,

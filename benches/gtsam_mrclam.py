@@ -1,14 +1,13 @@
 """Full-batch bearing-only smoother on GTSAM: the yardstick for the filters on
-MRCLAM Dataset 6 (issue 6).
+MRCLAM Dataset 6.
 
-Reads the logs exported by ``bearing-slam-eval export`` (the very data the filters see:
-velocity commands after the calibrated command model, landmark bearings,
-decimated Vicon ground truth, and the filter parameters):
+Reads the logs exported by ``bearing-slam-eval export`` (the very data the
+filters see: velocity commands after the calibrated command model, landmark
+bearings, decimated Vicon ground truth, and the filter parameters), in any
+Python environment with ``benches/requirements-yardstick.txt`` installed:
 
-    cargo run --release -p bearing-slam-eval -- export /tmp/mrclam_export
-    python3 -m venv /tmp/gtsam-venv
-    /tmp/gtsam-venv/bin/pip install -r benches/requirements-yardstick.txt
-    /tmp/gtsam-venv/bin/python benches/gtsam_mrclam.py /tmp/mrclam_export docs/results/mrclam/gtsam.json
+    cargo run --release -p bearing-slam-eval -- export EXPORT_DIR
+    python benches/gtsam_mrclam.py EXPORT_DIR docs/results/mrclam/gtsam.json
 
 The factor graph, per robot:
 
@@ -47,11 +46,14 @@ alignment of the map, wall-clock time of graph building and optimization.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import gtsam
 import numpy as np
@@ -112,7 +114,13 @@ class Integrator:
         return gtsam.Pose2(self.x, self.y, self.th)
 
 
-def build(export: dict) -> dict:
+def symbol(kind: str, index: int) -> int:
+    """The GTSAM key of pose (``x``) or landmark (``l``) ``index``."""
+    key: int = gtsam.symbol(kind, index)
+    return key
+
+
+def build(export: dict[str, Any]) -> dict[str, Any]:
     params = export["parameters"]
     noise = params["velocity_noise"]
     sigma_z = params["bearing_sigma_rad"]
@@ -121,9 +129,9 @@ def build(export: dict) -> dict:
     start = info["initial_pose"] or {"x": 0.0, "y": 0.0, "theta": 0.0}
     events = log["events"]
 
-    commands = []  # (t, v, w, dt)
-    scans = []  # (t, [(id, bearing)])
-    truth = []  # (t, x, y)
+    commands: list[tuple[float, float, float, float]] = []  # (t, v, w, dt)
+    scans: list[tuple[float, list[tuple[int, float]]]] = []  # (t, [(id, bearing)])
+    truth: list[tuple[float, float, float]] = []  # (t, x, y)
     for e in events:
         kind, data = e["kind"]["kind"], e["kind"]["data"]
         if kind == "velocity":
@@ -152,7 +160,7 @@ def build(export: dict) -> dict:
     )
     integ = Integrator(noise["sigma_v_min"], noise["sigma_omega_min"])
     odometry = []  # (node i-1 -> node i): (Pose2, cov)
-    truth_anchor = [None] * len(truth)  # (node index, relative Pose2)
+    truth_anchor: list[tuple[int, Any] | None] = [None] * len(truth)  # (node, relative Pose2)
     dr = [gtsam.Pose2(start["x"], start["y"], start["theta"])]
     ci = 0
     cursor = t_begin
@@ -160,10 +168,7 @@ def build(export: dict) -> dict:
     for t, kind, idx in stops:
         # advance from cursor to t
         while cursor < t - 1e-12:
-            while (
-                ci < len(commands)
-                and commands[ci][0] + commands[ci][3] <= cursor + 1e-12
-            ):
+            while ci < len(commands) and commands[ci][0] + commands[ci][3] <= cursor + 1e-12:
                 ci += 1
             if ci >= len(commands):
                 cursor = t
@@ -189,22 +194,18 @@ def build(export: dict) -> dict:
     graph = gtsam.NonlinearFactorGraph()
     values = gtsam.Values()
 
-    def X(i: int) -> int:
-        return gtsam.symbol("x", i)
+    def X(i: int) -> int:  # noqa: N802 (GTSAM's shorthand)
+        return symbol("x", i)
 
-    def L(i: int) -> int:
-        return gtsam.symbol("l", i)
+    def L(i: int) -> int:  # noqa: N802 (GTSAM's shorthand)
+        return symbol("l", i)
 
-    per_node: list[list] = [[] for _ in node_times]  # factors that complete at node i
-    prior = gtsam.PriorFactorPose2(
-        X(0), dr[0], gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA)
-    )
+    per_node: list[list[Any]] = [[] for _ in node_times]  # factors that complete at node i
+    prior = gtsam.PriorFactorPose2(X(0), dr[0], gtsam.noiseModel.Isotropic.Sigma(3, PRIOR_SIGMA))
     graph.add(prior)
     per_node[0].append(prior)
     for i, (rel, cov) in enumerate(odometry):
-        f = gtsam.BetweenFactorPose2(
-            X(i), X(i + 1), rel, gtsam.noiseModel.Gaussian.Covariance(cov)
-        )
+        f = gtsam.BetweenFactorPose2(X(i), X(i + 1), rel, gtsam.noiseModel.Gaussian.Covariance(cov))
         graph.add(f)
         per_node[i + 1].append(f)
     for i, p in enumerate(dr):
@@ -214,7 +215,7 @@ def build(export: dict) -> dict:
         gtsam.noiseModel.mEstimator.Huber.Create(HUBER_K),
         gtsam.noiseModel.Isotropic.Sigma(1, sigma_z),
     )
-    rays: dict[int, list] = {}
+    rays: dict[int, list[tuple[float, int, float]]] = {}
     n_bearings = 0
     for t, obs in scans:
         node = node_of_time[t]
@@ -227,15 +228,15 @@ def build(export: dict) -> dict:
 
     mte = {int(i): (x, y) for i, x, y in export["mte_landmarks"]}
     init_from = {"mte": 0, "triangulated": 0, "first_ray_3m": 0}
-    for lid, obs in rays.items():
+    for lid, sightings in rays.items():
         if lid in mte:
             values.insert(L(lid), gtsam.Point2(*mte[lid]))
             init_from["mte"] += 1
             continue
-        t0 = obs[0][0]
+        t0 = sightings[0][0]
         a = np.zeros((2, 2))
         b = np.zeros(2)
-        for t, node, z in obs:
+        for t, node, z in sightings:
             if t - t0 > TRIANGULATION_WINDOW_S:
                 break
             p = dr[node]
@@ -245,30 +246,26 @@ def build(export: dict) -> dict:
             a += np.outer(n, n)
             b += np.outer(n, n) @ c
         eig = np.linalg.eigvalsh(a)
-        p0 = dr[obs[0][1]]
+        p0 = dr[sightings[0][1]]
         point = None
         if eig[0] > 1e-3 * max(eig[1], 1e-12):
             point = np.linalg.solve(a, b)
             d = point - np.array([p0.x(), p0.y()])
             ray = np.array(
-                [math.cos(p0.theta() + obs[0][2]), math.sin(p0.theta() + obs[0][2])]
+                [math.cos(p0.theta() + sightings[0][2]), math.sin(p0.theta() + sightings[0][2])]
             )
             if d @ ray <= 0.3 or np.linalg.norm(d) > 15.0:
                 point = None
         if point is None:
-            ang = p0.theta() + obs[0][2]
-            point = np.array(
-                [p0.x() + 3.0 * math.cos(ang), p0.y() + 3.0 * math.sin(ang)]
-            )
+            ang = p0.theta() + sightings[0][2]
+            point = np.array([p0.x() + 3.0 * math.cos(ang), p0.y() + 3.0 * math.sin(ang)])
             init_from["first_ray_3m"] += 1
         else:
             init_from["triangulated"] += 1
         values.insert(L(lid), gtsam.Point2(*point))
 
     # Poses from the MTE filter's estimate after each scan; fillers by odometry.
-    mte_pose_at = {
-        t: gtsam.Pose2(x, y, th) for t, x, y, th in export.get("mte_poses", [])
-    }
+    mte_pose_at = {t: gtsam.Pose2(x, y, th) for t, x, y, th in export.get("mte_poses", [])}
     mte_values = gtsam.Values(values)
     previous = dr[0]
     for i, t in enumerate(node_times):
@@ -285,7 +282,7 @@ def build(export: dict) -> dict:
     weak = gtsam.noiseModel.Isotropic.Sigma(2, LANDMARK_PRIOR_SIGMA)
     for lid in rays:
         graph.add(gtsam.PriorFactorPoint2(L(lid), values.atPoint2(L(lid)), weak))
-    first_node = {lid: obs[0][1] for lid, obs in rays.items()}
+    first_node = {lid: sightings[0][1] for lid, sightings in rays.items()}
     return {
         "per_node": per_node,
         "odometry": odometry,
@@ -315,9 +312,13 @@ def align_rmse(est: np.ndarray, true: np.ndarray) -> float:
     return float(np.sqrt(np.mean(np.sum((moved - true) ** 2, axis=1))))
 
 
-def trajectory_rmse(poses, truth, anchors) -> float:
+def trajectory_rmse(
+    poses: Callable[[int], Any],
+    truth: list[tuple[float, float, float]],
+    anchors: list[tuple[int, Any] | None],
+) -> float:
     errs = []
-    for (t, x, y), anchor in zip(truth, anchors, strict=True):
+    for (_, x, y), anchor in zip(truth, anchors, strict=True):
         if anchor is None or anchor[0] < 0:
             continue
         node, rel = anchor
@@ -326,7 +327,7 @@ def trajectory_rmse(poses, truth, anchors) -> float:
     return float(math.sqrt(sum(errs) / len(errs)))
 
 
-def evaluate(path: Path) -> dict:
+def evaluate(path: Path) -> dict[str, Any]:
     export = json.loads(path.read_text())
     started = time.perf_counter()
     g = build(export)
@@ -343,13 +344,13 @@ def evaluate(path: Path) -> dict:
     result = optimizer.optimize()
     done = time.perf_counter()
 
-    def X(i: int) -> int:
-        return gtsam.symbol("x", i)
+    def X(i: int) -> int:  # noqa: N802 (GTSAM's shorthand)
+        return symbol("x", i)
 
     ate = trajectory_rmse(lambda i: result.atPose2(X(i)), g["truth"], g["truth_anchor"])
     ate_dr = trajectory_rmse(lambda i: g["dr"][i], g["truth"], g["truth_anchor"])
     ids = [i for i in g["landmark_ids"] if i in g["landmarks_truth"]]
-    est = np.array([result.atPoint2(gtsam.symbol("l", i)) for i in ids])
+    est = np.array([result.atPoint2(symbol("l", i)) for i in ids])
     true = np.array([g["landmarks_truth"][i] for i in ids])
     raw = float(np.sqrt(np.mean(np.sum((est - true) ** 2, axis=1))))
     return {
@@ -375,25 +376,32 @@ def evaluate(path: Path) -> dict:
     }
 
 
-def main() -> int:
-    if len(sys.argv) != 3:
-        print(__doc__)
-        return 2
-    export_dir, out = Path(sys.argv[1]), Path(sys.argv[2])
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(
+        description="GTSAM batch smoother on the five robots of MRCLAM Dataset 6 (the "
+        "yardstick of the filters): reads EXPORT_DIR/MRCLAM_Dataset6_robotN.json, writes OUT.json",
+    )
+    ap.add_argument("export_dir", type=Path, metavar="EXPORT_DIR", help="the exported logs")
+    ap.add_argument("out", type=Path, metavar="OUT.json", help="the results to write")
+    args = ap.parse_args(argv)
+    export_dir, out = args.export_dir, args.out
     results = []
     for robot in range(1, 6):
         path = export_dir / f"MRCLAM_Dataset6_robot{robot}.json"
         r = evaluate(path)
         print(
-            f"{r['dataset']} R{robot}: ATE {r['ate_rmse_m']:.3f} m (odometry {r['odometry_ate_rmse_m']:.3f},"
-            f" MTE {r['mte_ate_rmse_m']:.3f}), landmarks {r['landmark_rmse_m']:.3f} m raw /"
-            f" {r['landmark_rmse_aligned_m']:.3f} aligned ({r['n_landmarks']}), {r['iterations']} it,"
-            f" error {r['initial_error']:.3g} -> {r['final_error']:.3g}, {r['time_s']:.1f} s",
+            f"{r['dataset']} R{robot}: ATE {r['ate_rmse_m']:.3f} m "
+            f"(odometry {r['odometry_ate_rmse_m']:.3f}, MTE {r['mte_ate_rmse_m']:.3f}), "
+            f"landmarks {r['landmark_rmse_m']:.3f} m raw / "
+            f"{r['landmark_rmse_aligned_m']:.3f} aligned ({r['n_landmarks']}), "
+            f"{r['iterations']} it, error {r['initial_error']:.3g} -> {r['final_error']:.3g}, "
+            f"{r['time_s']:.1f} s",
             flush=True,
         )
         results.append(r)
     doc = {
-        "method": "GTSAM Levenberg-Marquardt, BearingFactor2D + BetweenFactorPose2 (integrated velocity odometry)",
+        "method": "GTSAM Levenberg-Marquardt, BearingFactor2D + BetweenFactorPose2 "
+        "(integrated velocity odometry)",
         "gtsam_version": getattr(gtsam, "__version__", "unknown"),
         "results": results,
     }

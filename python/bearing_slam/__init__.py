@@ -7,7 +7,11 @@ initialization of Munguía & Grau ("MTE"), in Rust, with numpy in and out.
 >>> result.summary["ate_rmse_m"]  # doctest: +SKIP
 
 Step by step: :class:`SlamFilter`; models with Jacobians: :mod:`bearing_slam.models`;
-metrics: :mod:`bearing_slam.metrics`; plots: :mod:`bearing_slam.plots`; CLI: ``bearing-slam``.
+metrics: :mod:`bearing_slam.metrics`; figures: :mod:`bearing_slam.plots`; Monte Carlo:
+:func:`montecarlo` (module :mod:`bearing_slam.monte_carlo`); the paper's experiments:
+:mod:`bearing_slam.experiments`; real robots: :mod:`bearing_slam.mrclam`; what the
+commands write: :mod:`bearing_slam.outputs`; shared names and defaults:
+:mod:`bearing_slam.vocabulary`; CLI: ``bearing-slam`` (:mod:`bearing_slam.cli`).
 """
 
 from bearing_slam import metrics, models
@@ -98,8 +102,7 @@ __all__ = [
 ]
 
 # Monte Carlo on local cores or any concurrent.futures executor (e.g. Dask):
-# the function `montecarlo` shadows its module's name as an attribute; import
-# the module's other names with `from bearing_slam.montecarlo import ...`.
-from bearing_slam.montecarlo import MonteCarloResult, montecarlo
+# the function `bs.montecarlo`; its module is `bearing_slam.monte_carlo`.
+from bearing_slam.monte_carlo import MonteCarloResult, montecarlo
 
 __all__ += ["MonteCarloResult", "montecarlo"]

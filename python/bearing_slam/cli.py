@@ -1,4 +1,5 @@
-"""The ``bearing-slam`` command line: simulate, run, demo, mrclam.
+"""The ``bearing-slam`` command line: simulate, run, demo, montecarlo,
+experiment, mrclam, mrclam-figures.
 
 Every subcommand's ``--help`` says what it does and what it writes. User
 errors (missing file, corrupt MCAP, unknown scenario, bad parameter) print one
@@ -22,7 +23,6 @@ from tqdm import tqdm
 from bearing_slam._native import (
     BearingSlamError,
     Config,
-    RunResult,
     SensorLog,
     read_mcap,
     run,
@@ -30,20 +30,39 @@ from bearing_slam._native import (
     simulate,
     write_mcap,
 )
+from bearing_slam.outputs import metrics_record, mrclam_record, write_outputs
+from bearing_slam.vocabulary import (
+    DEFAULT_PRIOR,
+    DEFAULT_THRESHOLDS,
+    EXPERIMENT_DEFAULT_RUNS,
+    EXPERIMENTS,
+    FAR_PRIOR,
+    INIT_NAMES,
+    MRCLAM_METHODS,
+    MTE_HISTORY,
+    PRIOR_INITS,
+    RUN_INITS,
+    config_init,
+)
 
-__all__ = ["DEMO_RUNS", "DEMO_SCENARIOS", "main", "metrics_record", "write_run_outputs"]
+__all__ = ["DEMO_RUNS", "DEMO_SCENARIOS", "main"]
 
 #: Scenarios of ``bearing-slam demo``: the paper's Fig. 4 straight run and a
 #: room with a slippery floor patch (physics simulation).
 DEMO_SCENARIOS = ("paper_fig4", "slip_patch")
 
-#: Runs of ``bearing-slam demo``: (folder label, init, extra Config parameters).
+#: Runs of ``bearing-slam demo``: (folder label, init of :data:`RUN_INITS`,
+#: extra Config parameters).
 DEMO_RUNS: tuple[tuple[str, str, dict[str, float]], ...] = (
     ("mte", "mte", {}),
     ("mte-clone", "mte-clone", {}),
-    ("mte-history", "mte-clone", {"history": 32}),
-    ("pi-sr_0.01_0.005", "pi-sr", {"rho_ini": 0.01, "sigma_rho": 0.005}),
+    ("mte-history", "mte-history", {}),
+    (f"pi-sr_{FAR_PRIOR['rho_ini']:g}_{FAR_PRIOR['sigma_rho']:g}", "pi-sr", dict(FAR_PRIOR)),
 )
+
+#: The initializers of ``bearing-slam mrclam --init``: the bearing-only
+#: methods of the MRCLAM evaluation (the range-bearing EKF is ``--use-range``).
+MRCLAM_INITS = tuple(m for m in MRCLAM_METHODS if m in RUN_INITS)
 
 #: Columns of the metrics table.
 _TABLE = (
@@ -59,61 +78,6 @@ _TABLE = (
 
 class UserError(Exception):
     """A mistake in the command line or its inputs: reported in one line."""
-
-
-def _finite_or_none(value: Any) -> Any:
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
-
-
-def metrics_record(result: RunResult, log: SensorLog, seconds: float) -> dict[str, Any]:
-    """The content of ``metrics.json``: the run's summary (NaN → null) plus
-    counts, the log's source and the configuration."""
-    summary = result.summary
-    record: dict[str, Any] = {}
-    if summary is None:
-        record.update(
-            {
-                k: None
-                for k in (
-                    "ate_rmse_m",
-                    "final_position_error_m",
-                    "final_heading_error_deg",
-                    "mean_nees_pose",
-                )
-            }
-        )
-        ids, _, _ = result.landmarks()
-        record["n_landmarks_initialized"] = len(ids)
-        record["landmark_rmse_m"] = None
-    else:
-        record.update({k: _finite_or_none(v) for k, v in summary.items()})
-    record["init"] = result.config.init
-    record["source"] = log.info.get("source")
-    record["seed"] = log.info.get("seed")
-    record["counts"] = result.counts
-    record["run_seconds"] = seconds
-    record["config"] = {k: _finite_or_none(v) for k, v in result.config.to_dict().items()}
-    record["config"]["per_landmark_priors"] = {
-        str(k): v for k, v in result.config.per_landmark_priors.items()
-    }
-    return record
-
-
-def write_run_outputs(
-    result: RunResult, log: SensorLog, out_dir: Path, seconds: float
-) -> dict[str, Any]:
-    """Writes ``metrics.json``, the three PNG plots and ``estimate.mcap``
-    (log + estimate) into ``out_dir``; returns the metrics record."""
-    from bearing_slam.plots import save_plots
-
-    out_dir.mkdir(parents=True, exist_ok=True)
-    record = metrics_record(result, log, seconds)
-    (out_dir / "metrics.json").write_text(json.dumps(record, indent=2) + "\n")
-    save_plots(result, log, out_dir)
-    write_mcap(out_dir / "estimate.mcap", log, result)
-    return record
 
 
 def _format_table(rows: list[tuple[str, str, dict[str, Any]]]) -> str:
@@ -150,7 +114,13 @@ def _config(log: SensorLog, args: argparse.Namespace) -> Config:
         overrides["bearing_sigma"] = math.radians(args.bearing_sigma_deg)
     if args.use_range:
         overrides["use_range"] = True
-    return Config.for_log(log, init=args.init, **overrides)
+    return _run_config(log, args.init, **overrides)
+
+
+def _run_config(log: SensorLog, init: str, **overrides: Any) -> Config:
+    """``Config.for_log`` for an initializer of :data:`RUN_INITS`."""
+    config_name, extra = config_init(init)
+    return Config.for_log(log, init=config_name, **extra, **overrides)
 
 
 def _cmd_demo(args: argparse.Namespace) -> int:
@@ -164,11 +134,12 @@ def _cmd_demo(args: argparse.Namespace) -> int:
             bar.update()
             for label, init, extra in DEMO_RUNS:
                 bar.set_postfix_str(f"{scenario} / {label}")
-                config = Config.for_log(log, init=init, **extra)
+                config = _run_config(log, init, **extra)
                 t0 = time.perf_counter()
                 result = run(log, config)
                 seconds = time.perf_counter() - t0
-                rec = write_run_outputs(result, log, out / f"{scenario}_{label}", seconds)
+                rec = metrics_record(result, log, seconds)
+                write_outputs(out / f"{scenario}_{label}", rec, result, log)
                 rows.append((scenario, label, rec))
                 bar.update()
     table = _format_table(rows)
@@ -213,14 +184,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for w in warnings:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
     config = _config(log, args)
-    with tqdm(total=1, desc=f"run {config.init}", unit="run", disable=args.quiet) as bar:
+    with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
         result = run(log, config)
         seconds = time.perf_counter() - t0
         bar.update()
     out = Path(args.out)
-    rec = write_run_outputs(result, log, out, seconds)
-    print(_format_table([(str(log.info.get("source") or path.name), config.init, rec)]))
+    rec = metrics_record(result, log, seconds)
+    write_outputs(out, rec, result, log)
+    print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     return 0
 
@@ -249,7 +221,8 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         run_ = mrclam.evaluate(dataset, args.robot, method, args.start, args.end)
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
-        rec = mrclam.write_outputs(run_, out)
+        rec = mrclam_record(run_)
+        write_outputs(out, rec, run_.result, run_.log, mrclam.plot_log(run_))
         bar.update()
 
     def f(key: str) -> str:
@@ -270,6 +243,34 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_mrclam_figures(args: argparse.Namespace) -> int:
+    from bearing_slam import mrclam
+    from bearing_slam.outputs import write_mrclam_figures
+
+    d6 = mrclam.data_dir(args.data) / "MRCLAM_Dataset6"
+    total = 5 * len(MRCLAM_METHODS)
+    with tqdm(total=total, desc="Dataset 6", disable=args.quiet) as bar:
+
+        def progress(robot: int, method: str) -> None:
+            bar.set_postfix_str(f"robot {robot} {method}")
+            bar.update()
+
+        runs = mrclam.evaluate_robots(d6, progress=progress)
+    if not args.quiet:
+        summary = {
+            f"robot{r}_{m}": {
+                "ate_rmse_m": run_.metrics["ate_rmse_m"],
+                "landmark_rmse_m": run_.metrics["landmark_rmse_m"],
+                "n_landmarks_mapped": run_.metrics["n_landmarks_mapped"],
+            }
+            for (r, m), run_ in sorted(runs.items())
+        }
+        print(json.dumps(summary, indent=1))
+    for path in write_mrclam_figures(runs, Path(args.out)):
+        print(f"wrote {path} ({path.stat().st_size // 1024} KB)")
+    return 0
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(
         prog="bearing-slam",
@@ -283,7 +284,8 @@ def _parser() -> argparse.ArgumentParser:
         help="simulate paper_fig4 and slip_patch, compare MTE, MTE-clone, MTE-history and PI-SR",
         description="Simulates the paper's Fig. 4 run and the slippery-room scenario "
         "(physics), runs MTE, MTE with pose cloning, MTE-history (cloning, with the bearings "
-        "seen while waiting kept: history=32) and PI-SR (rho_ini=0.01, sigma_rho=0.005) "
+        f"seen while waiting kept: history={MTE_HISTORY}) and PI-SR "
+        f"(rho_ini={FAR_PRIOR['rho_ini']:g}, sigma_rho={FAR_PRIOR['sigma_rho']:g}) "
         "on each, prints a table of metrics and writes one folder per run into --out with "
         "metrics.json, trajectory.png, pose_errors.png, nees.png and estimate.mcap "
         "(log + estimate, opens in Foxglove), plus metrics_table.txt.",
@@ -324,9 +326,10 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("log", metavar="LOG.mcap", help="input MCAP log")
     runp.add_argument(
         "--init",
-        choices=["mte", "mte-clone", "pi-sr"],
+        choices=RUN_INITS,
         default="mte",
-        help="landmark initializer (default: %(default)s)",
+        help="landmark initializer (default: %(default)s; mte-history: mte-clone keeping "
+        f"up to {MTE_HISTORY} bearings seen while a landmark waits)",
     )
     runp.add_argument("--rho-ini", type=float, help="PI-SR initial inverse depth, 1/m")
     runp.add_argument("--sigma-rho", type=float, help="PI-SR inverse-depth σ, 1/m")
@@ -367,9 +370,10 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--robot", type=int, required=True, help="robot number, 1 to 5")
     mr.add_argument(
         "--init",
-        choices=["mte", "mte-clone", "pi-sr"],
+        choices=MRCLAM_INITS,
         default="mte",
-        help="landmark initializer (default: %(default)s; PI-SR with the paper's prior 0.5, 0.25)",
+        help="landmark initializer (default: %(default)s; PI-SR with the prior "
+        f"{DEFAULT_PRIOR['rho_ini']:g}, {DEFAULT_PRIOR['sigma_rho']:g})",
     )
     mr.add_argument(
         "--use-range",
@@ -381,6 +385,30 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--out", required=True, help="output folder")
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     mr.set_defaults(func=_cmd_mrclam)
+
+    figs = sub.add_parser(
+        "mrclam-figures",
+        help="every method on the five robots of MRCLAM Dataset 6: the figures of the results",
+        description="Runs every method ("
+        + ", ".join(MRCLAM_METHODS)
+        + ") on the five robots of DATA_DIR/MRCLAM_Dataset6 (whole runs, the same numbers as "
+        "the Rust MRCLAM evaluation) and writes into --out: dataset6_trajectories.png "
+        "(truth, dead reckoning, MTE, PI-SR, range-bearing per robot), dataset6_ate.png (ATE "
+        "bars, with GTSAM from OUT/gtsam.json when there) and, for MTE on each robot, "
+        "dataset6_robotN_mte_trajectory.png, _pose_errors.png and _nees.png; prints the ATE "
+        "and landmark RMSE of every run as JSON.",
+    )
+    figs.add_argument(
+        "data",
+        metavar="DATA_DIR",
+        nargs="?",
+        help="the folder holding MRCLAM_Dataset6/ (default: $BEARING_SLAM_DATA)",
+    )
+    figs.add_argument(
+        "--out", default="docs/results/mrclam", help="output folder (default: %(default)s)"
+    )
+    figs.add_argument("--quiet", action="store_true", help="no progress bar and no JSON")
+    figs.set_defaults(func=_cmd_mrclam_figures)
     return p
 
 
@@ -410,14 +438,14 @@ def _positive_int(text: str) -> int:
 
 
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
-    from bearing_slam.montecarlo import make_spec, run_spec
+    from bearing_slam.monte_carlo import make_spec, run_spec
 
     if args.scenario not in scenario_names():
         raise UserError(f"unknown scenario {args.scenario!r}; known: {', '.join(scenario_names())}")
-    if args.init not in ("pi-sr", "pi-sr-mixed") and (
-        args.rho_ini is not None or args.sigma_rho is not None
-    ):
-        raise UserError("--rho-ini and --sigma-rho apply to --init pi-sr and pi-sr-mixed only")
+    if args.init not in PRIOR_INITS and (args.rho_ini is not None or args.sigma_rho is not None):
+        raise UserError(
+            f"--rho-ini and --sigma-rho apply to --init {' and '.join(PRIOR_INITS)} only"
+        )
     spec = make_spec(
         args.scenario,
         args.init,
@@ -427,8 +455,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         far_landmark=not args.no_far,
         slip=None if args.slip is None else args.slip == "on",
         landmark_scale=args.scale,
-        rho_ini=0.5 if args.rho_ini is None else args.rho_ini,
-        sigma_rho=0.25 if args.sigma_rho is None else args.sigma_rho,
+        rho_ini=DEFAULT_PRIOR["rho_ini"] if args.rho_ini is None else args.rho_ini,
+        sigma_rho=DEFAULT_PRIOR["sigma_rho"] if args.sigma_rho is None else args.sigma_rho,
     )
     result = run_spec(spec, progress=not args.quiet)
 
@@ -476,14 +504,17 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
 
 
 def _add_montecarlo_parsers(sub: Any) -> None:
+    t = DEFAULT_THRESHOLDS
     mc = sub.add_parser(
         "montecarlo",
         help="many seeded runs of a scenario with one initializer: class fractions, NEES",
         description="Runs SCENARIO --runs times (seeds --seed0, --seed0+1, ...) with one "
         "landmark initializer on all local cores, classifies every run as converged, drift "
-        "(final heading error > 5°, final position error > 0.5 m or near-landmark RMSE > "
-        "0.5 m) or diverged (failure, non-finite or non-PSD covariance, or final position "
-        "error > 5 m), prints the class fractions and writes --json: the spec, "
+        f"(final heading error > {t['drift_heading_deg']:g}°, final position error > "
+        f"{t['drift_position_m']:g} m or near-landmark RMSE > {t['drift_landmark_rmse_m']:g} m) "
+        "or diverged (failure, non-finite or non-PSD covariance, or final position "
+        f"error > {t['diverged_position_m']:g} m), prints the class fractions and writes --json: "
+        "the spec, "
         "converged_fraction, drift_fraction, diverged_fraction, per-run metrics (runs), "
         "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 %% band) "
         "and error_over_time. From Python, bearing_slam.montecarlo(...) also runs on any "
@@ -493,17 +524,22 @@ def _add_montecarlo_parsers(sub: Any) -> None:
     mc.add_argument("--runs", type=_positive_int, default=20, help="runs (default: %(default)s)")
     mc.add_argument(
         "--init",
-        choices=["mte", "mte-clone", "mte-history", "pi-sr", "pi-sr-mixed"],
+        choices=INIT_NAMES,
         default="mte",
         help="landmark initializer (default: %(default)s)",
     )
     mc.add_argument(
         "--rho-ini",
         type=float,
-        help="PI-SR initial inverse depth, 1/m (default 0.5; pi-sr-mixed: near landmarks, "
-        "the far ones get 0.01)",
+        help=f"PI-SR initial inverse depth, 1/m (default {DEFAULT_PRIOR['rho_ini']:g}; "
+        f"pi-sr-mixed: near landmarks, the far ones get {FAR_PRIOR['rho_ini']:g})",
     )
-    mc.add_argument("--sigma-rho", type=float, help="its σ, 1/m (default 0.25; far: 0.005)")
+    mc.add_argument(
+        "--sigma-rho",
+        type=float,
+        help=f"its σ, 1/m (default {DEFAULT_PRIOR['sigma_rho']:g}; "
+        f"far: {FAR_PRIOR['sigma_rho']:g})",
+    )
     mc.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
     mc.add_argument("--no-far", action="store_true", help="remove the scenario's far landmarks")
     mc.add_argument("--landmarks", type=_positive_int, help="number of random landmarks")
@@ -512,7 +548,8 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         "--scale",
         type=float,
         help="multiply the near landmarks' positions by this factor (the far ones stay; the "
-        "0.5 m near-landmark drift threshold does not scale, as it does in `experiment fig4`)",
+        f"{t['drift_landmark_rmse_m']:g} m near-landmark drift threshold does not scale, as it "
+        "does in `experiment fig4`)",
     )
     mc.add_argument("--json", required=True, metavar="OUT.json", help="report file to write")
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -524,27 +561,31 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         description="Runs one of the paper's experiments (or all) and writes into --out, for "
         "each: NAME.md (the table, as printed), NAME.json (the numbers behind it) and "
         "NAME.png. fig4: paper_fig4 with PI-SR (0.01, 0.005), PI-SR (0.5, 0.25), PI-SR mixed, "
-        "MTE, MTE-clone and MTE-history, with and without the far landmark (default 200 runs "
-        "each), then every initializer with the near landmarks scaled x0.2 to x4; fig4.png: "
+        "MTE, MTE-clone and MTE-history, with and without the far landmark (default "
+        f"{EXPERIMENT_DEFAULT_RUNS['fig4']} runs each), then every initializer with the near "
+        "landmarks scaled x0.2 to x4; fig4.png: "
         "class fractions per method and ATE against scale. consistency: the same runs' "
         "mean pose NEES over time with the 95 %% band per method (consistency.png; reuses "
         "fig4's runs under all). "
         "fig5: σ_d and σ_ρ of a triangulation against parallax, first order and sampled "
-        "(fig5.png, log y). fig8: paper_fig8 with 5, 10, 20, 40 landmarks, MTE (default 50 "
-        "runs); fig8.png: ATE of dead reckoning and SLAM against landmark count. fig10: "
-        "single-source oval and figure-eight, slip off and on, MTE (default 50 runs); "
+        "(fig5.png, log y). fig8: paper_fig8 with 5, 10, 20, 40 landmarks, MTE (default "
+        f"{EXPERIMENT_DEFAULT_RUNS['fig8']} runs); fig8.png: ATE of dead reckoning and SLAM "
+        "against landmark count. fig10: single-source oval and figure-eight, slip off and on, "
+        f"MTE (default {EXPERIMENT_DEFAULT_RUNS['fig10']} runs); "
         "fig10.png: position error over time, dead reckoning and SLAM.",
     )
     ex.add_argument(
         "name",
-        choices=["fig4", "fig5", "fig8", "fig10", "consistency", "all"],
-        metavar="fig4|fig5|fig8|fig10|consistency|all",
+        choices=[*EXPERIMENTS, "all"],
+        metavar="|".join([*EXPERIMENTS, "all"]),
         help="which experiment",
     )
     ex.add_argument(
         "--runs",
         type=_positive_int,
-        help="runs per configuration (default: 200 for fig4/consistency, 50 for fig8/fig10)",
+        help="runs per configuration (default: "
+        + ", ".join(f"{n} for {name}" for name, n in EXPERIMENT_DEFAULT_RUNS.items())
+        + ")",
     )
     ex.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
     ex.add_argument("--out", default="docs/results", help="output folder (default: %(default)s)")

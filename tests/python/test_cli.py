@@ -51,7 +51,20 @@ def check_outputs(folder: Path) -> dict[str, object]:
     return dict(metrics)
 
 
-@pytest.mark.parametrize("command", [[], ["demo"], ["simulate"], ["run"], ["scenarios"]])
+@pytest.mark.parametrize(
+    "command",
+    [
+        [],
+        ["demo"],
+        ["simulate"],
+        ["run"],
+        ["scenarios"],
+        ["montecarlo"],
+        ["experiment"],
+        ["mrclam"],
+        ["mrclam-figures"],
+    ],
+)
 def test_help(command: list[str]) -> None:
     r = cli(*command, "--help")
     assert r.returncode == 0, r.stderr
@@ -82,6 +95,21 @@ def test_simulate_then_run(tmp_path: Path) -> None:
     m = check_outputs(tmp_path / "pisr")
     assert m["config"]["rho_ini"] == 0.5  # type: ignore[index]
     assert m["init"] == "pi-sr"
+
+
+def test_run_mte_history(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    assert cli("simulate", "paper_fig4", "--seed", "3", "--out", log).returncode == 0
+    out = tmp_path / "history"
+    r = cli("run", log, "--init", "mte-history", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "mte-history" in r.stdout
+    m = check_outputs(out)
+    assert m["init"] == "mte-history"
+    assert m["config"]["init"] == "mte-clone"  # type: ignore[index]
+    assert m["config"]["history"] == 32  # type: ignore[index]
+    assert m["n_landmarks_initialized"] == 5
+    assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
 
 
 def test_simulate_scenario_file(tmp_path: Path) -> None:

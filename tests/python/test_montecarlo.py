@@ -18,7 +18,7 @@ import pytest
 
 import bearing_slam as bs
 from bearing_slam._native import montecarlo_report, montecarlo_run_one
-from bearing_slam.montecarlo import CLASSES, METRICS, MonteCarloResult, make_spec, run_spec
+from bearing_slam.monte_carlo import CLASSES, METRICS, MonteCarloResult, make_spec, run_spec
 
 FIG4_MTE = make_spec("paper_fig4", "mte", 4, seed0=10)
 

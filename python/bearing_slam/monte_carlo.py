@@ -46,6 +46,14 @@ from bearing_slam._native import (
     montecarlo_run_many,
     montecarlo_run_one,
 )
+from bearing_slam.vocabulary import (
+    CLASSES,
+    DEFAULT_PRIOR,
+    DEFAULT_THRESHOLDS,
+    FAR_PRIOR,
+    INIT_NAMES,
+    METRICS,
+)
 
 __all__ = [
     "CLASSES",
@@ -60,44 +68,15 @@ __all__ = [
     "run_spec",
 ]
 
-#: The run classes, in the order of the fractions.
-CLASSES = ("converged", "drift", "diverged")
-
-#: The classification thresholds used unless a spec gives its own.
-DEFAULT_THRESHOLDS: dict[str, float] = {
-    "diverged_position_m": 5.0,
-    "drift_position_m": 0.5,
-    "drift_heading_deg": 5.0,
-    "drift_landmark_rmse_m": 0.5,
-}
-
-#: The initializers known by name.
-INIT_NAMES = ("mte", "mte-clone", "mte-history", "pi-sr", "pi-sr-mixed")
-
-#: The per-run metrics (``MonteCarloResult.metrics`` keys; NaN where a run has none).
-METRICS = (
-    "ate_rmse_m",
-    "final_position_error_m",
-    "final_heading_error_deg",
-    "landmark_rmse_m",
-    "near_landmark_rmse_m",
-    "mean_nees",
-    "n_landmarks",
-    "dead_reckoning_ate_rmse_m",
-    "dead_reckoning_final_position_error_m",
-    "dead_reckoning_final_heading_error_deg",
-    "measurements_rejected",
-)
-
 #: Progress: ``True`` (a tqdm bar), ``False`` (none) or ``callback(done, total)``.
 Progress = bool | Callable[[int, int], object]
 
-#: The far-landmark prior of ``pi-sr-mixed`` (the paper's Fig. 4d).
-_FAR_PRIOR = {"rho_ini": 0.01, "sigma_rho": 0.005}
-
 
 def initializer_spec(
-    init: str | Mapping[str, Any], *, rho_ini: float = 0.5, sigma_rho: float = 0.25
+    init: str | Mapping[str, Any],
+    *,
+    rho_ini: float = DEFAULT_PRIOR["rho_ini"],
+    sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
 ) -> dict[str, Any]:
     """The initializer part of a spec: ``"mte"``, ``"mte-clone"``,
     ``"mte-history"`` (MTE-clone keeping the bearings seen while waiting), ``"pi-sr"``
@@ -114,7 +93,7 @@ def initializer_spec(
         return {
             "method": "pi-sr-mixed",
             "near": {"rho_ini": rho_ini, "sigma_rho": sigma_rho},
-            "far": dict(_FAR_PRIOR),
+            "far": dict(FAR_PRIOR),
         }
     raise ValueError(f"unknown initializer {init!r}; known: {', '.join(INIT_NAMES)} or a dict")
 
@@ -130,8 +109,8 @@ def make_spec(
     slip: bool | None = None,
     landmark_scale: float | None = None,
     thresholds: Mapping[str, float] | None = None,
-    rho_ini: float = 0.5,
-    sigma_rho: float = 0.25,
+    rho_ini: float = DEFAULT_PRIOR["rho_ini"],
+    sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
 ) -> dict[str, Any]:
     """A Monte Carlo spec (the JSON of the Rust ``MonteCarloSpec``) as a dict.
     ``landmark_scale`` multiplies the positions of the scenario's near
@@ -156,7 +135,7 @@ def make_spec(
 def run_one(spec_json: str, index: int) -> dict[str, Any]:
     """Run ``index`` of a spec (JSON): the task an executor runs. Returns
     ``{"metrics": {...}, "series": {...}, "init_events": [...]}``, plain
-    Python objects. Importable on a worker as ``bearing_slam.montecarlo.run_one``."""
+    Python objects. Importable on a worker as ``bearing_slam.monte_carlo.run_one``."""
     return montecarlo_run_one(spec_json, index)
 
 
@@ -328,8 +307,8 @@ def montecarlo(
     landmark_scale: float | None = None,
     thresholds: Mapping[str, float] | None = None,
     progress: Progress = True,
-    rho_ini: float = 0.5,
-    sigma_rho: float = 0.25,
+    rho_ini: float = DEFAULT_PRIOR["rho_ini"],
+    sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
 ) -> dict[str, MonteCarloResult]:
     """``runs`` runs of ``scenario`` (seeds ``seed0 …``) for each initializer.
 

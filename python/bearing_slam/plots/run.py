@@ -1,10 +1,10 @@
-"""Plots of a run (matplotlib, Agg backend: files only, no window).
+"""Plots of one run (matplotlib, Agg backend: files only, no window).
 
 * :func:`plot_trajectory`: truth, estimate, dead reckoning, true landmarks and
   estimated landmarks with their 2σ ellipses, axes equal.
 * :func:`plot_pose_errors`: x, y and θ errors over time with ±3σ bounds.
 * :func:`plot_nees`: pose NEES over time with the 95 % χ² band (3 dof).
-* :func:`save_plots`: all three as PNG files.
+* :func:`save_plots`: all three as PNG files; :func:`save_figure`: one figure.
 """
 
 from __future__ import annotations
@@ -25,7 +25,14 @@ from numpy.typing import NDArray
 
 from bearing_slam._native import RunResult, SensorLog, chi2_interval
 
-__all__ = ["covariance_ellipse", "plot_nees", "plot_pose_errors", "plot_trajectory", "save_plots"]
+__all__ = [
+    "covariance_ellipse",
+    "plot_nees",
+    "plot_pose_errors",
+    "plot_trajectory",
+    "save_figure",
+    "save_plots",
+]
 
 _TRUTH = "#2ca02c"
 _ESTIMATE = "#1f77b4"
@@ -255,15 +262,18 @@ def save_plots(result: RunResult, log: SensorLog | None, out_dir: str | Path) ->
     ``out_dir`` and returns their paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = []
-    for name, make in (
-        ("trajectory.png", plot_trajectory),
-        ("pose_errors.png", plot_pose_errors),
-        ("nees.png", plot_nees),
-    ):
-        fig = make(result, log)
-        path = out / name
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
-        paths.append(path)
-    return paths
+    return [
+        save_figure(make(result, log), out / name, dpi=110)
+        for name, make in (
+            ("trajectory.png", plot_trajectory),
+            ("pose_errors.png", plot_pose_errors),
+            ("nees.png", plot_nees),
+        )
+    ]
+
+
+def save_figure(fig: Figure, path: str | Path, dpi: int) -> Path:
+    """Writes ``fig`` to ``path`` (PNG) at ``dpi`` and closes it; returns the path."""
+    fig.savefig(path, dpi=dpi)
+    plt.close(fig)
+    return Path(path)

@@ -1,0 +1,212 @@
+"""What the commands write: the ``metrics.json`` records and the files of a run.
+
+* :func:`metrics_record`: the record of a run on a log (``bearing-slam run``,
+  ``demo``); :func:`mrclam_record`: the record of a run on a real MRCLAM
+  robot (``bearing-slam mrclam``), the run's record plus the real-data scores.
+* :func:`write_outputs`: ``metrics.json``, the three PNG plots and
+  ``estimate.mcap`` (log + estimate) of one run into a folder.
+* :func:`write_mrclam_figures`: the MRCLAM figures of ``docs/results/mrclam``.
+
+Numbers that are not finite are written as ``null`` (:func:`finite_or_none`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from bearing_slam._native import RunResult, SensorLog, write_mcap
+from bearing_slam.mrclam import MrclamRun, plot_log
+from bearing_slam.plots.mrclam import ate_figure, comparison_figure
+from bearing_slam.plots.run import (
+    plot_nees,
+    plot_pose_errors,
+    plot_trajectory,
+    save_figure,
+    save_plots,
+)
+from bearing_slam.vocabulary import MRCLAM_METHODS, init_name
+
+__all__ = [
+    "LANDMARK_FRAME_ALIGNED",
+    "LANDMARK_FRAME_VICON",
+    "finite_or_none",
+    "metrics_record",
+    "mrclam_record",
+    "write_mrclam_figures",
+    "write_outputs",
+]
+
+#: ``landmark_frame`` with robot ground truth (Dataset 6).
+LANDMARK_FRAME_VICON = (
+    "vicon: the filter starts at the Vicon pose, landmark_rmse_m is raw "
+    "(no alignment); landmark_rmse_aligned_m after the best SE(2) alignment"
+)
+#: ``landmark_frame`` without robot ground truth (Dataset 1).
+LANDMARK_FRAME_ALIGNED = (
+    "se2-aligned: no robot ground truth, the filter starts at the origin; "
+    "landmark_rmse_m is after the best SE(2) alignment of the map onto "
+    "Landmark_Groundtruth.dat"
+)
+
+
+def finite_or_none(value: Any) -> Any:
+    """``value``, or ``None`` when it is a float that is not finite (JSON has no NaN)."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    return value
+
+
+def metrics_record(result: RunResult, log: SensorLog, seconds: float) -> dict[str, Any]:
+    """The content of ``metrics.json``: the run's summary (NaN → null) plus
+    counts, the log's source and the configuration."""
+    summary = result.summary
+    record: dict[str, Any] = {}
+    if summary is None:
+        record.update(
+            {
+                k: None
+                for k in (
+                    "ate_rmse_m",
+                    "final_position_error_m",
+                    "final_heading_error_deg",
+                    "mean_nees_pose",
+                )
+            }
+        )
+        ids, _, _ = result.landmarks()
+        record["n_landmarks_initialized"] = len(ids)
+        record["landmark_rmse_m"] = None
+    else:
+        record.update({k: finite_or_none(v) for k, v in summary.items()})
+    record["init"] = init_name(result.config.init, result.config.history)
+    record["source"] = log.info.get("source")
+    record["seed"] = log.info.get("seed")
+    record["counts"] = result.counts
+    record["run_seconds"] = seconds
+    record["config"] = {k: finite_or_none(v) for k, v in result.config.to_dict().items()}
+    record["config"]["per_landmark_priors"] = {
+        str(k): v for k, v in result.config.per_landmark_priors.items()
+    }
+    return record
+
+
+def mrclam_record(run: MrclamRun) -> dict[str, Any]:
+    """The content of ``metrics.json`` of ``bearing-slam mrclam``: the
+    :func:`metrics_record` of the run plus the real-data scores (frames: see
+    :mod:`bearing_slam.mrclam`)."""
+    m = run.metrics
+    record = metrics_record(run.result, run.log, run.seconds)
+    truth = bool(m["has_ground_truth"])
+    report = m["report"]
+    record.update(
+        {
+            "dataset": str(m["source"]).rsplit(" robot ", 1)[0],
+            "robot": m["robot"],
+            "method": m["method"],
+            "window_s": [m["start"], m["end"]],
+            "has_ground_truth": truth,
+            "ate_rmse_m": finite_or_none(m["ate_rmse_m"]),
+            "odometry_ate_rmse_m": finite_or_none(m["odometry_ate_rmse_m"]),
+            "ate_aligned_rmse_m": finite_or_none(m["ate_aligned_rmse_m"]),
+            "mean_nees_pose": finite_or_none(m["mean_nees_pose"]),
+            "nees_within_95": finite_or_none(m["nees_within_95"]),
+            "landmark_rmse_m": finite_or_none(
+                m["landmark_rmse_m"] if truth else m["landmark_rmse_aligned_m"]
+            ),
+            "landmark_rmse_raw_m": finite_or_none(m["landmark_rmse_m"]),
+            "landmark_rmse_aligned_m": finite_or_none(m["landmark_rmse_aligned_m"]),
+            "landmark_frame": LANDMARK_FRAME_VICON if truth else LANDMARK_FRAME_ALIGNED,
+            "n_landmarks_mapped": m["n_landmarks_mapped"],
+            "n_landmarks_truth": m["n_landmarks_truth"],
+            "n_init_by_method": dict(
+                zip(
+                    ("triangulated", "far", "pi_sr", "range_bearing"),
+                    m["n_init_by_method"],
+                    strict=True,
+                )
+            ),
+            "n_measurements": m["n_measurements"],
+            "n_measurements_used": m["n_measurements_used"],
+            "n_gated": m["n_gated"],
+            "n_not_used_for_update": m["n_not_used_for_update"],
+            "n_dropped": m["n_dropped_loader"],
+            "n_dropped_by_reason": {
+                "other_robot": report["n_dropped_robot"],
+                "unknown_barcode": report["n_dropped_unknown_barcode"],
+                "outside_log": report["n_dropped_outside"],
+                "duplicate": report["n_dropped_duplicate"],
+            },
+            "filter_seconds": m["run_time_s"],
+            "parameters": m["parameters"],
+            "loader_report": report,
+        }
+    )
+    if not truth:
+        for key in ("final_position_error_m", "final_heading_error_deg"):
+            record[key] = None
+    return record
+
+
+def write_outputs(
+    out_dir: str | os.PathLike[str],
+    record: Mapping[str, Any],
+    result: RunResult,
+    log: SensorLog,
+    plot_log: SensorLog | None = None,
+) -> Path:
+    """Writes into ``out_dir``: ``metrics.json`` (``record``), ``trajectory.png``,
+    ``pose_errors.png``, ``nees.png`` (drawn with ``plot_log``, by default
+    ``log``) and ``estimate.mcap`` (``log`` + the estimate). Returns the folder."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "metrics.json").write_text(json.dumps(record, indent=2) + "\n")
+    save_plots(result, log if plot_log is None else plot_log, out)
+    write_mcap(out / "estimate.mcap", log, result)
+    return out
+
+
+def _gtsam_rows(path: Path, key: str) -> dict[tuple[int, str], float | None]:
+    if not path.is_file():
+        return {}
+    data = json.loads(path.read_text())
+    return {
+        (int(r["robot"]), "gtsam"): r.get(key)
+        for r in data.get("results", [])
+        if r.get("dataset") == "MRCLAM_Dataset6"
+    }
+
+
+def write_mrclam_figures(
+    runs: Mapping[tuple[int, str], MrclamRun], out_dir: str | os.PathLike[str]
+) -> list[Path]:
+    """The figures of Dataset 6's evaluation (``runs``: every method of
+    :data:`~bearing_slam.vocabulary.MRCLAM_METHODS` on each robot, from
+    :func:`bearing_slam.mrclam.evaluate_robots`). Writes into ``out_dir`` the MTE
+    plots of each robot (``dataset6_robotN_mte_{trajectory,pose_errors,nees}.png``),
+    ``dataset6_trajectories.png`` and ``dataset6_ate.png`` (with GTSAM from
+    ``out_dir/gtsam.json`` when there); returns the paths."""
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    written: list[Path] = []
+    for robot in sorted({r for r, _ in runs}):
+        mte = runs[(robot, "mte")]
+        for name, make in (
+            ("trajectory", plot_trajectory),
+            ("pose_errors", plot_pose_errors),
+            ("nees", plot_nees),
+        ):
+            fig = make(mte.result, plot_log(mte))
+            written.append(save_figure(fig, out / f"dataset6_robot{robot}_mte_{name}.png", 80))
+    written.append(save_figure(comparison_figure(runs), out / "dataset6_trajectories.png", 90))
+    ate: dict[tuple[int, str], float | None] = {
+        key: run.metrics["ate_rmse_m"] for key, run in runs.items()
+    }
+    ate.update(_gtsam_rows(out / "gtsam.json", "ate_rmse_m"))
+    methods = [*MRCLAM_METHODS, "gtsam"] if any(m == "gtsam" for _, m in ate) else MRCLAM_METHODS
+    written.append(save_figure(ate_figure(ate, methods), out / "dataset6_ate.png", 90))
+    return written
