@@ -1,10 +1,6 @@
 //! MRCLAM noise calibration and the tuning rule on the real files (moved
 //! from the io crate's loader tests with the calibration itself).
-//!
-//! The data live outside the repository, in `shared/datasets/mrclam/` beside
-//! the clone, or wherever `BEARING_SLAM_DATA` points (the directory holding
-//! `MRCLAM_Dataset1/` and `MRCLAM_Dataset6/`). These tests never skip: without
-//! the data they fail and say where they looked.
+//! Without the data they fail (see `common`).
 
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{Event, EventKind, LogInfo, SensorLog, VelocityOdometry};
@@ -13,40 +9,11 @@ use bearing_slam_eval::calibration::{
     motion_residuals,
 };
 use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, RealDataError};
-use bearing_slam_io::mrclam::{BarcodeTable, LoadReport, MrclamRun, load_mrclam};
-use std::path::PathBuf;
+use bearing_slam_io::mrclam::{BarcodeTable, LoadReport, MrclamRun};
 
-fn data_root() -> PathBuf {
-    std::env::var_os("BEARING_SLAM_DATA").map_or_else(
-        || {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/datasets/mrclam"
-            ))
-        },
-        PathBuf::from,
-    )
-}
+mod common;
 
-fn dataset(n: u8) -> PathBuf {
-    let dir = data_root().join(format!("MRCLAM_Dataset{n}"));
-    assert!(
-        dir.is_dir(),
-        "MRCLAM data not found: {} is not a directory. Clone the repository beside \
-         shared/ (data in shared/datasets/mrclam/) or set BEARING_SLAM_DATA to the \
-         directory holding MRCLAM_Dataset1/ and MRCLAM_Dataset6/.",
-        dir.display()
-    );
-    dir
-}
-
-fn load(n: u8, robot: u8) -> MrclamRun {
-    let dir = dataset(n);
-    match load_mrclam(&dir, robot) {
-        Ok(run) => run,
-        Err(e) => panic!("loading Dataset {n} robot {robot} failed: {e}"),
-    }
-}
+use common::{dataset, load};
 
 #[test]
 fn calibration_without_ground_truth_fails() {

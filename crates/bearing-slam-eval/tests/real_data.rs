@@ -14,24 +14,10 @@ use bearing_slam_eval::real_data::{
 use bearing_slam_io::mrclam::load_mrclam_with;
 use std::path::PathBuf;
 
+mod common;
+
 fn dataset6() -> PathBuf {
-    let root = std::env::var_os("BEARING_SLAM_DATA").map_or_else(
-        || {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/datasets/mrclam"
-            ))
-        },
-        PathBuf::from,
-    );
-    let dir = root.join("MRCLAM_Dataset6");
-    assert!(
-        dir.is_dir(),
-        "MRCLAM Dataset 6 is required at {} (see shared/datasets/mrclam/SOURCE.md; \
-         BEARING_SLAM_DATA names another directory holding MRCLAM_Dataset6/)",
-        dir.display()
-    );
-    dir
+    common::dataset(6)
 }
 
 /// Five minutes of robot 2, from its first command.
