@@ -1,18 +1,24 @@
 """The names and defaults the Python package shares with the Rust crates.
 
-Every method name, initializer name, classification threshold and default
-prior that Python needs is written here once; the CLI's ``choices=``, the
-Monte Carlo specs, the MRCLAM tables and the plots take them from this
-module. Each constant says which Rust item it mirrors, so that replacing
-them with values exported by the extension module is one edit here.
+Every initializer, method, run class, experiment and metric name, the
+classification thresholds and the paper's priors are defined once, in Rust
+(``InitializerKind``, ``CovarianceUpdate``, ``OdometryKind``,
+``real_data::Method``, ``RunClass``, ``Experiment``, ``RunMetrics``,
+``Thresholds``, ``InverseDepthPrior::PAPER_NEAR``/``PAPER_FAR``,
+``MTE_HISTORY``), and read here from the extension module's
+``vocabulary()``. The CLI's ``choices=``, the Monte Carlo specs, the MRCLAM
+tables and the plots take them from this module.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from bearing_slam import _native
+
 __all__ = [
     "CLASSES",
+    "COVARIANCE_UPDATES",
     "CONFIG_INITS",
     "DEFAULT_PRIOR",
     "DEFAULT_THRESHOLDS",
@@ -24,82 +30,65 @@ __all__ = [
     "MRCLAM_METHODS",
     "MRCLAM_METHOD_LABELS",
     "MTE_HISTORY",
+    "ODOMETRIES",
     "PRIOR_INITS",
     "RUN_INITS",
     "config_init",
     "init_name",
 ]
 
-#: The initializers ``Config(init=...)`` accepts (Rust: ``bearing-slam-py``
-#: ``config::INITS``, ``InitializerConfig``).
-CONFIG_INITS = ("mte", "mte-clone", "pi-sr")
+_RUST = _native.vocabulary()
 
-#: The initializers of a Monte Carlo spec, by name (Rust:
-#: ``montecarlo::InitializerSpec``).
-INIT_NAMES = ("mte", "mte-clone", "mte-history", "pi-sr", "pi-sr-mixed")
+#: Every initializer by name (Rust: ``InitializerKind::ALL``).
+INIT_NAMES: tuple[str, ...] = tuple(_RUST["initializers"])
 
-#: The initializers of one run on one log (``bearing-slam run --init``):
-#: :data:`CONFIG_INITS` plus ``mte-history`` (see :func:`config_init`).
-#: ``pi-sr-mixed`` needs to know which landmarks are far, which a log does not say.
-RUN_INITS = ("mte", "mte-clone", "mte-history", "pi-sr")
+#: The initializers of one run on one log (``Config(init=...)``,
+#: ``bearing-slam run --init``): all but ``pi-sr-mixed``, which needs to know
+#: which landmarks are far, which a log does not say.
+RUN_INITS: tuple[str, ...] = tuple(n for n in INIT_NAMES if n != "pi-sr-mixed")
+
+#: The initializers ``Config(init=...)`` accepts without per-landmark priors.
+CONFIG_INITS: tuple[str, ...] = RUN_INITS
 
 #: The initializers that take an inverse-depth prior (``rho_ini``, ``sigma_rho``).
-PRIOR_INITS = ("pi-sr", "pi-sr-mixed")
+PRIOR_INITS: tuple[str, ...] = tuple(_RUST["prior_initializers"])
 
-#: Waiting bearings kept per candidate by ``mte-history`` (Rust:
-#: ``montecarlo::MTE_HISTORY``).
-MTE_HISTORY = 32
+#: The covariance-update forms (Rust: ``CovarianceUpdate::ALL``).
+COVARIANCE_UPDATES: tuple[str, ...] = tuple(_RUST["covariance_updates"])
+
+#: The odometry models (Rust: ``OdometryKind::ALL``).
+ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])
+
+#: Waiting bearings kept per candidate by ``mte-history`` (Rust: ``init::MTE_HISTORY``).
+MTE_HISTORY: int = int(_RUST["mte_history"])
 
 #: The PI-SR inverse-depth prior of the Monte Carlo runs and the MRCLAM
-#: evaluation, 1/m (Rust: ``InitializerSpec`` defaults, ``real_data::Method::PiSr``).
-DEFAULT_PRIOR: dict[str, float] = {"rho_ini": 0.5, "sigma_rho": 0.25}
+#: evaluation, 1/m (Rust: ``InverseDepthPrior::PAPER_NEAR``).
+DEFAULT_PRIOR: dict[str, float] = dict(_RUST["paper_near_prior"])
 
 #: The far-landmark prior of ``pi-sr-mixed`` (the paper's Fig. 4d), 1/m
-#: (Rust: ``montecarlo::InitializerSpec::PiSrMixed``).
-FAR_PRIOR: dict[str, float] = {"rho_ini": 0.01, "sigma_rho": 0.005}
+#: (Rust: ``InverseDepthPrior::PAPER_FAR``).
+FAR_PRIOR: dict[str, float] = dict(_RUST["paper_far_prior"])
 
 #: The classification thresholds used unless a spec gives its own (Rust:
 #: ``montecarlo::Thresholds::default``).
-DEFAULT_THRESHOLDS: dict[str, float] = {
-    "diverged_position_m": 5.0,
-    "drift_position_m": 0.5,
-    "drift_heading_deg": 5.0,
-    "drift_landmark_rmse_m": 0.5,
-}
+DEFAULT_THRESHOLDS: dict[str, float] = dict(_RUST["thresholds"])
 
 #: The run classes, in the order of the fractions (Rust: ``montecarlo::RunClass``).
-CLASSES = ("converged", "drift", "diverged")
+CLASSES: tuple[str, ...] = tuple(_RUST["run_classes"])
 
-#: The per-run metrics of a Monte Carlo report (Rust: ``montecarlo::RunMetrics``).
-METRICS = (
-    "ate_rmse_m",
-    "final_position_error_m",
-    "final_heading_error_deg",
-    "landmark_rmse_m",
-    "near_landmark_rmse_m",
-    "mean_nees",
-    "n_landmarks",
-    "dead_reckoning_ate_rmse_m",
-    "dead_reckoning_final_position_error_m",
-    "dead_reckoning_final_heading_error_deg",
-    "measurements_rejected",
-)
+#: The per-run metrics of a Monte Carlo report (Rust: ``RunMetrics::metric_names``).
+METRICS: tuple[str, ...] = tuple(_RUST["run_metrics"])
 
 #: The methods of the MRCLAM evaluation, in table order (Rust: ``real_data::Method::ALL``).
-MRCLAM_METHODS = ("dead-reckoning", "mte", "mte-clone", "pi-sr", "range-bearing")
+MRCLAM_METHODS: tuple[str, ...] = tuple(_RUST["mrclam_methods"])
 
-#: Labels of the MRCLAM methods (and of the GTSAM yardstick) in tables and figures.
-MRCLAM_METHOD_LABELS = {
-    "dead-reckoning": "dead reckoning",
-    "mte": "MTE",
-    "mte-clone": "MTE-clone",
-    "pi-sr": "PI-SR (0.5, 0.25)",
-    "range-bearing": "range-bearing EKF",
-    "gtsam": "GTSAM batch",
-}
+#: Labels of the MRCLAM methods (Rust: ``Method::label``) and of the GTSAM
+#: yardstick (a Python script's) in tables and figures.
+MRCLAM_METHOD_LABELS: dict[str, str] = {**_RUST["mrclam_method_labels"], "gtsam": "GTSAM batch"}
 
-#: The paper's experiments, in the order ``all`` runs them (Rust: ``experiments``).
-EXPERIMENTS = ("fig4", "consistency", "fig5", "fig8", "fig10")
+#: The paper's experiments, in the order ``all`` runs them (Rust: ``Experiment::ALL``).
+EXPERIMENTS: tuple[str, ...] = tuple(_RUST["experiments"])
 
 #: Runs per configuration of each experiment unless given (Fig. 5 samples instead).
 EXPERIMENT_DEFAULT_RUNS = {"fig4": 200, "consistency": 200, "fig8": 50, "fig10": 50}

@@ -25,7 +25,7 @@ from typing import Any
 import pytest
 
 import bearing_slam as bs
-from bearing_slam import mrclam
+from bearing_slam import mrclam, vocabulary
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(os.environ.get("BEARING_SLAM_DATA") or ROOT.parent / "shared" / "datasets" / "mrclam")
@@ -201,12 +201,12 @@ def test_python_api() -> None:
 def test_results_page_tables_match_results_json() -> None:
     """The Dataset 6 ATE and Dataset 1 tables of ``docs/results/mrclam.md`` are
     the numbers of ``docs/results/mrclam/results.json`` (written by the
-    ``mrclam_eval`` example)."""
+    ``bearing-slam-eval tables``)."""
     results = json.loads((ROOT / "docs/results/mrclam/results.json").read_text())
     text = (ROOT / "docs/results/mrclam.md").read_text().split("# Results: real data", 1)[1]
     ate_table, rest = text.split("**Dataset 6, landmark RMSE", 1)
     d1_table = rest.split("**Dataset 1, landmark RMSE", 1)[1]
-    order = ["dead_reckoning", "mte", "mte_clone", "pi_sr", "range_bearing"]
+    order = list(vocabulary.MRCLAM_METHODS)
 
     def row(table: str, robot: int) -> list[str]:
         line = next(ln for ln in table.splitlines() if ln.startswith(f"| R{robot} |"))
@@ -216,7 +216,7 @@ def test_results_page_tables_match_results_json() -> None:
         cells = row(ate_table, r["robot"])
         assert cells[order.index(r["method"])] == f"{r['ate_rmse_m']:.2f}", r["source"]
     for r in results["dataset1"]:
-        if r["method"] == "dead_reckoning":
+        if r["method"] == "dead-reckoning":
             continue
         cell = row(d1_table, r["robot"])[order.index(r["method"]) - 1]
         assert cell == f"{r['landmark_rmse_aligned_m']:.2f} ({r['n_landmarks_mapped']})"

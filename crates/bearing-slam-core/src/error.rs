@@ -88,6 +88,9 @@ pub enum SlamError {
     /// Two estimates or sequences that must align but do not.
     #[error("cannot compare: {0}")]
     Mismatch(&'static str),
+    /// A name that is not one of its enum's (an initializer, an update form).
+    #[error(transparent)]
+    UnknownName(#[from] crate::names::UnknownName),
 }
 
 /// The core's result type.

@@ -22,6 +22,20 @@ pub struct InverseDepthPrior {
 }
 
 impl InverseDepthPrior {
+    /// The paper's prior for near landmarks, `(0.5, 0.25)` 1/m (Fig. 4c and
+    /// the near part of the mixed setting of Fig. 4d).
+    pub const PAPER_NEAR: Self = Self {
+        rho_ini: 0.5,
+        sigma_rho: 0.25,
+    };
+
+    /// The paper's prior for far landmarks, `(0.01, 0.005)` 1/m (Fig. 4b and
+    /// the far part of the mixed setting of Fig. 4d).
+    pub const PAPER_FAR: Self = Self {
+        rho_ini: 0.01,
+        sigma_rho: 0.005,
+    };
+
     /// A validated prior.
     pub fn new(rho_ini: f64, sigma_rho: f64) -> Result<Self> {
         if !(rho_ini.is_finite() && rho_ini > 0.0) {
@@ -221,6 +235,11 @@ pub fn triangulate_candidate(
         parallax: parallax(&candidate.pose, candidate.bearing, pose, bearing),
     })
 }
+
+/// Waiting bearings kept per candidate by the `mte-history` initializer
+/// ([`InitializerKind::MteHistory`](crate::slam::InitializerKind)): every
+/// scan of a 3 s wait at 10 Hz, longer waits thinned evenly.
+pub const MTE_HISTORY: usize = 32;
 
 /// Parameters of the delayed initializer.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

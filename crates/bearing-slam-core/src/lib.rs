@@ -20,6 +20,7 @@ pub mod measurement;
 pub mod metrics;
 pub mod model;
 pub mod motion;
+pub mod names;
 pub mod runner;
 pub mod score;
 pub mod slam;

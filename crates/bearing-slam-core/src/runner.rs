@@ -29,6 +29,31 @@ pub enum OdometryConfig {
     Velocity(VelocityModel),
 }
 
+impl OdometryConfig {
+    /// Which odometry this is, by name.
+    #[must_use]
+    pub fn kind(&self) -> OdometryKind {
+        match self {
+            Self::Wheels(_) => OdometryKind::Wheels,
+            Self::Velocity(_) => OdometryKind::Velocity,
+        }
+    }
+}
+
+/// The odometry models by name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum OdometryKind {
+    /// Wheel encoders: [`OdometryConfig::Wheels`].
+    Wheels,
+    /// Velocity commands: [`OdometryConfig::Velocity`].
+    Velocity,
+}
+
+crate::named_enum!(OdometryKind, "odometry model", [
+    Wheels => "wheels",
+    Velocity => "velocity",
+]);
+
 /// How a log is run.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunConfig {

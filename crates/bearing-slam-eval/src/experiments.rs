@@ -46,6 +46,29 @@ fn fmt(v: Option<f64>, digits: usize) -> String {
 
 // ------------------------------------------------------------------ Fig. 4
 
+/// The paper's experiments, in the order `all` runs them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Experiment {
+    /// Fig. 4: convergence of every initializer ([`fig4`]).
+    Fig4,
+    /// NEES over time of Fig. 4's runs ([`consistency_curves`]).
+    Consistency,
+    /// Fig. 5: the triangulation's depth distribution ([`fig5`]).
+    Fig5,
+    /// Fig. 8: error against the number of landmarks ([`fig8`]).
+    Fig8,
+    /// Fig. 10: one sound source, laps of an oval and a figure-eight ([`fig10`]).
+    Fig10,
+}
+
+bearing_slam_core::named_enum!(Experiment, "experiment", [
+    Fig4 => "fig4",
+    Consistency => "consistency",
+    Fig5 => "fig5",
+    Fig8 => "fig8",
+    Fig10 => "fig10",
+]);
+
 /// The six initializers of Fig. 4, in table order.
 #[must_use]
 pub fn fig4_initializers() -> Vec<InitializerSpec> {

@@ -6,37 +6,29 @@ use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::ekf::CovarianceUpdate;
-use bearing_slam::core::init::{InverseDepthPrior, TriangulationConfig};
+use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
+use bearing_slam::core::names::Named;
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
-use bearing_slam::core::runner::{OdometryConfig, RunConfig};
-use bearing_slam::core::slam::{InitializerConfig, SlamConfig};
+use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
+use bearing_slam::core::slam::{InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::collections::BTreeMap;
 
-/// The initializer names accepted by `Config.init`.
-pub(crate) const INITS: [&str; 3] = ["mte", "mte-clone", "pi-sr"];
-/// The covariance-update names accepted by `Config.covariance_update`.
-pub(crate) const COVARIANCE_UPDATES: [&str; 2] = ["joseph", "symmetric"];
-
-/// The Python name of a covariance-update form.
-fn covariance_update_name(form: CovarianceUpdate) -> &'static str {
-    match form {
-        CovarianceUpdate::Joseph => COVARIANCE_UPDATES[0],
-        CovarianceUpdate::Symmetric => COVARIANCE_UPDATES[1],
-    }
+/// A name parsed into its enum, or Python's `ValueError` listing the known names.
+pub(crate) fn parse_name<T: Named>(name: &str) -> PyResult<T> {
+    T::from_name(name).map_err(|e| PyValueError::new_err(e.to_string()))
 }
-
-/// The odometry names accepted by `Config.odometry`.
-pub(crate) const ODOMETRIES: [&str; 2] = ["wheels", "velocity"];
 
 /// Configuration of a bearing-only SLAM run.
 #[pyclass(module = "bearing_slam", name = "Config", from_py_object)]
 #[derive(Clone, Debug, PartialEq)]
 pub(crate) struct PyConfig {
-    /// `"mte"`, `"mte-clone"` or `"pi-sr"`.
+    /// The initializer's name (`InitializerKind`: `"mte"`, `"mte-clone"`,
+    /// `"mte-history"`, `"pi-sr"`; `"pi-sr-mixed"` needs the far landmarks'
+    /// ids, given as `per_landmark_priors`).
     #[pyo3(get, set)]
     pub init: String,
     /// Bearing noise σ, rad.
@@ -149,24 +141,24 @@ impl Default for PyConfig {
         let tri = TriangulationConfig::default();
         let a = DEFAULT_VELOCITY_NOISE.alpha;
         Self {
-            init: "mte".into(),
+            init: InitializerKind::Mte.to_string(),
             bearing_sigma: slam.bearing_sigma,
             range_sigma: slam.range_sigma,
             initial_pose: (0.0, 0.0, 0.0),
             initial_pose_sigma: (0.0, 0.0, 0.0),
             gate_probability: slam.gate_probability,
             conversion_threshold: slam.conversion_threshold,
-            covariance_update: covariance_update_name(slam.covariance_update).into(),
+            covariance_update: slam.covariance_update.to_string(),
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
             candidate_timeout: tri.candidate_timeout,
             min_depth: tri.min_depth,
             history: tri.history,
-            rho_ini: 0.5,
-            sigma_rho: 0.25,
+            rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
+            sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
-            odometry: "wheels".into(),
+            odometry: OdometryKind::Wheels.to_string(),
             wheel_base: 0.2,
             wheel_floor_sigma: DEFAULT_WHEEL_NOISE.floor_sigma_m,
             wheel_scale_sqrt: DEFAULT_WHEEL_NOISE.scale_sqrt_m,
@@ -190,13 +182,13 @@ impl PyConfig {
         c.initial_pose_sigma = (sg[0], sg[1], sg[2]);
         c.gate_probability = s.gate_probability;
         c.conversion_threshold = s.conversion_threshold;
-        c.covariance_update = covariance_update_name(s.covariance_update).into();
+        c.covariance_update = s.covariance_update.to_string();
+        c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
                 prior,
                 per_landmark,
             } => {
-                c.init = "pi-sr".into();
                 c.rho_ini = prior.rho_ini;
                 c.sigma_rho = prior.sigma_rho;
                 c.per_landmark_priors = per_landmark
@@ -205,12 +197,7 @@ impl PyConfig {
                     .collect();
                 None
             }
-            InitializerConfig::Triangulation(t) => {
-                c.init = "mte".into();
-                Some(*t)
-            }
-            InitializerConfig::TriangulationWithClone(t) => {
-                c.init = "mte-clone".into();
+            InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) => {
                 Some(*t)
             }
         };
@@ -224,13 +211,11 @@ impl PyConfig {
         }
         match &rc.odometry {
             OdometryConfig::Wheels(m) => {
-                c.odometry = "wheels".into();
                 c.wheel_base = m.wheel_base_m();
                 c.wheel_floor_sigma = m.noise().floor_sigma_m;
                 c.wheel_scale_sqrt = m.noise().scale_sqrt_m;
             }
             OdometryConfig::Velocity(m) => {
-                c.odometry = "velocity".into();
                 let n = m.noise();
                 let a = n.alpha;
                 c.velocity_alpha = (a[0], a[1], a[2], a[3], a[4], a[5]);
@@ -238,6 +223,7 @@ impl PyConfig {
                 c.velocity_sigma_omega_min = n.sigma_omega_min;
             }
         }
+        c.odometry = rc.odometry.kind().to_string();
         c.use_range = rc.use_range;
         c
     }
@@ -256,35 +242,42 @@ impl PyConfig {
 
     /// The filter's configuration, validated.
     pub(crate) fn slam_config(&self) -> PyResult<SlamConfig> {
-        let initializer = match self.init.as_str() {
-            "mte" => InitializerConfig::Triangulation(self.triangulation()),
-            "mte-clone" => InitializerConfig::TriangulationWithClone(self.triangulation()),
-            "pi-sr" => InitializerConfig::PiSr {
-                prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
-                per_landmark: self
-                    .per_landmark_priors
-                    .iter()
-                    .map(|(&id, &(r, s))| Ok((id, InverseDepthPrior::new(r, s)?)))
-                    .collect::<Result<_, SlamError>>()
-                    .py()?,
-            },
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown initializer {other:?}: expected one of {INITS:?}"
-                )));
+        let initializer = match parse_name::<InitializerKind>(&self.init)? {
+            InitializerKind::Mte => InitializerConfig::Triangulation(self.triangulation()),
+            InitializerKind::MteClone => {
+                InitializerConfig::TriangulationWithClone(self.triangulation())
+            }
+            InitializerKind::MteHistory => InitializerConfig::TriangulationWithClone(
+                TriangulationConfig {
+                    history: if self.history == 0 {
+                        MTE_HISTORY
+                    } else {
+                        self.history
+                    },
+                    ..self.triangulation()
+                },
+            ),
+            kind @ (InitializerKind::PiSr | InitializerKind::PiSrMixed) => {
+                if kind == InitializerKind::PiSrMixed && self.per_landmark_priors.is_empty() {
+                    return Err(PyValueError::new_err(
+                        "init=\"pi-sr-mixed\" needs the far landmarks' priors: give \
+                         per_landmark_priors={id: (rho_ini, sigma_rho)}",
+                    ));
+                }
+                InitializerConfig::PiSr {
+                    prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
+                    per_landmark: self
+                        .per_landmark_priors
+                        .iter()
+                        .map(|(&id, &(r, s))| Ok((id, InverseDepthPrior::new(r, s)?)))
+                        .collect::<Result<_, SlamError>>()
+                        .py()?,
+                }
             }
         };
         let (x, y, t) = self.initial_pose;
         let (sx, sy, st) = self.initial_pose_sigma;
-        let covariance_update = match self.covariance_update.as_str() {
-            "joseph" => CovarianceUpdate::Joseph,
-            "symmetric" => CovarianceUpdate::Symmetric,
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown covariance update {other:?}: expected one of {COVARIANCE_UPDATES:?}"
-                )));
-            }
-        };
+        let covariance_update = parse_name::<CovarianceUpdate>(&self.covariance_update)?;
         let cfg = SlamConfig {
             initial_pose: Pose2::new(x, y, t),
             initial_pose_sigma: [sx, sy, st],
@@ -324,14 +317,9 @@ impl PyConfig {
 
     /// The core's run configuration, validated.
     pub(crate) fn run_config(&self) -> PyResult<RunConfig> {
-        let odometry = match self.odometry.as_str() {
-            "wheels" => OdometryConfig::Wheels(self.wheel_model()?),
-            "velocity" => OdometryConfig::Velocity(self.velocity_model()?),
-            other => {
-                return Err(PyValueError::new_err(format!(
-                    "unknown odometry model {other:?}: expected one of {ODOMETRIES:?}"
-                )));
-            }
+        let odometry = match parse_name::<OdometryKind>(&self.odometry)? {
+            OdometryKind::Wheels => OdometryConfig::Wheels(self.wheel_model()?),
+            OdometryKind::Velocity => OdometryConfig::Velocity(self.velocity_model()?),
         };
         Ok(RunConfig {
             slam: self.slam_config()?,

@@ -176,6 +176,7 @@ fn slam_class(e: &SlamError) -> &'static str {
         SlamError::Degenerate(_) => "DegenerateGeometryError",
         SlamError::Diverged { .. } => "DivergedError",
         SlamError::Mismatch(_) => "MismatchError",
+        SlamError::UnknownName(_) => "InvalidParameterError",
     }
 }
 

@@ -18,6 +18,7 @@ mod montecarlo;
 mod real_data;
 mod run;
 mod sim;
+mod vocabulary;
 
 use pyo3::prelude::*;
 
@@ -63,5 +64,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(models::py_wrap_angle, m)?)?;
     montecarlo::register(m)?;
     m.add_function(wrap_pyfunction!(real_data::py_evaluate_mrclam, m)?)?;
+    m.add_function(wrap_pyfunction!(vocabulary::py_vocabulary, m)?)?;
     Ok(())
 }

@@ -3,7 +3,8 @@
 //! released; the run as a `RunResult`, its real-data scores as a dict and the
 //! log the filter was given.
 
-use crate::config::PyConfig;
+use crate::config::{PyConfig, parse_name};
+use bearing_slam::core::names::Named;
 use crate::convert::to_py;
 use crate::errors;
 use crate::log::PySensorLog;
@@ -15,29 +16,8 @@ use bearing_slam::eval::real_data::{
     filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
-use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
-
-/// The method names accepted by `evaluate_mrclam`, in table order.
-pub(crate) const METHODS: [&str; 5] = [
-    "dead-reckoning",
-    "mte",
-    "mte-clone",
-    "pi-sr",
-    "range-bearing",
-];
-
-fn parse_method(name: &str) -> PyResult<Method> {
-    Method::from_name(&name.replace('-', "_"))
-        .filter(|_| METHODS.contains(&name))
-        .ok_or_else(|| {
-            PyValueError::new_err(format!(
-                "unknown method {name:?}; expected one of {}",
-                METHODS.join(", ")
-            ))
-        })
-}
 
 fn real_data_error(e: RealDataError) -> PyErr {
     match e {
@@ -68,7 +48,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     start: Option<f64>,
     end: Option<f64>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
-    let method = parse_method(method)?;
+    let method = parse_name::<Method>(method)?;
     let robot = u8::try_from(robot)
         .ok()
         .filter(|r| (1..=ROBOT_COUNT).contains(r))
@@ -113,7 +93,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         .map_err(real_data_error)?;
     let metrics = to_py(py, &scores)?;
     let has_truth = summary.is_some();
-    metrics.set_item("method", METHODS[method_index(method)])?;
+    metrics.set_item("method", method.name())?;
     metrics.set_item("has_ground_truth", has_truth)?;
     metrics.set_item(
         "landmark_alignment",
@@ -142,6 +122,3 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     ))
 }
 
-fn method_index(method: Method) -> usize {
-    Method::ALL.iter().position(|m| *m == method).unwrap_or(0)
-}

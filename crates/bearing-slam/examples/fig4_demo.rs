@@ -39,7 +39,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         (
             "MTE-history",
             InitializerConfig::TriangulationWithClone(TriangulationConfig {
-                history: bearing_slam::eval::montecarlo::MTE_HISTORY,
+                history: bearing_slam::core::init::MTE_HISTORY,
                 ..TriangulationConfig::default()
             }),
         ),

@@ -82,6 +82,11 @@ pub enum CovarianceUpdate {
     Symmetric,
 }
 
+crate::named_enum!(CovarianceUpdate, "covariance update", [
+    Joseph => "joseph",
+    Symmetric => "symmetric",
+]);
+
 /// The EKF: state mean and covariance, with block-wise predict, batched
 /// update (Joseph form by default), augmentation, removal and
 /// reparameterization.

@@ -39,6 +39,66 @@ impl InitializerConfig {
             per_landmark: BTreeMap::new(),
         }
     }
+
+    /// Which initializer this is, by name: PI-SR with per-landmark priors
+    /// is `pi-sr-mixed`, MTE-clone keeping waiting bearings `mte-history`.
+    #[must_use]
+    pub fn kind(&self) -> InitializerKind {
+        match self {
+            Self::PiSr { per_landmark, .. } if per_landmark.is_empty() => InitializerKind::PiSr,
+            Self::PiSr { .. } => InitializerKind::PiSrMixed,
+            Self::Triangulation(_) => InitializerKind::Mte,
+            Self::TriangulationWithClone(t) if t.history > 0 => InitializerKind::MteHistory,
+            Self::TriangulationWithClone(_) => InitializerKind::MteClone,
+        }
+    }
+}
+
+/// The landmark initializers by name: the one list that configurations,
+/// Monte Carlo specs, the Python package and the command lines share.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum InitializerKind {
+    /// Delayed stochastic triangulation, (16)–(24): [`InitializerConfig::Triangulation`].
+    Mte,
+    /// MTE with the first pose cloned: [`InitializerConfig::TriangulationWithClone`].
+    MteClone,
+    /// MTE-clone that also keeps [`MTE_HISTORY`](crate::init::MTE_HISTORY)
+    /// waiting bearings and applies them once the landmark is in.
+    MteHistory,
+    /// Undelayed inverse depth with one prior, (13)(15): [`InitializerConfig::PiSr`].
+    PiSr,
+    /// PI-SR with one prior for the near landmarks and another for the far
+    /// ones (the paper's mixed setting, Fig. 4d).
+    PiSrMixed,
+}
+
+crate::named_enum!(InitializerKind, "initializer", [
+    Mte => "mte",
+    MteClone => "mte-clone",
+    MteHistory => "mte-history",
+    PiSr => "pi-sr",
+    PiSrMixed => "pi-sr-mixed",
+]);
+
+impl InitializerKind {
+    /// A short label for tables and plots (`MTE`, `MTE-clone`, `PI-SR`).
+    #[must_use]
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::Mte => "MTE",
+            Self::MteClone => "MTE-clone",
+            Self::MteHistory => "MTE-history",
+            Self::PiSr => "PI-SR",
+            Self::PiSrMixed => "PI-SR mixed",
+        }
+    }
+
+    /// Whether the initializer takes an inverse-depth prior.
+    #[must_use]
+    pub fn takes_prior(self) -> bool {
+        matches!(self, Self::PiSr | Self::PiSrMixed)
+    }
 }
 
 /// Everything the filter needs to start.

@@ -13,7 +13,7 @@
 mod config;
 mod delayed;
 
-pub use config::{InitializerConfig, SlamConfig};
+pub use config::{InitializerConfig, InitializerKind, SlamConfig};
 use delayed::{PendingCandidate, PoseClone};
 
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};

@@ -67,15 +67,11 @@ pub use run::{
     RunClass, RunMetrics, RunRecord, RunSeries, classify, run_config, run_one, run_records,
 };
 
-use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig};
-use bearing_slam_core::slam::InitializerConfig;
+use bearing_slam_core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
+use bearing_slam_core::slam::{InitializerConfig, InitializerKind};
 use bearing_slam_sim::Scenario;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-
-/// Waiting bearings kept per candidate by [`InitializerSpec::MteHistory`]:
-/// every scan of a 3 s wait at 10 Hz, longer waits thinned evenly.
-pub const MTE_HISTORY: usize = 32;
 
 /// Which scenario every run simulates, and its options.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -199,15 +195,42 @@ impl InitializerSpec {
     #[must_use]
     pub fn paper_mixed() -> Self {
         Self::PiSrMixed {
-            near: InverseDepthPrior {
-                rho_ini: 0.5,
-                sigma_rho: 0.25,
-            },
-            far: InverseDepthPrior {
-                rho_ini: 0.01,
-                sigma_rho: 0.005,
-            },
+            near: InverseDepthPrior::PAPER_NEAR,
+            far: InverseDepthPrior::PAPER_FAR,
             far_ids: None,
+        }
+    }
+
+    /// The spec of the initializer called `kind`, with `prior` for those that
+    /// take one (the near prior of `pi-sr-mixed`, whose far prior is the
+    /// paper's and whose far ids are the scenario's).
+    #[must_use]
+    pub fn of_kind(kind: InitializerKind, prior: InverseDepthPrior) -> Self {
+        match kind {
+            InitializerKind::Mte => Self::Mte,
+            InitializerKind::MteClone => Self::MteClone,
+            InitializerKind::MteHistory => Self::MteHistory,
+            InitializerKind::PiSr => Self::PiSr {
+                rho_ini: prior.rho_ini,
+                sigma_rho: prior.sigma_rho,
+            },
+            InitializerKind::PiSrMixed => Self::PiSrMixed {
+                near: prior,
+                far: InverseDepthPrior::PAPER_FAR,
+                far_ids: None,
+            },
+        }
+    }
+
+    /// Which initializer this is, by name.
+    #[must_use]
+    pub fn kind(&self) -> InitializerKind {
+        match self {
+            Self::Mte => InitializerKind::Mte,
+            Self::MteClone => InitializerKind::MteClone,
+            Self::MteHistory => InitializerKind::MteHistory,
+            Self::PiSr { .. } => InitializerKind::PiSr,
+            Self::PiSrMixed { .. } => InitializerKind::PiSrMixed,
         }
     }
 
@@ -216,9 +239,7 @@ impl InitializerSpec {
     #[must_use]
     pub fn label(&self) -> String {
         match self {
-            Self::Mte => "MTE".into(),
-            Self::MteClone => "MTE-clone".into(),
-            Self::MteHistory => "MTE-history".into(),
+            Self::Mte | Self::MteClone | Self::MteHistory => self.kind().label().into(),
             Self::PiSr { rho_ini, sigma_rho } => format!("PI-SR ({rho_ini}, {sigma_rho})"),
             Self::PiSrMixed { near, far, .. } => format!(
                 "PI-SR mixed (near {}, {}; far {}, {})",

@@ -28,6 +28,12 @@ pub enum RunClass {
     Diverged,
 }
 
+bearing_slam_core::named_enum!(RunClass, "run class", [
+    Converged => "converged",
+    Drift => "drift",
+    Diverged => "diverged",
+]);
+
 /// The numbers of one run (no time series): a row of the report.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunMetrics {
@@ -88,6 +94,24 @@ pub struct RunRecord {
     pub series: RunSeries,
     /// `"t=…: id … initialized (method, parallax …°)"` lines, for diagnosis.
     pub init_events: Vec<String>,
+}
+
+impl RunMetrics {
+    /// The names of the per-run numbers: every field but the run's identity
+    /// and class (`run_index`, `seed`, `class`, `reason`), read from the
+    /// serialized form so the list cannot drift from the struct.
+    #[must_use]
+    pub fn metric_names() -> Vec<String> {
+        const IDENTITY: [&str; 4] = ["run_index", "seed", "class", "reason"];
+        match serde_json::to_value(failed(0, 0, String::new()).metrics) {
+            Ok(serde_json::Value::Object(fields)) => fields
+                .keys()
+                .filter(|k| !IDENTITY.contains(&k.as_str()))
+                .cloned()
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
 }
 
 fn failed(run_index: usize, seed: u64, reason: String) -> RunRecord {

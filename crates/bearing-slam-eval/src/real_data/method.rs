@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 
 /// The estimator run on a log.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
+#[serde(rename_all = "kebab-case")]
 pub enum Method {
     /// The velocity commands integrated alone (no measurement is used).
     DeadReckoning,
@@ -21,33 +21,25 @@ pub enum Method {
     RangeBearing,
 }
 
+bearing_slam_core::named_enum!(Method, "method", [
+    DeadReckoning => "dead-reckoning",
+    Mte => "mte",
+    MteClone => "mte-clone",
+    PiSr => "pi-sr",
+    RangeBearing => "range-bearing",
+]);
+
 impl Method {
-    /// Every method, in table order.
-    pub const ALL: [Method; 5] = [
-        Method::DeadReckoning,
-        Method::Mte,
-        Method::MteClone,
-        Method::PiSr,
-        Method::RangeBearing,
-    ];
-
-    /// A short snake-case name (`dead_reckoning`, `mte`, `mte_clone`,
-    /// `pi_sr`, `range_bearing`).
+    /// A label for tables and figures.
     #[must_use]
-    pub fn name(self) -> &'static str {
+    pub fn label(self) -> &'static str {
         match self {
-            Method::DeadReckoning => "dead_reckoning",
-            Method::Mte => "mte",
-            Method::MteClone => "mte_clone",
-            Method::PiSr => "pi_sr",
-            Method::RangeBearing => "range_bearing",
+            Method::DeadReckoning => "dead reckoning",
+            Method::Mte => "MTE",
+            Method::MteClone => "MTE-clone",
+            Method::PiSr => "PI-SR (0.5, 0.25)",
+            Method::RangeBearing => "range-bearing EKF",
         }
-    }
-
-    /// The method named by [`Self::name`].
-    #[must_use]
-    pub fn from_name(name: &str) -> Option<Method> {
-        Method::ALL.into_iter().find(|m| m.name() == name)
     }
 }
 

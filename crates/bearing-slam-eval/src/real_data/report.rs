@@ -2,6 +2,7 @@
 //! every method on every robot of Datasets 6 and 1, the ablation of the
 //! calibration rules, and the GTSAM yardstick's numbers beside them.
 
+use bearing_slam_core::names::Named;
 use super::{
     CALIBRATED_PARAMETERS, EvalOptions, FilterParameters, Method, NAIVE_PARAMETERS, RealDataError,
     RealDataResult, evaluate_run,
@@ -86,7 +87,7 @@ pub fn evaluate_tables(
     for dataset in DATASETS {
         for robot in 1..=ROBOT_COUNT {
             let run = load_mrclam_with(&data_dir.join(dataset), robot, &options.load)?;
-            for method in Method::ALL {
+            for &method in Method::ALL {
                 let mut r = evaluate_run(&run, method, &options.parameters)?;
                 r.output = None;
                 progress(&format!(
@@ -257,7 +258,7 @@ pub fn markdown(
     for robot in 1..=ROBOT_COUNT {
         let n = find(d6, robot, Method::Mte).map_or(0, |r| r.n_measurements);
         let mut row = format!("| R{robot} | {n}");
-        for m in Method::ALL {
+        for &m in Method::ALL {
             let r = find(d6, robot, m);
             write!(
                 row,
@@ -298,7 +299,7 @@ pub fn markdown(
     for (name, results) in [("6", d6), ("1", d1)] {
         for robot in 1..=ROBOT_COUNT {
             let mut row = format!("| {name} | R{robot}");
-            for m in Method::ALL {
+            for &m in Method::ALL {
                 write!(
                     row,
                     " | {}",

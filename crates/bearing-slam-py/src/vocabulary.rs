@@ -1,0 +1,55 @@
+//! `vocabulary()`: the names and defaults the Python package shares with the
+//! Rust crates, read from the Rust enums and constants that define them, so
+//! Python restates none of them.
+
+use crate::convert::to_py;
+use bearing_slam::core::ekf::CovarianceUpdate;
+use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY};
+use bearing_slam::core::names::Named;
+use bearing_slam::core::runner::OdometryKind;
+use bearing_slam::core::slam::InitializerKind;
+use bearing_slam::eval::experiments::Experiment;
+use bearing_slam::eval::montecarlo::{RunClass, RunMetrics, Thresholds};
+use bearing_slam::eval::real_data::Method;
+use pyo3::prelude::*;
+use pyo3::types::PyDict;
+
+/// Every name of a [`Named`] enum, in its order.
+fn names<T: Named>() -> Vec<&'static str> {
+    T::names()
+}
+
+/// The vocabulary as a dict: `initializers`, `prior_initializers`,
+/// `covariance_updates`, `odometries`, `mrclam_methods` (with
+/// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
+/// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`.
+#[pyfunction]
+#[pyo3(name = "vocabulary")]
+pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
+    let d = PyDict::new(py);
+    d.set_item("initializers", names::<InitializerKind>())?;
+    d.set_item(
+        "prior_initializers",
+        InitializerKind::ALL
+            .iter()
+            .filter(|k| k.takes_prior())
+            .map(|k| k.name())
+            .collect::<Vec<_>>(),
+    )?;
+    d.set_item("covariance_updates", names::<CovarianceUpdate>())?;
+    d.set_item("odometries", names::<OdometryKind>())?;
+    d.set_item("mrclam_methods", names::<Method>())?;
+    let labels = PyDict::new(py);
+    for m in Method::ALL {
+        labels.set_item(m.name(), m.label())?;
+    }
+    d.set_item("mrclam_method_labels", labels)?;
+    d.set_item("run_classes", names::<RunClass>())?;
+    d.set_item("experiments", names::<Experiment>())?;
+    d.set_item("run_metrics", RunMetrics::metric_names())?;
+    d.set_item("thresholds", to_py(py, &Thresholds::default())?)?;
+    d.set_item("paper_near_prior", to_py(py, &InverseDepthPrior::PAPER_NEAR)?)?;
+    d.set_item("paper_far_prior", to_py(py, &InverseDepthPrior::PAPER_FAR)?)?;
+    d.set_item("mte_history", MTE_HISTORY)?;
+    Ok(d)
+}
