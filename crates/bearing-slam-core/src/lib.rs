@@ -18,6 +18,7 @@ pub mod log;
 pub mod measurement;
 pub mod metrics;
 pub mod motion;
+pub mod particle;
 pub mod runner;
 pub mod slam;
 pub mod trace;
