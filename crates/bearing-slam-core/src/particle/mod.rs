@@ -24,8 +24,10 @@ pub mod credit;
 pub mod existence;
 pub mod fastslam;
 pub mod initializer;
+pub mod kld;
 pub mod landmark_ekf;
 pub mod map;
+pub mod mcl;
 pub mod proposal;
 pub mod resample;
 pub mod run;
@@ -33,4 +35,5 @@ pub mod sampling;
 
 pub use config::{FastSlamConfig, FastSlamVariant, ParticleInitializer};
 pub use fastslam::{FastSlam, Particle, ParticleUpdateReport};
+pub use mcl::{Mcl, MclConfig};
 pub use run::{ParticleRunConfig, run_fastslam};
