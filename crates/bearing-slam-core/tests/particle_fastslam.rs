@@ -95,7 +95,11 @@ fn fastslam2_converges_bearing_only_with_inverse_depth() {
     );
     let c = config(&scenario, FastSlamVariant::FastSlam2, id, 100, false);
     let output = run_fastslam(&log, &c).expect("runs");
-    check("inverse depth", &summarize(&log, &output).expect("truth"), 0.5);
+    check(
+        "inverse depth",
+        &summarize(&log, &output).expect("truth"),
+        0.5,
+    );
 }
 
 /// Per-particle MTE runs and maps every landmark; its accuracy needs more

@@ -104,6 +104,7 @@ fn bad_weights_and_empty_sets_get_clear_errors() {
         resample_threshold: 0.5,
         augmented: None,
         kld: None,
+        roughening: 0.0,
     };
     let e = bearing_slam_core::particle::Mcl::new(mcl, &[]).unwrap_err();
     assert!(e.to_string().contains("at least one particle"), "{e}");

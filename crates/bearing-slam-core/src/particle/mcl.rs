@@ -112,6 +112,12 @@ pub struct MclConfig {
     pub augmented: Option<AugmentedConfig>,
     /// KLD-sampling, or `None` for a fixed particle count.
     pub kld: Option<KldConfig>,
+    /// Roughening constant `K` of Gordon, Salmond & Smith (1993): after each
+    /// resampling every particle is jittered by `N(0, σⱼ²)` per dimension,
+    /// `σⱼ = K Eⱼ M^{−1/3}` with `Eⱼ` the cloud's extent in that dimension,
+    /// against sample impoverishment (0 = off; they suggest 0.2).
+    #[serde(default)]
+    pub roughening: f64,
 }
 
 impl MclConfig {
@@ -155,6 +161,13 @@ impl MclConfig {
         if let Some(k) = &self.kld {
             k.validate()?;
         }
+        if !(self.roughening >= 0.0 && self.roughening.is_finite()) {
+            return Err(SlamError::InvalidParameter {
+                name: "roughening",
+                value: self.roughening,
+                reason: "must be finite and ≥ 0",
+            });
+        }
         Ok(())
     }
 }
@@ -170,7 +183,8 @@ pub struct MclReport {
     pub injection_probability: f64,
     /// Random particles injected.
     pub injected: usize,
-    /// Particles after the update.
+    /// Particles after the update (under KLD-sampling: before the next
+    /// prediction resizes the cloud).
     pub particles: usize,
     /// Whether the particles were resampled.
     pub resampled: bool,
@@ -186,6 +200,10 @@ pub struct Mcl {
     w_slow: f64,
     w_fast: f64,
     step: u64,
+    /// KLD-sampling: the weights and injection probability of the last scan,
+    /// resampled at the next prediction (Fox's loop draws, moves and bins
+    /// each particle in turn).
+    pending_kld: Option<(Vec<f64>, f64)>,
 }
 
 impl Mcl {
@@ -249,6 +267,7 @@ impl Mcl {
             w_slow: 0.0,
             w_fast: 0.0,
             step: 0,
+            pending_kld: None,
         })
     }
 
@@ -276,6 +295,9 @@ impl Mcl {
         Model::Control: Sync,
     {
         self.step += 1;
+        if let (Some(kld), Some((weights, p_inject))) = (self.config.kld, self.pending_kld.take()) {
+            return self.kld_predict(&kld, &weights, p_inject, model, control);
+        }
         let (seed, step) = (self.config.seed, self.step);
         self.poses
             .par_iter_mut()
@@ -357,10 +379,13 @@ impl Mcl {
         }
         let weights = normalize_log_weights(&self.log_weights)?;
         report.effective_sample_size = effective_sample_size(&weights)?;
+        if self.config.kld.is_some() {
+            self.pending_kld = Some((weights, report.injection_probability));
+            return Ok(report);
+        }
         let m = self.poses.len();
         if report.effective_sample_size >= self.config.resample_threshold * m as f64
             && report.injection_probability == 0.0
-            && self.config.kld.is_none()
         {
             return Ok(report);
         }
@@ -368,29 +393,58 @@ impl Mcl {
         Ok(report)
     }
 
+    /// KLD-sampling (Fox 2003, Table 1; Thrun et al. Table 8.4): draw a
+    /// parent, move it by the motion model, bin the result, until the count
+    /// reaches the bound `M_χ` of the bins occupied so far. Sequential, one
+    /// random stream per drawn particle: thread-count independent.
+    fn kld_predict<Model>(
+        &mut self,
+        kld: &KldConfig,
+        weights: &[f64],
+        p_inject: f64,
+        model: &Model,
+        control: &Model::Control,
+    ) -> Result<()>
+    where
+        Model: MotionModel<3>,
+    {
+        let z = kld.z_quantile()?;
+        let mut rng = stream(self.config.seed, self.step, 0, StreamPurpose::Resample);
+        let order = systematic_resample_n(weights, kld.max_particles, uniform(&mut rng))?;
+        // Systematic draws are sorted by parent: visit them in a stride
+        // order so the first n are spread over the whole cloud.
+        let stride = stride_for(order.len());
+        let bounds = self.config.bounds;
+        let mut bins = BinCounter::default();
+        let mut needed = kld.min_particles;
+        let mut next = Vec::with_capacity(needed);
+        while next.len() < needed && next.len() < order.len() {
+            let n = next.len();
+            let mut draw = stream(
+                self.config.seed,
+                self.step,
+                n as u64,
+                StreamPurpose::Injection,
+            );
+            let start = if p_inject > 0.0 && uniform(&mut draw) < p_inject {
+                bounds.sample(&mut draw)
+            } else {
+                self.poses[order[(n * stride) % order.len()]]
+            };
+            let pred = model.predict(&start, control)?;
+            let mut pose = sample_gaussian(&pred.state, &pred.process_noise, &mut draw)?;
+            pose.z = wrap_angle(pose.z);
+            needed = required_particles(kld, bins.add(kld, &pose), z);
+            next.push(pose);
+        }
+        self.log_weights = vec![0.0; next.len()];
+        self.poses = next;
+        self.roughen()
+    }
+
     fn resample(&mut self, weights: &[f64], report: &mut MclReport) -> Result<()> {
         let mut rng = stream(self.config.seed, self.step, 0, StreamPurpose::Resample);
-        let count = match &self.config.kld {
-            None => self.poses.len(),
-            Some(kld) => {
-                // Fox's loop: draw until the bound for the bins seen so far is met.
-                let z = kld.z_quantile()?;
-                let order = systematic_resample_n(weights, kld.max_particles, uniform(&mut rng))?;
-                let mut bins = BinCounter::default();
-                let mut needed = kld.min_particles;
-                let mut n = 0;
-                // Systematic draws are sorted by parent: visit them in a
-                // stride order so the first n are spread over the cloud.
-                let stride = stride_for(order.len());
-                while n < needed && n < order.len() {
-                    let parent = order[(n * stride) % order.len()];
-                    let k = bins.add(kld, &self.poses[parent]);
-                    needed = required_particles(kld, k, z);
-                    n += 1;
-                }
-                n
-            }
-        };
+        let count = self.poses.len();
         let parents = systematic_resample_n(weights, count, uniform(&mut rng))?;
         let p_inject = report.injection_probability;
         let bounds = self.config.bounds;
@@ -411,7 +465,40 @@ impl Mcl {
         report.injected = injected;
         report.particles = self.poses.len();
         report.resampled = true;
-        Ok(())
+        self.roughen()
+    }
+
+    /// Gordon et al.'s roughening of the (equally weighted) cloud.
+    fn roughen(&mut self) -> Result<()> {
+        let k = self.config.roughening;
+        if k == 0.0 || self.poses.is_empty() {
+            return Ok(());
+        }
+        let (s, c) = self
+            .poses
+            .iter()
+            .fold((0.0, 0.0), |(s, c), p| (s + p.z.sin(), c + p.z.cos()));
+        let mean_heading = s.atan2(c);
+        let mut lo = Vector3::repeat(f64::INFINITY);
+        let mut hi = Vector3::repeat(f64::NEG_INFINITY);
+        for p in &self.poses {
+            let r = Vector3::new(p.x, p.y, wrap_angle(p.z - mean_heading));
+            lo = lo.inf(&r);
+            hi = hi.sup(&r);
+        }
+        let scale = k * (self.poses.len() as f64).powf(-1.0 / 3.0);
+        let sigma = (hi - lo) * scale;
+        let cov = nalgebra::Matrix3::from_diagonal(&sigma.component_mul(&sigma));
+        let (seed, step) = (self.config.seed, self.step);
+        self.poses
+            .par_iter_mut()
+            .enumerate()
+            .try_for_each(|(i, p)| -> Result<()> {
+                let mut rng = stream(seed, step, i as u64, StreamPurpose::Proposal);
+                *p = sample_gaussian(p, &cov, &mut rng)?;
+                p.z = wrap_angle(p.z);
+                Ok(())
+            })
     }
 
     /// The pose estimate: the weighted mean of the particles near the
