@@ -63,13 +63,13 @@ fn systematic_resampling_is_unbiased() {
 
 #[test]
 fn bad_weights_and_empty_sets_get_clear_errors() {
-    let zero = systematic_resample(&[0.0, 0.0, 0.0], 0.5).unwrap_err();
+    let zero = systematic_resample(&[0.0, 0.0, 0.0], 0.5).expect_err("must be refused");
     assert!(zero.to_string().contains("positive, finite sum"), "{zero}");
-    let nan = systematic_resample(&[1.0, f64::NAN], 0.5).unwrap_err();
+    let nan = systematic_resample(&[1.0, f64::NAN], 0.5).expect_err("must be refused");
     assert!(matches!(nan, SlamError::NonFinite { .. }), "{nan}");
-    let negative = systematic_resample(&[1.0, -0.5], 0.5).unwrap_err();
+    let negative = systematic_resample(&[1.0, -0.5], 0.5).expect_err("must be refused");
     assert!(negative.to_string().contains("non-negative"), "{negative}");
-    let empty = systematic_resample(&[], 0.5).unwrap_err();
+    let empty = systematic_resample(&[], 0.5).expect_err("must be refused");
     assert!(
         empty.to_string().contains("at least one particle"),
         "{empty}"
@@ -79,7 +79,7 @@ fn bad_weights_and_empty_sets_get_clear_errors() {
         "offset must be < 1"
     );
     assert!(effective_sample_size(&[f64::INFINITY]).is_err());
-    let all_dead = normalize_log_weights(&[f64::NEG_INFINITY; 3]).unwrap_err();
+    let all_dead = normalize_log_weights(&[f64::NEG_INFINITY; 3]).expect_err("must be refused");
     assert!(all_dead.to_string().contains("zero weight"), "{all_dead}");
     assert!(normalize_log_weights(&[0.0, f64::NAN]).is_err());
     assert!(normalize_log_weights(&[]).is_err());
@@ -88,7 +88,7 @@ fn bad_weights_and_empty_sets_get_clear_errors() {
         particles: 0,
         ..FastSlamConfig::default()
     };
-    let e = bearing_slam_core::particle::FastSlam::new(no_particles).unwrap_err();
+    let e = bearing_slam_core::particle::FastSlam::new(no_particles).expect_err("must be refused");
     assert!(e.to_string().contains("particles"), "{e}");
     let mcl = MclConfig {
         particles: 0,
@@ -106,6 +106,6 @@ fn bad_weights_and_empty_sets_get_clear_errors() {
         kld: None,
         roughening: 0.0,
     };
-    let e = bearing_slam_core::particle::Mcl::new(mcl, &[]).unwrap_err();
+    let e = bearing_slam_core::particle::Mcl::new(mcl, &[]).expect_err("must be refused");
     assert!(e.to_string().contains("at least one particle"), "{e}");
 }

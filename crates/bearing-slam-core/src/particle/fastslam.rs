@@ -71,6 +71,9 @@ pub struct ParticleUpdateReport {
     pub resampled: bool,
 }
 
+/// One particle's per-landmark log-likelihood terms.
+type Terms = Vec<(u64, f64)>;
+
 #[derive(Clone, Copy, Debug, Default)]
 struct ParticleCounts {
     used: usize,
@@ -364,7 +367,7 @@ impl FastSlam {
         time: f64,
         plans: &[Plan],
         observations: &[Observation],
-    ) -> Result<Vec<(ParticleCounts, Vec<(u64, f64)>)>> {
+    ) -> Result<Vec<(ParticleCounts, Terms)>> {
         let config = &self.config;
         let step = self.step;
         let n_observations = observations.len();
