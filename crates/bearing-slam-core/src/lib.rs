@@ -21,6 +21,7 @@ pub mod metrics;
 pub mod model;
 pub mod motion;
 pub mod names;
+pub mod particle;
 pub mod runner;
 pub mod score;
 pub mod slam;

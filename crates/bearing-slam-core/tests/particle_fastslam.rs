@@ -1,0 +1,136 @@
+//! FastSLAM end to end on the kinematic Fig. 4 run, scored by the runner's
+//! own `summarize`: FastSLAM 2.0 with per-particle stochastic triangulation
+//! (MTE) and with undelayed inverse depth, and range-bearing FastSLAM 1.0.
+//!
+//! Thresholds: dead reckoning on this run ends ≈ 0.3–1 m off with its
+//! heading random-walking ≈ 0.9° per step; FastSLAM 2.0 with 100 particles
+//! must beat it and map the four near landmarks to well under a metre.
+//! Bearing-only FastSLAM 1.0 is not asserted here: drawing poses from an
+//! odometry that is noisier than the 1° bearings, it collapses to one
+//! particle within seconds (measured in the report, not hidden).
+
+use bearing_slam_core::init::InverseDepthPrior;
+use bearing_slam_core::log::{EventKind, SensorLog};
+use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
+use bearing_slam_core::particle::landmark_ekf::SensorNoise;
+use bearing_slam_core::particle::{
+    FastSlamConfig, FastSlamVariant, ParticleInitializer, ParticleRunConfig, run_fastslam,
+};
+use bearing_slam_core::runner::OdometryConfig;
+use bearing_slam_core::score::{RunSummary, summarize};
+use bearing_slam_core::testing::kinematic::KinematicScenario;
+
+fn config(
+    scenario: &KinematicScenario,
+    variant: FastSlamVariant,
+    initializer: ParticleInitializer,
+    particles: usize,
+    use_range: bool,
+) -> ParticleRunConfig {
+    let noise = WheelNoise {
+        floor_sigma_m: scenario.encoder_floor_sigma_m,
+        scale_sqrt_m: scenario.encoder_scale_sqrt_m,
+    };
+    ParticleRunConfig {
+        filter: FastSlamConfig {
+            variant,
+            particles,
+            seed: 1,
+            initializer,
+            noise: SensorNoise {
+                bearing_sigma: scenario.bearing_sigma,
+                range_sigma: 0.05,
+            },
+            ..FastSlamConfig::default()
+        },
+        odometry: OdometryConfig::Wheels(
+            DiffDriveModel::new(scenario.wheel_base_m, noise).expect("valid"),
+        ),
+        use_range,
+    }
+}
+
+/// Adds the true range (plus nothing: the filter assumes 5 cm) to every bearing.
+fn with_ranges(mut log: SensorLog) -> SensorLog {
+    let truth_of = log.landmarks.clone();
+    let mut pose = log.info.initial_pose.unwrap_or_default();
+    for e in &mut log.events {
+        match &mut e.kind {
+            EventKind::GroundTruth(t) => pose = *t,
+            EventKind::Bearings(scan) => {
+                for o in scan {
+                    let l = truth_of
+                        .iter()
+                        .find(|l| l.id == o.landmark_id)
+                        .expect("known");
+                    o.range = Some((l.x - pose.x).hypot(l.y - pose.y));
+                }
+            }
+            _ => {}
+        }
+    }
+    log
+}
+
+fn check(name: &str, s: &RunSummary, max_ate: f64) {
+    eprintln!("{name}: {s:?}");
+    assert!(s.finite, "{name}");
+    assert!(s.n_landmarks_initialized >= 4, "{name}: {s:?}");
+    assert!(s.ate_rmse_m < max_ate, "{name}: ATE {} m", s.ate_rmse_m);
+    assert!(
+        s.ate_rmse_m < s.dead_reckoning_ate_rmse_m,
+        "{name}: ATE {} m not better than dead reckoning {} m",
+        s.ate_rmse_m,
+        s.dead_reckoning_ate_rmse_m
+    );
+    let lm = s.landmark_rmse_m.expect("landmarks mapped");
+    assert!(lm < 0.6, "{name}: landmark RMSE {lm} m");
+}
+
+#[test]
+fn fastslam2_converges_bearing_only_with_inverse_depth() {
+    let scenario = KinematicScenario::paper_fig4(false);
+    let log = scenario.simulate(0);
+    let id = ParticleInitializer::InverseDepth(
+        InverseDepthPrior::covering_depths_from(1.0).expect("valid"),
+    );
+    let c = config(&scenario, FastSlamVariant::FastSlam2, id, 100, false);
+    let output = run_fastslam(&log, &c).expect("runs");
+    check(
+        "inverse depth",
+        &summarize(&log, &output).expect("truth"),
+        0.5,
+    );
+}
+
+/// Per-particle MTE runs and maps every landmark; its accuracy needs more
+/// particles than a debug-build test affords (measured in the report: at
+/// M = 100 some seeds triangulate on path noise and lose the heading).
+#[test]
+fn fastslam2_with_per_particle_triangulation_maps_every_landmark() {
+    let scenario = KinematicScenario::paper_fig4(false);
+    let log = scenario.simulate(0);
+    let mte = ParticleInitializer::Triangulation(Default::default());
+    let c = config(&scenario, FastSlamVariant::FastSlam2, mte, 30, false);
+    let output = run_fastslam(&log, &c).expect("runs");
+    let s = summarize(&log, &output).expect("truth");
+    assert!(s.finite);
+    assert_eq!(s.n_landmarks_initialized, 4, "{s:?}");
+    assert!(output.counts.measurements_used > 400, "{:?}", output.counts);
+}
+
+#[test]
+fn range_bearing_fastslam1_converges() {
+    let scenario = KinematicScenario::paper_fig4(false);
+    let log = with_ranges(scenario.simulate(0));
+    let init = ParticleInitializer::Triangulation(Default::default());
+    let c = config(&scenario, FastSlamVariant::FastSlam1, init, 50, true);
+    let output = run_fastslam(&log, &c).expect("runs");
+    let s = summarize(&log, &output).expect("truth");
+    check("range-bearing 1.0", &s, 0.2);
+    assert_eq!(
+        output.track.len(),
+        201,
+        "one track point per ground-truth time"
+    );
+}
