@@ -2,12 +2,12 @@
 //! rate, at a fixed seed) and bad weights get clear errors.
 
 use bearing_slam_core::SlamError;
-use bearing_slam_core::stats::chi2_quantile;
 use bearing_slam_core::particle::resample::{
     effective_sample_size, normalize_log_weights, systematic_resample,
 };
 use bearing_slam_core::particle::sampling::{StreamPurpose, stream, uniform};
 use bearing_slam_core::particle::{FastSlamConfig, MclConfig};
+use bearing_slam_core::stats::chi2_quantile;
 
 /// Over D draws the mean count of particle i must match M wᵢ. Under
 /// systematic resampling the count of particle i is ⌊M wᵢ⌋ + Bernoulli(fᵢ),

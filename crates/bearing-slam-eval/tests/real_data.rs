@@ -4,9 +4,9 @@
 //! `BEARING_SLAM_DATA` points); these tests fail (they do not skip) when it is
 //! missing.
 
-use bearing_slam_core::names::Named;
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::EventKind;
+use bearing_slam_core::names::Named;
 use bearing_slam_eval::calibration::ar1_inflation;
 use bearing_slam_eval::real_data::{
     CALIBRATED_PARAMETERS, CommandModel, EvalOptions, Method, align_landmarks_se2, evaluate_mrclam,

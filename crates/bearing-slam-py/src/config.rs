@@ -7,8 +7,8 @@ use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::ekf::CovarianceUpdate;
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
-use bearing_slam::core::names::Named;
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
+use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
 use bearing_slam::core::slam::{InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
@@ -247,16 +247,16 @@ impl PyConfig {
             InitializerKind::MteClone => {
                 InitializerConfig::TriangulationWithClone(self.triangulation())
             }
-            InitializerKind::MteHistory => InitializerConfig::TriangulationWithClone(
-                TriangulationConfig {
+            InitializerKind::MteHistory => {
+                InitializerConfig::TriangulationWithClone(TriangulationConfig {
                     history: if self.history == 0 {
                         MTE_HISTORY
                     } else {
                         self.history
                     },
                     ..self.triangulation()
-                },
-            ),
+                })
+            }
             kind @ (InitializerKind::PiSr | InitializerKind::PiSrMixed) => {
                 if kind == InitializerKind::PiSrMixed && self.per_landmark_priors.is_empty() {
                     return Err(PyValueError::new_err(

@@ -4,12 +4,12 @@
 //! log the filter was given.
 
 use crate::config::{PyConfig, parse_name};
-use bearing_slam::core::names::Named;
 use crate::convert::to_py;
 use crate::errors;
 use crate::log::PySensorLog;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
@@ -121,4 +121,3 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         PySensorLog::new(log),
     ))
 }
-

@@ -48,7 +48,10 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("experiments", names::<Experiment>())?;
     d.set_item("run_metrics", RunMetrics::metric_names())?;
     d.set_item("thresholds", to_py(py, &Thresholds::default())?)?;
-    d.set_item("paper_near_prior", to_py(py, &InverseDepthPrior::PAPER_NEAR)?)?;
+    d.set_item(
+        "paper_near_prior",
+        to_py(py, &InverseDepthPrior::PAPER_NEAR)?,
+    )?;
     d.set_item("paper_far_prior", to_py(py, &InverseDepthPrior::PAPER_FAR)?)?;
     d.set_item("mte_history", MTE_HISTORY)?;
     Ok(d)

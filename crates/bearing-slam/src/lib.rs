@@ -29,4 +29,3 @@ pub use bearing_slam_core::{Pose2, Result, SlamError};
 pub use bearing_slam_eval as eval;
 pub use bearing_slam_io as io;
 pub use bearing_slam_sim as sim;
-

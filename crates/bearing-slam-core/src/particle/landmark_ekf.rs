@@ -6,13 +6,13 @@
 //! the initial covariances keep the measurement terms of (15) and (22)(23)
 //! and drop the pose terms.
 
-use crate::model::MeasurementModel;
 use crate::error::{Result, SlamError, ensure_positive_noise};
 use crate::init::{Candidate, InverseDepthPrior, pi_sr, triangulate_candidate};
 use crate::landmark::{inverse_depth_to_point, linearity_index};
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
+use crate::model::MeasurementModel;
 use nalgebra::{Matrix1, Matrix2, Matrix4, SMatrix, SVector, Vector1, Vector2, Vector3, Vector4};
 use std::f64::consts::TAU;
 

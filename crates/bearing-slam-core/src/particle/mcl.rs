@@ -21,11 +21,11 @@
 use super::kld::{BinCounter, KldConfig, required_particles};
 use super::resample::{effective_sample_size, normalize_log_weights, systematic_resample_n};
 use super::sampling::{StreamPurpose, sample_gaussian, stream, uniform};
-use crate::model::MotionModel;
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::log::{BearingObservation, LandmarkTruth};
 use crate::measurement::bearing_to_point;
+use crate::model::MotionModel;
 use nalgebra::{Vector2, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};

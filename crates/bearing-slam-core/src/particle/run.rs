@@ -8,10 +8,10 @@
 
 use super::config::FastSlamConfig;
 use super::fastslam::FastSlam;
-use crate::model::MotionModel;
 use crate::error::Result;
 use crate::geometry::Pose2;
 use crate::log::{EventKind, SensorLog, VelocityOdometry};
+use crate::model::MotionModel;
 use crate::runner::{OdometryConfig, RunOutput, TrackPoint};
 
 /// How a log is run through FastSLAM.

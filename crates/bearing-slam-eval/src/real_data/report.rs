@@ -2,11 +2,11 @@
 //! every method on every robot of Datasets 6 and 1, the ablation of the
 //! calibration rules, and the GTSAM yardstick's numbers beside them.
 
-use bearing_slam_core::names::Named;
 use super::{
     CALIBRATED_PARAMETERS, EvalOptions, FilterParameters, Method, NAIVE_PARAMETERS, RealDataError,
     RealDataResult, evaluate_run,
 };
+use bearing_slam_core::names::Named;
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
