@@ -96,6 +96,22 @@ pub enum SlamError {
 /// The core's result type.
 pub type Result<T> = std::result::Result<T, SlamError>;
 
+/// Checks `(name, value, in_range)` triples in order: the first value out of
+/// its range, or not finite, becomes [`SlamError::InvalidParameter`].
+pub fn ensure_in_range(checks: &[(&'static str, f64, bool)]) -> Result<()> {
+    match checks
+        .iter()
+        .find(|(_, value, ok)| !(*ok && value.is_finite()))
+    {
+        Some(&(name, value, _)) => Err(SlamError::InvalidParameter {
+            name,
+            value,
+            reason: "out of range",
+        }),
+        None => Ok(()),
+    }
+}
+
 /// Returns `value` if it is finite, otherwise a [`SlamError::NonFinite`] naming `what`.
 pub fn ensure_finite(what: &'static str, value: f64) -> Result<f64> {
     if value.is_finite() {

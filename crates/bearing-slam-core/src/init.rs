@@ -301,16 +301,7 @@ impl TriangulationConfig {
             ),
             ("min_depth", self.min_depth, self.min_depth > 0.0),
         ];
-        for (name, value, ok) in checks {
-            if !(ok && value.is_finite()) {
-                return Err(SlamError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "out of range",
-                });
-            }
-        }
-        Ok(())
+        crate::error::ensure_in_range(&checks)
     }
 
     /// The far-landmark prior of (24) for the triangle actually observed.

@@ -8,7 +8,7 @@
 //! particle's pose. Occlusion by other landmarks is not modelled (bearing
 //! sensors here see points, which occlude nothing).
 
-use crate::error::{Result, SlamError};
+use crate::error::Result;
 use crate::geometry::wrap_angle;
 use nalgebra::{Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -51,7 +51,7 @@ impl ExistenceConfig {
     /// Checks every parameter.
     ///
     /// # Errors
-    /// [`SlamError::InvalidParameter`] naming the first one out of range.
+    /// [`SlamError::InvalidParameter`](crate::SlamError::InvalidParameter) naming the first one out of range.
     pub fn validate(&self) -> Result<()> {
         let checks = [
             ("max_range_m", self.max_range_m, self.max_range_m > 0.0),
@@ -81,16 +81,7 @@ impl ExistenceConfig {
                 self.max_evidence >= self.seen_increment,
             ),
         ];
-        for (name, value, ok) in checks {
-            if !(ok && value.is_finite()) {
-                return Err(SlamError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "out of range",
-                });
-            }
-        }
-        Ok(())
+        crate::error::ensure_in_range(&checks)
     }
 
     /// Whether a landmark at `point` should be seen from `pose`: within range

@@ -8,7 +8,7 @@
 //!
 //! (the Wilson–Hilferty approximation of the χ² quantile, Fox's eq. 13).
 
-use crate::error::{Result, SlamError};
+use crate::error::Result;
 use crate::stats::chi2_quantile;
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -50,7 +50,7 @@ impl KldConfig {
     /// Checks every parameter.
     ///
     /// # Errors
-    /// [`SlamError::InvalidParameter`] naming the first one out of range.
+    /// [`SlamError::InvalidParameter`](crate::SlamError::InvalidParameter) naming the first one out of range.
     pub fn validate(&self) -> Result<()> {
         let checks = [
             ("epsilon", self.epsilon, self.epsilon > 0.0),
@@ -72,16 +72,7 @@ impl KldConfig {
                 self.max_particles >= self.min_particles,
             ),
         ];
-        for (name, value, ok) in checks {
-            if !(ok && value.is_finite()) {
-                return Err(SlamError::InvalidParameter {
-                    name,
-                    value,
-                    reason: "out of range",
-                });
-            }
-        }
-        Ok(())
+        crate::error::ensure_in_range(&checks)
     }
 
     /// The upper standard-normal quantile `z_{1−δ}`.
