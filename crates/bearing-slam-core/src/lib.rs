@@ -20,6 +20,7 @@ pub mod metrics;
 pub mod motion;
 pub mod runner;
 pub mod slam;
+pub mod smoother;
 pub mod trace;
 
 #[cfg(feature = "testing")]
