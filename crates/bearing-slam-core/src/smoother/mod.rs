@@ -12,9 +12,13 @@
 //!   equations (`faer`'s sparse Cholesky, symbolic analysis reused), with
 //!   the [`robust`] kernels;
 //! * [`marginals`]: per-variable covariances by the selected inverse of the
-//!   sparse factor.
+//!   sparse factor;
+//! * [`fixed_lag`]: online fixed-lag smoothing, marginalizing the poses that
+//!   leave the window into a linear prior (Schur complement, first-estimate
+//!   Jacobians).
 
 pub mod factors;
+pub mod fixed_lag;
 pub mod graph;
 pub mod marginals;
 pub mod preintegration;
@@ -27,6 +31,7 @@ pub use factors::{
     BearingFactor, Factor, LandmarkPriorFactor, LinearFactor, Linearization, OdometryFactor,
     PosePriorFactor, RangeBearingFactor,
 };
+pub use fixed_lag::{FinalizedPose, FixedLagConfig, FixedLagSmoother};
 pub use graph::FactorGraph;
 pub use marginals::{Marginals, marginal_covariances};
 pub use preintegration::PreintegratedOdometry;
