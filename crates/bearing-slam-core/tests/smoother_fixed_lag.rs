@@ -114,8 +114,10 @@ fn approaches_the_batch_as_the_lag_grows() {
 
 #[test]
 fn bad_use_is_an_error() {
-    let mut cfg = FixedLagConfig::default();
-    cfg.lag = 1;
+    let cfg = FixedLagConfig {
+        lag: 1,
+        ..FixedLagConfig::default()
+    };
     assert!(FixedLagSmoother::new(cfg).is_err());
     let p = problem(13, 3, true, false);
     let mut s = FixedLagSmoother::new(FixedLagConfig::default()).unwrap();
