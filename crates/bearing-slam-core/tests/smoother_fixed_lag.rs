@@ -13,8 +13,13 @@ use smoother_common::{Problem, max_difference, problem};
 /// Feeds `p` pose by pose (each pose's factors once all their variables
 /// exist) and updates after each.
 fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
+    run_online_with(p, lag, true)
+}
+
+fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSmoother {
     let config = FixedLagConfig {
         lag,
+        first_estimates,
         solver: SolverConfig::default(),
     };
     let mut s = FixedLagSmoother::new(config).unwrap();
@@ -110,6 +115,19 @@ fn approaches_the_batch_as_the_lag_grows() {
         }
     }
     assert!(previous < 0.1 * truth, "{previous} vs {truth}");
+}
+
+/// FEJ keeps the landmarks linearized where a short window first left them;
+/// relinearizing the marginalized block at the current estimate does not.
+#[test]
+fn relinearizing_the_marginalized_block_is_closer_to_the_batch_than_fej() {
+    let p = problem(12, 20, true, false);
+    let b = batch(&p);
+    let fej = max_difference(run_online_with(&p, 4, true).values(), &b);
+    let relinearized = max_difference(run_online_with(&p, 4, false).values(), &b);
+    println!("lag 4 vs batch: FEJ {fej:.3e}, relinearized {relinearized:.3e}");
+    assert!(relinearized < 0.5 * fej, "{relinearized} vs {fej}");
+    assert!(relinearized < 0.5 * max_difference(&b, &p.truth));
 }
 
 #[test]

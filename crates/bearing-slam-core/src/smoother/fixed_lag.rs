@@ -8,9 +8,10 @@
 //!
 //! which becomes one [`LinearFactor`] `½‖R δ + r₀‖²` with `RᵀR = H'`,
 //! `Rᵀr₀ = g'` on the boundary variables. The factor's Jacobian is fixed at
-//! the linearization point (first-estimate Jacobians): variables already in
-//! the previous prior are linearized at their first estimate, so the prior
-//! never mixes two linearization points of one variable. The work per scan
+//! the linearization point. With first-estimate Jacobians
+//! ([`FixedLagConfig::first_estimates`]) variables already in the previous
+//! prior are linearized at their first estimate, so the prior never mixes two
+//! linearization points of one variable. The work per scan
 //! depends on the window and the map size, not on the run length.
 
 use super::factors::{Factor, LinearFactor};
@@ -29,12 +30,22 @@ pub struct FixedLagConfig {
     pub lag: usize,
     /// The solver run at each update (a few iterations suffice online).
     pub solver: SolverConfig,
+    /// First-estimate Jacobians: variables already in the marginalization
+    /// prior stay linearized at their first estimate in every later
+    /// marginalization (consistent: the prior never mixes two linearization
+    /// points of one variable). `false` relinearizes the whole marginalized
+    /// block at the current estimate (the old prior, being linear, is carried
+    /// over exactly): less consistent in theory, but bearing-only landmarks
+    /// first estimated from a short window are linearized far from where
+    /// they end, and FEJ keeps that error (see the tests for the numbers).
+    pub first_estimates: bool,
 }
 
 impl Default for FixedLagConfig {
     fn default() -> Self {
         Self {
             lag: 20,
+            first_estimates: true,
             solver: SolverConfig {
                 max_iterations: 10,
                 ..SolverConfig::default()
@@ -186,9 +197,10 @@ impl FixedLagSmoother {
         let taken = self
             .graph
             .extract(|f| matches!(f, Factor::Linear(_)) || f.keys().contains(&target));
-        // Linearization point: first estimates of the previous prior's keys.
+        // Linearization point: first estimates of the previous prior's keys
+        // (FEJ), or the current estimate of everything.
         let mut point = self.values.clone();
-        for f in &taken {
+        for f in taken.iter().filter(|_| self.config.first_estimates) {
             if let Factor::Linear(l) = f {
                 for (k, x0) in l.keys().iter().zip(l.linearization_point()) {
                     point.set(*k, x0.as_slice())?;

@@ -15,7 +15,9 @@
 //!   sparse factor;
 //! * [`fixed_lag`]: online fixed-lag smoothing, marginalizing the poses that
 //!   leave the window into a linear prior (Schur complement, first-estimate
-//!   Jacobians).
+//!   Jacobians);
+//! * [`run`]: [`run_from_log`], the filter's run followed by the smoother,
+//!   batch or fixed-lag, returning the runner's output shape.
 
 pub mod factors;
 pub mod fixed_lag;
@@ -23,6 +25,7 @@ pub mod graph;
 pub mod marginals;
 pub mod preintegration;
 pub mod robust;
+pub mod run;
 pub mod solver;
 mod system;
 pub mod values;
@@ -36,5 +39,6 @@ pub use graph::FactorGraph;
 pub use marginals::{Marginals, marginal_covariances};
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
+pub use run::{SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, run_from_log};
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
 pub use values::{Key, Values};
