@@ -209,7 +209,13 @@ pub fn optimize(
             }
             let mut trial = values.clone();
             retract_all(&pattern, &mut trial, &step)?;
-            let new_cost = total_cost(graph, &trial, &config.robust)?;
+            // A step that lands a landmark on a pose (or overflows) is a
+            // rejected step for LM, an error for Gauss–Newton.
+            let new_cost = match total_cost(graph, &trial, &config.robust) {
+                Ok(c) => c,
+                Err(e) if gauss_newton => return Err(e),
+                Err(_) => f64::INFINITY,
+            };
             if gauss_newton {
                 accepted = Some((trial, new_cost, step));
                 break;
