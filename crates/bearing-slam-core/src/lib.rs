@@ -25,6 +25,7 @@ pub mod particle;
 pub mod runner;
 pub mod score;
 pub mod slam;
+pub mod smoother;
 pub mod stats;
 pub mod trace;
 

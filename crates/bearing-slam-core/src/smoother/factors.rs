@@ -1,0 +1,434 @@
+//! The factors of the graph, each a whitened residual `e(x)` with its
+//! Jacobians with respect to the variables it touches; the cost of a factor is
+//! `½‖e‖²` (or `½ρ(‖e‖²)` under a robust kernel for measurement factors).
+//!
+//! Measurement factors call the filter's own measurement models
+//! ([`BearingToPoint`], Munguía & Grau (8)(9); [`RangeBearing`], (6)) for the
+//! prediction and its Jacobians; the odometry factor holds a relative pose
+//! preintegrated through the filter's motion model
+//! ([`super::PreintegratedOdometry`]).
+
+use super::preintegration::PreintegratedOdometry;
+use super::values::{Key, Values, local_difference};
+use crate::model::MeasurementModel;
+use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
+use crate::geometry::{Pose2, wrap_angle};
+use crate::measurement::{BearingToPoint, RangeBearing};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector1, Vector2, Vector3};
+
+/// A factor linearized at the current estimate: whitened residual `e` and,
+/// per key (in [`Factor::keys`] order), `∂e/∂δ` so that
+/// `e(x ⊕ δ) ≈ e + Σ_k J_k δ_k`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Linearization {
+    /// The whitened residual.
+    pub residual: DVector<f64>,
+    /// One Jacobian per key, `dim(e) × dim(key)`.
+    pub jacobians: Vec<DMatrix<f64>>,
+}
+
+/// The whitening matrix `S = L⁻¹` of a covariance `Σ = L Lᵀ`, so that
+/// `SᵀS = Σ⁻¹` and `S r` has identity covariance.
+pub fn whitening(what: &'static str, covariance: &DMatrix<f64>) -> Result<DMatrix<f64>> {
+    if covariance.iter().any(|v| !v.is_finite()) {
+        return Err(SlamError::NonFinite {
+            what,
+            value: covariance
+                .iter()
+                .copied()
+                .find(|v| !v.is_finite())
+                .unwrap_or(f64::NAN),
+        });
+    }
+    let sym = 0.5 * (covariance + covariance.transpose());
+    let l = sym
+        .cholesky()
+        .ok_or(SlamError::NotPositiveDefinite { what })?
+        .l();
+    l.try_inverse()
+        .ok_or(SlamError::NotPositiveDefinite { what })
+}
+
+fn dm<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatrix<f64> {
+    DMatrix::from_column_slice(R, C, m.as_slice())
+}
+
+/// A Gaussian prior on one pose: `e = S (x ⊟ μ)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosePriorFactor {
+    pose: u64,
+    mean: Vector3<f64>,
+    sqrt_info: Matrix3<f64>,
+}
+
+impl PosePriorFactor {
+    /// Prior `N(mean, covariance)` on pose `pose`. Errors on non-finite input
+    /// or a covariance that is not positive definite.
+    pub fn new(pose: u64, mean: Vector3<f64>, covariance: Matrix3<f64>) -> Result<Self> {
+        for v in mean.iter() {
+            ensure_finite("pose prior mean", *v)?;
+        }
+        let s = whitening("pose prior covariance", &dm(&covariance))?;
+        Ok(Self {
+            pose,
+            mean,
+            sqrt_info: Matrix3::from_column_slice(s.as_slice()),
+        })
+    }
+}
+
+/// A Gaussian prior on one landmark: `e = S (p − μ)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LandmarkPriorFactor {
+    landmark: u64,
+    mean: Vector2<f64>,
+    sqrt_info: Matrix2<f64>,
+}
+
+impl LandmarkPriorFactor {
+    /// Prior `N(mean, covariance)` on landmark `landmark`.
+    pub fn new(landmark: u64, mean: Vector2<f64>, covariance: Matrix2<f64>) -> Result<Self> {
+        for v in mean.iter() {
+            ensure_finite("landmark prior mean", *v)?;
+        }
+        let s = whitening("landmark prior covariance", &dm(&covariance))?;
+        Ok(Self {
+            landmark,
+            mean,
+            sqrt_info: Matrix2::from_column_slice(s.as_slice()),
+        })
+    }
+}
+
+/// Relative motion between two poses, preintegrated through the motion model:
+/// `e = S r`, `r = [R_iᵀ(p_j − p_i) − Δp, wrap(θ_j − θ_i − Δθ)]`, the
+/// additive error on the relative pose `T_i⁻¹ T_j` in the frame of pose `i`,
+/// which is the error the preintegrated covariance describes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct OdometryFactor {
+    from: u64,
+    to: u64,
+    delta: Vector3<f64>,
+    sqrt_info: Matrix3<f64>,
+}
+
+impl OdometryFactor {
+    /// Between `from` and `to`, relative pose `delta` with covariance
+    /// `covariance`.
+    pub fn new(from: u64, to: u64, delta: Vector3<f64>, covariance: Matrix3<f64>) -> Result<Self> {
+        if from == to {
+            return Err(SlamError::Degenerate(
+                "odometry factor from a pose to itself",
+            ));
+        }
+        for v in delta.iter() {
+            ensure_finite("odometry delta", *v)?;
+        }
+        let s = whitening("odometry covariance", &dm(&covariance))?;
+        Ok(Self {
+            from,
+            to,
+            delta,
+            sqrt_info: Matrix3::from_column_slice(s.as_slice()),
+        })
+    }
+
+    /// From a preintegration, adding `floor_sigma² = [σ_x², σ_y², σ_θ²]` to
+    /// its covariance (one step of a two-wheel model has a singular covariance:
+    /// the wheels cannot slide sideways; the floor keeps the factor
+    /// invertible).
+    pub fn from_preintegrated(
+        from: u64,
+        to: u64,
+        odometry: &PreintegratedOdometry,
+        floor_sigma: [f64; 3],
+    ) -> Result<Self> {
+        let mut cov = odometry.covariance;
+        for (i, s) in floor_sigma.iter().enumerate() {
+            if !(s.is_finite() && *s >= 0.0) {
+                return Err(SlamError::InvalidNoise {
+                    what: "odometry floor sigma",
+                    value: *s,
+                });
+            }
+            cov[(i, i)] += s * s;
+        }
+        Self::new(from, to, odometry.delta, cov)
+    }
+
+    /// The unwhitened residual and its Jacobians with respect to pose `i` and `j`.
+    fn raw(
+        &self,
+        xi: &Vector3<f64>,
+        xj: &Vector3<f64>,
+    ) -> (Vector3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let rel = Pose2::from_vector(xi).between(&Pose2::from_vector(xj));
+        let r = Vector3::new(
+            rel.x - self.delta.x,
+            rel.y - self.delta.y,
+            wrap_angle(xj.z - xi.z - self.delta.z),
+        );
+        let (s, c) = xi.z.sin_cos();
+        let d = xj.fixed_rows::<2>(0) - xi.fixed_rows::<2>(0);
+        // R_iᵀ = [[c, s], [−s, c]]; ∂(R_iᵀ d)/∂θ_i = [[−s, c], [−c, −s]] d.
+        let j_i = Matrix3::new(
+            -c,
+            -s,
+            -s * d.x + c * d.y,
+            s,
+            -c,
+            -c * d.x - s * d.y,
+            0.0,
+            0.0,
+            -1.0,
+        );
+        let j_j = Matrix3::new(c, s, 0.0, -s, c, 0.0, 0.0, 0.0, 1.0);
+        (r, j_i, j_j)
+    }
+}
+
+/// One bearing to a landmark: `e = wrap(z − h(x_v, p))/σ` with the filter's
+/// [`BearingToPoint`] model, Munguía & Grau (9).
+#[derive(Clone, Debug, PartialEq)]
+pub struct BearingFactor {
+    pose: u64,
+    landmark: u64,
+    bearing: f64,
+    sigma: f64,
+}
+
+impl BearingFactor {
+    /// Bearing `bearing` (radians) from pose `pose` to landmark `landmark`,
+    /// standard deviation `sigma`.
+    pub fn new(pose: u64, landmark: u64, bearing: f64, sigma: f64) -> Result<Self> {
+        ensure_finite("bearing", bearing)?;
+        ensure_positive_noise("bearing sigma", sigma)?;
+        Ok(Self {
+            pose,
+            landmark,
+            bearing,
+            sigma,
+        })
+    }
+}
+
+/// One range and bearing to a landmark: `e = S (z − h(x_v, p))` with the
+/// filter's [`RangeBearing`] model, Munguía & Grau (6).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RangeBearingFactor {
+    pose: u64,
+    landmark: u64,
+    measured: Vector2<f64>,
+    sqrt_info: Matrix2<f64>,
+}
+
+impl RangeBearingFactor {
+    /// Range `range` (m) and bearing `bearing` (rad), independent noises
+    /// `range_sigma`, `bearing_sigma`.
+    pub fn new(
+        pose: u64,
+        landmark: u64,
+        range: f64,
+        bearing: f64,
+        range_sigma: f64,
+        bearing_sigma: f64,
+    ) -> Result<Self> {
+        ensure_finite("range", range)?;
+        ensure_finite("bearing", bearing)?;
+        ensure_positive_noise("range sigma", range_sigma)?;
+        ensure_positive_noise("bearing sigma", bearing_sigma)?;
+        Ok(Self {
+            pose,
+            landmark,
+            measured: Vector2::new(range, bearing),
+            sqrt_info: Matrix2::new(1.0 / range_sigma, 0.0, 0.0, 1.0 / bearing_sigma),
+        })
+    }
+}
+
+/// A fixed linear factor `e = R (x ⊟ x₀) + r₀` over several variables: what
+/// marginalization leaves behind. Its Jacobian `R` was evaluated once at the
+/// linearization point `x₀` and never changes (first-estimate Jacobians).
+#[derive(Clone, Debug, PartialEq)]
+pub struct LinearFactor {
+    keys: Vec<Key>,
+    linearization_point: Vec<DVector<f64>>,
+    jacobian: DMatrix<f64>,
+    offset: DVector<f64>,
+}
+
+impl LinearFactor {
+    /// Over `keys` (each with its linearization point), Jacobian `jacobian`
+    /// (rows × Σ dims, blocks in key order) and constant `offset`.
+    pub fn new(
+        keys: Vec<Key>,
+        linearization_point: Vec<DVector<f64>>,
+        jacobian: DMatrix<f64>,
+        offset: DVector<f64>,
+    ) -> Result<Self> {
+        let n: usize = keys.iter().map(Key::dim).sum();
+        if linearization_point.len() != keys.len() {
+            return Err(SlamError::DimensionMismatch {
+                what: "linear factor linearization points",
+                expected: keys.len(),
+                got: linearization_point.len(),
+            });
+        }
+        for (k, x0) in keys.iter().zip(&linearization_point) {
+            if x0.len() != k.dim() {
+                return Err(SlamError::DimensionMismatch {
+                    what: "linear factor linearization point",
+                    expected: k.dim(),
+                    got: x0.len(),
+                });
+            }
+        }
+        if jacobian.ncols() != n || offset.len() != jacobian.nrows() {
+            return Err(SlamError::DimensionMismatch {
+                what: "linear factor Jacobian",
+                expected: n,
+                got: jacobian.ncols(),
+            });
+        }
+        if jacobian
+            .iter()
+            .chain(offset.iter())
+            .chain(linearization_point.iter().flat_map(|x| x.iter()))
+            .any(|v| !v.is_finite())
+        {
+            return Err(SlamError::NonFinite {
+                what: "linear factor entry",
+                value: f64::NAN,
+            });
+        }
+        Ok(Self {
+            keys,
+            linearization_point,
+            jacobian,
+            offset,
+        })
+    }
+
+    /// The variables it constrains.
+    #[must_use]
+    pub fn keys(&self) -> &[Key] {
+        &self.keys
+    }
+
+    /// The linearization point (first estimate) of each key.
+    #[must_use]
+    pub fn linearization_point(&self) -> &[DVector<f64>] {
+        &self.linearization_point
+    }
+}
+
+/// Any factor of the graph.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Factor {
+    /// Prior on a pose.
+    PosePrior(PosePriorFactor),
+    /// Prior on a landmark.
+    LandmarkPrior(LandmarkPriorFactor),
+    /// Preintegrated odometry between two poses.
+    Odometry(OdometryFactor),
+    /// Bearing from a pose to a landmark.
+    Bearing(BearingFactor),
+    /// Range and bearing from a pose to a landmark.
+    RangeBearing(RangeBearingFactor),
+    /// A linear (marginalization) prior.
+    Linear(LinearFactor),
+}
+
+impl Factor {
+    /// The variables the factor touches, in the order of its Jacobians.
+    #[must_use]
+    pub fn keys(&self) -> Vec<Key> {
+        match self {
+            Factor::PosePrior(f) => vec![Key::Pose(f.pose)],
+            Factor::LandmarkPrior(f) => vec![Key::Landmark(f.landmark)],
+            Factor::Odometry(f) => vec![Key::Pose(f.from), Key::Pose(f.to)],
+            Factor::Bearing(f) => vec![Key::Pose(f.pose), Key::Landmark(f.landmark)],
+            Factor::RangeBearing(f) => vec![Key::Pose(f.pose), Key::Landmark(f.landmark)],
+            Factor::Linear(f) => f.keys.clone(),
+        }
+    }
+
+    /// Whether the robust kernel applies (measurement factors only).
+    #[must_use]
+    pub fn is_measurement(&self) -> bool {
+        matches!(self, Factor::Bearing(_) | Factor::RangeBearing(_))
+    }
+
+    /// The whitened residual and its Jacobians at `values`.
+    pub fn linearize(&self, values: &Values) -> Result<Linearization> {
+        match self {
+            Factor::PosePrior(f) => {
+                let x = values.pose(f.pose)?;
+                let mut r = x - f.mean;
+                r.z = wrap_angle(r.z);
+                Ok(Linearization {
+                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
+                    jacobians: vec![dm(&f.sqrt_info)],
+                })
+            }
+            Factor::LandmarkPrior(f) => {
+                let r = values.landmark(f.landmark)? - f.mean;
+                Ok(Linearization {
+                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
+                    jacobians: vec![dm(&f.sqrt_info)],
+                })
+            }
+            Factor::Odometry(f) => {
+                let (r, ji, jj) = f.raw(&values.pose(f.from)?, &values.pose(f.to)?);
+                Ok(Linearization {
+                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
+                    jacobians: vec![dm(&(f.sqrt_info * ji)), dm(&(f.sqrt_info * jj))],
+                })
+            }
+            Factor::Bearing(f) => {
+                let x = values.pose(f.pose)?;
+                let p = values.landmark(f.landmark)?;
+                let pred = BearingToPoint.predict(&x, &p)?;
+                let r = BearingToPoint.residual(&Vector1::new(f.bearing), &pred.value);
+                let w = -1.0 / f.sigma;
+                Ok(Linearization {
+                    residual: DVector::from_element(1, r.x / f.sigma),
+                    jacobians: vec![dm(&(pred.j_z_vehicle * w)), dm(&(pred.j_z_landmark * w))],
+                })
+            }
+            Factor::RangeBearing(f) => {
+                let x = values.pose(f.pose)?;
+                let p = values.landmark(f.landmark)?;
+                let pred = RangeBearing.predict(&x, &p)?;
+                let r = RangeBearing.residual(&f.measured, &pred.value);
+                let s = -f.sqrt_info;
+                Ok(Linearization {
+                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
+                    jacobians: vec![dm(&(s * pred.j_z_vehicle)), dm(&(s * pred.j_z_landmark))],
+                })
+            }
+            Factor::Linear(f) => {
+                let mut delta = Vec::with_capacity(f.jacobian.ncols());
+                for (k, x0) in f.keys.iter().zip(&f.linearization_point) {
+                    delta.extend(local_difference(*k, &values.get(*k)?, x0).iter());
+                }
+                let residual = &f.jacobian * DVector::from_vec(delta) + &f.offset;
+                let mut jacobians = Vec::with_capacity(f.keys.len());
+                let mut col = 0;
+                for k in &f.keys {
+                    jacobians.push(f.jacobian.columns(col, k.dim()).into_owned());
+                    col += k.dim();
+                }
+                Ok(Linearization {
+                    residual,
+                    jacobians,
+                })
+            }
+        }
+    }
+
+    /// The whitened residual only.
+    pub fn error(&self, values: &Values) -> Result<DVector<f64>> {
+        Ok(self.linearize(values)?.residual)
+    }
+}

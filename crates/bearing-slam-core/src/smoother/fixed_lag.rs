@@ -1,0 +1,290 @@
+//! Online fixed-lag smoothing: the graph holds the last `lag` poses (and every
+//! landmark); when a pose leaves the window it is marginalized out. The
+//! factors touching it (and the previous marginalization prior) are
+//! linearized, their normal equations formed densely over the variables they
+//! touch, and the pose eliminated by the Schur complement
+//!
+//! `H' = H_rr − H_rm H_mm⁻¹ H_mr`,  `g' = g_r − H_rm H_mm⁻¹ g_m`,
+//!
+//! which becomes one [`LinearFactor`] `½‖R δ + r₀‖²` with `RᵀR = H'`,
+//! `Rᵀr₀ = g'` on the boundary variables. The factor's Jacobian is fixed at
+//! the linearization point. With first-estimate Jacobians
+//! ([`FixedLagConfig::first_estimates`]) variables already in the previous
+//! prior are linearized at their first estimate, so the prior never mixes two
+//! linearization points of one variable. The work per scan
+//! depends on the window and the map size, not on the run length.
+
+use super::factors::{Factor, LinearFactor};
+use super::graph::FactorGraph;
+use super::marginals::{Marginals, marginal_covariances};
+use super::solver::{SolveReport, SolverConfig, optimize};
+use super::values::{Key, Values, unknown_key};
+use crate::error::{Result, SlamError};
+use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+/// How the online smoother runs.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FixedLagConfig {
+    /// Poses kept in the window (≥ 2).
+    pub lag: usize,
+    /// The solver run at each update (a few iterations suffice online).
+    pub solver: SolverConfig,
+    /// First-estimate Jacobians: variables already in the marginalization
+    /// prior stay linearized at their first estimate in every later
+    /// marginalization (consistent: the prior never mixes two linearization
+    /// points of one variable). `false` relinearizes the whole marginalized
+    /// block at the current estimate (the old prior, being linear, is carried
+    /// over exactly): less consistent in theory, but bearing-only landmarks
+    /// first estimated from a short window are linearized far from where
+    /// they end, and FEJ keeps that error (see the tests for the numbers).
+    pub first_estimates: bool,
+}
+
+impl Default for FixedLagConfig {
+    fn default() -> Self {
+        Self {
+            lag: 20,
+            first_estimates: true,
+            solver: SolverConfig {
+                max_iterations: 10,
+                ..SolverConfig::default()
+            },
+        }
+    }
+}
+
+/// A pose that left the window: its estimate and marginal covariance at the
+/// moment it was marginalized.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FinalizedPose {
+    /// `[x, y, θ]`.
+    pub pose: Vector3<f64>,
+    /// Its marginal covariance.
+    pub covariance: Matrix3<f64>,
+}
+
+/// The online smoother.
+#[derive(Clone, Debug)]
+pub struct FixedLagSmoother {
+    config: FixedLagConfig,
+    graph: FactorGraph,
+    values: Values,
+    window: VecDeque<u64>,
+    finalized: BTreeMap<u64, FinalizedPose>,
+    marginalizations: usize,
+}
+
+impl FixedLagSmoother {
+    /// An empty smoother. Errors on `lag < 2` or a bad solver configuration.
+    pub fn new(config: FixedLagConfig) -> Result<Self> {
+        if config.lag < 2 {
+            return Err(SlamError::InvalidParameter {
+                name: "lag",
+                value: config.lag as f64,
+                reason: "the window must hold at least 2 poses",
+            });
+        }
+        config.solver.validate()?;
+        Ok(Self {
+            config,
+            graph: FactorGraph::new(),
+            values: Values::new(),
+            window: VecDeque::new(),
+            finalized: BTreeMap::new(),
+            marginalizations: 0,
+        })
+    }
+
+    /// Adds a new (latest) pose with its initial estimate. Pose ids must be new.
+    pub fn add_pose(&mut self, id: u64, initial: Vector3<f64>) -> Result<()> {
+        if self.values.contains(Key::Pose(id)) || self.finalized.contains_key(&id) {
+            return Err(SlamError::InvalidParameter {
+                name: "pose id",
+                value: id as f64,
+                reason: "already added",
+            });
+        }
+        self.values.insert_pose(id, initial)?;
+        self.window.push_back(id);
+        Ok(())
+    }
+
+    /// Adds a landmark with its initial estimate (the filter's, when it
+    /// initialized it).
+    pub fn add_landmark(&mut self, id: u64, initial: Vector2<f64>) -> Result<()> {
+        if self.values.contains(Key::Landmark(id)) {
+            return Err(SlamError::InvalidParameter {
+                name: "landmark id",
+                value: id as f64,
+                reason: "already added",
+            });
+        }
+        self.values.insert_landmark(id, initial)
+    }
+
+    /// Adds a factor over variables in the window.
+    pub fn add_factor(&mut self, factor: Factor) -> Result<()> {
+        for k in factor.keys() {
+            if !self.values.contains(k) {
+                return Err(unknown_key(k));
+            }
+        }
+        self.graph.add(factor)
+    }
+
+    /// Whether `id` is a pose in the window.
+    #[must_use]
+    pub fn in_window(&self, id: u64) -> bool {
+        self.values.contains(Key::Pose(id))
+    }
+
+    /// Optimizes the window, then marginalizes the poses beyond the lag.
+    pub fn update(&mut self) -> Result<SolveReport> {
+        let report = optimize(&self.graph, &mut self.values, &self.config.solver)?;
+        if self.window.len() > self.config.lag {
+            let marginals = self.marginals()?;
+            while self.window.len() > self.config.lag {
+                let Some(oldest) = self.window.front().copied() else {
+                    break;
+                };
+                self.finalized.insert(
+                    oldest,
+                    FinalizedPose {
+                        pose: self.values.pose(oldest)?,
+                        covariance: marginals.pose(oldest)?,
+                    },
+                );
+                self.marginalize(oldest)?;
+                self.window.pop_front();
+            }
+        }
+        Ok(report)
+    }
+
+    /// The current estimate of the window and of every landmark.
+    #[must_use]
+    pub fn values(&self) -> &Values {
+        &self.values
+    }
+
+    /// The factors in the window (the marginalization prior included).
+    #[must_use]
+    pub fn graph(&self) -> &FactorGraph {
+        &self.graph
+    }
+
+    /// The poses that left the window, by id.
+    #[must_use]
+    pub fn finalized(&self) -> &BTreeMap<u64, FinalizedPose> {
+        &self.finalized
+    }
+
+    /// Poses marginalized so far.
+    #[must_use]
+    pub fn marginalizations(&self) -> usize {
+        self.marginalizations
+    }
+
+    /// Marginal covariances of the window's variables.
+    pub fn marginals(&self) -> Result<Marginals> {
+        marginal_covariances(&self.graph, &self.values, &self.config.solver.robust)
+    }
+
+    /// Eliminates pose `id` into a linear prior on its neighbours.
+    fn marginalize(&mut self, id: u64) -> Result<()> {
+        let target = Key::Pose(id);
+        let taken = self
+            .graph
+            .extract(|f| matches!(f, Factor::Linear(_)) || f.keys().contains(&target));
+        // Linearization point: first estimates of the previous prior's keys
+        // (FEJ), or the current estimate of everything.
+        let mut point = self.values.clone();
+        for f in taken.iter().filter(|_| self.config.first_estimates) {
+            if let Factor::Linear(l) = f {
+                for (k, x0) in l.keys().iter().zip(l.linearization_point()) {
+                    point.set(*k, x0.as_slice())?;
+                }
+            }
+        }
+        let rest: BTreeSet<Key> = taken
+            .iter()
+            .flat_map(Factor::keys)
+            .filter(|k| *k != target)
+            .collect();
+        let keys: Vec<Key> = std::iter::once(target)
+            .chain(rest.iter().copied())
+            .collect();
+        let mut offsets = BTreeMap::new();
+        let mut n = 0;
+        for k in &keys {
+            offsets.insert(*k, n);
+            n += k.dim();
+        }
+        let mut h = DMatrix::<f64>::zeros(n, n);
+        let mut g = DVector::<f64>::zeros(n);
+        let kernel = self.config.solver.robust;
+        for f in &taken {
+            let lin = f.linearize(&point)?;
+            let w = if f.is_measurement() {
+                kernel.weight(lin.residual.norm_squared())
+            } else {
+                1.0
+            };
+            let fk = f.keys();
+            for (a, ja) in fk.iter().zip(&lin.jacobians) {
+                let oa = offsets[a];
+                let mut ga = g.rows_mut(oa, a.dim());
+                ga += ja.tr_mul(&lin.residual) * w;
+                for (b, jb) in fk.iter().zip(&lin.jacobians) {
+                    let mut hab = h.view_mut((oa, offsets[b]), (a.dim(), b.dim()));
+                    hab += ja.tr_mul(jb) * w;
+                }
+            }
+        }
+        self.values.remove(target);
+        self.marginalizations += 1;
+        if rest.is_empty() {
+            return Ok(());
+        }
+        let m = target.dim();
+        let r = n - m;
+        let hmm = h.view((0, 0), (m, m)).into_owned();
+        let hmm_inv = hmm
+            .cholesky()
+            .ok_or(SlamError::NotPositiveDefinite {
+                what: "the information of the marginalized pose",
+            })?
+            .inverse();
+        let hrm = h.view((m, 0), (r, m)).into_owned();
+        let schur_h = h.view((m, m), (r, r)).into_owned() - &hrm * &hmm_inv * hrm.transpose();
+        let schur_g = g.rows(m, r).into_owned() - &hrm * &hmm_inv * g.rows(0, m);
+        let schur_h = 0.5 * (&schur_h + schur_h.transpose());
+        // Square root of the information: H' = V Λ Vᵀ, R = Λ^{1/2} Vᵀ over
+        // the positive eigenvalues, r₀ = Λ^{-1/2} Vᵀ g'.
+        let eig = schur_h.symmetric_eigen();
+        let max = eig.eigenvalues.max().max(0.0);
+        let kept: Vec<usize> = (0..r)
+            .filter(|&i| eig.eigenvalues[i] > 1e-12 * max && eig.eigenvalues[i] > 0.0)
+            .collect();
+        if kept.is_empty() {
+            return Ok(());
+        }
+        let mut jac = DMatrix::<f64>::zeros(kept.len(), r);
+        let mut off = DVector::<f64>::zeros(kept.len());
+        for (row, &i) in kept.iter().enumerate() {
+            let s = eig.eigenvalues[i].sqrt();
+            let v = eig.eigenvectors.column(i);
+            jac.row_mut(row).copy_from(&(v.transpose() * s));
+            off[row] = v.dot(&schur_g) / s;
+        }
+        let rest: Vec<Key> = keys[1..].to_vec();
+        let lin_points = rest
+            .iter()
+            .map(|k| point.get(*k))
+            .collect::<Result<Vec<_>>>()?;
+        self.graph.add(Factor::Linear(LinearFactor::new(
+            rest, lin_points, jac, off,
+        )?))
+    }
+}

@@ -1,0 +1,157 @@
+//! Marginal covariances of selected variables: the diagonal blocks of
+//! `H⁻¹` at the estimate, computed from the sparse Cholesky factor by the
+//! selected-inverse recursion of Takahashi et al. (entries of `Σ = H⁻¹` on
+//! the pattern of `L` only), never by inverting `H` densely:
+//!
+//! `Σ_ij = −(1/L_jj) Σ_{k>j} L_kj Σ_ik` for `i > j` in the pattern of column `j`,
+//! `Σ_jj = 1/L_jj² − (1/L_jj) Σ_{k>j} L_kj Σ_kj`,
+//!
+//! swept from the last column to the first. Cost `Σ_j |col_j|²`, the same
+//! order as the factorization.
+
+use super::graph::FactorGraph;
+use super::robust::RobustKernel;
+use super::system::{Pattern, SparseCholesky, assemble};
+use super::values::{Key, Values};
+use crate::error::{Result, SlamError};
+use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
+use nalgebra::{DMatrix, Matrix2, Matrix3};
+use std::collections::BTreeMap;
+
+/// Marginal covariances of the variables of a graph at an estimate.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Marginals {
+    blocks: BTreeMap<Key, DMatrix<f64>>,
+}
+
+impl Marginals {
+    /// The covariance block of `key`.
+    pub fn get(&self, key: Key) -> Result<&DMatrix<f64>> {
+        self.blocks.get(&key).ok_or(match key {
+            Key::Landmark(id) => SlamError::UnknownLandmark(id),
+            Key::Pose(_) => SlamError::Mismatch("no marginal for this pose"),
+        })
+    }
+
+    /// The 3×3 covariance of pose `id`.
+    pub fn pose(&self, id: u64) -> Result<Matrix3<f64>> {
+        let b = self.get(Key::Pose(id))?;
+        Ok(Matrix3::from_column_slice(b.as_slice()))
+    }
+
+    /// The 2×2 covariance of landmark `id`.
+    pub fn landmark(&self, id: u64) -> Result<Matrix2<f64>> {
+        let b = self.get(Key::Landmark(id))?;
+        Ok(Matrix2::from_column_slice(b.as_slice()))
+    }
+
+    /// Every block, by key.
+    #[must_use]
+    pub fn blocks(&self) -> &BTreeMap<Key, DMatrix<f64>> {
+        &self.blocks
+    }
+}
+
+/// The selected inverse of a simplicial factor: for each column, its sorted
+/// rows (diagonal first) and the matching entries of `Σ`.
+struct SelectedInverse {
+    rows: Vec<Vec<usize>>,
+    sigma: Vec<Vec<f64>>,
+}
+
+impl SelectedInverse {
+    fn entry(&self, i: usize, k: usize) -> f64 {
+        let (r, c) = if i >= k { (i, k) } else { (k, i) };
+        match self.rows[c].binary_search(&r) {
+            Ok(p) => self.sigma[c][p],
+            // Outside the filled pattern: never needed by the recursion.
+            Err(_) => f64::NAN,
+        }
+    }
+
+    fn new(col_ptr: &[usize], row_idx: &[usize], values: &[f64]) -> Result<Self> {
+        let n = col_ptr.len() - 1;
+        let mut rows = Vec::with_capacity(n);
+        let mut lvals = Vec::with_capacity(n);
+        for j in 0..n {
+            let mut col: Vec<(usize, f64)> = (col_ptr[j]..col_ptr[j + 1])
+                .map(|p| (row_idx[p], values[p]))
+                .collect();
+            col.sort_by_key(|e| e.0);
+            if col.first().map(|e| e.0) != Some(j) || col[0].1.is_nan() || col[0].1 <= 0.0 {
+                return Err(SlamError::Degenerate(
+                    "Cholesky factor without a positive diagonal",
+                ));
+            }
+            rows.push(col.iter().map(|e| e.0).collect::<Vec<_>>());
+            lvals.push(col.iter().map(|e| e.1).collect::<Vec<_>>());
+        }
+        let mut this = Self {
+            sigma: rows.iter().map(|r| vec![0.0; r.len()]).collect(),
+            rows,
+        };
+        for j in (0..n).rev() {
+            let l = &lvals[j];
+            let ljj = l[0];
+            let below = &this.rows[j][1..];
+            let mut col = vec![0.0; l.len()];
+            for (a, &i) in below.iter().enumerate() {
+                let s: f64 = below
+                    .iter()
+                    .zip(&l[1..])
+                    .map(|(&k, lkj)| lkj * this.entry(i, k))
+                    .sum();
+                col[a + 1] = -s / ljj;
+            }
+            let s: f64 = col[1..]
+                .iter()
+                .zip(&l[1..])
+                .map(|(sij, lij)| sij * lij)
+                .sum();
+            col[0] = 1.0 / (ljj * ljj) - s / ljj;
+            this.sigma[j] = col;
+        }
+        Ok(this)
+    }
+}
+
+/// The marginal covariance of every variable of `graph` at `values` (robust
+/// weights of `kernel` included, as in the last solver iteration). Errors as
+/// the solver does, and when the information matrix is singular (a graph
+/// without a prior fixing the gauge).
+pub fn marginal_covariances(
+    graph: &FactorGraph,
+    values: &Values,
+    kernel: &RobustKernel,
+) -> Result<Marginals> {
+    let pattern = Pattern::new(graph, values)?;
+    let eq = assemble(&pattern, graph, values, kernel)?;
+    let mut cholesky = SparseCholesky::analyze(&pattern, true)?;
+    cholesky.factorize(&pattern, &eq.hessian)?;
+    let symbolic = cholesky.symbolic();
+    let SymbolicCholeskyRaw::Simplicial(simplicial) = symbolic.raw() else {
+        return Err(SlamError::Degenerate("expected a simplicial factorization"));
+    };
+    let inverse = SelectedInverse::new(
+        simplicial.col_ptr(),
+        simplicial.row_idx(),
+        cholesky.factor_values(),
+    )?;
+    let n = pattern.ordering.dim;
+    let inv: Vec<usize> = match symbolic.perm() {
+        Some(p) => p.arrays().1.to_vec(),
+        None => (0..n).collect(),
+    };
+    let mut blocks = BTreeMap::new();
+    for (k, &off) in pattern.ordering.keys.iter().zip(&pattern.ordering.offsets) {
+        let d = k.dim();
+        let block = DMatrix::from_fn(d, d, |a, b| inverse.entry(inv[off + a], inv[off + b]));
+        if block.iter().any(|v| !v.is_finite()) {
+            return Err(SlamError::Degenerate(
+                "marginal covariance outside the factor pattern",
+            ));
+        }
+        blocks.insert(*k, block);
+    }
+    Ok(Marginals { blocks })
+}

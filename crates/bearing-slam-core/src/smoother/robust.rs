@@ -1,0 +1,65 @@
+//! Robust kernels: the loss `ρ(s)` applied to a measurement factor's squared
+//! whitened error `s = ‖e‖²`, solved by iteratively reweighted least squares
+//! (each Gauss–Newton step weighs the factor by `ρ'(s)`).
+
+use crate::error::{Result, SlamError};
+
+/// The loss applied to each measurement factor (bearing, range-bearing).
+/// Odometry and priors always use plain least squares.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum RobustKernel {
+    /// `ρ(s) = s`: plain least squares.
+    #[default]
+    None,
+    /// Huber with threshold `k` (in standard deviations of the whitened
+    /// error): `ρ(s) = s` for `√s ≤ k`, `2k√s − k²` beyond.
+    Huber(f64),
+    /// Cauchy (Lorentzian) with scale `c`: `ρ(s) = c² ln(1 + s/c²)`.
+    Cauchy(f64),
+}
+
+impl RobustKernel {
+    /// Checks the kernel's parameter (finite and > 0).
+    pub fn validate(&self) -> Result<()> {
+        match *self {
+            RobustKernel::None => Ok(()),
+            RobustKernel::Huber(k) | RobustKernel::Cauchy(k) => {
+                if k.is_finite() && k > 0.0 {
+                    Ok(())
+                } else {
+                    Err(SlamError::InvalidParameter {
+                        name: "robust kernel threshold",
+                        value: k,
+                        reason: "must be finite and > 0",
+                    })
+                }
+            }
+        }
+    }
+
+    /// `ρ(s)` for a squared whitened error `s ≥ 0`; the factor's cost is `½ρ(s)`.
+    #[must_use]
+    pub fn loss(&self, s: f64) -> f64 {
+        match *self {
+            RobustKernel::None => s,
+            RobustKernel::Huber(k) => {
+                let r = s.sqrt();
+                if r <= k { s } else { 2.0 * k * r - k * k }
+            }
+            RobustKernel::Cauchy(c) => c * c * (s / (c * c)).ln_1p(),
+        }
+    }
+
+    /// The IRLS weight `ρ'(s)` (1 for least squares, < 1 for outliers).
+    #[must_use]
+    pub fn weight(&self, s: f64) -> f64 {
+        match *self {
+            RobustKernel::None => 1.0,
+            RobustKernel::Huber(k) => {
+                let r = s.sqrt();
+                if r <= k { 1.0 } else { k / r }
+            }
+            RobustKernel::Cauchy(c) => 1.0 / (1.0 + s / (c * c)),
+        }
+    }
+}

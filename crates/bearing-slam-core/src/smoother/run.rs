@@ -1,0 +1,508 @@
+//! Smoothing a whole [`SensorLog`], started by the filter: the log is run
+//! through the EKF ([`crate::runner::run`]); its estimate after each bearing
+//! scan starts the pose at that scan, its landmarks enter the graph when the
+//! filter initializes them; the odometry between scans is preintegrated
+//! through the same motion model the filter used. The result has the shape of
+//! the runner's ([`RunOutput`]: track points with covariances, snapshots
+//! with landmark estimates and covariances), so it is scored unchanged.
+//!
+//! Event semantics mirror the runner's exactly (a `Velocity` command is held
+//! from its time for at most its `dt`, applied before every later event).
+
+use super::factors::{
+    BearingFactor, Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor, RangeBearingFactor,
+};
+use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
+use super::graph::FactorGraph;
+use super::marginals::marginal_covariances;
+use super::preintegration::PreintegratedOdometry;
+use super::robust::RobustKernel;
+use super::solver::{SolveReport, SolverConfig, optimize};
+use super::values::Values;
+use crate::error::{Result, SlamError};
+use crate::geometry::{Pose2, wrap_angle};
+use crate::log::{BearingObservation, EventKind, SensorLog, VelocityOdometry};
+use crate::runner::{OdometryConfig, RunConfig, RunOutput, run};
+use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use std::collections::{BTreeMap, HashMap};
+use std::time::Instant;
+
+/// Whole-run batch or online fixed-lag.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SmootherMode {
+    /// Every pose and landmark at once, optimized after the filter ran.
+    Batch,
+    /// The online smoother: one update per scan, poses older than the lag
+    /// marginalized; each pose is reported as it was when it left the window.
+    FixedLag(FixedLagConfig),
+}
+
+/// How [`run_from_log`] smooths.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmootherConfig {
+    /// Batch or fixed-lag.
+    pub mode: SmootherMode,
+    /// The batch solver (the fixed-lag mode uses its own).
+    pub solver: SolverConfig,
+    /// Added (as standard deviations `[m, m, rad]`) to every preintegrated
+    /// odometry covariance, which is singular for one two-wheel step.
+    pub odometry_floor_sigma: [f64; 3],
+    /// A weak prior at the filter's estimate on every landmark, metres
+    /// (`None`: no prior). It keeps a landmark seen from one place only
+    /// (no parallax) from making the system singular.
+    pub landmark_prior_sigma_m: Option<f64>,
+    /// Floor of the first pose's prior standard deviations (the filter may
+    /// start from an exactly known pose).
+    pub min_initial_sigma: f64,
+}
+
+impl Default for SmootherConfig {
+    fn default() -> Self {
+        Self {
+            mode: SmootherMode::Batch,
+            solver: SolverConfig {
+                robust: RobustKernel::Huber(2.0),
+                ..SolverConfig::default()
+            },
+            odometry_floor_sigma: [1e-4; 3],
+            landmark_prior_sigma_m: Some(100.0),
+            min_initial_sigma: 1e-4,
+        }
+    }
+}
+
+/// What the smoother did, next to its output.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct SmootherReport {
+    /// Pose variables (scans that moved since the previous one, plus the start).
+    pub n_poses: usize,
+    /// Landmarks in the graph.
+    pub n_landmarks: usize,
+    /// Bearing (or range-bearing) factors used.
+    pub n_measurements: usize,
+    /// Observations left out: of landmarks the filter never initialized, or
+    /// (online) of poses that had left the window when their landmark entered.
+    pub n_dropped: usize,
+    /// The batch solve (batch mode).
+    pub solve: Option<SolveReport>,
+    /// Seconds spent running the filter that starts the smoother.
+    pub filter_time_s: f64,
+    /// Seconds spent smoothing (graph, solve, marginals).
+    pub smoother_time_s: f64,
+    /// Seconds of each online update (fixed-lag mode), in order.
+    pub update_times_s: Vec<f64>,
+}
+
+/// The smoothed run, the filter run that started it, and the report.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SmoothedRun {
+    /// The smoother's estimate in the runner's shape.
+    pub output: RunOutput,
+    /// The filter's run.
+    pub filter: RunOutput,
+    /// Counters and timings.
+    pub report: SmootherReport,
+}
+
+/// The pose variables and what hangs on them, from one pass over the log.
+#[derive(Debug, Default)]
+struct Skeleton {
+    /// Odometry into each node (`None` for the start node 0).
+    odometry: Vec<Option<PreintegratedOdometry>>,
+    /// Node of each bearing scan (snapshot), in order.
+    scan_node: Vec<usize>,
+    /// Observations of each scan.
+    scans: Vec<Vec<BearingObservation>>,
+    /// Per track point of the runner: the node before it and the motion since.
+    records: Vec<(usize, PreintegratedOdometry)>,
+}
+
+fn build_skeleton(log: &SensorLog, config: &RunConfig) -> Result<Skeleton> {
+    let mut s = Skeleton {
+        odometry: vec![None],
+        ..Skeleton::default()
+    };
+    let mut pre = PreintegratedOdometry::new();
+    let mut command: Option<(VelocityOdometry, f64, f64)> = None;
+    let has_truth = log
+        .events
+        .iter()
+        .any(|e| matches!(e.kind, EventKind::GroundTruth(_)));
+    let mut started = false;
+    for event in &log.events {
+        if let (OdometryConfig::Velocity(model), Some((cmd, start, applied))) =
+            (&config.odometry, command)
+        {
+            let until = event.time.min(start + cmd.dt);
+            let dt = until - applied;
+            if dt > 1e-9 {
+                pre.integrate(model, &VelocityOdometry { dt, ..cmd })?;
+                command = Some((cmd, start, until));
+            }
+        }
+        match &event.kind {
+            EventKind::Wheels(w) => {
+                started = true;
+                if let OdometryConfig::Wheels(model) = &config.odometry {
+                    pre.integrate(model, w)?;
+                }
+            }
+            EventKind::Velocity(v) => {
+                started = true;
+                command = Some((*v, event.time, event.time));
+            }
+            EventKind::Bearings(scan) => {
+                started = true;
+                if pre.steps > 0 {
+                    s.odometry.push(Some(pre));
+                    pre = PreintegratedOdometry::new();
+                }
+                s.scan_node.push(s.odometry.len() - 1);
+                s.scans.push(scan.clone());
+                if !has_truth {
+                    s.records.push((s.odometry.len() - 1, pre));
+                }
+            }
+            EventKind::GroundTruth(_) => {
+                if started || event.time <= 0.0 {
+                    s.records.push((s.odometry.len() - 1, pre));
+                }
+            }
+        }
+    }
+    Ok(s)
+}
+
+/// `T_n ⊕ Δ` with its covariance `J_n Σ_n J_nᵀ + J_Δ Σ_Δ J_Δᵀ`.
+fn compose(
+    pose: &Vector3<f64>,
+    cov: &Matrix3<f64>,
+    motion: &PreintegratedOdometry,
+) -> (Pose2, Matrix3<f64>) {
+    let base = Pose2::from_vector(pose);
+    let local = Pose2::from_vector(&motion.delta);
+    let out = base.compose(&local);
+    let rotated = base.rotation() * local.position();
+    let j_n = Matrix3::new(1.0, 0.0, -rotated.y, 0.0, 1.0, rotated.x, 0.0, 0.0, 1.0);
+    let r = base.rotation();
+    let j_d = Matrix3::new(
+        r[(0, 0)],
+        r[(0, 1)],
+        0.0,
+        r[(1, 0)],
+        r[(1, 1)],
+        0.0,
+        0.0,
+        0.0,
+        1.0,
+    );
+    let c = j_n * cov * j_n.transpose() + j_d * motion.covariance * j_d.transpose();
+    (out, 0.5 * (c + c.transpose()))
+}
+
+/// The measurement factor of one observation at `node`.
+fn measurement_factor(node: usize, o: &BearingObservation, config: &RunConfig) -> Result<Factor> {
+    let node = node as u64;
+    if config.use_range {
+        let range = o.range.ok_or(SlamError::Mismatch(
+            "range-bearing smoothing of a scan without ranges",
+        ))?;
+        Ok(Factor::RangeBearing(RangeBearingFactor::new(
+            node,
+            o.landmark_id,
+            range,
+            o.bearing,
+            config.slam.range_sigma,
+            config.slam.bearing_sigma,
+        )?))
+    } else {
+        Ok(Factor::Bearing(BearingFactor::new(
+            node,
+            o.landmark_id,
+            o.bearing,
+            config.slam.bearing_sigma,
+        )?))
+    }
+}
+
+/// Where each landmark entered the filter's snapshots and its estimates.
+struct FilterLandmarks {
+    /// Snapshot index of first appearance, and the estimate there.
+    entry: BTreeMap<u64, (usize, Vector2<f64>)>,
+    /// The last estimate.
+    last: BTreeMap<u64, Vector2<f64>>,
+}
+
+fn filter_landmarks(filter: &RunOutput) -> FilterLandmarks {
+    let mut entry = BTreeMap::new();
+    let mut last = BTreeMap::new();
+    for (k, snap) in filter.trace.snapshots.iter().enumerate() {
+        for l in &snap.landmarks {
+            let p = Vector2::new(l.x, l.y);
+            entry.entry(l.id).or_insert((k, p));
+            last.insert(l.id, p);
+        }
+    }
+    FilterLandmarks { entry, last }
+}
+
+/// Runs the filter on `log`, then smooths from its estimate. Errors when the
+/// filter fails, on invalid configuration, or when the solver fails.
+pub fn run_from_log(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+) -> Result<SmoothedRun> {
+    config.solver.validate()?;
+    let started = Instant::now();
+    let filter = run(log, run_config)?;
+    let filter_time_s = started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let skeleton = build_skeleton(log, run_config)?;
+    if skeleton.scan_node.len() != filter.trace.snapshots.len()
+        || skeleton.records.len() != filter.track.len()
+    {
+        return Err(SlamError::Mismatch(
+            "the smoother's pass over the log disagrees with the filter's",
+        ));
+    }
+    let start = log
+        .info
+        .initial_pose
+        .unwrap_or(run_config.slam.initial_pose);
+    let mut initial: Vec<Vector3<f64>> = vec![start.to_vector(); skeleton.odometry.len()];
+    for (k, &node) in skeleton.scan_node.iter().enumerate() {
+        if node > 0 {
+            initial[node] = filter.trace.snapshots[k].pose.to_vector();
+        }
+    }
+    let sigma = run_config
+        .slam
+        .initial_pose_sigma
+        .map(|s| s.max(config.min_initial_sigma));
+    let prior = PosePriorFactor::new(
+        0,
+        start.to_vector(),
+        Matrix3::from_diagonal(&Vector3::from(sigma.map(|s| s * s))),
+    )?;
+    let landmarks = filter_landmarks(&filter);
+    let mut report = SmootherReport {
+        n_poses: skeleton.odometry.len(),
+        n_landmarks: landmarks.entry.len(),
+        filter_time_s,
+        ..SmootherReport::default()
+    };
+    let landmark_prior = |id: u64, p: Vector2<f64>| -> Result<Option<Factor>> {
+        config
+            .landmark_prior_sigma_m
+            .map(|s| {
+                LandmarkPriorFactor::new(id, p, Matrix2::identity() * (s * s))
+                    .map(Factor::LandmarkPrior)
+            })
+            .transpose()
+    };
+    let odometry = |node: usize| -> Result<Option<Factor>> {
+        skeleton.odometry[node]
+            .as_ref()
+            .map(|pre| {
+                OdometryFactor::from_preintegrated(
+                    node as u64 - 1,
+                    node as u64,
+                    pre,
+                    config.odometry_floor_sigma,
+                )
+                .map(Factor::Odometry)
+            })
+            .transpose()
+    };
+    let (poses, pose_cov, lms) = match config.mode {
+        SmootherMode::Batch => {
+            let mut values = Values::new();
+            let mut graph = FactorGraph::new();
+            graph.add(Factor::PosePrior(prior))?;
+            for (node, x) in initial.iter().enumerate() {
+                values.insert_pose(node as u64, *x)?;
+                if let Some(f) = odometry(node)? {
+                    graph.add(f)?;
+                }
+            }
+            for (id, p) in &landmarks.last {
+                values.insert_landmark(*id, *p)?;
+                if let Some(f) = landmark_prior(*id, *p)? {
+                    graph.add(f)?;
+                }
+            }
+            for (k, scan) in skeleton.scans.iter().enumerate() {
+                for o in scan {
+                    if landmarks.last.contains_key(&o.landmark_id) {
+                        graph.add(measurement_factor(skeleton.scan_node[k], o, run_config)?)?;
+                        report.n_measurements += 1;
+                    } else {
+                        report.n_dropped += 1;
+                    }
+                }
+            }
+            report.solve = Some(optimize(&graph, &mut values, &config.solver)?);
+            let marginals = marginal_covariances(&graph, &values, &config.solver.robust)?;
+            let mut poses = Vec::with_capacity(initial.len());
+            let mut covs = Vec::with_capacity(initial.len());
+            for node in 0..initial.len() {
+                poses.push(values.pose(node as u64)?);
+                covs.push(marginals.pose(node as u64)?);
+            }
+            let mut lms = BTreeMap::new();
+            for (id, p) in values.landmarks() {
+                lms.insert(*id, (*p, marginals.landmark(*id)?));
+            }
+            (poses, covs, lms)
+        }
+        SmootherMode::FixedLag(fl) => smooth_online(
+            fl,
+            &skeleton,
+            &initial,
+            prior,
+            &landmarks,
+            run_config,
+            &mut report,
+            &landmark_prior,
+            &odometry,
+        )?,
+    };
+    let output = assemble_output(&filter, &skeleton, &poses, &pose_cov, &lms);
+    report.smoother_time_s = started.elapsed().as_secs_f64();
+    Ok(SmoothedRun {
+        output,
+        filter,
+        report,
+    })
+}
+
+type Estimates = (
+    Vec<Vector3<f64>>,
+    Vec<Matrix3<f64>>,
+    BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
+);
+
+#[allow(clippy::too_many_arguments)]
+fn smooth_online(
+    config: FixedLagConfig,
+    skeleton: &Skeleton,
+    initial: &[Vector3<f64>],
+    prior: PosePriorFactor,
+    landmarks: &FilterLandmarks,
+    run_config: &RunConfig,
+    report: &mut SmootherReport,
+    landmark_prior: &dyn Fn(u64, Vector2<f64>) -> Result<Option<Factor>>,
+    odometry: &dyn Fn(usize) -> Result<Option<Factor>>,
+) -> Result<Estimates> {
+    let mut s = FixedLagSmoother::new(config)?;
+    let mut entering: HashMap<usize, Vec<u64>> = HashMap::new();
+    for (id, (k, _)) in &landmarks.entry {
+        entering.entry(*k).or_default().push(*id);
+    }
+    let mut waiting: HashMap<u64, Vec<(usize, BearingObservation)>> = HashMap::new();
+    s.add_pose(0, initial[0])?;
+    s.add_factor(Factor::PosePrior(prior))?;
+    let mut scan = 0;
+    for (node, start) in initial.iter().enumerate() {
+        if node > 0 {
+            s.add_pose(node as u64, *start)?;
+            if let Some(f) = odometry(node)? {
+                s.add_factor(f)?;
+            }
+        }
+        while scan < skeleton.scan_node.len() && skeleton.scan_node[scan] == node {
+            for id in entering.get(&scan).into_iter().flatten() {
+                let p = landmarks.entry[id].1;
+                s.add_landmark(*id, p)?;
+                if let Some(f) = landmark_prior(*id, p)? {
+                    s.add_factor(f)?;
+                }
+                for (n, o) in waiting.remove(id).unwrap_or_default() {
+                    if s.in_window(n as u64) {
+                        s.add_factor(measurement_factor(n, &o, run_config)?)?;
+                        report.n_measurements += 1;
+                    } else {
+                        report.n_dropped += 1;
+                    }
+                }
+            }
+            for o in &skeleton.scans[scan] {
+                if s.values()
+                    .contains(super::values::Key::Landmark(o.landmark_id))
+                {
+                    s.add_factor(measurement_factor(node, o, run_config)?)?;
+                    report.n_measurements += 1;
+                } else {
+                    waiting.entry(o.landmark_id).or_default().push((node, *o));
+                }
+            }
+            scan += 1;
+        }
+        let t = Instant::now();
+        s.update()?;
+        report.update_times_s.push(t.elapsed().as_secs_f64());
+    }
+    report.n_dropped += waiting.values().map(Vec::len).sum::<usize>();
+    let marginals = s.marginals()?;
+    let mut poses = Vec::with_capacity(initial.len());
+    let mut covs = Vec::with_capacity(initial.len());
+    for node in 0..initial.len() {
+        let id = node as u64;
+        if let Some(f) = s.finalized().get(&id) {
+            poses.push(f.pose);
+            covs.push(f.covariance);
+        } else {
+            poses.push(s.values().pose(id)?);
+            covs.push(marginals.pose(id)?);
+        }
+    }
+    let mut lms = BTreeMap::new();
+    for (id, p) in s.values().landmarks() {
+        lms.insert(*id, (*p, marginals.landmark(*id)?));
+    }
+    Ok((poses, covs, lms))
+}
+
+fn assemble_output(
+    filter: &RunOutput,
+    skeleton: &Skeleton,
+    poses: &[Vector3<f64>],
+    covs: &[Matrix3<f64>],
+    lms: &BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
+) -> RunOutput {
+    let mut output = filter.clone();
+    for (point, (node, motion)) in output.track.iter_mut().zip(&skeleton.records) {
+        let (pose, cov) = compose(&poses[*node], &covs[*node], motion);
+        point.estimate = pose;
+        point.covariance = cov.transpose().into();
+    }
+    let snapshots: Vec<EstimateSnapshot> = filter
+        .trace
+        .snapshots
+        .iter()
+        .zip(&skeleton.scan_node)
+        .map(|(snap, node)| EstimateSnapshot {
+            time: snap.time,
+            pose: Pose2::new(poses[*node].x, poses[*node].y, wrap_angle(poses[*node].z)),
+            pose_covariance: covs[*node].transpose().into(),
+            landmarks: snap
+                .landmarks
+                .iter()
+                .map(|l| match lms.get(&l.id) {
+                    Some((p, c)) => LandmarkSnapshot {
+                        id: l.id,
+                        x: p.x,
+                        y: p.y,
+                        covariance: c.transpose().into(),
+                        inverse_depth: false,
+                    },
+                    None => *l,
+                })
+                .collect(),
+        })
+        .collect();
+    output.trace.snapshots = snapshots;
+    output
+}

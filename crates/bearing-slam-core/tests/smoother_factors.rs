@@ -1,0 +1,227 @@
+//! Every smoother factor's Jacobians against central differences (the shared
+//! numeric-difference helper), over random poses and landmarks; and the
+//! odometry preintegration against the motion model run from any start.
+
+#![allow(clippy::unwrap_used)]
+
+mod smoother_common;
+
+use bearing_slam_core::Pose2;
+use bearing_slam_core::ekf::{MotionModel, MotionPrediction};
+use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
+use bearing_slam_core::measurement::bearing_to_point;
+use bearing_slam_core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
+use bearing_slam_core::smoother::{
+    BearingFactor, Factor, Key, LandmarkPriorFactor, LinearFactor, OdometryFactor, PosePriorFactor,
+    PreintegratedOdometry, RangeBearingFactor, Values,
+};
+use bearing_slam_core::testing::{compare_jacobians, numeric_jacobian};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
+use proptest::prelude::*;
+use std::f64::consts::PI;
+
+const TOL: f64 = 1e-5;
+
+fn pose() -> impl Strategy<Value = Vector3<f64>> {
+    (
+        -20.0..20.0f64,
+        -20.0..20.0f64,
+        prop_oneof![-PI..PI, (PI - 1e-3)..PI],
+    )
+        .prop_map(|(x, y, t)| Vector3::new(x, y, t))
+}
+
+fn stack(values: &Values, keys: &[Key]) -> DVector<f64> {
+    let parts: Vec<f64> = keys
+        .iter()
+        .flat_map(|k| values.get(*k).unwrap().iter().copied().collect::<Vec<_>>())
+        .collect();
+    DVector::from_vec(parts)
+}
+
+fn unstack(keys: &[Key], x: &DVector<f64>) -> Values {
+    let mut v = Values::new();
+    let mut off = 0;
+    for k in keys {
+        // Set without wrapping through insert (the numeric step must stay small).
+        v.set(*k, &x.as_slice()[off..off + k.dim()]).unwrap();
+        off += k.dim();
+    }
+    v
+}
+
+/// Checks the stacked analytic Jacobian of `factor` at `values` against
+/// central differences of its whitened error.
+fn check(factor: &Factor, values: &Values) -> Result<(), String> {
+    let keys = factor.keys();
+    let lin = factor.linearize(values).map_err(|e| e.to_string())?;
+    let blocks: Vec<&DMatrix<f64>> = lin.jacobians.iter().collect();
+    let analytic = DMatrix::from_fn(
+        lin.residual.len(),
+        keys.iter().map(Key::dim).sum(),
+        |r, c| {
+            let mut c = c;
+            for (k, b) in keys.iter().zip(&blocks) {
+                if c < k.dim() {
+                    return b[(r, c)];
+                }
+                c -= k.dim();
+            }
+            f64::NAN
+        },
+    );
+    let numeric = numeric_jacobian(
+        |x| {
+            factor
+                .error(&unstack(&keys, x))
+                .unwrap_or_else(|_| DVector::from_element(lin.residual.len(), f64::NAN))
+        },
+        &stack(values, &keys),
+        &[],
+    );
+    compare_jacobians("factor", &analytic, &numeric, TOL)
+}
+
+fn values_with(pose_id: u64, x: Vector3<f64>, lm: u64, p: Vector2<f64>) -> Values {
+    let mut v = Values::new();
+    v.insert_pose(pose_id, x).unwrap();
+    v.insert_landmark(lm, p).unwrap();
+    v
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(200))]
+
+    #[test]
+    fn bearing_factor(x in pose(), (r, a, noise) in (0.3..30.0f64, -PI..PI, -0.05..0.05f64)) {
+        let p = x.fixed_rows::<2>(0) + r * Vector2::new(a.cos(), a.sin());
+        let z = bearing_to_point(&x, &p).unwrap() + noise;
+        let f = Factor::Bearing(BearingFactor::new(4, 9, z, 0.02).unwrap());
+        check(&f, &values_with(4, x, 9, p)).map_err(TestCaseError::fail)?;
+    }
+
+    #[test]
+    fn range_bearing_factor(x in pose(), (r, a, noise) in (0.3..30.0f64, -PI..PI, -0.05..0.05f64)) {
+        let p = x.fixed_rows::<2>(0) + r * Vector2::new(a.cos(), a.sin());
+        let z = bearing_to_point(&x, &p).unwrap() + noise;
+        let f = Factor::RangeBearing(RangeBearingFactor::new(4, 9, r + noise, z, 0.1, 0.02).unwrap());
+        check(&f, &values_with(4, x, 9, p)).map_err(TestCaseError::fail)?;
+    }
+
+    #[test]
+    fn odometry_factor(xi in pose(), xj in pose(), noise in prop::array::uniform3(-0.1..0.1f64)) {
+        let rel = Pose2::from_vector(&xi).between(&Pose2::from_vector(&xj)).to_vector();
+        let cov = Matrix3::new(0.04, 0.01, 0.0, 0.01, 0.02, 0.003, 0.0, 0.003, 0.01);
+        let f = Factor::Odometry(OdometryFactor::new(1, 2, rel + Vector3::from(noise), cov).unwrap());
+        let mut v = Values::new();
+        v.insert_pose(1, xi).unwrap();
+        v.insert_pose(2, xj).unwrap();
+        check(&f, &v).map_err(TestCaseError::fail)?;
+        // At the true relative pose the residual vanishes.
+        let exact = Factor::Odometry(OdometryFactor::new(1, 2, rel, cov).unwrap());
+        prop_assert!(exact.error(&v).unwrap().norm() < 1e-9);
+    }
+
+    #[test]
+    fn priors(x in pose(), noise in prop::array::uniform3(-0.1..0.1f64), p in prop::array::uniform2(-20.0..20.0f64)) {
+        let cov = Matrix3::new(0.04, 0.01, 0.0, 0.01, 0.02, 0.003, 0.0, 0.003, 0.01);
+        let f = Factor::PosePrior(PosePriorFactor::new(3, x + Vector3::from(noise), cov).unwrap());
+        let p = Vector2::from(p);
+        let g = Factor::LandmarkPrior(LandmarkPriorFactor::new(5, p + Vector2::new(noise[0], noise[1]), Matrix2::new(0.1, 0.02, 0.02, 0.3)).unwrap());
+        let v = values_with(3, x, 5, p);
+        check(&f, &v).map_err(TestCaseError::fail)?;
+        check(&g, &v).map_err(TestCaseError::fail)?;
+    }
+
+    #[test]
+    fn linear_factor(x in pose(), p in prop::array::uniform2(-20.0..20.0f64), seed in 0u64..1000) {
+        let keys = vec![Key::Pose(1), Key::Landmark(2)];
+        let x0 = vec![DVector::from_column_slice(x.as_slice()), DVector::from_vec(vec![p[0] + 0.1, p[1] - 0.2])];
+        let jac = DMatrix::from_fn(4, 5, |r, c| ((seed as usize + 7 * r + 3 * c) % 11) as f64 - 5.0);
+        let f = Factor::Linear(LinearFactor::new(keys, x0, jac, DVector::from_vec(vec![0.1, -0.2, 0.3, 0.0])).unwrap());
+        let v = values_with(1, x + Vector3::new(0.05, -0.02, 0.01), 2, Vector2::from(p));
+        check(&f, &v).map_err(TestCaseError::fail)?;
+    }
+
+    /// Preintegrating from the origin gives the relative pose and covariance
+    /// the filter's own chained prediction gives from any start pose.
+    #[test]
+    fn preintegration_is_the_relative_motion(
+        start in pose(),
+        wheels in prop::collection::vec((-0.3..0.3f64, -0.3..0.3f64), 1..12),
+        commands in prop::collection::vec((-1.0..1.0f64, -1.0..1.0f64, 0.01..0.5f64), 1..12),
+    ) {
+        let dd = DiffDriveModel::new(0.35, WheelNoise { floor_sigma_m: 0.01, scale_sqrt_m: 0.05 }).unwrap();
+        let vel = VelocityModel::new(VelocityNoise { alpha: [0.1, 0.01, 0.02, 0.1, 0.0, 0.0], sigma_v_min: 0.02, sigma_omega_min: 0.02 }).unwrap();
+        let mut pre = PreintegratedOdometry::new();
+        let mut state = start;
+        let mut cov = Matrix3::zeros();
+        for (r, l) in &wheels {
+            let u = WheelOdometry { right_m: *r, left_m: *l };
+            let g = dd.predict(&state, &u).unwrap();
+            let loc = dd.predict(&pre.delta, &u).unwrap();
+            step(&mut pre, &mut state, &mut cov, &g, &loc);
+        }
+        for (v, w, dt) in &commands {
+            let u = VelocityOdometry { v: *v, omega: *w, dt: *dt };
+            let g = vel.predict(&state, &u).unwrap();
+            let loc = vel.predict(&pre.delta, &u).unwrap();
+            step(&mut pre, &mut state, &mut cov, &g, &loc);
+        }
+        prop_assert_eq!(pre.steps, wheels.len() + commands.len());
+        let rel = Pose2::from_vector(&start).between(&Pose2::from_vector(&state)).to_vector();
+        prop_assert!((rel.fixed_rows::<2>(0) - pre.delta.fixed_rows::<2>(0)).norm() < 1e-9);
+        prop_assert!(bearing_slam_core::wrap_angle(rel.z - pre.delta.z).abs() < 1e-9);
+        // The global covariance is the local one rotated by the start heading.
+        let (s, c) = start.z.sin_cos();
+        let rot = Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0);
+        let expected = rot * pre.covariance * rot.transpose();
+        prop_assert!((expected - cov).amax() < 1e-9 * (1.0 + cov.amax()), "{expected} vs {cov}");
+    }
+}
+
+/// One step of the global chained prediction next to the local preintegration.
+fn step(
+    pre: &mut PreintegratedOdometry,
+    state: &mut Vector3<f64>,
+    cov: &mut Matrix3<f64>,
+    global: &MotionPrediction<3>,
+    local: &MotionPrediction<3>,
+) {
+    *cov = global.j_state_state * *cov * global.j_state_state.transpose() + global.process_noise;
+    *state = global.state;
+    pre.apply(local);
+}
+
+#[test]
+fn integrate_uses_the_model() {
+    let dd = DiffDriveModel::new(
+        0.35,
+        WheelNoise {
+            floor_sigma_m: 0.01,
+            scale_sqrt_m: 0.05,
+        },
+    )
+    .unwrap();
+    let mut pre = PreintegratedOdometry::new();
+    let u = WheelOdometry {
+        right_m: 0.2,
+        left_m: 0.1,
+    };
+    pre.integrate(&dd, &u).unwrap();
+    let direct = dd.predict(&Vector3::zeros(), &u).unwrap();
+    assert_eq!(pre.delta, direct.state);
+    assert_eq!(pre.covariance, direct.process_noise);
+    // A NaN control is refused, not integrated.
+    assert!(
+        pre.integrate(
+            &dd,
+            &WheelOdometry {
+                right_m: f64::NAN,
+                left_m: 0.0
+            }
+        )
+        .is_err()
+    );
+    assert_eq!(pre.steps, 1);
+}

@@ -1,0 +1,152 @@
+//! The online fixed-lag smoother against the batch: equal while nothing is
+//! marginalized, close (difference measured) once poses leave the window.
+
+#![allow(clippy::unwrap_used)]
+
+mod smoother_common;
+
+use bearing_slam_core::smoother::{
+    Factor, FixedLagConfig, FixedLagSmoother, Key, SolverConfig, Values, optimize,
+};
+use smoother_common::{Problem, max_difference, problem};
+
+/// Feeds `p` pose by pose (each pose's factors once all their variables
+/// exist) and updates after each.
+fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
+    run_online_with(p, lag, true)
+}
+
+fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSmoother {
+    let config = FixedLagConfig {
+        lag,
+        first_estimates,
+        solver: SolverConfig::default(),
+    };
+    let mut s = FixedLagSmoother::new(config).unwrap();
+    for i in 0..p.n_landmarks {
+        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
+    }
+    for k in 0..p.n_poses {
+        s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
+        for f in p.graph.factors() {
+            let newest = f
+                .keys()
+                .iter()
+                .filter_map(|key| match key {
+                    Key::Pose(id) => Some(*id),
+                    Key::Landmark(_) => None,
+                })
+                .max();
+            if newest == Some(k) {
+                s.add_factor(f.clone()).unwrap();
+            }
+        }
+        s.update().unwrap();
+    }
+    s
+}
+
+fn batch(p: &Problem) -> Values {
+    let mut v = p.initial.clone();
+    optimize(&p.graph, &mut v, &SolverConfig::default()).unwrap();
+    v
+}
+
+#[test]
+fn equals_the_batch_before_anything_is_marginalized() {
+    let p = problem(11, 10, true, false);
+    let s = run_online(&p, 10);
+    assert_eq!(s.marginalizations(), 0);
+    let diff = max_difference(s.values(), &batch(&p));
+    assert!(diff < 1e-6, "online vs batch: {diff}");
+}
+
+#[test]
+fn exact_after_marginalization_on_noise_free_data() {
+    // Consistent measurements: every window minimum is the truth, so the
+    // priors are linearized at the truth and marginalization loses nothing.
+    let p = problem(12, 20, false, false);
+    let s = run_online(&p, 4);
+    assert_eq!(s.marginalizations(), 16);
+    let diff = max_difference(s.values(), &p.truth);
+    assert!(diff < 1e-7, "{diff}");
+}
+
+#[test]
+fn approaches_the_batch_as_the_lag_grows() {
+    let p = problem(12, 20, true, false);
+    let b = batch(&p);
+    let truth = max_difference(&b, &p.truth);
+    let mut previous = f64::INFINITY;
+    for lag in [4, 8, 12] {
+        let s = run_online(&p, lag);
+        assert_eq!(s.marginalizations(), 20 - lag);
+        // The window holds `lag` poses, every landmark, and one prior.
+        assert_eq!(s.values().poses().len(), lag);
+        let priors = s
+            .graph()
+            .factors()
+            .iter()
+            .filter(|f| matches!(f, Factor::Linear(_)))
+            .count();
+        assert_eq!(priors, 1);
+        assert!(s.graph().len() <= 1 + lag * (1 + 8));
+        // The latest poses and the map, with all the data, against the batch.
+        let window = max_difference(s.values(), &b);
+        // Poses that left the window: lagged estimates (less data than the batch).
+        let mut lagged: f64 = 0.0;
+        for (id, f) in s.finalized() {
+            let q = b.pose(*id).unwrap();
+            lagged = lagged.max((f.pose.fixed_rows::<2>(0) - q.fixed_rows::<2>(0)).norm());
+            assert!(f.covariance[(0, 0)] > 0.0 && f.covariance[(2, 2)] > 0.0);
+        }
+        println!(
+            "lag {lag}: window vs batch {window:.2e}, lagged poses vs batch {lagged:.2e} m; batch vs truth {truth:.2e}"
+        );
+        // The bearing-only landmarks are linearized where the first few
+        // poses left them: the shorter the lag, the cruder that point.
+        assert!(window < previous, "lag {lag}: {window} >= {previous}");
+        previous = window;
+        if lag >= 8 {
+            assert!(
+                window < 0.25 * truth,
+                "lag {lag}: {window} vs batch error {truth}"
+            );
+        }
+    }
+    assert!(previous < 0.1 * truth, "{previous} vs {truth}");
+}
+
+/// FEJ keeps the landmarks linearized where a short window first left them;
+/// relinearizing the marginalized block at the current estimate does not.
+#[test]
+fn relinearizing_the_marginalized_block_is_closer_to_the_batch_than_fej() {
+    let p = problem(12, 20, true, false);
+    let b = batch(&p);
+    let fej = max_difference(run_online_with(&p, 4, true).values(), &b);
+    let relinearized = max_difference(run_online_with(&p, 4, false).values(), &b);
+    println!("lag 4 vs batch: FEJ {fej:.3e}, relinearized {relinearized:.3e}");
+    assert!(relinearized < 0.5 * fej, "{relinearized} vs {fej}");
+    assert!(relinearized < 0.5 * max_difference(&b, &p.truth));
+}
+
+#[test]
+fn bad_use_is_an_error() {
+    let cfg = FixedLagConfig {
+        lag: 1,
+        ..FixedLagConfig::default()
+    };
+    assert!(FixedLagSmoother::new(cfg).is_err());
+    let p = problem(13, 3, true, false);
+    let mut s = FixedLagSmoother::new(FixedLagConfig::default()).unwrap();
+    // A factor over variables not added yet.
+    assert!(s.add_factor(p.graph.factors()[1].clone()).is_err());
+    // Nothing to optimize.
+    assert!(s.update().is_err());
+    s.add_pose(0, p.initial.pose(0).unwrap()).unwrap();
+    assert!(s.add_pose(0, p.initial.pose(0).unwrap()).is_err());
+    assert!(
+        s.add_landmark(1, nalgebra::Vector2::new(f64::NAN, 0.0))
+            .is_err()
+    );
+}

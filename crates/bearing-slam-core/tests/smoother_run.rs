@@ -1,0 +1,184 @@
+//! `run_from_log`: the filter starts the smoother on a simulated log; the
+//! output has the runner's shape, scores unchanged, and the smoother beats
+//! the filter it started from.
+
+#![allow(clippy::unwrap_used)]
+
+use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
+use bearing_slam_core::runner::{OdometryConfig, RunConfig};
+use bearing_slam_core::score::summarize;
+use bearing_slam_core::slam::SlamConfig;
+use bearing_slam_core::smoother::{
+    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SolverConfig, run_from_log,
+};
+use bearing_slam_core::testing::check_covariance;
+use bearing_slam_core::testing::kinematic::KinematicScenario;
+use nalgebra::DMatrix;
+
+/// Fig. 4's straight run, then a loop back past the landmarks.
+fn scenario() -> KinematicScenario {
+    let mut s = KinematicScenario::paper_fig4(false);
+    // Straight 10 m, a half turn (r = 2 m), and 10 m back.
+    let turn_steps = 63;
+    let arc = std::f64::consts::PI * 2.0 / f64::from(turn_steps);
+    let half = 0.5 * s.wheel_base_m * arc / 2.0;
+    let mut steps = vec![(0.05, 0.05); 200];
+    steps.extend(vec![
+        (0.5 * arc * 2.0 - half, 0.5 * arc * 2.0 + half);
+        turn_steps as usize
+    ]);
+    steps.extend(vec![(0.05, 0.05); 200]);
+    s.wheel_steps = steps;
+    s
+}
+
+fn run_config(s: &KinematicScenario) -> RunConfig {
+    RunConfig {
+        slam: SlamConfig {
+            bearing_sigma: s.bearing_sigma,
+            ..SlamConfig::default()
+        },
+        odometry: OdometryConfig::Wheels(
+            DiffDriveModel::new(
+                s.wheel_base_m,
+                WheelNoise {
+                    floor_sigma_m: s.encoder_floor_sigma_m,
+                    scale_sqrt_m: s.encoder_scale_sqrt_m,
+                },
+            )
+            .unwrap(),
+        ),
+        use_range: false,
+    }
+}
+
+#[test]
+fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
+    let s = scenario();
+    let config = run_config(&s);
+    let mut filter_ate = 0.0;
+    let mut smoother_ate = 0.0;
+    let mut filter_map = 0.0;
+    let mut smoother_map = 0.0;
+    let seeds = 2;
+    for seed in 0..seeds {
+        let log = s.simulate(seed);
+        let out = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+        let report = &out.report;
+        assert!(report.solve.unwrap().converged, "{report:?}");
+        assert_eq!(report.n_poses, 1 + s.wheel_steps.len());
+        // The runner's shape: same times, truths, dead reckoning, snapshots.
+        assert_eq!(out.output.track.len(), out.filter.track.len());
+        for (a, b) in out.output.track.iter().zip(&out.filter.track) {
+            assert_eq!(
+                (a.time, a.truth, a.dead_reckoning),
+                (b.time, b.truth, b.dead_reckoning)
+            );
+            let c = DMatrix::from_fn(3, 3, |r, k| a.covariance[r][k]);
+            check_covariance(&c).unwrap();
+        }
+        assert_eq!(
+            out.output.trace.snapshots.len(),
+            out.filter.trace.snapshots.len()
+        );
+        let f = summarize(&log, &out.filter).unwrap();
+        let m = summarize(&log, &out.output).unwrap();
+        assert!(m.finite);
+        assert_eq!(m.n_landmarks_initialized, f.n_landmarks_initialized);
+        filter_ate += f.ate_rmse_m / seeds as f64;
+        smoother_ate += m.ate_rmse_m / seeds as f64;
+        filter_map += f.landmark_rmse_m.unwrap() / seeds as f64;
+        smoother_map += m.landmark_rmse_m.unwrap() / seeds as f64;
+        assert!(
+            m.mean_nees_pose.is_finite() && m.mean_nees_pose < 30.0,
+            "{m:?}"
+        );
+    }
+    println!(
+        "mean over {seeds} seeds: ATE filter {filter_ate:.4} m, smoother {smoother_ate:.4} m; landmarks filter {filter_map:.4} m, smoother {smoother_map:.4} m"
+    );
+    assert!(
+        smoother_ate < 0.8 * filter_ate,
+        "{smoother_ate} vs {filter_ate}"
+    );
+    assert!(smoother_map < filter_map, "{smoother_map} vs {filter_map}");
+}
+
+#[test]
+fn fixed_lag_smoother_runs_online_close_to_the_batch() {
+    // The straight run only: the online mode updates once per scan.
+    let s = KinematicScenario::paper_fig4(false);
+    let config = run_config(&s);
+    let log = s.simulate(7);
+    let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    let online_config = SmootherConfig {
+        mode: SmootherMode::FixedLag(FixedLagConfig {
+            lag: 50,
+            first_estimates: false,
+            solver: SolverConfig {
+                max_iterations: 5,
+                robust: RobustKernel::Huber(2.0),
+                ..SolverConfig::default()
+            },
+        }),
+        ..SmootherConfig::default()
+    };
+    let online = run_from_log(&log, &config, &online_config).unwrap();
+    assert_eq!(online.report.update_times_s.len(), online.report.n_poses);
+    let b = summarize(&log, &batch.output).unwrap();
+    let o = summarize(&log, &online.output).unwrap();
+    let f = summarize(&log, &online.filter).unwrap();
+    println!(
+        "ATE filter {:.4} m, fixed-lag {:.4} m, batch {:.4} m; dropped {} of {}",
+        f.ate_rmse_m,
+        o.ate_rmse_m,
+        b.ate_rmse_m,
+        online.report.n_dropped,
+        online.report.n_measurements
+    );
+    assert!(o.finite);
+    assert!(o.ate_rmse_m <= f.ate_rmse_m, "{o:?} vs filter {f:?}");
+    assert!(o.ate_rmse_m <= 1.3 * b.ate_rmse_m, "{o:?} vs batch {b:?}");
+}
+
+#[test]
+#[ignore]
+fn debug_fixed_lag() {
+    let s = scenario();
+    let config = run_config(&s);
+    let log = s.simulate(7);
+    for (lag, first_estimates) in [(30, true), (30, false), (10, false), (50, false)] {
+        let online_config = SmootherConfig {
+            mode: SmootherMode::FixedLag(FixedLagConfig {
+                lag,
+                first_estimates,
+                solver: SolverConfig {
+                    max_iterations: 5,
+                    robust: RobustKernel::Huber(2.0),
+                    ..SolverConfig::default()
+                },
+            }),
+            ..SmootherConfig::default()
+        };
+        let t = std::time::Instant::now();
+        let online = run_from_log(&log, &config, &online_config).unwrap();
+        let o = summarize(&log, &online.output).unwrap();
+        println!(
+            "lag {lag} fej {first_estimates}: ATE {:.4} lm {:?} time {:.2}s",
+            o.ate_rmse_m,
+            o.landmark_rmse_m,
+            t.elapsed().as_secs_f64()
+        );
+    }
+    let t = std::time::Instant::now();
+    let b = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    println!(
+        "batch {:?} {:?}",
+        b.report.solve,
+        (
+            b.report.filter_time_s,
+            b.report.smoother_time_s,
+            t.elapsed()
+        )
+    );
+}

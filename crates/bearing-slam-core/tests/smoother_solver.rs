@@ -1,0 +1,251 @@
+//! The smoother's solver: Levenberg–Marquardt and Gauss–Newton reach the
+//! known minimum, robust kernels down-weight an injected outlier, marginals
+//! equal the blocks of a dense inverse, and bad input is an error.
+
+#![allow(clippy::unwrap_used)]
+
+mod smoother_common;
+
+use bearing_slam_core::SlamError;
+use bearing_slam_core::smoother::{
+    BearingFactor, Factor, FactorGraph, Key, Method, OdometryFactor, PosePriorFactor, RobustKernel,
+    SolverConfig, Values, cost, marginal_covariances, optimize,
+};
+use nalgebra::{DMatrix, Matrix3, Vector2, Vector3};
+use smoother_common::{BEARING_SIGMA, max_difference, problem};
+use std::collections::BTreeMap;
+
+#[test]
+fn levenberg_marquardt_reaches_the_exact_minimum() {
+    let p = problem(1, 12, false, false);
+    let mut v = p.initial.clone();
+    let start = cost(&p.graph, &v, &RobustKernel::None).unwrap();
+    assert!(start > 100.0, "the start is far from the minimum: {start}");
+    let report = optimize(&p.graph, &mut v, &SolverConfig::default()).unwrap();
+    assert!(report.converged, "{report:?}");
+    assert!(report.final_cost < 1e-12, "{report:?}");
+    let err = max_difference(&v, &p.truth);
+    assert!(err < 1e-6, "max error {err}");
+    assert_eq!(report.initial_cost, start);
+}
+
+#[test]
+fn gauss_newton_and_lm_agree_on_a_noisy_problem() {
+    for ranges in [false, true] {
+        let p = problem(2, 15, true, ranges);
+        let mut lm = p.initial.clone();
+        let r_lm = optimize(&p.graph, &mut lm, &SolverConfig::default()).unwrap();
+        let mut gn = p.initial.clone();
+        let gn_config = SolverConfig {
+            method: Method::GaussNewton,
+            ..SolverConfig::default()
+        };
+        let r_gn = optimize(&p.graph, &mut gn, &gn_config).unwrap();
+        assert!(r_lm.converged && r_gn.converged, "{r_lm:?} {r_gn:?}");
+        assert!(
+            (r_lm.final_cost - r_gn.final_cost).abs() <= 1e-8 * r_lm.final_cost,
+            "{r_lm:?} {r_gn:?}"
+        );
+        assert!(max_difference(&lm, &gn) < 1e-6);
+        // The minimum is near the truth and its cost is about half the
+        // number of residuals minus the degrees of freedom (χ²/2).
+        assert!(
+            max_difference(&lm, &p.truth) < 0.3,
+            "{}",
+            max_difference(&lm, &p.truth)
+        );
+        let dof = (15 * 8 * if ranges { 2 } else { 1 } + 14 * 3 + 3 - 15 * 3 - 8 * 2) as f64;
+        assert!(
+            r_lm.final_cost > 0.2 * dof && r_lm.final_cost < 1.0 * dof,
+            "{r_lm:?} dof {dof}"
+        );
+        // A minimum: no step lowers the cost further.
+        let again = optimize(&p.graph, &mut lm.clone(), &SolverConfig::default()).unwrap();
+        assert!(again.final_cost >= r_lm.final_cost * (1.0 - 1e-9));
+    }
+}
+
+/// The graph of `p` with the bearing from pose 5 to landmark 2 replaced by
+/// one `offset` radians off.
+fn with_outlier(p: &smoother_common::Problem, offset: f64) -> FactorGraph {
+    let mut g = FactorGraph::new();
+    for f in p.graph.factors() {
+        if let Factor::Bearing(_) = f
+            && f.keys() == vec![Key::Pose(5), Key::Landmark(2)]
+        {
+            let z = p.bearings.iter().find(|b| b.0 == 5 && b.1 == 2).unwrap().2;
+            g.add_bearing(BearingFactor::new(5, 2, z + offset, BEARING_SIGMA).unwrap())
+                .unwrap();
+        } else {
+            g.add(f.clone()).unwrap();
+        }
+    }
+    g
+}
+
+#[test]
+fn robust_kernels_down_weight_an_injected_outlier() {
+    let p = problem(3, 10, true, false);
+    let clean_graph = with_outlier(&p, 0.0);
+    let dirty_graph = with_outlier(&p, 0.5);
+    let solve = |g: &FactorGraph, robust| {
+        let mut v = p.initial.clone();
+        let config = SolverConfig {
+            robust,
+            ..SolverConfig::default()
+        };
+        optimize(g, &mut v, &config).unwrap();
+        v
+    };
+    let clean = solve(&clean_graph, RobustKernel::None);
+    let least_squares = solve(&dirty_graph, RobustKernel::None);
+    let pulled = max_difference(&least_squares, &clean);
+    assert!(pulled > 0.02, "least squares pulled by only {pulled}");
+    for kernel in [RobustKernel::Huber(1.345), RobustKernel::Cauchy(2.0)] {
+        let clean_robust = solve(&clean_graph, kernel);
+        let robust = solve(&dirty_graph, kernel);
+        let off = max_difference(&robust, &clean);
+        let off_own = max_difference(&robust, &clean_robust);
+        assert!(
+            off < 0.25 * pulled,
+            "{kernel:?}: {off} vs least squares {pulled}"
+        );
+        assert!(
+            off_own < 0.25 * pulled,
+            "{kernel:?}: {off_own} vs least squares {pulled}"
+        );
+    }
+}
+
+#[test]
+fn marginals_match_the_dense_inverse() {
+    let p = problem(4, 8, true, false);
+    let mut v = p.initial.clone();
+    let kernel = RobustKernel::Huber(1.0);
+    let config = SolverConfig {
+        robust: kernel,
+        ..SolverConfig::default()
+    };
+    optimize(&p.graph, &mut v, &config).unwrap();
+    let marginals = marginal_covariances(&p.graph, &v, &kernel).unwrap();
+    // Dense H = Σ w JᵀJ over a plain key ordering.
+    let keys: Vec<Key> = p.graph.keys().into_iter().collect();
+    let mut offsets = BTreeMap::new();
+    let mut n = 0;
+    for k in &keys {
+        offsets.insert(*k, n);
+        n += k.dim();
+    }
+    let mut h = DMatrix::<f64>::zeros(n, n);
+    for f in p.graph.factors() {
+        let lin = f.linearize(&v).unwrap();
+        let w = if f.is_measurement() {
+            kernel.weight(lin.residual.norm_squared())
+        } else {
+            1.0
+        };
+        for (a, ja) in f.keys().iter().zip(&lin.jacobians) {
+            for (b, jb) in f.keys().iter().zip(&lin.jacobians) {
+                let blk = ja.tr_mul(jb) * w;
+                let mut view = h.view_mut((offsets[a], offsets[b]), (a.dim(), b.dim()));
+                view += blk;
+            }
+        }
+    }
+    let cov = h.try_inverse().unwrap();
+    for k in &keys {
+        let o = offsets[k];
+        let dense = cov.view((o, o), (k.dim(), k.dim())).into_owned();
+        let sparse = marginals.get(*k).unwrap();
+        let diff = (&dense - sparse).amax();
+        assert!(
+            diff < 1e-9 * (1.0 + dense.amax()),
+            "{k:?}: {dense} vs {sparse}"
+        );
+    }
+    assert_eq!(marginals.blocks().len(), keys.len());
+    assert!(marginals.pose(3).unwrap()[(0, 0)] > 0.0);
+    assert!(marginals.landmark(5).unwrap()[(1, 1)] > 0.0);
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let p = problem(5, 4, true, false);
+    // Empty graph.
+    let mut v = p.initial.clone();
+    assert!(matches!(
+        optimize(&FactorGraph::new(), &mut v, &SolverConfig::default()),
+        Err(SlamError::Mismatch(_))
+    ));
+    assert!(marginal_covariances(&FactorGraph::new(), &v, &RobustKernel::None).is_err());
+    // Unknown landmark and pose.
+    let mut g = p.graph.clone();
+    g.add_bearing(BearingFactor::new(0, 99, 0.1, 0.01).unwrap())
+        .unwrap();
+    assert_eq!(
+        optimize(&g, &mut v, &SolverConfig::default()),
+        Err(SlamError::UnknownLandmark(99))
+    );
+    let mut g = p.graph.clone();
+    g.add_odometry(OdometryFactor::new(3, 42, Vector3::zeros(), Matrix3::identity()).unwrap())
+        .unwrap();
+    assert!(optimize(&g, &mut v, &SolverConfig::default()).is_err());
+    assert!(cost(&g, &v, &RobustKernel::None).is_err());
+    // NaN anywhere a number enters.
+    assert!(BearingFactor::new(0, 1, f64::NAN, 0.01).is_err());
+    assert!(BearingFactor::new(0, 1, 0.1, f64::NAN).is_err());
+    assert!(BearingFactor::new(0, 1, 0.1, 0.0).is_err());
+    assert!(
+        OdometryFactor::new(0, 1, Vector3::new(f64::NAN, 0.0, 0.0), Matrix3::identity()).is_err()
+    );
+    assert!(OdometryFactor::new(0, 1, Vector3::zeros(), Matrix3::identity() * f64::NAN).is_err());
+    assert!(OdometryFactor::new(0, 1, Vector3::zeros(), Matrix3::zeros()).is_err());
+    assert!(OdometryFactor::new(1, 1, Vector3::zeros(), Matrix3::identity()).is_err());
+    assert!(
+        PosePriorFactor::new(
+            0,
+            Vector3::new(0.0, f64::INFINITY, 0.0),
+            Matrix3::identity()
+        )
+        .is_err()
+    );
+    assert!(v.insert_pose(0, Vector3::new(f64::NAN, 0.0, 0.0)).is_err());
+    assert!(v.insert_landmark(0, Vector2::new(0.0, f64::NAN)).is_err());
+    let bad = SolverConfig {
+        robust: RobustKernel::Huber(f64::NAN),
+        ..SolverConfig::default()
+    };
+    assert!(optimize(&p.graph, &mut v, &bad).is_err());
+    let bad = SolverConfig {
+        max_iterations: 0,
+        ..SolverConfig::default()
+    };
+    assert!(optimize(&p.graph, &mut v, &bad).is_err());
+    // A landmark at the sensor: degenerate geometry, reported.
+    let mut w = Values::new();
+    w.insert_pose(0, Vector3::zeros()).unwrap();
+    w.insert_landmark(1, Vector2::zeros()).unwrap();
+    let mut g = FactorGraph::new();
+    g.add_pose_prior(PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity()).unwrap())
+        .unwrap();
+    g.add_bearing(BearingFactor::new(0, 1, 0.3, 0.01).unwrap())
+        .unwrap();
+    assert!(optimize(&g, &mut w, &SolverConfig::default()).is_err());
+    // No prior: the gauge is free; Gauss–Newton reports the singular system.
+    let mut g = FactorGraph::new();
+    for f in p.graph.factors() {
+        if !matches!(f, Factor::PosePrior(_)) {
+            g.add(f.clone()).unwrap();
+        }
+    }
+    let gn = SolverConfig {
+        method: Method::GaussNewton,
+        ..SolverConfig::default()
+    };
+    let mut v = p.initial.clone();
+    assert!(matches!(
+        optimize(&g, &mut v, &gn),
+        Err(SlamError::NotPositiveDefinite { .. })
+    ));
+    assert!(marginal_covariances(&g, &v, &RobustKernel::None).is_err());
+}
