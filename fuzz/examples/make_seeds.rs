@@ -30,8 +30,8 @@ fn main() {
     write("scenario_json", "example.json", s.to_json_string().expect("json").as_bytes());
 
     // A short run at low rates: a few dozen events, a few KB.
-    let mut s = Scenario::named("paper_fig4", 7).expect("paper_fig4").with_duration(1.5);
-    s.rates.odometry_hz = 10.0;
+    let mut s = Scenario::named("paper_fig4", 7).expect("paper_fig4").with_duration(0.6);
+    s.rates.odometry_hz = 5.0;
     s.rates.bearing_hz = 5.0;
     s.rates.ground_truth_hz = 5.0;
     let log = simulate(&s).expect("simulate");
