@@ -8,7 +8,10 @@ use std::sync::OnceLock;
 
 /// The file kinds of one robot of an MRCLAM dataset, with their fixtures.
 pub const FILES: [(&str, &str); 5] = [
-    ("Barcodes.dat", include_str!("../fixtures/mrclam/Barcodes.dat")),
+    (
+        "Barcodes.dat",
+        include_str!("../fixtures/mrclam/Barcodes.dat"),
+    ),
     (
         "Landmark_Groundtruth.dat",
         include_str!("../fixtures/mrclam/Landmark_Groundtruth.dat"),
@@ -30,10 +33,8 @@ pub const FILES: [(&str, &str); 5] = [
 fn dataset_dir() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
     DIR.get_or_init(|| {
-        let dir = std::env::temp_dir().join(format!(
-            "bearing-slam-fuzz-mrclam-{}",
-            std::process::id()
-        ));
+        let dir =
+            std::env::temp_dir().join(format!("bearing-slam-fuzz-mrclam-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("create the fuzz dataset directory");
         dir
     })

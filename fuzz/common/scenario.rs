@@ -10,10 +10,14 @@ const STEPS: usize = 20;
 
 /// Checks an accepted scenario.
 pub fn exercise(scenario: &Scenario) {
-    let toml = scenario.to_toml_string().expect("a valid scenario writes TOML");
+    let toml = scenario
+        .to_toml_string()
+        .expect("a valid scenario writes TOML");
     let back = Scenario::from_toml_str(&toml).expect("its TOML reads back");
     assert_eq!(&back, scenario, "TOML round trip");
-    let json = scenario.to_json_string().expect("a valid scenario writes JSON");
+    let json = scenario
+        .to_json_string()
+        .expect("a valid scenario writes JSON");
     let back = Scenario::from_json_str(&json).expect("its JSON reads back");
     assert_eq!(&back, scenario, "JSON round trip");
     let Ok(mut sim) = Simulation::new(scenario) else {

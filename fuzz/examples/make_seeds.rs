@@ -20,22 +20,40 @@ fn write(dir: &str, name: &str, bytes: &[u8]) {
 fn main() {
     for name in scenario_names() {
         let s = Scenario::named(name, 7).expect("named scenario");
-        write("scenario_toml", &format!("{name}.toml"), s.to_toml_string().expect("toml").as_bytes());
-        write("scenario_json", &format!("{name}.json"), s.to_json_string().expect("json").as_bytes());
+        write(
+            "scenario_toml",
+            &format!("{name}.toml"),
+            s.to_toml_string().expect("toml").as_bytes(),
+        );
+        write(
+            "scenario_json",
+            &format!("{name}.json"),
+            s.to_json_string().expect("json").as_bytes(),
+        );
     }
     let example = std::fs::read_to_string("../crates/bearing-slam-sim/scenarios/example.toml")
         .expect("example scenario");
     write("scenario_toml", "example.toml", example.as_bytes());
     let s = Scenario::from_toml_str(&example).expect("example parses");
-    write("scenario_json", "example.json", s.to_json_string().expect("json").as_bytes());
+    write(
+        "scenario_json",
+        "example.json",
+        s.to_json_string().expect("json").as_bytes(),
+    );
 
     // A short run at low rates: a few dozen events, a few KB.
-    let mut s = Scenario::named("paper_fig4", 7).expect("paper_fig4").with_duration(0.6);
+    let mut s = Scenario::named("paper_fig4", 7)
+        .expect("paper_fig4")
+        .with_duration(0.6);
     s.rates.odometry_hz = 5.0;
     s.rates.bearing_hz = 5.0;
     s.rates.ground_truth_hz = 5.0;
     let log = simulate(&s).expect("simulate");
-    write("sensor_log_json", "paper_fig4_short.json", serde_json::to_string(&log).expect("json").as_bytes());
+    write(
+        "sensor_log_json",
+        "paper_fig4_short.json",
+        serde_json::to_string(&log).expect("json").as_bytes(),
+    );
     let config = RunConfig {
         slam: SlamConfig {
             initial_pose: log.info.initial_pose.unwrap_or_default(),
@@ -44,7 +62,10 @@ fn main() {
         odometry: OdometryConfig::Wheels(
             DiffDriveModel::new(
                 log.info.wheel_base_m.unwrap_or(0.3),
-                WheelNoise { floor_sigma_m: 1e-3, scale_sqrt_m: 1e-2 },
+                WheelNoise {
+                    floor_sigma_m: 1e-3,
+                    scale_sqrt_m: 1e-2,
+                },
             )
             .expect("model"),
         ),

@@ -36,9 +36,16 @@ impl Num {
 
 #[derive(Arbitrary, Debug)]
 enum Initializer {
-    PiSr { rho: Option<Num>, sigma: Option<Num> },
-    Triangulation { alpha_min: Option<Num> },
-    TriangulationWithClone { history: u8 },
+    PiSr {
+        rho: Option<Num>,
+        sigma: Option<Num>,
+    },
+    Triangulation {
+        alpha_min: Option<Num>,
+    },
+    TriangulationWithClone {
+        history: u8,
+    },
 }
 
 #[derive(Arbitrary, Debug)]
@@ -54,7 +61,12 @@ struct Config {
 #[derive(Arbitrary, Debug)]
 enum Op {
     /// A velocity command held for `dt`, ending `step` after the last time.
-    Velocity { step: Num, v: Num, omega: Num, dt: Num },
+    Velocity {
+        step: Num,
+        v: Num,
+        omega: Num,
+        dt: Num,
+    },
     /// Wheel distances rolled until `step` after the last time.
     Wheels { step: Num, left: Num, right: Num },
     /// A scan of arbitrary bearings.
@@ -63,7 +75,10 @@ enum Op {
     RangeBearings { step: Num, obs: Vec<(u8, Num, Num)> },
     /// Bearings (plus noise) from the current estimate to hidden landmarks at
     /// integer positions: this is what makes landmarks enter the map.
-    Sight { step: Num, targets: Vec<(u8, i8, i8, i8)> },
+    Sight {
+        step: Num,
+        targets: Vec<(u8, i8, i8, i8)>,
+    },
     /// Marginalize a landmark out.
     Remove { id: u8 },
 }
@@ -129,7 +144,10 @@ fn check(slam: &BearingSlam, what: &Op) {
             p[(i, i)]
         );
         for j in 0..n {
-            assert!(p[(i, j)].is_finite(), "non-finite P[{i},{j}] after {what:?}");
+            assert!(
+                p[(i, j)].is_finite(),
+                "non-finite P[{i},{j}] after {what:?}"
+            );
             assert_eq!(p[(i, j)], p[(j, i)], "asymmetric P[{i},{j}] after {what:?}");
         }
     }

@@ -23,7 +23,10 @@ fn dev_zero_fails_at_once_without_reading_the_stream() {
     assert!(start.elapsed() < FAST, "{:?}", start.elapsed());
     let message = error.to_string();
     assert!(matches!(error, IoError::NotMcap { .. }), "{message}");
-    assert!(message.contains("/dev/zero") && message.contains("magic"), "{message}");
+    assert!(
+        message.contains("/dev/zero") && message.contains("magic"),
+        "{message}"
+    );
 }
 
 #[test]
@@ -90,7 +93,10 @@ fn a_flipped_bit_is_carried_in_the_run_and_refused_by_the_strict_read() {
             messages_recovered,
             reason,
         } => {
-            assert!(*messages_recovered >= n && n > 0, "{messages_recovered} {n}");
+            assert!(
+                *messages_recovered >= n && n > 0,
+                "{messages_recovered} {n}"
+            );
             assert!(!reason.is_empty());
         }
         other => panic!("a flipped bit must be DataLost, got {other:?}"),
