@@ -82,9 +82,30 @@ impl McapRun {
     }
 }
 
-/// Largest record the reader accepts, unless the file itself is larger: a
-/// bound on what a corrupt length field can make it allocate.
-const MIN_RECORD_LIMIT: usize = 256 * 1024 * 1024;
+/// Largest record (and decompressed chunk) the reader accepts from a source
+/// of unknown size: a bound on what a corrupt length field can make it
+/// allocate.
+const STREAM_RECORD_LIMIT: usize = 256 * 1024 * 1024;
+
+/// LZ4 expands at most 255-fold: a decompressed chunk larger than this many
+/// times the file cannot be genuine.
+const MAX_EXPANSION: usize = 256;
+
+/// The record length limit for a source of `size` bytes: a record on disk is
+/// never longer than the file, and a decompressed chunk never more than
+/// [`MAX_EXPANSION`] times it (at least 1 MiB, at most
+/// [`STREAM_RECORD_LIMIT`] unless the file itself is larger). A corrupt
+/// length field in a small file (found by the `mcap_read` fuzzer) used to
+/// make the reader zero-fill 256 MiB before finding the data missing.
+fn record_limit(size: Option<usize>) -> usize {
+    match size {
+        Some(size) => size
+            .saturating_mul(MAX_EXPANSION)
+            .clamp(1 << 20, STREAM_RECORD_LIMIT)
+            .max(size),
+        None => STREAM_RECORD_LIMIT,
+    }
+}
 
 /// Reads a bearing-slam MCAP file.
 ///
@@ -286,9 +307,10 @@ impl Reader {
     ) -> Result<Option<(mcap::McapError, bool)>> {
         let options = LinearReaderOptions::default()
             .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(size.unwrap_or(0).max(MIN_RECORD_LIMIT));
+            .with_record_length_limit(record_limit(size));
         let mut reader = LinearReader::new_with_options(options);
         let mut after_data_end = false;
+        let mut first_record = true;
         while let Some(event) = reader.next_event() {
             match event {
                 Ok(LinearReadEvent::ReadRequest(need)) => {
@@ -302,6 +324,18 @@ impl Reader {
                     reader.notify_read(n);
                 }
                 Ok(LinearReadEvent::Record { data, opcode }) => {
+                    // The spec puts a header first. Without this check, zeros
+                    // after the magic read as endless empty records of the
+                    // (unknown) opcode 0, one per 9 bytes.
+                    if std::mem::take(&mut first_record) && opcode != mcap::records::op::HEADER {
+                        return Err(IoError::NotMcap {
+                            path: self.path.clone(),
+                            reason: format!(
+                                "the record after the magic has opcode {opcode:#04x}, not a header \
+                                 (0x01): the file is corrupt"
+                            ),
+                        });
+                    }
                     let record = match mcap::parse_record(opcode, data) {
                         Ok(r) => r,
                         Err(e) => return Ok(Some((e, after_data_end))),

@@ -55,7 +55,9 @@ fn a_huge_file_with_the_magic_and_garbage_after_it_fails_at_once() {
     let start = Instant::now();
     let error = read_log(&path).expect_err("no records");
     assert!(start.elapsed() < FAST, "{:?}", start.elapsed());
-    assert!(matches!(error, IoError::Mcap { .. }), "{error}");
+    let message = error.to_string();
+    assert!(matches!(error, IoError::NotMcap { .. }), "{message}");
+    assert!(message.contains("not a header"), "{message}");
 }
 
 /// A 300-step log written in small chunks, and its bytes.
@@ -137,4 +139,27 @@ fn a_truncated_file_read_from_disk_is_data_lost() {
         read_complete_log(&path),
         Err(IoError::DataLost { .. })
     ));
+}
+
+#[test]
+fn a_length_field_beyond_the_file_is_refused_without_allocating_it() {
+    // Found by the `mcap_read` fuzzer: a corrupt length in a small file made
+    // the reader zero-fill up to 256 MiB per read before finding the data
+    // missing (about 50 reads per second, 600 MB resident). A record can
+    // never be longer than the file.
+    let (_dir, _, mut bytes) = chunked_file();
+    // The header record follows the 8-byte magic: opcode, then u64 length.
+    assert_eq!(bytes[8], 0x01, "header record");
+    bytes[9..17].copy_from_slice(&(200u64 << 20).to_le_bytes());
+    let error = read_log_bytes(&bytes, "long_header.mcap").expect_err("corrupt length");
+    assert!(
+        matches!(
+            &error,
+            IoError::Mcap {
+                source: mcap::McapError::RecordTooLarge { .. },
+                ..
+            }
+        ),
+        "{error:?}"
+    );
 }
