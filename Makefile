@@ -104,3 +104,32 @@ $(BENCH_STAMP): $(STAMP)
 
 bench-peers: develop $(BENCH_STAMP)
 	$(VPY) benches/compare_peers.py
+
+# --- Fuzzing (cargo-fuzz / libFuzzer, nightly toolchain; fuzz/ is its own
+# workspace). Each target runs FUZZ_SECONDS on its working corpus
+# fuzz/corpus/TARGET (not committed), seeded from fuzz/seeds/TARGET
+# (committed, small). A crash stops the run and leaves the input in
+# fuzz/artifacts/TARGET/; replay it with
+# `cd fuzz && cargo +nightly fuzz run TARGET artifacts/TARGET/crash-...`.
+FUZZ_SECONDS ?= 600
+FUZZ_TIMEOUT ?= 10
+FUZZ_TARGETS := mcap_read mcap_truncated mrclam_barcodes mrclam_landmarks \
+	mrclam_groundtruth mrclam_odometry mrclam_measurement scenario_toml \
+	scenario_json sensor_log_json slam_ops
+
+.PHONY: fuzz fuzz-smoke fuzz-setup
+
+fuzz-setup:
+	@rustup toolchain list | grep -q '^nightly' || rustup toolchain install nightly --profile minimal
+	@command -v cargo-fuzz >/dev/null 2>&1 || $(CARGO) install cargo-fuzz --locked
+
+fuzz: fuzz-setup
+	cd fuzz && for t in $(FUZZ_TARGETS); do \
+		mkdir -p corpus/$$t && \
+		$(CARGO) +nightly fuzz run $$t corpus/$$t seeds/$$t -- \
+			-max_total_time=$(FUZZ_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
+			-print_final_stats=1 || exit 1; \
+	done
+
+fuzz-smoke:
+	$(MAKE) fuzz FUZZ_SECONDS=30

@@ -62,6 +62,22 @@ pub enum IoError {
         #[source]
         source: serde_json::Error,
     },
+    /// The file's data section is truncated or damaged, so messages are
+    /// missing (from [`crate::read_complete_log`] and
+    /// [`crate::McapRun::check_complete`]; [`crate::read_log`] returns the
+    /// messages before the damage instead).
+    #[error(
+        "{path}: the data section is truncated or damaged after {messages_recovered} messages \
+         ({reason}); later messages are lost"
+    )]
+    DataLost {
+        /// The file.
+        path: PathBuf,
+        /// Messages read before the damage.
+        messages_recovered: usize,
+        /// What the MCAP reader reported.
+        reason: String,
+    },
     /// A channel of ours uses a message encoding other than JSON.
     #[error("{path}: topic {topic} has message encoding `{encoding}`, expected `json`")]
     BadEncoding {

@@ -67,7 +67,7 @@ pub mod schema;
 pub mod writer;
 
 pub use error::IoError;
-pub use reader::{McapRun, read_log, read_log_bytes};
+pub use reader::{Completeness, McapRun, read_complete_log, read_log, read_log_bytes};
 pub use schema::Topic;
 pub use writer::{
     McapCompression, McapLogWriter, McapWriteOptions, RaysFrame, write_log, write_log_with_options,

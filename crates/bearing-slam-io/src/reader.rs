@@ -2,6 +2,7 @@
 //! from the exact-data topics, and recovers what it can from a truncated file.
 
 use std::collections::HashMap;
+use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use bearing_slam_core::log::{Event, LandmarkTruth, LogInfo, SensorLog};
@@ -27,32 +28,124 @@ pub struct McapRun {
     /// of messages recovered), a missing info or landmark message, foreign
     /// topics ignored, a log that fails [`SensorLog::validate`].
     pub warnings: Vec<String>,
+    /// Whether every data record was read. A truncated or damaged file
+    /// yields the messages before the damage, and says so here (and in
+    /// [`McapRun::warnings`]); [`McapRun::check_complete`] turns that into an
+    /// error, [`read_complete_log`] reads only whole files.
+    pub completeness: Completeness,
 }
 
-/// Largest record the reader accepts, unless the file itself is larger: a
-/// bound on what a corrupt length field can make it allocate.
-const MIN_RECORD_LIMIT: usize = 256 * 1024 * 1024;
+/// How much of a file's data [`read_log`] could read.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Completeness {
+    /// Every record of the data section was read (and the summary, if any).
+    Complete,
+    /// All data records were read, but the summary section after them is
+    /// truncated or damaged: nothing of the log is lost.
+    SummaryDamaged {
+        /// What the MCAP reader reported.
+        reason: String,
+    },
+    /// The data section stops early (a writer killed mid-run, a flipped
+    /// bit, a cut copy): the run holds only the messages of the complete
+    /// chunks before the damage.
+    DataLost {
+        /// Messages (of all topics) recovered before the damage.
+        messages_recovered: usize,
+        /// What the MCAP reader reported.
+        reason: String,
+    },
+}
+
+impl McapRun {
+    /// Whether every data record of the file was read (a damaged summary
+    /// alone loses nothing and counts as complete).
+    #[must_use]
+    pub fn is_complete(&self) -> bool {
+        !matches!(self.completeness, Completeness::DataLost { .. })
+    }
+
+    /// `Ok(self)` when every data record was read, otherwise
+    /// [`IoError::DataLost`] naming the file and the damage.
+    pub fn check_complete(self, path: impl AsRef<Path>) -> Result<Self> {
+        match &self.completeness {
+            Completeness::DataLost {
+                messages_recovered,
+                reason,
+            } => Err(IoError::DataLost {
+                path: path.as_ref().to_path_buf(),
+                messages_recovered: *messages_recovered,
+                reason: reason.clone(),
+            }),
+            _ => Ok(self),
+        }
+    }
+}
+
+/// Largest record (and decompressed chunk) the reader accepts from a source
+/// of unknown size: a bound on what a corrupt length field can make it
+/// allocate.
+const STREAM_RECORD_LIMIT: usize = 256 * 1024 * 1024;
+
+/// LZ4 expands at most 255-fold: a decompressed chunk larger than this many
+/// times the file cannot be genuine.
+const MAX_EXPANSION: usize = 256;
+
+/// The record length limit for a source of `size` bytes: a record on disk is
+/// never longer than the file, and a decompressed chunk never more than
+/// [`MAX_EXPANSION`] times it (at least 1 MiB, at most
+/// [`STREAM_RECORD_LIMIT`] unless the file itself is larger). A corrupt
+/// length field in a small file (found by the `mcap_read` fuzzer) used to
+/// make the reader zero-fill 256 MiB before finding the data missing.
+fn record_limit(size: Option<usize>) -> usize {
+    match size {
+        Some(size) => size
+            .saturating_mul(MAX_EXPANSION)
+            .clamp(1 << 20, STREAM_RECORD_LIMIT)
+            .max(size),
+        None => STREAM_RECORD_LIMIT,
+    }
+}
 
 /// Reads a bearing-slam MCAP file.
 ///
-/// A truncated file (a writer killed mid-run) yields every message of its
-/// complete chunks, and a warning saying so. A file that is not MCAP, an
-/// MCAP file without bearing-slam topics, or a message that does not decode
-/// is an error naming the problem.
+/// The file is streamed (its first 8 bytes are checked for the MCAP magic
+/// before anything else is read, and then one record at a time is held), so
+/// a foreign or endless file such as `/dev/zero` fails at once without
+/// being read whole. A truncated file (a writer killed mid-run) or a damaged
+/// one (a flipped bit) yields every message of its complete chunks before
+/// the damage, [`Completeness::DataLost`] in [`McapRun::completeness`] and a
+/// warning; use [`read_complete_log`] to refuse such files. A file that is
+/// not MCAP, an MCAP file without bearing-slam topics, or a message that
+/// does not decode is an error naming the problem.
 pub fn read_log(path: impl AsRef<Path>) -> Result<McapRun> {
     let path = path.as_ref();
-    let bytes = std::fs::read(path).map_err(|source| IoError::Io {
+    let io_error = |action, source| IoError::Io {
         path: path.to_path_buf(),
-        action: "read",
+        action,
         source,
-    })?;
-    read_log_bytes(&bytes, path)
+    };
+    let file = std::fs::File::open(path).map_err(|e| io_error("open", e))?;
+    // A regular file's length bounds its records; a pipe or device gets the default.
+    let size = file
+        .metadata()
+        .ok()
+        .filter(std::fs::Metadata::is_file)
+        .and_then(|m| usize::try_from(m.len()).ok());
+    Reader::new(path.to_path_buf()).read(std::io::BufReader::new(file), size)
+}
+
+/// [`read_log`], but a file whose data section is truncated or damaged is
+/// an error ([`IoError::DataLost`]) instead of a shorter run.
+pub fn read_complete_log(path: impl AsRef<Path>) -> Result<McapRun> {
+    let path = path.as_ref();
+    read_log(path)?.check_complete(path)
 }
 
 /// Reads a bearing-slam MCAP file already in memory; `name` is used in
 /// errors and warnings.
 pub fn read_log_bytes(bytes: &[u8], name: impl AsRef<Path>) -> Result<McapRun> {
-    Reader::new(name.as_ref().to_path_buf()).read(bytes)
+    Reader::new(name.as_ref().to_path_buf()).read(bytes, Some(bytes.len()))
 }
 
 /// A channel as declared in the file.
@@ -116,9 +209,9 @@ impl Reader {
         }
     }
 
-    fn read(mut self, bytes: &[u8]) -> Result<McapRun> {
-        self.check_magic(bytes)?;
-        let stream_error = self.scan(bytes)?;
+    fn read(mut self, mut source: impl Read, size: Option<usize>) -> Result<McapRun> {
+        let magic = self.check_magic(&mut source)?;
+        let stream_error = self.scan(magic.chain(source), size)?;
         let has_ours = self.channels.values().any(|c| c.exact.is_some());
         if !has_ours {
             if let Some((error, _)) = stream_error {
@@ -137,10 +230,18 @@ impl Reader {
                 topics,
             });
         }
+        let mut completeness = Completeness::Complete;
         if let Some((error, after_data_end)) = stream_error {
             let what = if after_data_end {
+                completeness = Completeness::SummaryDamaged {
+                    reason: error.to_string(),
+                };
                 "its summary section is truncated or damaged (all data records are intact)"
             } else {
+                completeness = Completeness::DataLost {
+                    messages_recovered: self.messages,
+                    reason: error.to_string(),
+                };
                 "the file is truncated or damaged (a writer killed mid-run?); only complete chunks were read"
             };
             self.warnings.push(format!(
@@ -153,56 +254,88 @@ impl Reader {
                 self.slam_events.len(),
             ));
         }
-        self.finish()
+        self.finish(completeness)
     }
 
-    fn check_magic(&self, bytes: &[u8]) -> Result<()> {
+    /// Reads the first 8 bytes and checks them against the MCAP magic;
+    /// returns them.
+    fn check_magic(&self, source: &mut impl Read) -> Result<Vec<u8>> {
         let not_mcap = |reason: String| IoError::NotMcap {
             path: self.path.clone(),
             reason,
         };
-        if bytes.is_empty() {
+        let mut head = Vec::with_capacity(mcap::MAGIC.len());
+        source
+            .take(mcap::MAGIC.len() as u64)
+            .read_to_end(&mut head)
+            .map_err(|source| IoError::Io {
+                path: self.path.clone(),
+                action: "read",
+                source,
+            })?;
+        if head.is_empty() {
             return Err(not_mcap("the file is empty".into()));
         }
-        if !bytes.starts_with(mcap::MAGIC) {
-            if mcap::MAGIC.starts_with(bytes) {
+        if head != mcap::MAGIC {
+            if mcap::MAGIC.starts_with(&head) {
                 return Err(not_mcap(format!(
                     "only {} bytes, cut inside the MCAP magic",
-                    bytes.len()
+                    head.len()
                 )));
             }
-            let head: Vec<String> = bytes.iter().take(8).map(|b| format!("{b:02x}")).collect();
-            let kind = if bytes.starts_with(b"\x89PNG\r\n\x1a\n") {
+            let hex: Vec<String> = head.iter().map(|b| format!("{b:02x}")).collect();
+            let kind = if head.starts_with(b"\x89PNG\r\n\x1a\n") {
                 " (a PNG image)"
             } else {
                 ""
             };
             return Err(not_mcap(format!(
                 "it does not start with the MCAP magic bytes 89 4d 43 41 50 30 0d 0a, but {}{kind}",
-                head.join(" ")
+                hex.join(" ")
             )));
         }
-        Ok(())
+        Ok(head)
     }
 
-    /// Reads all records in file order. Returns the MCAP error that stopped
-    /// the scan, if any, and whether it came after the data end record.
-    fn scan(&mut self, bytes: &[u8]) -> Result<Option<(mcap::McapError, bool)>> {
+    /// Reads all records in file order, one at a time. Returns the MCAP
+    /// error that stopped the scan, if any, and whether it came after the
+    /// data end record.
+    fn scan(
+        &mut self,
+        mut source: impl Read,
+        size: Option<usize>,
+    ) -> Result<Option<(mcap::McapError, bool)>> {
         let options = LinearReaderOptions::default()
             .with_prevalidate_chunk_crcs(true)
-            .with_record_length_limit(bytes.len().max(MIN_RECORD_LIMIT));
+            .with_record_length_limit(record_limit(size));
         let mut reader = LinearReader::new_with_options(options);
-        let mut remaining = bytes;
         let mut after_data_end = false;
+        let mut first_record = true;
         while let Some(event) = reader.next_event() {
             match event {
                 Ok(LinearReadEvent::ReadRequest(need)) => {
-                    let n = need.min(remaining.len());
-                    reader.insert(n).copy_from_slice(&remaining[..n]);
+                    let n = read_some(&mut source, reader.insert(need)).map_err(|source| {
+                        IoError::Io {
+                            path: self.path.clone(),
+                            action: "read",
+                            source,
+                        }
+                    })?;
                     reader.notify_read(n);
-                    remaining = &remaining[n..];
                 }
                 Ok(LinearReadEvent::Record { data, opcode }) => {
+                    // The spec puts a header first. Without this check, zeros
+                    // after the magic read as endless empty records of the
+                    // (unknown) opcode 0, one per 9 bytes.
+                    if std::mem::take(&mut first_record) && opcode != mcap::records::op::HEADER {
+                        return Err(IoError::NotMcap {
+                            path: self.path.clone(),
+                            reason: format!(
+                                "the record after the magic has opcode {opcode:#04x}, not a header \
+                                 (0x01): the file is corrupt"
+                            ),
+                        });
+                    }
                     let record = match mcap::parse_record(opcode, data) {
                         Ok(r) => r,
                         Err(e) => return Ok(Some((e, after_data_end))),
@@ -340,7 +473,7 @@ impl Reader {
         Ok(())
     }
 
-    fn finish(mut self) -> Result<McapRun> {
+    fn finish(mut self, completeness: Completeness) -> Result<McapRun> {
         let path = self.path.display().to_string();
         let info = match self.infos.len() {
             0 => {
@@ -400,6 +533,18 @@ impl Reader {
             log,
             trace,
             warnings: self.warnings,
+            completeness,
         })
+    }
+}
+
+/// Fills as much of `buf` as the source gives in one call (0 at its end),
+/// retrying interrupted reads.
+fn read_some(source: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
+    loop {
+        match source.read(buf) {
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            other => return other,
+        }
     }
 }

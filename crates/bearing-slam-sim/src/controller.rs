@@ -230,10 +230,16 @@ impl PurePursuit {
     }
 }
 
-/// A scripted `(v, ω)` profile.
+/// A scripted `(v, ω)` profile: its segments, played `repeat` times. The
+/// segments are stored once (not `repeat` copies), and the command at a time
+/// is found by binary search, so a long repetition costs no memory and a
+/// long script no time per command.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Script {
     segments: Vec<Segment>,
+    /// End time of each segment within one play of the script, seconds.
+    ends: Vec<f64>,
+    repeat: u32,
     total: f64,
 }
 
@@ -241,27 +247,50 @@ impl Script {
     /// The profile of `segments` played `repeat` times.
     #[must_use]
     pub fn new(segments: &[Segment], repeat: u32) -> Self {
-        let segments: Vec<Segment> = (0..repeat).flat_map(|_| segments.iter().copied()).collect();
-        let total = segments.iter().map(|s| s.duration_s).sum();
-        Self { segments, total }
+        let ends: Vec<f64> = segments
+            .iter()
+            .scan(0.0, |end, s| {
+                *end += s.duration_s;
+                Some(*end)
+            })
+            .collect();
+        let once = ends.last().copied().unwrap_or(0.0);
+        Self {
+            segments: segments.to_vec(),
+            ends,
+            repeat,
+            total: once * f64::from(repeat),
+        }
     }
 
     /// The command at time `t` (zero after the end).
     #[must_use]
     pub fn command(&self, t: f64) -> Command {
-        let mut start = 0.0;
-        for s in &self.segments {
-            // A small tolerance keeps segment boundaries on the controller's
-            // own time grid from flickering with rounding.
-            if t < start + s.duration_s - 1e-9 {
-                return Command {
+        let once = self.ends.last().copied().unwrap_or(0.0);
+        if once.is_nan() || once <= 0.0 || t < 0.0 {
+            return self
+                .segments
+                .first()
+                .map_or_else(Command::default, |s| Command {
                     v: s.v,
                     omega: s.omega,
-                };
-            }
-            start += s.duration_s;
+                });
         }
-        Command::default()
+        // A small tolerance keeps segment boundaries on the controller's own
+        // time grid from flickering with rounding.
+        let t = t + 1e-9;
+        let play = (t / once).floor();
+        if play >= f64::from(self.repeat) {
+            return Command::default();
+        }
+        let within = t - play * once;
+        let index = self.ends.partition_point(|&end| end <= within);
+        self.segments
+            .get(index)
+            .map_or_else(Command::default, |s| Command {
+                v: s.v,
+                omega: s.omega,
+            })
     }
 
     /// Whether time `t` is past the end of the profile.

@@ -51,6 +51,17 @@ pub enum SimError {
         /// What the valid range is.
         reason: &'static str,
     },
+    /// A size, rate, count or duration beyond the bounds of
+    /// [`crate::limits`] (a run that would take hours or exhaust memory).
+    #[error("{name} = {value} is out of range: {allowed}")]
+    OutOfRange {
+        /// Where the parameter lives, e.g. `controller.repeat`.
+        name: String,
+        /// The value received.
+        value: f64,
+        /// The allowed range.
+        allowed: String,
+    },
     /// A scenario that is inconsistent as a whole (empty path, duplicate
     /// landmark id, option that does not apply, …).
     #[error("invalid scenario: {0}")]

@@ -128,6 +128,8 @@ pub mod controller;
 pub mod encoders;
 pub mod error;
 pub mod friction;
+pub mod limits;
+mod parse_error;
 pub mod path;
 pub mod robot;
 pub mod scenario;

@@ -219,7 +219,7 @@ impl Scenario {
     pub fn from_toml_str(text: &str) -> Result<Self> {
         let s: Self = toml::from_str(text).map_err(|e| SimError::Parse {
             format: "toml",
-            message: e.to_string(),
+            message: crate::parse_error::toml_message(text, &e),
         })?;
         s.validate()?;
         Ok(s)
@@ -229,7 +229,7 @@ impl Scenario {
     pub fn from_json_str(text: &str) -> Result<Self> {
         let s: Self = serde_json::from_str(text).map_err(|e| SimError::Parse {
             format: "json",
-            message: e.to_string(),
+            message: crate::parse_error::json_message(text, &e),
         })?;
         s.validate()?;
         Ok(s)
@@ -271,11 +271,15 @@ impl Scenario {
         })
     }
 
-    /// Checks every parameter and the consistency of the whole.
+    /// Checks every parameter and the consistency of the whole, starting
+    /// with the size bounds of [`crate::limits`] (run length, rates,
+    /// sub-steps, counts), so that an absurd scenario fails before anything
+    /// is built.
     pub fn validate(&self) -> Result<()> {
         if let Some(msg) = &self.builder_error {
             return Err(SimError::InvalidScenario(msg.clone()));
         }
+        crate::limits::check(self)?;
         if let Some(d) = self.duration_s {
             check_positive("duration_s", d)?;
         } else if self.controller.is_endless() {
@@ -328,21 +332,29 @@ impl Scenario {
         if let Some(r) = &self.random_landmarks {
             let mut rng = stream_rng(self.seed, STREAM_LANDMARKS);
             for i in 0..r.count {
+                let id = r.first_id.checked_add(i as u64).ok_or_else(|| {
+                    invalid(
+                        "random_landmarks.first_id",
+                        r.first_id as f64,
+                        "leaves no room for the ids of all random landmarks",
+                    )
+                })?;
                 let u: f64 = rng.random();
                 let radius =
                     (r.r_min * r.r_min + u * (r.r_max * r.r_max - r.r_min * r.r_min)).sqrt();
                 let phi = rng.random::<f64>() * TAU;
                 out.push(LandmarkTruth {
-                    id: r.first_id + i as u64,
+                    id,
                     x: r.center[0] + radius * phi.cos(),
                     y: r.center[1] + radius * phi.sin(),
                 });
             }
         }
+        let mut seen = std::collections::HashSet::with_capacity(out.len());
         for (i, l) in out.iter().enumerate() {
             check_finite(&format!("landmarks[{i}].x"), l.x)?;
             check_finite(&format!("landmarks[{i}].y"), l.y)?;
-            if out[..i].iter().any(|o| o.id == l.id) {
+            if !seen.insert(l.id) {
                 return Err(SimError::InvalidScenario(format!(
                     "landmark id {} appears twice",
                     l.id

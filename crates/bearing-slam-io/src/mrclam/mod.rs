@@ -44,13 +44,25 @@
 //!   `t` when it meets a bearing taken at `t`, updates with it, and only then
 //!   applies the command that starts at `t`. A ground-truth pose at `t` sits
 //!   after the update, so a scorer compares it with the posterior at `t`.
+//! * **Time order.** Every file must be in time order (equal times are
+//!   allowed). A row whose time is below the previous row's is an error,
+//!   [`MrclamError::TimeGoesBack`], naming the file, the line and both times:
+//!   the loader does not guess whether the row or its neighbours are wrong.
+//!   With [`LoadOptions::sort_unsorted_rows`] such files are sorted stably
+//!   instead, and [`LoadReport::n_rows_out_of_order`] counts the rows that
+//!   went back in time. The real files are all in order.
 //! * **Errors.** Malformed rows are never skipped: loading fails with
-//!   [`MrclamError::Parse`] naming the file and line. The real files load
-//!   without any error.
+//!   [`MrclamError::Parse`] naming the file and line (also for a time beyond
+//!   ±[`MAX_ABS_TIME_S`] or a bearing beyond ±[`MAX_ABS_BEARING_RAD`], which
+//!   is refused rather than wrapped). A file larger than [`MAX_FILE_BYTES`]
+//!   is refused. The real files load without any error.
 
 mod parse;
 
-pub use parse::{BarcodeTable, LandmarkRecord, read_barcodes, read_landmarks};
+pub use parse::{
+    BarcodeTable, LandmarkRecord, MAX_ABS_BEARING_RAD, MAX_ABS_TIME_S, MAX_FILE_BYTES,
+    read_barcodes, read_landmarks,
+};
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
@@ -110,6 +122,31 @@ pub enum MrclamError {
         /// What is wrong with the row.
         problem: String,
     },
+    /// A file larger than [`MAX_FILE_BYTES`] (or an endless stream).
+    #[error("{} is larger than {limit} bytes: not an MRCLAM file", file.display())]
+    TooLarge {
+        /// The file.
+        file: PathBuf,
+        /// The limit, bytes.
+        limit: u64,
+    },
+    /// A row whose time is below the previous row's (see
+    /// [`LoadOptions::sort_unsorted_rows`]).
+    #[error(
+        "{}:{line}: time {time} s goes back in time from the previous row's {previous} s; \
+         the file must be sorted by time (LoadOptions::sort_unsorted_rows sorts it instead)",
+        file.display()
+    )]
+    TimeGoesBack {
+        /// The file.
+        file: PathBuf,
+        /// The 1-based line of the row.
+        line: usize,
+        /// The row's time, as in the file.
+        time: f64,
+        /// The previous row's time.
+        previous: f64,
+    },
     /// A file without any data row.
     #[error("{} has no data rows", file.display())]
     NoData {
@@ -156,6 +193,11 @@ pub struct LoadOptions {
     /// Written to `info.bearing_sigma_rad` (for example a value measured by
     /// `bearing-slam-eval`'s calibration); `None` leaves it unknown.
     pub bearing_sigma_rad: Option<f64>,
+    /// Sort files whose rows go back in time (stably, counting those rows in
+    /// [`LoadReport::n_rows_out_of_order`]) instead of refusing them with
+    /// [`MrclamError::TimeGoesBack`] (the default).
+    #[serde(default)]
+    pub sort_unsorted_rows: bool,
 }
 
 impl LoadOptions {
@@ -183,9 +225,14 @@ pub struct LoadReport {
     pub n_bearing_rows_total: usize,
     /// Data rows in `RobotN_Groundtruth.dat` (0 when the file is absent).
     pub ground_truth_rows: usize,
-    /// Whether every stream was already sorted by time in its file (the
-    /// loader sorts stably either way).
+    /// Whether every stream was already sorted by time in its file. Always
+    /// true unless [`LoadOptions::sort_unsorted_rows`] is set (an unsorted
+    /// file is an error otherwise).
     pub streams_were_sorted: bool,
+    /// Rows (of all files) whose time is below the previous row's in their
+    /// file, sorted into place under [`LoadOptions::sort_unsorted_rows`].
+    #[serde(default)]
+    pub n_rows_out_of_order: usize,
     /// `Velocity` events emitted.
     pub n_odometry: usize,
     /// Odometry rows dropped because the next row has the same time (`dt = 0`).
@@ -338,17 +385,24 @@ pub fn load_mrclam_with(
 
     let barcodes = parse::read_barcodes(&dataset_dir.join("Barcodes.dat"))?;
     let landmark_records = parse::read_landmarks(&dataset_dir.join("Landmark_Groundtruth.dat"))?;
-    let mut odometry =
-        parse::read_odometry(&dataset_dir.join(format!("Robot{robot}_Odometry.dat")))?;
-    let mut measurements =
-        parse::read_measurements(&dataset_dir.join(format!("Robot{robot}_Measurement.dat")))?;
-    let mut truth_rows =
-        parse::read_ground_truth(&dataset_dir.join(format!("Robot{robot}_Groundtruth.dat")))?;
+    let file = |kind: &str| dataset_dir.join(format!("Robot{robot}_{kind}.dat"));
+    let mut odometry = parse::read_odometry(&file("Odometry"))?;
+    let mut measurements = parse::read_measurements(&file("Measurement"))?;
+    let mut truth_rows = parse::read_ground_truth(&file("Groundtruth"))?;
 
-    let mut sorted = parse::sort_by_time(&mut odometry, |r| r.t);
-    sorted &= parse::sort_by_time(&mut measurements, |r| r.t);
+    let sort = options.sort_unsorted_rows;
+    let mut out_of_order =
+        parse::order_by_time(&file("Odometry"), &mut odometry, |r| r.t, |r| r.line, sort)?;
+    out_of_order += parse::order_by_time(
+        &file("Measurement"),
+        &mut measurements,
+        |r| r.t,
+        |r| r.line,
+        sort,
+    )?;
     if let Some(rows) = truth_rows.as_mut() {
-        sorted &= parse::sort_by_time(rows, |r| r.t);
+        out_of_order +=
+            parse::order_by_time(&file("Groundtruth"), rows, |r| r.t, |r| r.line, sort)?;
     }
 
     let mut report = LoadReport {
@@ -357,7 +411,8 @@ pub fn load_mrclam_with(
         odometry_rows: odometry.len(),
         n_bearing_rows_total: measurements.len(),
         ground_truth_rows: truth_rows.as_ref().map_or(0, Vec::len),
-        streams_were_sorted: sorted,
+        streams_were_sorted: out_of_order == 0,
+        n_rows_out_of_order: out_of_order,
         has_ground_truth: truth_rows.is_some(),
         ..LoadReport::default()
     };

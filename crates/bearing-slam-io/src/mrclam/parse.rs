@@ -2,17 +2,25 @@
 //!
 //! Every file is ASCII: comment lines starting with `#` (the 4-line header),
 //! then whitespace- or tab-separated columns, usually with CRLF line endings
-//! and trailing spaces. The readers accept any mix of spaces, tabs, `\r\n` or
-//! `\n`, skip blank lines and `#` comments (also at the end of a row), and
-//! **reject** any other malformed row with [`MrclamError::Parse`] naming the
-//! file, the 1-based line number and the problem. They never skip bad rows
-//! silently: a corrupt file is an error, and the real files load cleanly.
+//! and trailing spaces. The readers accept any mix of spaces, tabs and line
+//! endings (`\r\n`, `\n`, and a lone `\r` as old Mac tools write), skip
+//! blank lines and `#` comments (also at the end of a row), and **reject** any
+//! other malformed row with [`MrclamError::Parse`] naming the file, the
+//! 1-based line number and the problem. They never skip bad rows silently: a
+//! corrupt file is an error, and the real files load cleanly. A file larger
+//! than [`MAX_FILE_BYTES`] is refused before it is read whole.
 
 use super::MrclamError;
 use std::collections::BTreeMap;
 use std::fs;
-use std::io;
+use std::io::{self, Read};
 use std::path::Path;
+
+/// The largest MRCLAM file the readers accept, bytes (256 MiB; the largest
+/// file of the original dataset has tens of MB). A bigger file, or an
+/// endless stream such as `/dev/zero`, is refused after reading at most this
+/// much.
+pub const MAX_FILE_BYTES: u64 = 256 * 1024 * 1024;
 
 /// The subject ↔ barcode table of one dataset (`Barcodes.dat`).
 ///
@@ -78,6 +86,8 @@ pub(crate) struct OdometryRow {
     pub t: f64,
     pub v: f64,
     pub omega: f64,
+    /// The 1-based line in its file.
+    pub line: usize,
 }
 
 /// One row of `RobotN_Measurement.dat`, epoch time.
@@ -87,6 +97,8 @@ pub(crate) struct MeasurementRow {
     pub barcode: u32,
     pub range: f64,
     pub bearing: f64,
+    /// The 1-based line in its file.
+    pub line: usize,
 }
 
 /// One row of `RobotN_Groundtruth.dat`, epoch time.
@@ -96,32 +108,82 @@ pub(crate) struct GroundTruthRow {
     pub x: f64,
     pub y: f64,
     pub theta: f64,
+    /// The 1-based line in its file.
+    pub line: usize,
 }
 
-/// Reads a whole file, mapping "not found" to [`MrclamError::MissingFile`].
+/// Reads a whole file (at most [`MAX_FILE_BYTES`]), mapping "not found" to
+/// [`MrclamError::MissingFile`].
 fn read_text(path: &Path) -> Result<String, MrclamError> {
-    match fs::read(path) {
-        Ok(bytes) => String::from_utf8(bytes).map_err(|e| MrclamError::Parse {
+    let io_error = |source| MrclamError::Io {
+        file: path.to_path_buf(),
+        source,
+    };
+    let file = match fs::File::open(path) {
+        Ok(file) => file,
+        Err(e) if e.kind() == io::ErrorKind::NotFound => {
+            return Err(MrclamError::MissingFile {
+                file: path.to_path_buf(),
+            });
+        }
+        Err(source) => return Err(io_error(source)),
+    };
+    let mut bytes = Vec::new();
+    file.take(MAX_FILE_BYTES + 1)
+        .read_to_end(&mut bytes)
+        .map_err(io_error)?;
+    if bytes.len() as u64 > MAX_FILE_BYTES {
+        return Err(MrclamError::TooLarge {
             file: path.to_path_buf(),
-            line: line_of_byte(e.as_bytes(), e.utf8_error().valid_up_to()),
-            problem: "the file is not ASCII/UTF-8 text".to_owned(),
-        }),
-        Err(e) if e.kind() == io::ErrorKind::NotFound => Err(MrclamError::MissingFile {
-            file: path.to_path_buf(),
-        }),
-        Err(source) => Err(MrclamError::Io {
-            file: path.to_path_buf(),
-            source,
-        }),
+            limit: MAX_FILE_BYTES,
+        });
     }
+    String::from_utf8(bytes).map_err(|e| MrclamError::Parse {
+        file: path.to_path_buf(),
+        line: line_of_byte(e.as_bytes(), e.utf8_error().valid_up_to()),
+        problem: "the file is not ASCII/UTF-8 text".to_owned(),
+    })
 }
 
+/// The 1-based line (as [`lines`] counts them) holding byte `offset`.
 fn line_of_byte(bytes: &[u8], offset: usize) -> usize {
-    1 + bytes[..offset.min(bytes.len())]
+    let head = &bytes[..offset.min(bytes.len())];
+    let lone_cr = head
         .iter()
-        .filter(|&&b| b == b'\n')
-        .count()
+        .enumerate()
+        .filter(|&(i, &b)| b == b'\r' && head.get(i + 1) != Some(&b'\n'))
+        .count();
+    1 + head.iter().filter(|&&b| b == b'\n').count() + lone_cr
 }
+
+/// The lines of `text`, each ended by `\r\n`, `\n` or a lone `\r` (the
+/// terminator not included).
+pub(crate) fn lines(text: &str) -> impl Iterator<Item = &str> {
+    let mut rest = text;
+    std::iter::from_fn(move || {
+        if rest.is_empty() {
+            return None;
+        }
+        match rest.find(['\n', '\r']) {
+            Some(i) => {
+                let line = &rest[..i];
+                let skip = if rest[i..].starts_with("\r\n") { 2 } else { 1 };
+                rest = &rest[i + skip..];
+                Some(line)
+            }
+            None => Some(std::mem::take(&mut rest)),
+        }
+    })
+}
+
+/// The largest |time| accepted, seconds: Unix epoch seconds up to the year
+/// 5000, so that differences of times stay exact to the millisecond.
+pub const MAX_ABS_TIME_S: f64 = 1e11;
+
+/// The largest |bearing| accepted, radians: an angle in any common
+/// convention ((−π, π] or [0, 2π)) lies within ±2π; a larger value is garbage
+/// or degrees, and is refused rather than wrapped.
+pub const MAX_ABS_BEARING_RAD: f64 = std::f64::consts::TAU;
 
 /// A data row: its 1-based line number and its fields.
 struct Row<'a> {
@@ -132,7 +194,7 @@ struct Row<'a> {
 /// Splits `text` into data rows of exactly `names.len()` columns.
 fn rows<'a>(path: &Path, text: &'a str, names: &[&str]) -> Result<Vec<Row<'a>>, MrclamError> {
     let mut out = Vec::new();
-    for (index, raw) in text.lines().enumerate() {
+    for (index, raw) in lines(text).enumerate() {
         let content = raw.split('#').next().unwrap_or_default();
         let fields: Vec<&str> = content.split_whitespace().collect();
         if fields.is_empty() {
@@ -173,6 +235,21 @@ impl Row<'_> {
                 format!("column {} ({name}) is not a number: {text:?}", column + 1),
             )),
         }
+    }
+
+    /// Column 1, a time in seconds within ±[`MAX_ABS_TIME_S`].
+    fn time(&self, path: &Path) -> Result<f64, MrclamError> {
+        let t = self.float(path, 0, "time")?;
+        if t.abs() > MAX_ABS_TIME_S {
+            return Err(self.error(
+                path,
+                format!(
+                    "column 1 (time) = {t} s is out of range: times must lie within \
+                     ±{MAX_ABS_TIME_S:e} s (Unix epoch seconds)"
+                ),
+            ));
+        }
+        Ok(t)
     }
 
     fn integer(&self, path: &Path, column: usize, name: &str) -> Result<u32, MrclamError> {
@@ -274,9 +351,10 @@ pub(crate) fn read_odometry(path: &Path) -> Result<Vec<OdometryRow>, MrclamError
     rows.iter()
         .map(|row| {
             Ok(OdometryRow {
-                t: row.float(path, 0, "time")?,
+                t: row.time(path)?,
                 v: row.float(path, 1, "forward velocity")?,
                 omega: row.float(path, 2, "angular velocity")?,
+                line: row.line,
             })
         })
         .collect()
@@ -290,13 +368,24 @@ pub(crate) fn read_measurements(path: &Path) -> Result<Vec<MeasurementRow>, Mrcl
     rows.iter()
         .map(|row| {
             let m = MeasurementRow {
-                t: row.float(path, 0, "time")?,
+                t: row.time(path)?,
                 barcode: row.integer(path, 1, "barcode")?,
                 range: row.float(path, 2, "range")?,
                 bearing: row.float(path, 3, "bearing")?,
+                line: row.line,
             };
             if m.range < 0.0 {
                 return Err(row.error(path, format!("negative range {}", m.range)));
+            }
+            if m.bearing.abs() > MAX_ABS_BEARING_RAD {
+                return Err(row.error(
+                    path,
+                    format!(
+                        "column 4 (bearing) = {} rad is out of range: a bearing must lie \
+                         within [-2π, 2π] (degrees instead of radians?)",
+                        m.bearing
+                    ),
+                ));
             }
             Ok(m)
         })
@@ -316,22 +405,46 @@ pub(crate) fn read_ground_truth(path: &Path) -> Result<Option<Vec<GroundTruthRow
     rows.iter()
         .map(|row| {
             Ok(GroundTruthRow {
-                t: row.float(path, 0, "time")?,
+                t: row.time(path)?,
                 x: row.float(path, 1, "x")?,
                 y: row.float(path, 2, "y")?,
                 theta: row.float(path, 3, "orientation")?,
+                line: row.line,
             })
         })
         .collect::<Result<Vec<_>, _>>()
         .map(Some)
 }
 
-/// Sorts rows by time, stably (rows with equal times keep their file order).
-/// Returns whether the rows were already sorted.
-pub(crate) fn sort_by_time<T>(rows: &mut [T], time: impl Fn(&T) -> f64) -> bool {
-    let sorted = rows.windows(2).all(|w| time(&w[0]) <= time(&w[1]));
-    if !sorted {
+/// Checks that `rows` are in time order (equal times allowed). Rows whose
+/// time is below the previous row's are an error naming the first of them,
+/// unless `sort` is set: then they are counted and the rows sorted stably
+/// (rows with equal times keep their file order). Returns how many rows went
+/// back in time.
+pub(crate) fn order_by_time<T>(
+    path: &Path,
+    rows: &mut [T],
+    time: impl Fn(&T) -> f64,
+    line: impl Fn(&T) -> usize,
+    sort: bool,
+) -> Result<usize, MrclamError> {
+    let mut backward = 0;
+    for pair in rows.windows(2) {
+        let (previous, row) = (time(&pair[0]), time(&pair[1]));
+        if row < previous {
+            if !sort {
+                return Err(MrclamError::TimeGoesBack {
+                    file: path.to_path_buf(),
+                    line: line(&pair[1]),
+                    time: row,
+                    previous,
+                });
+            }
+            backward += 1;
+        }
+    }
+    if backward > 0 {
         rows.sort_by(|a, b| time(a).total_cmp(&time(b)));
     }
-    sorted
+    Ok(backward)
 }

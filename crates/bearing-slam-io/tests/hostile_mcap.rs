@@ -1,0 +1,165 @@
+//! The MCAP reader on hostile inputs (issue 20): endless and huge files fail
+//! fast without being read whole, and a damaged file says so in the returned
+//! structure, not only in a list of strings.
+
+mod common;
+
+use std::time::{Duration, Instant};
+
+use bearing_slam_io::{
+    Completeness, IoError, McapWriteOptions, read_complete_log, read_log, read_log_bytes,
+    write_log_with_options,
+};
+use common::{sample_log, tmp};
+
+/// Well under what reading gigabytes would take; generous for a loaded CI machine.
+const FAST: Duration = Duration::from_secs(5);
+
+#[cfg(unix)]
+#[test]
+fn dev_zero_fails_at_once_without_reading_the_stream() {
+    let start = Instant::now();
+    let error = read_log("/dev/zero").expect_err("/dev/zero is not MCAP");
+    assert!(start.elapsed() < FAST, "{:?}", start.elapsed());
+    let message = error.to_string();
+    assert!(matches!(error, IoError::NotMcap { .. }), "{message}");
+    assert!(
+        message.contains("/dev/zero") && message.contains("magic"),
+        "{message}"
+    );
+}
+
+#[test]
+fn a_huge_file_that_is_not_mcap_fails_at_once() {
+    let dir = tmp();
+    let path = dir.path().join("huge.bin");
+    // 8 GiB of (sparse) zeros: far more than this test could read in time,
+    // and more memory than a whole-file read should ever take.
+    let file = std::fs::File::create(&path).expect("create");
+    file.set_len(8 << 30).expect("sparse 8 GiB file");
+    let start = Instant::now();
+    let error = read_log(&path).expect_err("zeros are not MCAP");
+    assert!(start.elapsed() < FAST, "{:?}", start.elapsed());
+    assert!(matches!(error, IoError::NotMcap { .. }), "{error}");
+}
+
+#[test]
+fn a_huge_file_with_the_magic_and_garbage_after_it_fails_at_once() {
+    use std::io::Write;
+    let dir = tmp();
+    let path = dir.path().join("magic_then_zeros.mcap");
+    let mut file = std::fs::File::create(&path).expect("create");
+    file.write_all(mcap::MAGIC).expect("magic");
+    file.set_len(8 << 30).expect("sparse 8 GiB file");
+    drop(file);
+    let start = Instant::now();
+    let error = read_log(&path).expect_err("no records");
+    assert!(start.elapsed() < FAST, "{:?}", start.elapsed());
+    let message = error.to_string();
+    assert!(matches!(error, IoError::NotMcap { .. }), "{message}");
+    assert!(message.contains("not a header"), "{message}");
+}
+
+/// A 300-step log written in small chunks, and its bytes.
+fn chunked_file() -> (tempfile::TempDir, std::path::PathBuf, Vec<u8>) {
+    let dir = tmp();
+    let path = dir.path().join("run.mcap");
+    let options = McapWriteOptions {
+        chunk_size: 2048,
+        ..McapWriteOptions::default()
+    };
+    write_log_with_options(&path, &sample_log(300), None, options).expect("write");
+    let bytes = std::fs::read(&path).expect("bytes");
+    (dir, path, bytes)
+}
+
+#[test]
+fn a_whole_file_reads_as_complete() {
+    let (_dir, path, _) = chunked_file();
+    let run = read_log(&path).expect("read");
+    assert_eq!(run.completeness, Completeness::Complete);
+    assert!(run.is_complete());
+    let strict = read_complete_log(&path).expect("a whole file passes the strict read");
+    assert_eq!(strict.log, run.log);
+}
+
+#[test]
+fn a_flipped_bit_is_carried_in_the_run_and_refused_by_the_strict_read() {
+    let (dir, _, mut bytes) = chunked_file();
+    let middle = bytes.len() / 2;
+    bytes[middle] ^= 0x5a;
+    let run = read_log_bytes(&bytes, "damaged.mcap").expect("prefix recoverable");
+    let n = run.log.events.len();
+    match &run.completeness {
+        Completeness::DataLost {
+            messages_recovered,
+            reason,
+        } => {
+            assert!(
+                *messages_recovered >= n && n > 0,
+                "{messages_recovered} {n}"
+            );
+            assert!(!reason.is_empty());
+        }
+        other => panic!("a flipped bit must be DataLost, got {other:?}"),
+    }
+    assert!(!run.is_complete());
+    let error = run
+        .clone()
+        .check_complete("damaged.mcap")
+        .expect_err("check_complete refuses it");
+    assert!(matches!(error, IoError::DataLost { .. }), "{error}");
+    let path = dir.path().join("damaged.mcap");
+    std::fs::write(&path, &bytes).expect("write damaged");
+    let error = read_complete_log(&path).expect_err("the strict read refuses it");
+    let message = error.to_string();
+    assert!(
+        message.contains("damaged.mcap") && message.contains("lost"),
+        "{message}"
+    );
+    // The streamed file read and the in-memory read agree.
+    let streamed = read_log(&path).expect("streamed read");
+    assert_eq!(streamed.log, run.log);
+    assert_eq!(streamed.completeness, run.completeness);
+}
+
+#[test]
+fn a_truncated_file_read_from_disk_is_data_lost() {
+    let (dir, _, bytes) = chunked_file();
+    let path = dir.path().join("cut.mcap");
+    std::fs::write(&path, &bytes[..bytes.len() * 2 / 3]).expect("write cut");
+    let run = read_log(&path).expect("prefix recoverable");
+    assert!(
+        matches!(run.completeness, Completeness::DataLost { .. }),
+        "{:?}",
+        run.completeness
+    );
+    assert!(!run.log.events.is_empty());
+    assert!(matches!(
+        read_complete_log(&path),
+        Err(IoError::DataLost { .. })
+    ));
+}
+
+#[test]
+fn a_length_field_beyond_the_file_is_refused_without_allocating_it() {
+    // Found by the `mcap_read` fuzzer: a corrupt length in a small file made
+    // the reader zero-fill up to 256 MiB per read before finding the data
+    // missing (about 50 reads per second, 600 MB resident). A record can
+    // never be longer than the file.
+    let (_dir, _, mut bytes) = chunked_file();
+    // The header record follows the 8-byte magic: opcode, then u64 length.
+    assert_eq!(bytes[8], 0x01, "header record");
+    bytes[9..17].copy_from_slice(&(200u64 << 20).to_le_bytes());
+    let error = read_log_bytes(&bytes, "long_header.mcap").expect_err("corrupt length");
+    assert!(
+        matches!(
+            &error,
+            IoError::Mcap {
+                source: mcap::McapError::RecordTooLarge { .. },
+                ..
+            }
+        ),
+        "{error:?}"
+    );
+}

@@ -1,0 +1,9 @@
+//! The MRCLAM loader with a fuzzed `Robot1_Odometry.dat` (the other files valid).
+#![no_main]
+
+#[path = "../common/mrclam.rs"]
+mod mrclam;
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| {
+    mrclam::load_with("Robot1_Odometry.dat", data);
+});
