@@ -10,10 +10,10 @@
 
 use super::preintegration::PreintegratedOdometry;
 use super::values::{Key, Values, local_difference};
-use crate::model::MeasurementModel;
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::measurement::{BearingToPoint, RangeBearing};
+use crate::model::MeasurementModel;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector1, Vector2, Vector3};
 
 /// A factor linearized at the current estimate: whitened residual `e` and,

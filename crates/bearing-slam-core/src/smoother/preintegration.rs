@@ -8,8 +8,8 @@
 //! end pose rigidly), so the relative motion integrated from the origin is
 //! the relative pose `T_i⁻¹ T_j` whatever the absolute start.
 
-use crate::model::{MotionModel, MotionPrediction};
 use crate::error::Result;
+use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix3, Vector3};
 
 /// The relative pose `[Δx, Δy, Δθ]` from one graph pose to the next, in the
