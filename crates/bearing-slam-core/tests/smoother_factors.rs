@@ -7,9 +7,9 @@
 mod smoother_common;
 
 use bearing_slam_core::Pose2;
-use bearing_slam_core::ekf::{MotionModel, MotionPrediction};
 use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam_core::measurement::bearing_to_point;
+use bearing_slam_core::model::{MotionModel, MotionPrediction};
 use bearing_slam_core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, Key, LandmarkPriorFactor, LinearFactor, OdometryFactor, PosePriorFactor,
