@@ -17,7 +17,7 @@ on it; runs share nothing, so they can go anywhere:
   bit for bit, as without an executor.
 
 Each run is classified (thresholds in :data:`DEFAULT_THRESHOLDS`, the
-definitions in the Rust module ``bearing_slam::montecarlo``):
+definitions in the Rust module ``bearing_slam::eval::montecarlo``):
 
 * **diverged**: the run failed, a pose or its covariance was not finite or
   not positive semi-definite, or the final position error exceeds
