@@ -9,7 +9,7 @@
 //!
 //! Options: `--data DIR` (a `MRCLAM_DatasetN/` directory; default
 //! `/work/shared/datasets/mrclam/MRCLAM_Dataset6`), `--kernel
-//! none|huber|cauchy` (default huber, k = 2), `--lag N` (run the online
+//! none|huber|cauchy` (default cauchy, scale 2; huber: k = 2), `--lag N` (run the online
 //! fixed-lag mode with N poses instead of the batch), `--fej` (first-estimate
 //! Jacobians in the fixed-lag mode).
 
@@ -44,7 +44,7 @@ fn nees_within_95(output: &RunOutput) -> f64 {
 
 fn main() -> Result<(), BoxError> {
     let mut data = PathBuf::from("/work/shared/datasets/mrclam/MRCLAM_Dataset6");
-    let mut kernel = RobustKernel::Huber(2.0);
+    let mut kernel = RobustKernel::Cauchy(2.0);
     let mut lag = None;
     let mut fej = false;
     let mut args = std::env::args().skip(1);
