@@ -247,5 +247,11 @@ fn bad_input_is_an_error_not_a_panic() {
         optimize(&g, &mut v, &gn),
         Err(SlamError::NotPositiveDefinite { .. })
     ));
-    assert!(marginal_covariances(&g, &v, &RobustKernel::None).is_err());
+    // Marginals of a gauge-free graph: an error, or (after the 1e-9
+    // regularization retry) covariances that show the free gauge as
+    // unbounded uncertainty.
+    match marginal_covariances(&g, &v, &RobustKernel::None) {
+        Err(_) => {}
+        Ok(m) => assert!(m.pose(0).unwrap()[(0, 0)] > 1e3, "{:?}", m.pose(0)),
+    }
 }

@@ -9,6 +9,8 @@ use numpy::{
 };
 use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
+use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
+use serde_json::{Map, Number, Value};
 
 /// A float64 vector given as any array-like.
 pub(crate) type In1<'py> = PyArrayLike1<'py, f64, AllowTypeChange>;
@@ -181,12 +183,96 @@ pub(crate) fn mat3_from_rows(c: &[[f64; 3]; 3]) -> Matrix3<f64> {
     Matrix3::from_fn(|r, k| c[r][k])
 }
 
-/// A serde value as a Python object (through JSON: dicts, lists, floats).
+// ---------------------------------------------------------- serde <-> Python
+//
+// The one converter across the binding boundary: a serde value (a config, a
+// report, a record) becomes plain Python objects and back, walked directly
+// (no JSON text in between, so every float crosses exactly).
+
+/// A serde value as a Python object: dicts, lists, str, int, float, bool, None.
 pub(crate) fn to_py<'py, T: serde::Serialize>(
     py: Python<'py>,
     value: &T,
 ) -> PyResult<Bound<'py, PyAny>> {
-    let text = serde_json::to_string(value)
+    let value = serde_json::to_value(value)
         .map_err(|e| PyValueError::new_err(format!("cannot convert to Python: {e}")))?;
-    py.import("json")?.call_method1("loads", (text,))
+    value_to_py(py, &value)
+}
+
+/// A JSON value as a Python object.
+fn value_to_py<'py>(py: Python<'py>, value: &Value) -> PyResult<Bound<'py, PyAny>> {
+    Ok(match value {
+        Value::Null => py.None().into_bound(py),
+        Value::Bool(b) => PyBool::new(py, *b).to_owned().into_any(),
+        Value::Number(n) if n.is_f64() => n.as_f64().into_pyobject(py)?.into_any(),
+        Value::Number(n) => match (n.as_u64(), n.as_i64()) {
+            (Some(u), _) => u.into_pyobject(py)?.into_any(),
+            (None, Some(i)) => i.into_pyobject(py)?.into_any(),
+            (None, None) => n.as_f64().into_pyobject(py)?.into_any(),
+        },
+        Value::String(s) => PyString::new(py, s).into_any(),
+        Value::Array(items) => PyList::new(
+            py,
+            items
+                .iter()
+                .map(|item| value_to_py(py, item))
+                .collect::<PyResult<Vec<_>>>()?,
+        )?
+        .into_any(),
+        Value::Object(fields) => {
+            let d = PyDict::new(py);
+            for (k, v) in fields {
+                d.set_item(k, value_to_py(py, v)?)?;
+            }
+            d.into_any()
+        }
+    })
+}
+
+/// A Python object made of dicts, lists, tuples, str, int, float (finite),
+/// bool and None as a JSON value; `what` names it in errors.
+pub(crate) fn from_py(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
+    if obj.is_none() {
+        return Ok(Value::Null);
+    }
+    if let Ok(b) = obj.cast::<PyBool>() {
+        return Ok(Value::Bool(b.is_true()));
+    }
+    if obj.is_instance_of::<PyInt>() {
+        if let Ok(u) = obj.extract::<u64>() {
+            return Ok(Value::Number(u.into()));
+        }
+        return Ok(Value::Number(obj.extract::<i64>()?.into()));
+    }
+    if let Ok(f) = obj.cast::<PyFloat>() {
+        let v = f.value();
+        return Number::from_f64(v)
+            .map(Value::Number)
+            .ok_or_else(|| PyValueError::new_err(format!("{what}: non-finite number {v}")));
+    }
+    if let Ok(s) = obj.cast::<PyString>() {
+        return Ok(Value::String(s.to_str()?.to_owned()));
+    }
+    if let Ok(d) = obj.cast::<PyDict>() {
+        let mut m = Map::new();
+        for (k, v) in d.iter() {
+            let key: String = k
+                .extract()
+                .map_err(|_| PyTypeError::new_err(format!("{what}: dict keys must be str")))?;
+            let inner = from_py(&v, &format!("{what}.{key}"))?;
+            m.insert(key, inner);
+        }
+        return Ok(Value::Object(m));
+    }
+    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
+        let items = obj
+            .try_iter()?
+            .map(|item| from_py(&item?, what))
+            .collect::<PyResult<Vec<_>>>()?;
+        return Ok(Value::Array(items));
+    }
+    Err(PyTypeError::new_err(format!(
+        "{what}: cannot convert {} (expected dict, list, str, int, float, bool or None)",
+        obj.get_type().name()?
+    )))
 }

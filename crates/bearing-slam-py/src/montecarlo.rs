@@ -20,7 +20,7 @@
 //! Ctrl-C (which returns `KeyboardInterrupt` at once: `montecarlo_run_many`
 //! skips the runs not started yet, an experiment finishes in the background).
 
-use crate::convert::to_py;
+use crate::convert::{from_py, to_py};
 use crate::errors::{SlamResultExt, sim};
 use bearing_slam::eval::experiments::{
     consistency_curves, consistency_table, fig4, fig4_table, fig5, fig5_table, fig8, fig8_table,
@@ -29,63 +29,12 @@ use bearing_slam::eval::experiments::{
 use bearing_slam::eval::montecarlo::{
     MonteCarloReport, MonteCarloSpec, RunMetrics, RunRecord, RunSeries, run_one,
 };
-use pyo3::exceptions::{PyRuntimeError, PyTypeError, PyValueError};
+use pyo3::exceptions::{PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
-use pyo3::types::{PyBool, PyDict, PyFloat, PyInt, PyList, PyString, PyTuple};
-use serde_json::{Map, Number, Value};
+use pyo3::types::{PyDict, PyList};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-
-// ------------------------------------------------------------ conversions
-
-/// A Python object made of dicts, lists, str, int, float (finite), bool and
-/// None, as a JSON value (floats exactly, not through text).
-fn to_value(obj: &Bound<'_, PyAny>, what: &str) -> PyResult<Value> {
-    if obj.is_none() {
-        return Ok(Value::Null);
-    }
-    if let Ok(b) = obj.cast::<PyBool>() {
-        return Ok(Value::Bool(b.is_true()));
-    }
-    if obj.is_instance_of::<PyInt>() {
-        if let Ok(u) = obj.extract::<u64>() {
-            return Ok(Value::Number(u.into()));
-        }
-        return Ok(Value::Number(obj.extract::<i64>()?.into()));
-    }
-    if let Ok(f) = obj.cast::<PyFloat>() {
-        let v = f.value();
-        return Number::from_f64(v)
-            .map(Value::Number)
-            .ok_or_else(|| PyValueError::new_err(format!("{what}: non-finite number {v}")));
-    }
-    if let Ok(s) = obj.cast::<PyString>() {
-        return Ok(Value::String(s.to_str()?.to_owned()));
-    }
-    if let Ok(d) = obj.cast::<PyDict>() {
-        let mut m = Map::new();
-        for (k, v) in d.iter() {
-            let key: String = k
-                .extract()
-                .map_err(|_| PyTypeError::new_err(format!("{what}: dict keys must be str")))?;
-            let inner = to_value(&v, &format!("{what}.{key}"))?;
-            m.insert(key, inner);
-        }
-        return Ok(Value::Object(m));
-    }
-    if obj.is_instance_of::<PyList>() || obj.is_instance_of::<PyTuple>() {
-        let items = obj
-            .try_iter()?
-            .map(|item| to_value(&item?, what))
-            .collect::<PyResult<Vec<_>>>()?;
-        return Ok(Value::Array(items));
-    }
-    Err(PyTypeError::new_err(format!(
-        "{what}: cannot convert {} (expected dict, list, str, int, float, bool or None)",
-        obj.get_type().name()?
-    )))
-}
 
 /// `InvalidParameterError` (a `BearingSlamError` and a `ValueError`) with
 /// `message`: a bad spec or record. The class is the one `errors` registered
@@ -169,7 +118,7 @@ fn record_from_py(obj: &Bound<'_, PyAny>, index: usize) -> PyResult<RunRecord> {
     let d = obj
         .cast::<PyDict>()
         .map_err(|_| invalid(format!("{what}: expected a dict from montecarlo_run_one")))?;
-    let metrics: RunMetrics = serde_json::from_value(to_value(&item(d, "metrics", &what)?, &what)?)
+    let metrics: RunMetrics = serde_json::from_value(from_py(&item(d, "metrics", &what)?, &what)?)
         .map_err(|e| invalid(format!("{what}.metrics: {e}")))?;
     let s = item(d, "series", &what)?;
     let s = s

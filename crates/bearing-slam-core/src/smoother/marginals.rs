@@ -118,7 +118,8 @@ impl SelectedInverse {
 /// The marginal covariance of every variable of `graph` at `values` (robust
 /// weights of `kernel` included, as in the last solver iteration). Errors as
 /// the solver does, and when the information matrix is singular (a graph
-/// without a prior fixing the gauge).
+/// without a prior fixing the gauge); a matrix positive definite only to
+/// rounding is factorized with its diagonal scaled by `1 + 1e-9`.
 pub fn marginal_covariances(
     graph: &FactorGraph,
     values: &Values,
@@ -127,7 +128,16 @@ pub fn marginal_covariances(
     let pattern = Pattern::new(graph, values)?;
     let eq = assemble(&pattern, graph, values, kernel)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, true)?;
-    cholesky.factorize(&pattern, &eq.hessian)?;
+    if cholesky.factorize(&pattern, &eq.hessian).is_err() {
+        // Numerically semi-definite (stiff odometry next to a landmark known
+        // only through a weak prior): retry once with the diagonal scaled by
+        // 1 + 1e-9, which changes no well-determined covariance visibly.
+        let mut h = eq.hessian.clone();
+        for &d in &pattern.diagonal {
+            h[d] += 1e-9 * h[d].abs().max(1e-12);
+        }
+        cholesky.factorize(&pattern, &h)?;
+    }
     let symbolic = cholesky.symbolic();
     let SymbolicCholeskyRaw::Simplicial(simplicial) = symbolic.raw() else {
         return Err(SlamError::Degenerate("expected a simplicial factorization"));
