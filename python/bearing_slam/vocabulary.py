@@ -18,8 +18,8 @@ from bearing_slam import _native
 
 __all__ = [
     "CLASSES",
-    "COVARIANCE_UPDATES",
     "CONFIG_INITS",
+    "COVARIANCE_UPDATES",
     "DEFAULT_PRIOR",
     "DEFAULT_THRESHOLDS",
     "EXPERIMENTS",

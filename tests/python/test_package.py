@@ -3,6 +3,7 @@ Rust side, records, one CLI parser per command, no data path from the install.""
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -16,7 +17,7 @@ from pathlib import Path
 import pytest
 
 import bearing_slam as bs
-from bearing_slam import mrclam, outputs, vocabulary
+from bearing_slam import cli, mrclam, outputs, vocabulary
 from bearing_slam._native import montecarlo_report
 from bearing_slam.monte_carlo import make_spec
 
@@ -29,6 +30,52 @@ def test_no_module_is_shadowed_by_a_function() -> None:
         __import__(f"bearing_slam.{name}")
         attr = getattr(bs, name)
         assert isinstance(attr, types.ModuleType), f"bearing_slam.{name} is a {type(attr)}"
+
+
+def test_the_vocabulary_is_the_rust_enums() -> None:
+    """Python restates no name or default: every one is the Rust enum's `ALL`
+    or constant, exported by ``_native.vocabulary()``, and the CLI offers
+    exactly those names."""
+    rust = bs._native.vocabulary()
+    assert tuple(rust["initializers"]) == vocabulary.INIT_NAMES
+    assert set(vocabulary.RUN_INITS) == set(rust["initializers"]) - {"pi-sr-mixed"}
+    assert tuple(rust["prior_initializers"]) == vocabulary.PRIOR_INITS
+    assert tuple(rust["covariance_updates"]) == vocabulary.COVARIANCE_UPDATES
+    assert tuple(rust["odometries"]) == vocabulary.ODOMETRIES
+    assert tuple(rust["mrclam_methods"]) == vocabulary.MRCLAM_METHODS
+    assert tuple(rust["run_classes"]) == vocabulary.CLASSES
+    assert tuple(rust["experiments"]) == vocabulary.EXPERIMENTS
+    assert tuple(rust["run_metrics"]) == vocabulary.METRICS
+    assert rust["thresholds"] == vocabulary.DEFAULT_THRESHOLDS
+    assert rust["paper_near_prior"] == vocabulary.DEFAULT_PRIOR
+    assert rust["paper_far_prior"] == vocabulary.FAR_PRIOR
+    assert rust["mte_history"] == vocabulary.MTE_HISTORY
+    # The defaults a Config starts from are the Rust defaults.
+    config = bs.Config()
+    assert (config.rho_ini, config.sigma_rho) == (
+        rust["paper_near_prior"]["rho_ini"],
+        rust["paper_near_prior"]["sigma_rho"],
+    )
+    # Every name Rust lists is one its parsers accept, and nothing else is.
+    for form in vocabulary.COVARIANCE_UPDATES:
+        assert bs.Config(covariance_update=form).covariance_update == form
+    for odometry in vocabulary.ODOMETRIES:
+        assert bs.Config(odometry=odometry).odometry == odometry
+    with pytest.raises(ValueError, match="unknown covariance update"):
+        bs.Config(covariance_update="kalman")
+    # The command line's choices are these lists.
+    inits = [
+        tuple(a.choices)
+        for action in cli._parser()._actions
+        if isinstance(action, argparse._SubParsersAction)
+        for sub in action.choices.values()
+        for a in sub._actions
+        if a.dest == "init" and a.choices is not None
+    ]
+    assert len(inits) >= 3, "the run, mrclam and montecarlo commands each have --init"
+    for names in inits:
+        assert set(names) <= set(vocabulary.INIT_NAMES) | set(vocabulary.MRCLAM_METHODS)
+    assert vocabulary.INIT_NAMES in inits
 
 
 def test_every_config_init_is_accepted(fig4_log: bs.SensorLog) -> None:
