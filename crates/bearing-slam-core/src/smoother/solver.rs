@@ -1,7 +1,7 @@
 //! Levenberg–Marquardt and Gauss–Newton on the sparse normal equations.
 //!
 //! Each iteration linearizes every factor, assembles `H = Σ w JᵀJ` and
-//! `g = Σ w Jᵀe` ([`super::system`]), and solves
+//! `g = Σ w Jᵀe` (the `system` module), and solves
 //! `(H + λ diag(H)) δ = −g` with the sparse Cholesky factorization whose
 //! symbolic analysis is shared by all iterations. Levenberg–Marquardt accepts
 //! a step when the gain ratio (actual over predicted cost decrease) is
