@@ -372,6 +372,9 @@ __all__ += [
     "montecarlo_run_one",
 ]
 
+# The names and defaults shared with Python (crates/bearing-slam-py/src/vocabulary.rs).
+__all__ += ["vocabulary"]
+
 def montecarlo_run_one(spec_json: str, index: int) -> dict[str, Any]: ...
 def montecarlo_report(spec_json: str, records: Iterable[dict[str, Any]]) -> dict[str, Any]: ...
 def montecarlo_run_many(
