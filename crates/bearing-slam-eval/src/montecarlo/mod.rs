@@ -201,27 +201,6 @@ impl InitializerSpec {
         }
     }
 
-    /// The spec of the initializer called `kind`, with `prior` for those that
-    /// take one (the near prior of `pi-sr-mixed`, whose far prior is the
-    /// paper's and whose far ids are the scenario's).
-    #[must_use]
-    pub fn of_kind(kind: InitializerKind, prior: InverseDepthPrior) -> Self {
-        match kind {
-            InitializerKind::Mte => Self::Mte,
-            InitializerKind::MteClone => Self::MteClone,
-            InitializerKind::MteHistory => Self::MteHistory,
-            InitializerKind::PiSr => Self::PiSr {
-                rho_ini: prior.rho_ini,
-                sigma_rho: prior.sigma_rho,
-            },
-            InitializerKind::PiSrMixed => Self::PiSrMixed {
-                near: prior,
-                far: InverseDepthPrior::PAPER_FAR,
-                far_ids: None,
-            },
-        }
-    }
-
     /// Which initializer this is, by name.
     #[must_use]
     pub fn kind(&self) -> InitializerKind {
