@@ -311,7 +311,7 @@ impl Reader {
         let mut reader = LinearReader::new_with_options(options);
         let mut after_data_end = false;
         let mut first_record = true;
-        while let Some(event) = reader.next_event() {
+        while let Some(event) = next_event_guarded(&mut reader) {
             match event {
                 Ok(LinearReadEvent::ReadRequest(need)) => {
                     let n = read_some(&mut source, reader.insert(need)).map_err(|source| {
@@ -547,4 +547,23 @@ fn read_some(source: &mut impl Read, buf: &mut [u8]) -> std::io::Result<usize> {
             other => return other,
         }
     }
+}
+
+/// [`LinearReader::next_event`], with one known bug of `mcap` 0.26 turned
+/// into the error it should be.
+///
+/// The reader subtracts an inner record's length from what is left of an
+/// uncompressed chunk without checking it (`sans_io/linear_reader.rs`, line
+/// 745): a chunk whose inner record claims more bytes than the chunk holds
+/// panics where overflow checks are on (debug builds, the fuzzer) and wraps
+/// where they are off. Found by the `mcap_read` and `mcap_truncated` fuzzers;
+/// the panic becomes the crate's own "unexpected end of chunk" error, so the
+/// caller sees a damaged file, never a panic.
+fn next_event_guarded(
+    reader: &mut LinearReader,
+) -> Option<std::result::Result<LinearReadEvent<'_>, mcap::McapError>> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
+        { reader }.next_event()
+    }))
+    .unwrap_or(Some(Err(mcap::McapError::UnexpectedEoc)))
 }
