@@ -100,6 +100,7 @@ class Config:
     gate_probability: float | None
     conversion_threshold: float | None
     covariance_update: str
+    update: str
     alpha_min: float
     baseline_min: float
     beta_min: float
