@@ -24,6 +24,8 @@ import bearing_slam as bs
 FORMS = [("joseph", "full"), ("symmetric", "full"), ("symmetric", "compressed")]
 METRICS = ["ate_rmse_m", "landmark_rmse_m", "mean_nees_pose"]
 MRCLAM = Path(__file__).resolve().parents[1] / "../shared/datasets/mrclam/MRCLAM_Dataset6"
+if not MRCLAM.exists():  # in a worktree of the repository
+    MRCLAM = Path(__file__).resolve().parents[2] / "../shared/datasets/mrclam/MRCLAM_Dataset6"
 
 
 def summary(log: bs.SensorLog, config: bs.Config) -> dict[str, Any]:
@@ -56,13 +58,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=10)
     ap.add_argument("--mrclam-seconds", type=float, default=600.0)
+    ap.add_argument("--mrclam-only", action="store_true")
     args = ap.parse_args()
     head = ["case", "runs"]
     for metric in METRICS:
         head += [f"{metric} {c}/{u}" for c, u in FORMS] + [f"{metric} max Δ"]
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
-    for scenario in bs.scenario_names():
+    for scenario in [] if args.mrclam_only else bs.scenario_names():
         for init in ("mte", "pi-sr"):
             runs = []
             for seed in range(args.runs):
