@@ -173,7 +173,11 @@ impl PyEkfBenchmark {
     fn observe(&mut self, ids: &Bound<'_, PyAny>) -> PyResult<()> {
         let offsets = landmark_offsets(ids, (self.inner.ekf.dim() - 3) / 2)?;
         if offsets.len() != self.inner.offsets.len() {
-            return Err(dim_error("ids length", self.inner.offsets.len(), offsets.len()));
+            return Err(dim_error(
+                "ids length",
+                self.inner.offsets.len(),
+                offsets.len(),
+            ));
         }
         self.inner.offsets = offsets;
         Ok(())
