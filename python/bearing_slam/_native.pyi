@@ -100,6 +100,7 @@ class Config:
     gate_probability: float | None
     conversion_threshold: float | None
     covariance_update: str
+    update: str
     alpha_min: float
     baseline_min: float
     beta_min: float
@@ -227,7 +228,9 @@ class EkfBenchmark:
         dt: float,
         sigma_bearing: float,
         symmetric: bool = False,
+        update: str = "full",
     ) -> EkfBenchmark: ...
+    def observe(self, ids: ArrayLike) -> None: ...
     def step(self, u: tuple[float, float], z: ArrayLike) -> None: ...
     def run(self, controls: ArrayLike, z: ArrayLike) -> None: ...
     @property
@@ -236,6 +239,8 @@ class EkfBenchmark:
     def covariance(self) -> _F64: ...
     @property
     def symmetric(self) -> bool: ...
+    @property
+    def update(self) -> str: ...
     @property
     def dim(self) -> int: ...
 

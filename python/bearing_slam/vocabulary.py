@@ -33,6 +33,7 @@ __all__ = [
     "ODOMETRIES",
     "PRIOR_INITS",
     "RUN_INITS",
+    "UPDATE_MODES",
     "config_init",
     "init_name",
 ]
@@ -55,6 +56,9 @@ PRIOR_INITS: tuple[str, ...] = tuple(_RUST["prior_initializers"])
 
 #: The covariance-update forms (Rust: ``CovarianceUpdate::ALL``).
 COVARIANCE_UPDATES: tuple[str, ...] = tuple(_RUST["covariance_updates"])
+
+#: The update modes, full or compressed (Rust: ``UpdateMode::ALL``).
+UPDATE_MODES: tuple[str, ...] = tuple(_RUST["update_modes"])
 
 #: The odometry models (Rust: ``OdometryKind::ALL``).
 ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])

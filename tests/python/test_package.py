@@ -41,6 +41,7 @@ def test_the_vocabulary_is_the_rust_enums() -> None:
     assert set(vocabulary.RUN_INITS) == set(rust["initializers"]) - {"pi-sr-mixed"}
     assert tuple(rust["prior_initializers"]) == vocabulary.PRIOR_INITS
     assert tuple(rust["covariance_updates"]) == vocabulary.COVARIANCE_UPDATES
+    assert tuple(rust["update_modes"]) == vocabulary.UPDATE_MODES == ("full", "compressed")
     assert tuple(rust["odometries"]) == vocabulary.ODOMETRIES
     assert tuple(rust["mrclam_methods"]) == vocabulary.MRCLAM_METHODS
     assert tuple(rust["run_classes"]) == vocabulary.CLASSES
@@ -63,6 +64,11 @@ def test_the_vocabulary_is_the_rust_enums() -> None:
         assert bs.Config(odometry=odometry).odometry == odometry
     with pytest.raises(ValueError, match="unknown covariance update"):
         bs.Config(covariance_update="kalman")
+    for mode in vocabulary.UPDATE_MODES:
+        assert bs.Config(update=mode).update == mode
+    assert bs.Config().update == "full"
+    with pytest.raises(ValueError, match="unknown update mode"):
+        bs.Config(update="partial")
     # The command line's choices are these lists.
     inits = [
         tuple(a.choices)

@@ -10,7 +10,7 @@
 
 use crate::convert::{In1, In2, arr1, arr2};
 use crate::errors::SlamResultExt;
-use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement};
+use bearing_slam::core::ekf::{CovarianceUpdate, Ekf, LinearizedMeasurement, UpdateMode};
 use bearing_slam::core::measurement::BearingToPoint;
 use bearing_slam::core::model::MotionPrediction;
 use bearing_slam::core::nalgebra::{DMatrix, DVector, Matrix1, Matrix3, Vector1, Vector3};
@@ -81,6 +81,22 @@ pub(crate) struct PyEkfBenchmark {
     inner: Bench,
 }
 
+/// State offsets `3 + 2 id` of landmark `ids`, each below `n`.
+fn landmark_offsets(ids: &Bound<'_, PyAny>, n: usize) -> PyResult<Vec<usize>> {
+    let ids = crate::convert::ids(ids, "ids")?;
+    let mut offsets = Vec::with_capacity(ids.len());
+    for id in ids {
+        let id = usize::try_from(id).unwrap_or(usize::MAX);
+        if id >= n {
+            return Err(PyValueError::new_err(format!(
+                "landmark id {id} out of range (n = {n})"
+            )));
+        }
+        offsets.push(3 + 2 * id);
+    }
+    Ok(offsets)
+}
+
 fn dim_error(what: &str, expected: usize, got: usize) -> PyErr {
     PyValueError::new_err(format!("{what}: expected {expected}, got {got}"))
 }
@@ -89,9 +105,10 @@ fn dim_error(what: &str, expected: usize, got: usize) -> PyErr {
 impl PyEkfBenchmark {
     /// `x0` (N,), `P0` (N, N), observed landmark `ids` (m,) (state offsets
     /// `3 + 2 id`); noise std of v (m/s), ω (rad/s), the bearing (rad); `dt` (s);
-    /// `symmetric` selects `CovarianceUpdate::Symmetric` (default Joseph).
+    /// `symmetric` selects `CovarianceUpdate::Symmetric` (default Joseph);
+    /// `update` the `UpdateMode` (`"full"`, default, or `"compressed"`).
     #[new]
-    #[pyo3(signature = (x0, p0, ids, sigma_v, sigma_w, dt, sigma_bearing, symmetric = false))]
+    #[pyo3(signature = (x0, p0, ids, sigma_v, sigma_w, dt, sigma_bearing, symmetric = false, update = "full"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         x0: In1<'_>,
@@ -102,7 +119,9 @@ impl PyEkfBenchmark {
         dt: f64,
         sigma_bearing: f64,
         symmetric: bool,
+        update: &str,
     ) -> PyResult<Self> {
+        let update = crate::config::parse_name::<UpdateMode>(update)?;
         let x0 = x0.as_array();
         let p0 = p0.as_array();
         let dim = x0.len();
@@ -117,18 +136,7 @@ impl PyEkfBenchmark {
                 "x0 must have 3 + 2n entries, got {dim}"
             )));
         }
-        let n = (dim - 3) / 2;
-        let ids = crate::convert::ids(ids, "ids")?;
-        let mut offsets = Vec::with_capacity(ids.len());
-        for id in ids {
-            let id = usize::try_from(id).unwrap_or(usize::MAX);
-            if id >= n {
-                return Err(PyValueError::new_err(format!(
-                    "landmark id {id} out of range (n = {n})"
-                )));
-            }
-            offsets.push(3 + 2 * id);
-        }
+        let offsets = landmark_offsets(ids, (dim - 3) / 2)?;
         let mean = DVector::from_iterator(dim, x0.iter().copied());
         let cov = DMatrix::from_fn(dim, dim, |r, c| p0[[r, c]]);
         let form = if symmetric {
@@ -136,7 +144,10 @@ impl PyEkfBenchmark {
         } else {
             CovarianceUpdate::Joseph
         };
-        let ekf = Ekf::new(mean, cov).py()?.with_covariance_update(form);
+        let ekf = Ekf::new(mean, cov)
+            .py()?
+            .with_covariance_update(form)
+            .with_update_mode(update);
         let noise = Matrix1::new(sigma_bearing * sigma_bearing);
         // A valid placeholder batch (one bearing per landmark), filled each step.
         let batch = offsets
@@ -155,6 +166,27 @@ impl PyEkfBenchmark {
                 batch,
             },
         })
+    }
+
+    /// Changes the observed landmarks (same count m): the next steps' `z`
+    /// are bearings to these `ids`.
+    fn observe(&mut self, ids: &Bound<'_, PyAny>) -> PyResult<()> {
+        let offsets = landmark_offsets(ids, (self.inner.ekf.dim() - 3) / 2)?;
+        if offsets.len() != self.inner.offsets.len() {
+            return Err(dim_error(
+                "ids length",
+                self.inner.offsets.len(),
+                offsets.len(),
+            ));
+        }
+        self.inner.offsets = offsets;
+        Ok(())
+    }
+
+    /// The update mode's name (`"full"` or `"compressed"`).
+    #[getter]
+    fn update(&self) -> String {
+        self.inner.ekf.update_mode().to_string()
     }
 
     /// One step: prediction by `u = (v, ω)`, then one update with the m

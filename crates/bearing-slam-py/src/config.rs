@@ -5,7 +5,7 @@
 use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
-use bearing_slam::core::ekf::CovarianceUpdate;
+use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
@@ -52,6 +52,10 @@ pub(crate) struct PyConfig {
     /// `"joseph"` (default) or `"symmetric"` (the faster optimal-gain form).
     #[pyo3(get, set)]
     pub covariance_update: String,
+    /// `"full"` (default) or `"compressed"` (Guivant & Nebot's compressed
+    /// EKF: local updates, one global update per region change).
+    #[pyo3(get, set)]
+    pub update: String,
     /// MTE: minimum parallax α_min, rad.
     #[pyo3(get, set)]
     pub alpha_min: f64,
@@ -107,7 +111,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 25] = [
+const FIELDS: [&str; 26] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -116,6 +120,7 @@ const FIELDS: [&str; 25] = [
     "gate_probability",
     "conversion_threshold",
     "covariance_update",
+    "update",
     "alpha_min",
     "baseline_min",
     "beta_min",
@@ -149,6 +154,7 @@ impl Default for PyConfig {
             gate_probability: slam.gate_probability,
             conversion_threshold: slam.conversion_threshold,
             covariance_update: slam.covariance_update.to_string(),
+            update: slam.update.to_string(),
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
@@ -183,6 +189,7 @@ impl PyConfig {
         c.gate_probability = s.gate_probability;
         c.conversion_threshold = s.conversion_threshold;
         c.covariance_update = s.covariance_update.to_string();
+        c.update = s.update.to_string();
         c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
@@ -278,6 +285,7 @@ impl PyConfig {
         let (x, y, t) = self.initial_pose;
         let (sx, sy, st) = self.initial_pose_sigma;
         let covariance_update = parse_name::<CovarianceUpdate>(&self.covariance_update)?;
+        let update = parse_name::<UpdateMode>(&self.update)?;
         let cfg = SlamConfig {
             initial_pose: Pose2::new(x, y, t),
             initial_pose_sigma: [sx, sy, st],
@@ -287,6 +295,7 @@ impl PyConfig {
             gate_probability: self.gate_probability,
             conversion_threshold: self.conversion_threshold,
             covariance_update,
+            update,
         };
         cfg.validate().py()?;
         Ok(cfg)

@@ -14,11 +14,17 @@
 //! batched update in three steps (innovation, factor, apply); `kernel` the
 //! hand-tuned triangle update and its small dense helpers.
 
+mod compressed;
+#[cfg(test)]
+mod compressed_tests;
 #[doc(hidden)]
 pub mod kernel;
 #[cfg(test)]
 mod tests;
 mod update;
+
+use compressed::LocalPhase;
+pub use compressed::{DEFAULT_HYSTERESIS, UpdateMode};
 
 use update::Workspace;
 
@@ -130,14 +136,30 @@ pub struct Ekf {
     cov: DMatrix<f64>,
     covariance_update: CovarianceUpdate,
     workspace: Workspace,
+    /// Full or compressed updates (see [`UpdateMode`]).
+    update_mode: UpdateMode,
+    /// The compressed EKF's local phase, if one is under way: the storage
+    /// then holds the covariance at its start (see `compressed`).
+    local: Option<Box<LocalPhase>>,
+    /// Compressed mode: updates a state stays active after its last sighting.
+    hysteresis: u64,
+    /// Size of the vehicle block (the largest `V` predicted so far), always
+    /// active in a local phase.
+    vehicle_dim: usize,
+    /// Compressed mode: number of updates so far (the hysteresis' clock).
+    update_count: u64,
 }
 
 impl PartialEq for Ekf {
     /// Same form, same mean, and the same lower triangle of `P` (the stored
     /// upper triangle is not part of the value).
     fn eq(&self, other: &Self) -> bool {
+        if self.local.is_some() || other.local.is_some() {
+            return self.update_mode == other.update_mode && *self.folded() == *other.folded();
+        }
         let (n, ld, other_ld) = (self.dim(), self.cov.nrows(), other.cov.nrows());
         self.covariance_update == other.covariance_update
+            && self.update_mode == other.update_mode
             && self.mean == other.mean
             && (0..n).all(|j| {
                 self.cov.as_slice()[j * ld + j..j * ld + n]
@@ -152,6 +174,7 @@ impl std::fmt::Debug for Ekf {
             .field("mean", &self.mean)
             .field("cov", &self.covariance())
             .field("covariance_update", &self.covariance_update)
+            .field("update_mode", &self.update_mode)
             .finish_non_exhaustive()
     }
 }
@@ -187,6 +210,11 @@ impl Ekf {
             cov,
             covariance_update: CovarianceUpdate::default(),
             workspace: Workspace::default(),
+            update_mode: UpdateMode::default(),
+            local: None,
+            hysteresis: DEFAULT_HYSTERESIS,
+            vehicle_dim: 0,
+            update_count: 0,
         };
         // Exactly symmetric to start with; from here on only the lower
         // triangle is maintained.
@@ -232,6 +260,9 @@ impl Ekf {
     /// or [`Ekf::covariance_cross_block`].
     #[must_use]
     pub fn covariance(&self) -> DMatrix<f64> {
+        if self.local.is_some() {
+            return self.folded().covariance();
+        }
         let n = self.dim();
         let mut p = self.cov.view((0, 0), (n, n)).into_owned();
         mirror_lower_to_upper(p.as_mut_slice(), n);
@@ -246,7 +277,10 @@ impl Ekf {
     pub fn covariance_entry(&self, i: usize, j: usize) -> f64 {
         let (r, c) = if i >= j { (i, j) } else { (j, i) };
         assert!(r < self.dim(), "covariance entry ({i}, {j}) out of range");
-        self.cov[(r, c)]
+        match &self.local {
+            Some(local) => local.entry(&self.cov, i, j),
+            None => self.cov[(r, c)],
+        }
     }
 
     /// The `L` entries of the state starting at `offset`.
@@ -336,6 +370,10 @@ impl Ekf {
         for &v in prediction.state.iter() {
             ensure_finite("predicted state", v)?;
         }
+        if self.predict_local(prediction)? {
+            return Ok(());
+        }
+        self.global_update();
         let f = &prediction.j_state_state;
         let n = self.dim();
         let m = n - V;
@@ -516,6 +554,7 @@ impl Ekf {
         for &v in new_mean.iter().chain(added_noise.iter()) {
             ensure_finite("new state block or its noise", v)?;
         }
+        self.global_update();
         let n = self.dim();
         // Cross covariance G_x P (k × n).
         let mut cross = DMatrix::zeros(k, n);
@@ -588,6 +627,7 @@ impl Ekf {
     /// dropping its rows and columns. Later blocks move down by `len`.
     pub fn remove_block(&mut self, offset: usize, len: usize) -> Result<()> {
         self.check_range("removed block", offset, len)?;
+        self.global_update();
         // In place, lower triangle only, keeping the capacity: the rows
         // below the block move up by `len` and the columns past it left.
         let (n, ld) = (self.dim(), self.cov.nrows());
@@ -627,6 +667,7 @@ impl Ekf {
         for &v in new_mean.iter().chain(j_new_old.iter()) {
             ensure_finite("reparameterized block", v)?;
         }
+        self.global_update();
         let n = self.dim();
         let rows = j_new_old * self.sym_block(offset, old_len, 0, n); // new_len × n
         let diag = rows.columns(offset, old_len) * j_new_old.transpose();

@@ -26,7 +26,7 @@ impl Ekf {
         s
     }
 
-    fn check_measurement(&self, m: &LinearizedMeasurement) -> Result<()> {
+    pub(super) fn check_measurement(&self, m: &LinearizedMeasurement) -> Result<()> {
         let rows = m.innovation.len();
         if m.noise.nrows() != rows || m.noise.ncols() != rows {
             return Err(SlamError::DimensionMismatch {
@@ -89,7 +89,14 @@ impl Ekf {
     /// Where the CPU has AVX2/FMA (x86-64-v3, detected at run time) the whole
     /// update is compiled for it; Rust never fuses `a * b + c` and keeps the
     /// order of every sum, so the result is bit for bit the baseline build's.
+    ///
+    /// In [`super::UpdateMode::Compressed`] the update is local to the
+    /// active states (see `compressed`), with the same result to rounding.
     pub fn update(&mut self, batch: &[LinearizedMeasurement]) -> Result<UpdateStats> {
+        if self.update_mode == super::UpdateMode::Compressed {
+            return self.update_compressed(batch);
+        }
+        self.global_update();
         #[cfg(target_arch = "x86_64")]
         if let Some(v3) = pulp::x86::V3::try_new() {
             return v3.vectorize(UpdateOp { ekf: self, batch });
@@ -148,9 +155,9 @@ pub(super) struct Workspace {
     /// `1 / L[r, r]` (m).
     diag_inv: Vec<f64>,
     /// Left factor of the triangle update, packed in row panels of `MR`.
-    a: Vec<f64>,
+    pub(super) a: Vec<f64>,
     /// Right factor of the triangle update, packed in row panels of `NR`.
-    b: Vec<f64>,
+    pub(super) b: Vec<f64>,
     /// The new vehicle columns `P_mv Fᵀ` during a prediction.
     pub(super) vm: Vec<f64>,
 }

@@ -1,7 +1,7 @@
 //! What [`BearingSlam`](super::BearingSlam) needs to start, and the checks
 //! of every parameter's range.
 
-use crate::ekf::CovarianceUpdate;
+use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig};
@@ -125,6 +125,12 @@ pub struct SlamConfig {
     /// times are in benches/RESULTS.md).
     #[serde(default)]
     pub covariance_update: CovarianceUpdate,
+    /// Full updates (default) or the compressed EKF of Guivant & Nebot
+    /// (2001), whose step costs O(a²) in a local region and an O(n²)
+    /// global update per region change, with the full EKF's result to
+    /// rounding (see [`UpdateMode`]).
+    #[serde(default)]
+    pub update: UpdateMode,
 }
 
 impl Default for SlamConfig {
@@ -142,6 +148,7 @@ impl Default for SlamConfig {
             gate_probability: Some(0.999),
             conversion_threshold: Some(0.1),
             covariance_update: CovarianceUpdate::Joseph,
+            update: UpdateMode::Full,
         }
     }
 }

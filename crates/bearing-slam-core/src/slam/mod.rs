@@ -105,7 +105,9 @@ impl BearingSlam {
             None => None,
         };
         Ok(Self {
-            ekf: Ekf::new(mean, cov)?.with_covariance_update(config.covariance_update),
+            ekf: Ekf::new(mean, cov)?
+                .with_covariance_update(config.covariance_update)
+                .with_update_mode(config.update),
             config,
             landmarks: BTreeMap::new(),
             candidates: BTreeMap::new(),

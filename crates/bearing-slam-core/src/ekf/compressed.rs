@@ -1,0 +1,411 @@
+//! The compressed EKF (Guivant & Nebot, IEEE T-RA 17(3), 2001, the survey's
+//! reference [6]): while the robot stays in a local region, each update
+//! touches only the **active** states `A` (the vehicle and the landmarks
+//! observed lately) at O(a²) (a = |A|), and the rest `B` of the map is
+//! corrected later, in one O(n² a) **global update**, from three auxiliary
+//! matrices accumulated during the local phase. The result equals the full
+//! EKF's in exact arithmetic (G&N's eqs. (14)–(20)); in floating point the
+//! two differ by rounding (see the tests and docs/results/performance.md).
+//!
+//! With `P(0)` the covariance at the start of the local phase, and for each
+//! prediction `x_A ← f(x_A)` (Jacobian `F_A`, identity outside the vehicle)
+//! and update `H = [H_A 0]`, `S = H_A P_AA Hᵀ_A + R`, `K_A = P_AA Hᵀ_A S⁻¹`:
+//!
+//! * `Φ ← F_A Φ` (prediction), `Φ ← (I − K_A H_A) Φ` (update), `Φ(0) = I`:
+//!   then `P_AB = Φ P_AB(0)`;
+//! * `Ψ ← Ψ + Φᵀ Hᵀ_A S⁻¹ H_A Φ` (update, with the Φ before it), `Ψ(0) = 0`:
+//!   then `P_BB = P_BB(0) − P_BA(0) Ψ P_AB(0)`;
+//! * `x_B ← x_B + P_BA(0) Φᵀ Hᵀ_A S⁻¹ ν` (G&N's θ, applied at once here so
+//!   that the mean is always current: O(n a) per update, contiguous).
+//!
+//! The filter keeps `P_AA` (current), `P_{·A}(0)` (the `cross` columns,
+//! dense N×a, with the A rows zeroed), `Φ` and `Ψ` beside the covariance
+//! storage; the storage itself holds `P(0)` until the global update, which
+//! applies `P_BB −= P_BA(0) (Ψ P_AB(0))` with the filter's tiled triangle
+//! kernel ([`triangle_update`]), writes `P_AB = Φ P_AB(0)` and `P_AA` back,
+//! and ends the phase.
+//!
+//! **Choosing A (with hysteresis).** A local phase starts at the first
+//! update whose batch touches a state outside `A`: the global update is run,
+//! and the new `A` is the vehicle, every block of the batch, and the states
+//! of the old `A` observed within the last [`Ekf::set_compressed_hysteresis`]
+//! updates (default [`DEFAULT_HYSTERESIS`]), so that a robot driving along a
+//! region's boundary does not alternate global updates.
+//!
+//! **Structure changes.** Augmentation, removal, cloning and
+//! reparameterization run the global update first (a simple rule that is
+//! always correct: they then see the full covariance), and so does a
+//! prediction whose vehicle block is not active. Reads of the covariance in a
+//! local phase are exact too: single entries are evaluated from the auxiliary
+//! matrices in O(a²), [`Ekf::covariance`] runs the global update on a copy.
+
+use super::kernel::{NR, pack, pack_rows, triangle_update, wide_kernel};
+use super::{Ekf, LinearizedMeasurement, UpdateStats};
+use crate::error::{Result, SlamError, ensure_finite};
+use crate::model::MotionPrediction;
+use nalgebra::{DMatrix, DVector};
+use serde::{Deserialize, Serialize};
+
+/// Which states an update corrects at once.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum UpdateMode {
+    /// Every update corrects the whole state and covariance, O(n²) each.
+    #[default]
+    Full,
+    /// The compressed EKF of Guivant & Nebot (2001): local updates of the
+    /// active states at O(a²), and one O(n² a) global update when the robot
+    /// leaves the active region. Equal to [`UpdateMode::Full`] to rounding.
+    Compressed,
+}
+
+crate::named_enum!(UpdateMode, "update mode", [
+    Full => "full",
+    Compressed => "compressed",
+]);
+
+/// Default hysteresis of the active region, in updates: a state stays
+/// active across a region change if it was observed within this many
+/// updates.
+pub const DEFAULT_HYSTERESIS: u64 = 10;
+
+/// Marks a state index that is not active.
+const INACTIVE: usize = usize::MAX;
+
+/// The auxiliary matrices of a local phase of the compressed EKF.
+#[derive(Clone, Debug)]
+pub(super) struct LocalPhase {
+    /// The active state indices, ascending (the vehicle first).
+    active: Vec<usize>,
+    /// For every state index, its position in `active`, or [`INACTIVE`].
+    slot: Vec<usize>,
+    /// The update count at which each active index was last observed.
+    last_seen: Vec<u64>,
+    /// The current `P_AA` (a×a, both triangles).
+    p_aa: DMatrix<f64>,
+    /// `P_{·A}(0)` (N×a) with the active rows zeroed: `P_BA(0)`.
+    cross: DMatrix<f64>,
+    /// `Φ` (a×a): `P_AB = Φ P_AB(0)`.
+    phi: DMatrix<f64>,
+    /// `Ψ` (a×a, symmetric): `P_BB = P_BB(0) − P_BA(0) Ψ P_AB(0)`.
+    psi: DMatrix<f64>,
+}
+
+impl LocalPhase {
+    /// `P[i, j]` in the local phase, from the storage `p` (leading
+    /// dimension `ld`, holding `P(0)`) and the auxiliary matrices, O(a²).
+    pub(super) fn entry(&self, p: &DMatrix<f64>, i: usize, j: usize) -> f64 {
+        let (si, sj) = (self.slot[i], self.slot[j]);
+        match (si != INACTIVE, sj != INACTIVE) {
+            (true, true) => self.p_aa[(si, sj)],
+            (true, false) => self.phi.row(si).dot(&self.cross.row(j)),
+            (false, true) => self.phi.row(sj).dot(&self.cross.row(i)),
+            (false, false) => {
+                let (r, c) = if i >= j { (i, j) } else { (j, i) };
+                let ci = self.cross.row(i);
+                let cj = self.cross.row(j);
+                p[(r, c)] - (ci * &self.psi).dot(&cj)
+            }
+        }
+    }
+
+    /// Whether every index in `range` is active.
+    fn covers(&self, start: usize, len: usize) -> bool {
+        (start..start + len).all(|i| self.slot.get(i).is_some_and(|&s| s != INACTIVE))
+    }
+}
+
+impl Ekf {
+    /// The same filter with the given [`UpdateMode`].
+    #[must_use]
+    pub fn with_update_mode(mut self, mode: UpdateMode) -> Self {
+        self.set_update_mode(mode);
+        self
+    }
+
+    /// Chooses the [`UpdateMode`]; leaving the compressed mode runs the
+    /// pending global update.
+    pub fn set_update_mode(&mut self, mode: UpdateMode) {
+        if mode == UpdateMode::Full {
+            self.global_update();
+        }
+        self.update_mode = mode;
+    }
+
+    /// The [`UpdateMode`].
+    #[must_use]
+    pub fn update_mode(&self) -> UpdateMode {
+        self.update_mode
+    }
+
+    /// Sets how many updates a state stays active after it was last
+    /// observed, across region changes (compressed mode; default
+    /// [`DEFAULT_HYSTERESIS`]).
+    pub fn set_compressed_hysteresis(&mut self, updates: u64) {
+        self.hysteresis = updates;
+    }
+
+    /// The number of active states of the current local phase (0 when there
+    /// is none: the storage then holds the whole covariance).
+    #[must_use]
+    pub fn active_len(&self) -> usize {
+        self.local.as_ref().map_or(0, |l| l.active.len())
+    }
+
+    /// Ends the compressed EKF's local phase, if any: the global update
+    /// `P_BB −= P_BA(0) Ψ P_AB(0)` (tiled triangle kernel, O(n² a)),
+    /// `P_AB = Φ P_AB(0)` and `P_AA` written back (Guivant & Nebot (2001)).
+    /// The filter's value (mean and covariance) does not change; only its
+    /// storage. A no-op in [`UpdateMode::Full`].
+    pub fn global_update(&mut self) {
+        let Some(local) = self.local.take() else {
+            return;
+        };
+        let (n, ld) = (self.dim(), self.cov.nrows());
+        let a = local.active.len();
+        // P_BB −= cross (cross Ψ)ᵀ: the active rows of cross are zero, so the
+        // active rows and columns of P are left alone by the kernel.
+        let cross_psi = &local.cross * &local.psi;
+        let wide = wide_kernel();
+        let mr = if wide {
+            super::kernel::MR_WIDE
+        } else {
+            super::kernel::MR
+        };
+        let ws = &mut self.workspace;
+        super::kernel::reset(&mut ws.a, n.div_ceil(mr) * mr * a);
+        super::kernel::reset(&mut ws.b, n.div_ceil(NR) * NR * a);
+        for r in 0..a {
+            pack_rows(wide, &mut ws.a, a, r, local.cross.column(r).as_slice());
+            pack::<NR>(&mut ws.b, a, r, cross_psi.column(r).as_slice());
+        }
+        triangle_update(self.cov.as_mut_slice(), n, ld, &ws.a, &ws.b, a, wide);
+        // P_AB = Φ P_AB(0), i.e. P_BA = cross Φᵀ, into the lower triangle.
+        let p_ba = &local.cross * local.phi.transpose();
+        for (sa, &i) in local.active.iter().enumerate() {
+            for j in 0..n {
+                if local.slot[j] != INACTIVE {
+                    continue;
+                }
+                let (r, c) = if i >= j { (i, j) } else { (j, i) };
+                self.cov[(r, c)] = p_ba[(j, sa)];
+            }
+        }
+        for (sb, &j) in local.active.iter().enumerate() {
+            for (sa, &i) in local.active.iter().enumerate().skip(sb) {
+                self.cov[(i, j)] = local.p_aa[(sa, sb)];
+            }
+        }
+    }
+
+    /// Starts a local phase whose active set is the vehicle, the states in
+    /// `observed` and the old phase's states observed lately (the old phase
+    /// is ended first by the global update).
+    fn begin_local_phase(&mut self, observed: &[(usize, usize)]) {
+        let n = self.dim();
+        let mut keep = vec![false; n];
+        keep.iter_mut()
+            .take(self.vehicle_dim.min(n))
+            .for_each(|k| *k = true);
+        for &(start, len) in observed {
+            keep[start..start + len].iter_mut().for_each(|k| *k = true);
+        }
+        if let Some(old) = &self.local {
+            for (s, &i) in old.active.iter().enumerate() {
+                if self.update_count.saturating_sub(old.last_seen[s]) <= self.hysteresis {
+                    keep[i] = true;
+                }
+            }
+        }
+        let old_seen: Vec<(usize, u64)> = self
+            .local
+            .as_ref()
+            .map(|l| {
+                l.active
+                    .iter()
+                    .copied()
+                    .zip(l.last_seen.iter().copied())
+                    .collect()
+            })
+            .unwrap_or_default();
+        self.global_update();
+        let active: Vec<usize> = (0..n).filter(|&i| keep[i]).collect();
+        let a = active.len();
+        let mut slot = vec![INACTIVE; n];
+        for (s, &i) in active.iter().enumerate() {
+            slot[i] = s;
+        }
+        let mut last_seen = vec![self.update_count; a];
+        for (i, seen) in old_seen {
+            if slot[i] != INACTIVE {
+                last_seen[slot[i]] = seen;
+            }
+        }
+        // P_{·A}(0), column by column from the lower triangle.
+        let mut cross = DMatrix::zeros(n, a);
+        for (s, &j) in active.iter().enumerate() {
+            let col = cross.column_mut(s);
+            let (p, ld) = (self.cov.as_slice(), self.cov.nrows());
+            for (i, c) in col.into_iter().enumerate() {
+                *c = if i >= j { p[j * ld + i] } else { p[i * ld + j] };
+            }
+        }
+        let p_aa = DMatrix::from_fn(a, a, |r, c| cross[(active[r], c)]);
+        for &i in &active {
+            cross.row_mut(i).fill(0.0);
+        }
+        self.local = Some(Box::new(LocalPhase {
+            active,
+            slot,
+            last_seen,
+            p_aa,
+            cross,
+            phi: DMatrix::identity(a, a),
+            psi: DMatrix::zeros(a, a),
+        }));
+    }
+
+    /// The prediction of the vehicle block in a local phase: `P_vv`, the
+    /// active cross terms `P_{A,v}` and `Φ ← F_A Φ`. False when the vehicle
+    /// is not active (the caller then runs the full prediction).
+    pub(super) fn predict_local<const V: usize>(
+        &mut self,
+        prediction: &MotionPrediction<V>,
+    ) -> Result<bool> {
+        self.vehicle_dim = self.vehicle_dim.max(V);
+        let Some(local) = self.local.as_mut() else {
+            return Ok(false);
+        };
+        if !local.covers(0, V) {
+            return Ok(false);
+        }
+        // The vehicle is active and comes first: slots 0..V.
+        let f = DMatrix::from_column_slice(V, V, prediction.j_state_state.as_slice());
+        let q = DMatrix::from_column_slice(V, V, prediction.process_noise.as_slice());
+        let a = local.active.len();
+        let p_vv = local.p_aa.view((0, 0), (V, V));
+        let new_vv = &f * p_vv * f.transpose() + q;
+        let new_vv = 0.5 * (&new_vv + new_vv.transpose());
+        let new_mv = local.p_aa.view((V, 0), (a - V, V)) * f.transpose();
+        let new_phi_v = &f * local.phi.rows(0, V);
+        for &v in new_vv.iter().chain(new_mv.iter()).chain(new_phi_v.iter()) {
+            ensure_finite("predicted covariance", v)?;
+        }
+        local.p_aa.view_mut((0, 0), (V, V)).copy_from(&new_vv);
+        local.p_aa.view_mut((V, 0), (a - V, V)).copy_from(&new_mv);
+        local
+            .p_aa
+            .view_mut((0, V), (V, a - V))
+            .copy_from(&new_mv.transpose());
+        local.phi.rows_mut(0, V).copy_from(&new_phi_v);
+        self.mean
+            .fixed_rows_mut::<V>(0)
+            .copy_from(&prediction.state);
+        Ok(true)
+    }
+
+    /// [`Ekf::update`] in [`UpdateMode::Compressed`]: a local update of the
+    /// active states (starting a new local phase first when the batch
+    /// touches an inactive state), with the auxiliary matrices' recursions.
+    pub(super) fn update_compressed(
+        &mut self,
+        batch: &[LinearizedMeasurement],
+    ) -> Result<UpdateStats> {
+        for m in batch {
+            self.check_measurement(m)?;
+        }
+        let rows: usize = batch.iter().map(|m| m.innovation.len()).sum();
+        if rows == 0 {
+            return Ok(UpdateStats { nis: 0.0, dof: 0 });
+        }
+        let observed: Vec<(usize, usize)> = batch
+            .iter()
+            .flat_map(|m| m.blocks.iter().map(|b| (b.offset, b.jacobian.ncols())))
+            .collect();
+        let covered = self
+            .local
+            .as_ref()
+            .is_some_and(|l| observed.iter().all(|&(s, len)| l.covers(s, len)));
+        if !covered {
+            self.begin_local_phase(&observed);
+        }
+        self.update_count += 1;
+        let Some(local) = self.local.as_mut() else {
+            return Err(SlamError::Mismatch("compressed EKF: no local phase"));
+        };
+        let a = local.active.len();
+        // H_A (rows × a), ν and R (block diagonal), stacked.
+        let mut h = DMatrix::zeros(rows, a);
+        let mut nu = DVector::zeros(rows);
+        let mut r_mat = DMatrix::zeros(rows, rows);
+        let mut row = 0;
+        for m in batch {
+            let k = m.innovation.len();
+            nu.rows_mut(row, k).copy_from(&m.innovation);
+            r_mat.view_mut((row, row), (k, k)).copy_from(&m.noise);
+            for b in &m.blocks {
+                for c in 0..b.jacobian.ncols() {
+                    let s = local.slot[b.offset + c];
+                    local.last_seen[s] = self.update_count;
+                    for i in 0..k {
+                        h[(row + i, s)] += b.jacobian[(i, c)];
+                    }
+                }
+            }
+            row += k;
+        }
+        // C = P_AA Hᵀ, S = H C + R, K_A = C S⁻¹.
+        let c = &local.p_aa * h.transpose();
+        let s = &h * &c + &r_mat;
+        let s = 0.5 * (&s + s.transpose());
+        let chol = s.clone().cholesky().ok_or(SlamError::NotPositiveDefinite {
+            what: "innovation covariance S",
+        })?;
+        let s_inv_nu = chol.solve(&nu);
+        let nis = nu.dot(&s_inv_nu);
+        let k_gain = chol.solve(&c.transpose()).transpose(); // a × rows
+        // G = H Φ; Ψ += Gᵀ S⁻¹ G; t = Gᵀ S⁻¹ ν; Φ ← Φ − K G.
+        let g = &h * &local.phi;
+        let s_inv_g = chol.solve(&g);
+        let psi = &local.psi + g.transpose() * &s_inv_g;
+        let t = g.transpose() * &s_inv_nu;
+        let phi = &local.phi - &k_gain * &g;
+        let p_aa = match self.covariance_update {
+            super::CovarianceUpdate::Symmetric => &local.p_aa - &k_gain * c.transpose(),
+            super::CovarianceUpdate::Joseph => {
+                let i_kh = DMatrix::identity(a, a) - &k_gain * &h;
+                &i_kh * &local.p_aa * i_kh.transpose() + &k_gain * &r_mat * k_gain.transpose()
+            }
+        };
+        let x_a = &k_gain * &nu;
+        for &v in p_aa
+            .iter()
+            .chain(phi.iter())
+            .chain(psi.iter())
+            .chain(t.iter())
+        {
+            ensure_finite("compressed EKF update", v)?;
+        }
+        // No error past this point.
+        local.p_aa = 0.5 * (&p_aa + p_aa.transpose());
+        local.psi = 0.5 * (&psi + psi.transpose());
+        local.phi = phi;
+        for (s, &i) in local.active.iter().enumerate() {
+            self.mean[i] += x_a[s];
+        }
+        // x_B += P_BA(0) t (the active rows of cross are zero).
+        self.mean.gemv(1.0, &local.cross, &t, 1.0);
+        Ok(UpdateStats { nis, dof: rows })
+    }
+
+    /// A copy of this filter with its local phase folded in (for O(n²)
+    /// reads of the whole covariance).
+    pub(super) fn folded(&self) -> std::borrow::Cow<'_, Ekf> {
+        if self.local.is_none() {
+            return std::borrow::Cow::Borrowed(self);
+        }
+        let mut copy = self.clone();
+        copy.global_update();
+        std::borrow::Cow::Owned(copy)
+    }
+}
