@@ -145,7 +145,9 @@ def test_config_defaults_are_the_papers() -> None:
 
 def test_symmetric_covariance_update_matches_joseph(fig4_log: bs.SensorLog) -> None:
     """The faster optimal-gain update runs the same filter to rounding."""
-    joseph = bs.run(fig4_log, bs.Config.for_log(fig4_log, init="mte"))
+    joseph_config = bs.Config.for_log(fig4_log, init="mte")
+    joseph_config.covariance_update = "joseph"
+    joseph = bs.run(fig4_log, joseph_config)
     config = bs.Config.for_log(fig4_log, init="mte", covariance_update="symmetric")
     assert config.covariance_update == "symmetric"
     symmetric = bs.run(fig4_log, config)

@@ -49,7 +49,7 @@ pub(crate) struct PyConfig {
     /// Linearity-index threshold for inverse depth → Euclidean, or None.
     #[pyo3(get, set)]
     pub conversion_threshold: Option<f64>,
-    /// `"joseph"` (default) or `"symmetric"` (the faster optimal-gain form).
+    /// `"symmetric"` (default, the optimal-gain form) or `"joseph"`.
     #[pyo3(get, set)]
     pub covariance_update: String,
     /// `"full"` (default) or `"compressed"` (Guivant & Nebot's compressed

@@ -78,13 +78,16 @@ pub enum CovarianceUpdate {
     /// `Y = C − ½ K S` (`C = P Hᵀ`), which is algebraically identical to
     /// `P − K Cᵀ − C Kᵀ + K S Kᵀ`: about twice the flops of
     /// [`CovarianceUpdate::Symmetric`].
-    #[default]
     Joseph,
     /// The optimal-gain form `P ← P − C S⁻¹ Cᵀ = P − U Uᵀ` with
     /// `U = C L⁻ᵀ`, `S = L Lᵀ` (Cholesky): a symmetric rank-m downdate,
     /// about half the flops of the Joseph form. Equal to the Joseph form in
     /// exact arithmetic when `K = C S⁻¹` (which is the gain `update` uses);
-    /// in floating point the two differ by rounding (see the tests).
+    /// in floating point the two differ by rounding (see the tests). The
+    /// default: as accurate and as consistent as the Joseph form on every
+    /// experiment and on MRCLAM (docs/results/performance.md), and the form
+    /// that meets the speed targets.
+    #[default]
     Symmetric,
 }
 
@@ -94,7 +97,7 @@ crate::named_enum!(CovarianceUpdate, "covariance update", [
 ]);
 
 /// The EKF: state mean and covariance, with block-wise predict, batched
-/// update (Joseph form by default), augmentation, removal and
+/// update (optimal-gain symmetric form by default), augmentation, removal and
 /// reparameterization.
 ///
 /// # Storage contract: one triangle, mirrored lazily
@@ -229,7 +232,7 @@ impl Ekf {
         self
     }
 
-    /// Chooses how [`Ekf::update`] corrects the covariance (default: Joseph).
+    /// Chooses how [`Ekf::update`] corrects the covariance (default: [`CovarianceUpdate::Symmetric`]).
     pub fn set_covariance_update(&mut self, form: CovarianceUpdate) {
         self.covariance_update = form;
     }

@@ -119,10 +119,11 @@ pub struct SlamConfig {
     /// Linearity index below which an inverse-depth landmark becomes Euclidean
     /// (Civera et al. use 0.1); `None` keeps inverse depth forever.
     pub conversion_threshold: Option<f64>,
-    /// How each update corrects the covariance: the Joseph form (default,
-    /// robust to gain errors) or the optimal-gain symmetric form, with about
-    /// half the flops per update (see [`CovarianceUpdate`]; measured step
-    /// times are in benches/RESULTS.md).
+    /// How each update corrects the covariance: the optimal-gain symmetric
+    /// form (default, about half the flops per update) or the Joseph form
+    /// (robust to gain errors). Both give the same accuracy and NEES on every
+    /// experiment and on MRCLAM (see [`CovarianceUpdate`] and
+    /// docs/results/performance.md).
     #[serde(default)]
     pub covariance_update: CovarianceUpdate,
     /// Full updates (default) or the compressed EKF of Guivant & Nebot
@@ -147,7 +148,7 @@ impl Default for SlamConfig {
             initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
             gate_probability: Some(0.999),
             conversion_threshold: Some(0.1),
-            covariance_update: CovarianceUpdate::Joseph,
+            covariance_update: CovarianceUpdate::Symmetric,
             update: UpdateMode::Full,
         }
     }
