@@ -222,6 +222,15 @@ def _rays(
     return [np.stack([origin[:2], e]) for e in ends]
 
 
+def _sighting(bearings: NDArray[np.float64], lid: int, t: float) -> tuple[float, float]:
+    """``(time, bearing)`` of the last sighting of landmark ``lid`` at or
+    before ``t`` (the one that created a candidate); bearing NaN if none."""
+    rows = bearings[(bearings[:, 1] == lid) & (bearings[:, 0] <= t)] if len(bearings) else bearings
+    if not len(rows):
+        return t, math.nan
+    return float(rows[-1, 0]), float(rows[-1, 2])
+
+
 def _log_scans_and_candidates(
     rr: Any, rec: Any, trace: Trace, log: SensorLog, ray_length: float
 ) -> None:
@@ -231,14 +240,11 @@ def _log_scans_and_candidates(
     snap_times = trace.times
     poses = trace.poses
     bearings = log.bearings
-    first_sighting: dict[int, tuple[float, float]] = {}
     if len(bearings):
         scan_times, starts = np.unique(bearings[:, 0], return_index=True)
         bounds = [*starts.tolist(), len(bearings)]
         for k, t in enumerate(scan_times):
             rows = bearings[bounds[k] : bounds[k + 1]]
-            for row in rows:
-                first_sighting.setdefault(int(row[1]), (float(row[0]), float(row[2])))
             rr.set_time(TIMELINE, duration=float(t), recording=rec)
             origin = _pose_at(snap_times, poses, float(t))
             rr.log(
@@ -257,7 +263,7 @@ def _log_scans_and_candidates(
         kind = event.get("kind")
         lid = int(event.get("id", -1))
         if kind == "candidate_created":
-            waiting[lid] = first_sighting.get(lid, (float(event["time"]), math.nan))
+            waiting[lid] = _sighting(bearings, lid, float(event["time"]))
         elif kind in ("landmark_initialized", "candidate_expired") and lid in waiting:
             del waiting[lid]
         else:
