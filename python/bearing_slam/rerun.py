@@ -28,6 +28,10 @@ entity                                  what
 ``metrics/nees/lower_95``, ``upper_95``  the 95 % χ² band of one run's NEES
 ======================================  =========================================================
 
+The recording is made from a finished run (its :class:`RunResult` and trace:
+the filter runs in Rust without the GIL), so ``--rerun-spawn`` shows the run
+when it is done, and the viewer's time slider replays it.
+
 :func:`log_rerun` writes the recording, with a default layout (:func:`blueprint`):
 the map, and beside it the NEES plot above the event log. :data:`ENTITY_PATHS`
 lists the paths.

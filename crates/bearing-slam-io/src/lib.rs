@@ -64,6 +64,7 @@ pub mod foxglove;
 pub mod mrclam;
 pub mod reader;
 pub mod schema;
+mod trace_views;
 pub mod writer;
 
 pub use error::IoError;
