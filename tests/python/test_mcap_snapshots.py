@@ -24,7 +24,8 @@ def test_snapshot_every_thins_the_trace_and_keeps_the_log_exact(
     every = fig4_result.trace
     assert len(trace) < len(every) / 10
     times = trace.times
-    assert np.all(np.diff(times) >= 5.0 - 1e-9)
+    # At least 5 s apart, but for the last (always kept).
+    assert np.all(np.diff(times[:-1]) >= 5.0 - 1e-9)
     # The first and the last snapshot are kept, bit for bit.
     assert times[0] == every.times[0]
     assert times[-1] == every.times[-1]
