@@ -11,7 +11,9 @@ metrics: :mod:`bearing_slam.metrics`; figures: :mod:`bearing_slam.plots`; Monte 
 :func:`montecarlo` (module :mod:`bearing_slam.monte_carlo`); the paper's experiments:
 :mod:`bearing_slam.experiments`; real robots: :mod:`bearing_slam.mrclam`; what the
 commands write: :mod:`bearing_slam.outputs`; shared names and defaults:
-:mod:`bearing_slam.vocabulary`; CLI: ``bearing-slam`` (:mod:`bearing_slam.cli`).
+:mod:`bearing_slam.vocabulary`; CLI: ``bearing-slam`` (:mod:`bearing_slam.cli`); Rerun
+recordings: :func:`log_rerun` (:mod:`bearing_slam.rerun`); acoustic bearings:
+:mod:`bearing_slam.acoustics`.
 """
 
 from bearing_slam import metrics, models
@@ -106,3 +108,9 @@ __all__ = [
 from bearing_slam.monte_carlo import MonteCarloResult, montecarlo
 
 __all__ += ["MonteCarloResult", "montecarlo"]
+
+# A run as a Rerun recording (the `rerun` extra): `bs.log_rerun`; its module is
+# `bearing_slam.rerun`. Acoustic bearings (the `acoustics` extra): `bearing_slam.acoustics`.
+from bearing_slam.rerun import log_rerun  # noqa: E402
+
+__all__ += ["log_rerun"]

@@ -139,7 +139,14 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 result = run(log, config)
                 seconds = time.perf_counter() - t0
                 rec = metrics_record(result, log, seconds)
-                write_outputs(out / f"{scenario}_{label}", rec, result, log)
+                write_outputs(
+                    out / f"{scenario}_{label}",
+                    rec,
+                    result,
+                    log,
+                    snapshot_every=args.snapshot_every,
+                )
+                _log_rerun(args, result, log, label=f"{scenario}_{label}")
                 rows.append((scenario, label, rec))
                 bar.update()
     table = _format_table(rows)
@@ -191,7 +198,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         bar.update()
     out = Path(args.out)
     rec = metrics_record(result, log, seconds)
-    write_outputs(out, rec, result, log)
+    write_outputs(out, rec, result, log, snapshot_every=args.snapshot_every)
+    _log_rerun(args, result, log)
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     return 0
@@ -222,7 +230,15 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
         rec = mrclam_record(run_)
-        write_outputs(out, rec, run_.result, run_.log, mrclam.plot_log(run_))
+        write_outputs(
+            out,
+            rec,
+            run_.result,
+            run_.log,
+            mrclam.plot_log(run_),
+            snapshot_every=args.snapshot_every,
+        )
+        _log_rerun(args, run_.result, run_.log, landmarks=mrclam.plot_log(run_).landmarks)
         bar.update()
 
     def f(key: str) -> str:
@@ -293,6 +309,7 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="demo_output", help="output folder (default: %(default)s)")
     demo.add_argument("--seed", type=int, default=0, help="simulation seed (default: %(default)s)")
     demo.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_view_flags(demo, demo=True)
     demo.set_defaults(func=_cmd_demo)
 
     simp = sub.add_parser(
@@ -338,6 +355,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--use-range", action="store_true", help="use ranges too (reference)")
     runp.add_argument("--out", required=True, help="output folder")
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_view_flags(runp)
     runp.set_defaults(func=_cmd_run)
 
     names = sub.add_parser(
@@ -384,6 +402,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--end", type=float, help="window end, s since the robot's first command")
     mr.add_argument("--out", required=True, help="output folder")
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
+    _add_view_flags(mr)
     mr.set_defaults(func=_cmd_mrclam)
 
     figs = sub.add_parser(
@@ -482,6 +501,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
 def _cmd_experiment(args: argparse.Namespace) -> int:
     from bearing_slam.experiments import EXPERIMENTS, run_experiments
 
+    if args.bearings == "acoustic":
+        return _cmd_experiment_acoustic(args)
     names = list(EXPERIMENTS) if args.name == "all" else [args.name]
     command = "bearing-slam experiment " + " ".join(
         [args.name]
@@ -590,7 +611,120 @@ def _add_montecarlo_parsers(sub: Any) -> None:
     ex.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
     ex.add_argument("--out", default="docs/results", help="output folder (default: %(default)s)")
     ex.add_argument("--quiet", action="store_true", help="no progress bars")
+    ex.add_argument(
+        "--bearings",
+        choices=["gaussian", "acoustic"],
+        default="gaussian",
+        help="fig10 only: 'acoustic' runs Fig. 10 with the bearings of a simulated "
+        "microphone array (SRP-PHAT, MUSIC, NormMUSIC; needs the acoustics extra) beside the "
+        "Gaussian ones and writes fig10_acoustic.md/.json/.png and acoustics.md (the DOA "
+        "error distribution); --runs defaults to 2 there (default: %(default)s)",
+    )
     ex.set_defaults(func=_cmd_experiment)
+
+
+# ---------------------------------------------------------------- Rerun, snapshots, acoustics
+
+
+def _non_negative_seconds(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (v >= 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"must be a finite number of seconds >= 0, got {text}")
+    return v
+
+
+def _add_view_flags(p: argparse.ArgumentParser, demo: bool = False) -> None:
+    """``--rerun``, ``--rerun-spawn`` and ``--snapshot-every`` of run, mrclam, demo."""
+    p.add_argument(
+        "--rerun",
+        metavar="FILE.rrd",
+        help="also log the run to this Rerun recording (needs the rerun extra)"
+        + ("; demo writes FILE_SCENARIO_METHOD.rrd per run" if demo else ""),
+    )
+    p.add_argument(
+        "--rerun-spawn",
+        action="store_true",
+        help="also send the run to a Rerun viewer it starts (needs the rerun extra)",
+    )
+    p.add_argument(
+        "--snapshot-every",
+        type=_non_negative_seconds,
+        default=0.0,
+        metavar="S",
+        help="write the estimate snapshots (map and landmarks) of estimate.mcap and the "
+        "Rerun recording at most once per S seconds of log time, and the last "
+        "(default: %(default)s, every snapshot); the sensor data stay whole",
+    )
+
+
+def _log_rerun(
+    args: argparse.Namespace,
+    result: Any,
+    log: SensorLog,
+    label: str | None = None,
+    landmarks: Any = None,
+) -> None:
+    if not (args.rerun or args.rerun_spawn):
+        return
+    try:
+        from bearing_slam.rerun import log_rerun, rerun_paths
+    except ImportError as e:  # pragma: no cover - the dev venv has it
+        raise UserError(str(e)) from None
+    path = args.rerun
+    if path and label is not None:
+        path = rerun_paths(path, [label])[0]
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    try:
+        log_rerun(
+            result,
+            log,
+            path=path,
+            spawn=args.rerun_spawn,
+            snapshot_every=args.snapshot_every,
+            recording_name=label,
+            landmarks=landmarks,
+        )
+    except ImportError as e:  # pragma: no cover - the dev venv has it
+        raise UserError(str(e)) from None
+    if path and not getattr(args, "quiet", False):
+        print(f"wrote {path}")
+
+
+def _cmd_experiment_acoustic(args: argparse.Namespace) -> int:
+    if args.name != "fig10":
+        raise UserError("--bearings acoustic applies to the fig10 experiment only")
+    try:
+        from bearing_slam.fig10_acoustic import (
+            DEFAULT_RUNS,
+            run_fig10_acoustic,
+            write_fig10_acoustic,
+        )
+    except ImportError as e:  # pragma: no cover - the dev venv has it
+        raise UserError(f"{e} (pip install 'bearing-slam[acoustics]')") from None
+    runs = args.runs if args.runs is not None else DEFAULT_RUNS
+    command = "bearing-slam experiment fig10 --bearings acoustic " + " ".join(
+        ([f"--runs {args.runs}"] if args.runs is not None else [])
+        + ([f"--seed0 {args.seed0}"] if args.seed0 else [])
+        + [f"--out {args.out}"]
+    )
+    with tqdm(total=4 * runs, desc="fig10 acoustic", unit="run", disable=args.quiet) as bar:
+
+        def progress(what: str, done: int, total: int) -> None:
+            bar.set_postfix_str(what)
+            bar.update(done - bar.n)
+
+        result = run_fig10_acoustic(runs, args.seed0, progress=progress)
+    paths = write_fig10_acoustic(result, args.out, command)
+    print(result["table"])
+    from bearing_slam.acoustics import error_table
+
+    print(error_table(result["doa"]))
+    print(f"wrote {', '.join(p.name for p in paths)} into {args.out}/")
+    return 0
 
 
 if __name__ == "__main__":

@@ -158,15 +158,18 @@ def write_outputs(
     result: RunResult,
     log: SensorLog,
     plot_log: SensorLog | None = None,
+    *,
+    snapshot_every: float = 0.0,
 ) -> Path:
     """Writes into ``out_dir``: ``metrics.json`` (``record``), ``trajectory.png``,
     ``pose_errors.png``, ``nees.png`` (drawn with ``plot_log``, by default
-    ``log``) and ``estimate.mcap`` (``log`` + the estimate). Returns the folder."""
+    ``log``) and ``estimate.mcap`` (``log`` + the estimate, its snapshots at
+    most once per ``snapshot_every`` seconds). Returns the folder."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     (out / "metrics.json").write_text(json.dumps(record, indent=2) + "\n")
     save_plots(result, log if plot_log is None else plot_log, out)
-    write_mcap(out / "estimate.mcap", log, result)
+    write_mcap(out / "estimate.mcap", log, result, snapshot_every=snapshot_every)
     return out
 
 

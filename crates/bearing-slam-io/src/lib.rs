@@ -17,7 +17,7 @@
 //! Every message is JSON (`message_encoding = "json"`) with a JSON Schema
 //! (`"jsonschema"`). NaN and infinity cannot be written to JSON: the writer
 //! returns [`IoError::NonFinite`] and writes nothing of that message. The
-//! writer closes and flushes a chunk every 64 KiB or every second, so a
+//! writer closes and flushes a chunk every 1 MiB or every second, so a
 //! writer process that dies leaves a file whose complete chunks the reader
 //! recovers (with a warning).
 //!
@@ -64,6 +64,7 @@ pub mod foxglove;
 pub mod mrclam;
 pub mod reader;
 pub mod schema;
+mod trace_views;
 pub mod writer;
 
 pub use error::IoError;

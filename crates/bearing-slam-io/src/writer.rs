@@ -14,22 +14,20 @@ use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
 use bearing_slam_core::log::{Event, EventKind, LandmarkTruth, LogInfo, SensorLog};
-use bearing_slam_core::trace::{
-    EstimateSnapshot, InitMethod, SlamEvent, SlamTrace, TimedSlamEvent,
-};
+use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
 use mcap::records::MessageHeader;
 use serde::Serialize;
 
 use crate::error::{IoError, Result};
 use crate::foxglove::{
     self as fx, Color, CubePrimitive, FrameTransform, LinePrimitive, Pose, PoseInFrame,
-    PosesInFrame, SceneEntity, SceneEntityDeletion, SceneUpdate, SpherePrimitive, TextPrimitive,
-    Time, Vector3,
+    PosesInFrame, SceneEntity, SceneEntityDeletion, SceneUpdate, TextPrimitive, Time, Vector3,
 };
 use crate::schema::{
     self, FORMAT_VERSION, FORMAT_VERSION_KEY, LandmarksMsg, MESSAGE_ENCODING, NonFinite,
     SCHEMA_ENCODING, Topic,
 };
+use crate::trace_views::{describe, map_scene};
 
 /// Chunk compression.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -37,8 +35,12 @@ pub enum McapCompression {
     /// No compression: the largest files, readable by any MCAP reader.
     None,
     /// LZ4 frames (read by Foxglove and the official MCAP libraries).
-    #[default]
     Lz4,
+    /// Zstandard: smaller than LZ4 on these JSON messages (see
+    /// `docs/results/mcap.md`); read by Foxglove and the official MCAP
+    /// libraries (Python's `mcap` with `zstandard`).
+    #[default]
+    Zstd,
 }
 
 /// The robot frame the bearing rays of `/bearings/rays` are drawn in.
@@ -63,9 +65,10 @@ impl RaysFrame {
 /// How the writer lays out the file.
 #[derive(Clone, Debug, PartialEq)]
 pub struct McapWriteOptions {
-    /// Chunk compression (default LZ4).
+    /// Chunk compression (default zstd).
     pub compression: McapCompression,
-    /// Target uncompressed chunk size, bytes (default 64 KiB). A chunk is
+    /// Target uncompressed chunk size, bytes (default 1 MiB: zstd compresses
+    /// these JSON messages better in larger chunks). A chunk is
     /// closed and the file flushed once it is reached.
     pub chunk_size: u64,
     /// A chunk is also closed and flushed when this much wall-clock time has
@@ -85,19 +88,28 @@ pub struct McapWriteOptions {
     /// Most poses kept in a published path; older poses are thinned by
     /// halving when it is exceeded (default 1000).
     pub path_max_points: usize,
+    /// Write an estimate snapshot's record (`/slam/estimate`, the trace read
+    /// back) and its map scene (`/slam/map`) at most once per this many
+    /// seconds of log time; the estimated-pose views (`/slam/pose`, `/tf`,
+    /// `/slam/path`) of every snapshot are still written, and the last
+    /// snapshot is always kept (written by [`McapLogWriter::finish`] if it
+    /// was held back). The sensor events and filter events stay whole, so the
+    /// log replays bit-exactly. 0 (default): every snapshot.
+    pub snapshot_every_s: f64,
 }
 
 impl Default for McapWriteOptions {
     fn default() -> Self {
         Self {
-            compression: McapCompression::Lz4,
-            chunk_size: 64 * 1024,
+            compression: McapCompression::Zstd,
+            chunk_size: 1024 * 1024,
             flush_interval: Duration::from_secs(1),
             foxglove_views: true,
             rays_frame: RaysFrame::Truth,
             ray_length_m: 5.0,
             path_every: 50,
             path_max_points: 1000,
+            snapshot_every_s: 0.0,
         }
     }
 }
@@ -185,7 +197,15 @@ pub struct McapLogWriter {
     pending: Vec<Pending>,
     truth_path: PathView,
     estimate_path: PathView,
+    /// Log time of the last snapshot record written (`snapshot_every_s`).
+    last_snapshot_time: Option<f64>,
+    /// The latest snapshot held back by `snapshot_every_s`, written by `finish`.
+    held_snapshot: Option<EstimateSnapshot>,
 }
+
+/// The zstd level of [`McapCompression::Zstd`] chunks (the library's default
+/// is 3; 9 compresses these JSON messages better, see `docs/results/mcap.md`).
+const ZSTD_LEVEL: u32 = 9;
 
 /// Record overhead of an MCAP message (opcode, length, header), bytes.
 const MESSAGE_OVERHEAD: u64 = 1 + 8 + 2 + 4 + 8 + 8;
@@ -207,12 +227,18 @@ impl McapLogWriter {
         let compression = match options.compression {
             McapCompression::None => None,
             McapCompression::Lz4 => Some(mcap::Compression::Lz4),
+            McapCompression::Zstd => Some(mcap::Compression::Zstd),
+        };
+        let level = match options.compression {
+            McapCompression::Zstd => ZSTD_LEVEL,
+            McapCompression::None | McapCompression::Lz4 => 0,
         };
         // Chunks are closed by `maybe_flush`, not by size inside the library;
         // `disable_seeking` buffers each chunk in memory and writes it whole, so
         // the file never holds a chunk with a placeholder header.
         let writer = mcap::WriteOptions::new()
             .compression(compression)
+            .compression_level(level)
             .chunk_size(None)
             .disable_seeking(true)
             .profile("")
@@ -236,6 +262,8 @@ impl McapLogWriter {
             pending: Vec::new(),
             truth_path: PathView::new(),
             estimate_path: PathView::new(),
+            last_snapshot_time: None,
+            held_snapshot: None,
         })
     }
 
@@ -350,24 +378,51 @@ impl McapLogWriter {
 
     /// Writes an estimate snapshot on `/slam/estimate`, with the estimated
     /// pose (`/slam/pose`, `/tf`, `/slam/path`) and the map with 2σ ellipses
-    /// (`/slam/map`) for Foxglove.
+    /// (`/slam/map`) for Foxglove; with [`McapWriteOptions::snapshot_every_s`]
+    /// the record and the map only when that much log time has passed since
+    /// the last one written.
     pub fn write_snapshot(&mut self, snapshot: &EstimateSnapshot) -> Result<()> {
         self.ensure_open()?;
         let topic = Topic::Estimate;
         schema::check_snapshot(snapshot).map_err(|e| self.non_finite(topic, e))?;
         let log_time = self.log_time(topic, snapshot.time)?;
         let stamp = self.stamp(topic, log_time)?;
-        let data = self.encode(topic, snapshot)?;
         self.begin_trace()?;
         self.begin_timed(log_time)?;
-        self.emit_bytes(topic, log_time, &data)?;
+        // A non-positive or NaN interval keeps every snapshot.
+        let every = self.options.snapshot_every_s;
+        let thinning = every > 0.0;
+        let due = self
+            .last_snapshot_time
+            .is_none_or(|last| !thinning || snapshot.time - last >= every);
+        if due {
+            self.held_snapshot = None;
+            self.emit_snapshot_record(stamp, log_time, snapshot)?;
+        } else {
+            self.held_snapshot = Some(snapshot.clone());
+        }
         if self.options.foxglove_views {
             let p = snapshot.pose;
             self.emit_pose_views(stamp, log_time, Pose::planar(p.x, p.y, p.theta), false)?;
+        }
+        self.maybe_flush()
+    }
+
+    /// The `/slam/estimate` record of a snapshot and its `/slam/map` scene.
+    fn emit_snapshot_record(
+        &mut self,
+        stamp: Time,
+        log_time: u64,
+        snapshot: &EstimateSnapshot,
+    ) -> Result<()> {
+        let data = self.encode(Topic::Estimate, snapshot)?;
+        self.emit_bytes(Topic::Estimate, log_time, &data)?;
+        self.last_snapshot_time = Some(snapshot.time);
+        if self.options.foxglove_views {
             let update = map_scene(stamp, snapshot);
             self.emit(Topic::MapScene, log_time, &update)?;
         }
-        self.maybe_flush()
+        Ok(())
     }
 
     /// Writes a filter decision on `/slam/event_data`, and as a log line on
@@ -431,7 +486,8 @@ impl McapLogWriter {
         let t = self.last_log_time.unwrap_or(0);
         let tails = self
             .begin_timed(t)
-            .and_then(|()| self.publish_final_paths(t));
+            .and_then(|()| self.publish_final_paths(t))
+            .and_then(|()| self.write_held_snapshot());
         let path = self.path.clone();
         let Some(mut writer) = self.writer.take() else {
             return Err(IoError::Finished { path });
@@ -456,6 +512,16 @@ impl McapLogWriter {
     }
 
     // -- internals ---------------------------------------------------------
+
+    /// The snapshot held back by `snapshot_every_s`, if any (the trace's last).
+    fn write_held_snapshot(&mut self) -> Result<()> {
+        let Some(snapshot) = self.held_snapshot.take() else {
+            return Ok(());
+        };
+        let log_time = self.log_time(Topic::Estimate, snapshot.time)?;
+        let stamp = self.stamp(Topic::Estimate, log_time)?;
+        self.emit_snapshot_record(stamp, log_time, &snapshot)
+    }
 
     fn ensure_open(&self) -> Result<()> {
         if self.writer.is_some() {
@@ -732,107 +798,6 @@ impl std::fmt::Debug for McapLogWriter {
             .field("messages", &self.messages)
             .field("options", &self.options)
             .finish_non_exhaustive()
-    }
-}
-
-/// The `/slam/map` scene of a snapshot: one entity per landmark (sphere, 2σ
-/// ellipse, label; blue when Euclidean, orange in inverse depth) and the
-/// robot's 2σ position ellipse in red. Replaces the previous map entirely.
-fn map_scene(stamp: Time, s: &EstimateSnapshot) -> SceneUpdate {
-    let ellipse = |x: f64, y: f64, cov: [[f64; 2]; 2], color: Color| LinePrimitive {
-        kind: fx::line_type::LINE_STRIP,
-        pose: Pose::at(0.0, 0.0, 0.0),
-        thickness: 1.5,
-        scale_invariant: true,
-        points: fx::covariance_ellipse(x, y, cov, 2.0, 48)
-            .into_iter()
-            .map(|[px, py]| Vector3::xy(px, py))
-            .collect(),
-        color,
-        colors: Vec::new(),
-        indices: Vec::new(),
-    };
-    let mut entities: Vec<SceneEntity> = s
-        .landmarks
-        .iter()
-        .map(|l| {
-            let color = if l.inverse_depth {
-                Color::rgba(1.0, 0.55, 0.1, 1.0)
-            } else {
-                Color::rgba(0.2, 0.45, 1.0, 1.0)
-            };
-            let mut e = SceneEntity::new(stamp, fx::WORLD_FRAME, format!("landmark_{}", l.id));
-            e.spheres.push(SpherePrimitive {
-                pose: Pose::at(l.x, l.y, 0.0),
-                size: Vector3 {
-                    x: 0.15,
-                    y: 0.15,
-                    z: 0.15,
-                },
-                color,
-            });
-            e.lines.push(ellipse(l.x, l.y, l.covariance, color));
-            e.texts
-                .push(TextPrimitive::label(l.x, l.y, format!("{}", l.id), color));
-            e.metadata.push(fx::KeyValuePair {
-                key: "inverse_depth".into(),
-                value: l.inverse_depth.to_string(),
-            });
-            e
-        })
-        .collect();
-    let c = s.pose_covariance;
-    let mut robot = SceneEntity::new(stamp, fx::WORLD_FRAME, "robot_covariance".into());
-    robot.lines.push(ellipse(
-        s.pose.x,
-        s.pose.y,
-        [[c[0][0], c[0][1]], [c[1][0], c[1][1]]],
-        Color::rgba(1.0, 0.2, 0.2, 1.0),
-    ));
-    entities.push(robot);
-    SceneUpdate {
-        deletions: vec![SceneEntityDeletion::all(stamp)],
-        entities,
-    }
-}
-
-/// Level and text of the `/slam/events` log line of a filter decision.
-fn describe(event: &SlamEvent) -> (u8, String) {
-    use fx::level::{DEBUG, INFO, WARNING};
-    match event {
-        SlamEvent::CandidateCreated { id } => (DEBUG, format!("candidate landmark {id} created")),
-        SlamEvent::CandidateExpired { id } => (WARNING, format!("candidate landmark {id} expired")),
-        SlamEvent::LandmarkInitialized {
-            id,
-            method,
-            parallax_rad,
-        } => {
-            let method = match method {
-                InitMethod::PiSr => "PI-SR (undelayed inverse depth)",
-                InitMethod::Triangulated => "stochastic triangulation",
-                InitMethod::TriangulatedClone => "stochastic triangulation with pose clone",
-                InitMethod::Far => "far-landmark prior",
-                InitMethod::RangeBearing => "range-bearing",
-            };
-            (
-                INFO,
-                format!(
-                    "landmark {id} initialized by {method} (parallax {:.3} deg)",
-                    parallax_rad.to_degrees()
-                ),
-            )
-        }
-        SlamEvent::LandmarkConverted {
-            id,
-            linearity_index,
-        } => (
-            INFO,
-            format!("landmark {id} converted to Euclidean (linearity index {linearity_index:.4})"),
-        ),
-        SlamEvent::MeasurementRejected { id, nis } => (
-            WARNING,
-            format!("measurement of landmark {id} rejected by the gate (NIS {nis:.2})"),
-        ),
     }
 }
 

@@ -6,21 +6,46 @@ use crate::log::PySensorLog;
 use crate::run::{PyRunResult, PyTrace};
 use bearing_slam::core::trace::SlamTrace;
 use bearing_slam::io::mrclam::{LoadOptions, load_mrclam_with};
-use bearing_slam::io::{read_log, write_log};
-use pyo3::exceptions::PyTypeError;
+use bearing_slam::io::{McapCompression, McapWriteOptions, read_log, write_log_with_options};
+use pyo3::exceptions::{PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
 /// Writes `log` (and the estimate of `result`, a `RunResult` or `Trace`) to
 /// an MCAP file that opens in Foxglove and reads back exactly.
+/// `snapshot_every`: write the estimate snapshots (`/slam/estimate`,
+/// `/slam/map`) at most once per this many seconds of log time, and the last
+/// (0: every one); `compression`: `"zstd"` (default), `"lz4"` or `"none"`.
 #[pyfunction(name = "write_mcap")]
-#[pyo3(signature = (path, log, result = None))]
+#[pyo3(signature = (path, log, result = None, *, snapshot_every = 0.0, compression = "zstd"))]
 pub(crate) fn py_write_mcap(
     py: Python<'_>,
     path: PathBuf,
     log: &PySensorLog,
     result: Option<&Bound<'_, PyAny>>,
+    snapshot_every: f64,
+    compression: &str,
 ) -> PyResult<()> {
+    if !(snapshot_every >= 0.0 && snapshot_every.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "snapshot_every must be a finite number of seconds >= 0, got {snapshot_every}"
+        )));
+    }
+    let compression = match compression {
+        "zstd" => McapCompression::Zstd,
+        "lz4" => McapCompression::Lz4,
+        "none" => McapCompression::None,
+        other => {
+            return Err(PyValueError::new_err(format!(
+                "unknown compression {other:?}; known: zstd, lz4, none"
+            )));
+        }
+    };
+    let options = McapWriteOptions {
+        compression,
+        snapshot_every_s: snapshot_every,
+        ..McapWriteOptions::default()
+    };
     let trace: Option<SlamTrace> = match result {
         None => None,
         Some(r) if r.is_none() => None,
@@ -37,7 +62,7 @@ pub(crate) fn py_write_mcap(
         }
     };
     let inner = &log.inner;
-    py.detach(|| write_log(&path, inner, trace.as_ref()))
+    py.detach(|| write_log_with_options(&path, inner, trace.as_ref(), options))
         .map_err(errors::io)
 }
 

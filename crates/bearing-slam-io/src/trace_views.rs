@@ -1,0 +1,111 @@
+//! The Foxglove views of the SLAM trace: the `/slam/map` scene of an
+//! estimate snapshot and the `/slam/events` log line of a filter decision
+//! (used by [`crate::writer`]).
+
+use bearing_slam_core::trace::{EstimateSnapshot, InitMethod, SlamEvent};
+
+use crate::foxglove::{
+    self as fx, Color, LinePrimitive, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate,
+    SpherePrimitive, TextPrimitive, Time, Vector3,
+};
+
+/// The `/slam/map` scene of a snapshot: one entity per landmark (sphere, 2σ
+/// ellipse, label; blue when Euclidean, orange in inverse depth) and the
+/// robot's 2σ position ellipse in red. Replaces the previous map entirely.
+pub(crate) fn map_scene(stamp: Time, s: &EstimateSnapshot) -> SceneUpdate {
+    let ellipse = |x: f64, y: f64, cov: [[f64; 2]; 2], color: Color| LinePrimitive {
+        kind: fx::line_type::LINE_STRIP,
+        pose: Pose::at(0.0, 0.0, 0.0),
+        thickness: 1.5,
+        scale_invariant: true,
+        points: fx::covariance_ellipse(x, y, cov, 2.0, 48)
+            .into_iter()
+            .map(|[px, py]| Vector3::xy(px, py))
+            .collect(),
+        color,
+        colors: Vec::new(),
+        indices: Vec::new(),
+    };
+    let mut entities: Vec<SceneEntity> = s
+        .landmarks
+        .iter()
+        .map(|l| {
+            let color = if l.inverse_depth {
+                Color::rgba(1.0, 0.55, 0.1, 1.0)
+            } else {
+                Color::rgba(0.2, 0.45, 1.0, 1.0)
+            };
+            let mut e = SceneEntity::new(stamp, fx::WORLD_FRAME, format!("landmark_{}", l.id));
+            e.spheres.push(SpherePrimitive {
+                pose: Pose::at(l.x, l.y, 0.0),
+                size: Vector3 {
+                    x: 0.15,
+                    y: 0.15,
+                    z: 0.15,
+                },
+                color,
+            });
+            e.lines.push(ellipse(l.x, l.y, l.covariance, color));
+            e.texts
+                .push(TextPrimitive::label(l.x, l.y, format!("{}", l.id), color));
+            e.metadata.push(fx::KeyValuePair {
+                key: "inverse_depth".into(),
+                value: l.inverse_depth.to_string(),
+            });
+            e
+        })
+        .collect();
+    let c = s.pose_covariance;
+    let mut robot = SceneEntity::new(stamp, fx::WORLD_FRAME, "robot_covariance".into());
+    robot.lines.push(ellipse(
+        s.pose.x,
+        s.pose.y,
+        [[c[0][0], c[0][1]], [c[1][0], c[1][1]]],
+        Color::rgba(1.0, 0.2, 0.2, 1.0),
+    ));
+    entities.push(robot);
+    SceneUpdate {
+        deletions: vec![SceneEntityDeletion::all(stamp)],
+        entities,
+    }
+}
+
+/// Level and text of the `/slam/events` log line of a filter decision.
+pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
+    use fx::level::{DEBUG, INFO, WARNING};
+    match event {
+        SlamEvent::CandidateCreated { id } => (DEBUG, format!("candidate landmark {id} created")),
+        SlamEvent::CandidateExpired { id } => (WARNING, format!("candidate landmark {id} expired")),
+        SlamEvent::LandmarkInitialized {
+            id,
+            method,
+            parallax_rad,
+        } => {
+            let method = match method {
+                InitMethod::PiSr => "PI-SR (undelayed inverse depth)",
+                InitMethod::Triangulated => "stochastic triangulation",
+                InitMethod::TriangulatedClone => "stochastic triangulation with pose clone",
+                InitMethod::Far => "far-landmark prior",
+                InitMethod::RangeBearing => "range-bearing",
+            };
+            (
+                INFO,
+                format!(
+                    "landmark {id} initialized by {method} (parallax {:.3} deg)",
+                    parallax_rad.to_degrees()
+                ),
+            )
+        }
+        SlamEvent::LandmarkConverted {
+            id,
+            linearity_index,
+        } => (
+            INFO,
+            format!("landmark {id} converted to Euclidean (linearity index {linearity_index:.4})"),
+        ),
+        SlamEvent::MeasurementRejected { id, nis } => (
+            WARNING,
+            format!("measurement of landmark {id} rejected by the gate (NIS {nis:.2})"),
+        ),
+    }
+}
