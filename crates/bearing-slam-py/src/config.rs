@@ -331,6 +331,7 @@ impl PyConfig {
     /// Sets the attributes named in `kwargs` (through Python, so each
     /// attribute's own conversion applies) and validates the result.
     fn apply(slf: &Bound<'_, Self>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
+        let before = Bound::new(slf.py(), slf.borrow().clone())?;
         if let Some(kw) = kwargs {
             for (k, v) in kw.iter() {
                 let key: String = k.extract()?;
@@ -352,8 +353,62 @@ impl PyConfig {
                 slf.setattr(key.as_str(), v)?;
             }
         }
+        if let Some(kw) = kwargs {
+            for k in kw.keys() {
+                let key: String = k.extract()?;
+                let changed = !slf
+                    .getattr(key.as_str())?
+                    .eq(before.getattr(key.as_str())?)?;
+                if changed && let Some(why) = slf.borrow().unused_because(&key) {
+                    return Err(crate::errors::raise(
+                        "InvalidParameterError",
+                        format!("Config: {key} is not used here: {why}"),
+                    ));
+                }
+            }
+        }
         slf.borrow().run_config()?;
         Ok(())
+    }
+
+    /// Why parameter `key` has no effect with this configuration's
+    /// initializer, odometry model or `use_range`, or None when it is used.
+    fn unused_because(&self, key: &str) -> Option<String> {
+        let pi_sr = matches!(self.init.as_str(), "pi-sr" | "pi-sr-mixed");
+        let init = &self.init;
+        match key {
+            "rho_ini" | "sigma_rho" | "per_landmark_priors" if !pi_sr => Some(format!(
+                "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
+            )),
+            "alpha_min" | "baseline_min" | "beta_min" | "candidate_timeout" | "min_depth"
+                if pi_sr =>
+            {
+                Some(format!(
+                    "it is a parameter of MTE's triangulation (init \"mte\", \"mte-clone\" \
+                     or \"mte-history\"), and init is {init:?}"
+                ))
+            }
+            "wheel_base" | "wheel_floor_sigma" | "wheel_scale_sqrt"
+                if self.odometry != "wheels" =>
+            {
+                Some(format!(
+                    "it is a parameter of the wheel odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "velocity_alpha" | "velocity_sigma_v_min" | "velocity_sigma_omega_min"
+                if self.odometry != "velocity" =>
+            {
+                Some(format!(
+                    "it is a parameter of the velocity odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "range_sigma" if !self.use_range => {
+                Some("it applies to range-bearing runs (use_range=True) only".to_owned())
+            }
+            _ => None,
+        }
     }
 }
 
