@@ -41,7 +41,6 @@ def _value(fdp: atheris.FuzzedDataProvider) -> object:
     return [fdp.ConsumeRegularFloat() for _ in range(fdp.ConsumeIntInRange(0, 4))]
 
 
-@atheris.instrument_func
 def test_one_input(data: bytes) -> None:
     fdp = atheris.FuzzedDataProvider(data)
     kwargs = {

@@ -7,7 +7,6 @@ from __future__ import annotations
 import os
 import tempfile
 
-import atheris
 from harness import bs, main
 
 _DIR = tempfile.mkdtemp(prefix="fuzz_read_mcap_")
@@ -15,7 +14,6 @@ _PATH = os.path.join(_DIR, "input.mcap")
 _BACK = os.path.join(_DIR, "back.mcap")
 
 
-@atheris.instrument_func
 def test_one_input(data: bytes) -> None:
     with open(_PATH, "wb") as f:
         f.write(data)

@@ -5,11 +5,9 @@ from __future__ import annotations
 
 import math
 
-import atheris
 from harness import bs, main
 
 
-@atheris.instrument_func
 def test_one_input(data: bytes) -> None:
     text = data.decode("utf-8", errors="replace")
     log = bs.SensorLog.from_json(text)

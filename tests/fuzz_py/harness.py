@@ -35,14 +35,15 @@ def main(test_one_input: Callable[[bytes], None]) -> None:
     """Runs libFuzzer on ``test_one_input`` with the command line's options
     (``-max_total_time=60``, a corpus folder, ...)."""
 
-    @atheris.instrument_func
+    target = atheris.instrument_func(test_one_input)
+
     def guarded(data: bytes) -> None:
         try:
-            test_one_input(data)
+            target(data)
         except OverflowError:
             raise
         except EXPECTED:
             pass
 
-    atheris.Setup(sys.argv, guarded)
+    atheris.Setup(sys.argv, atheris.instrument_func(guarded))
     atheris.Fuzz()

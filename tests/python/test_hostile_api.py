@@ -80,6 +80,21 @@ def test_config_refuses_a_parameter_it_would_not_use(
     assert why in str(e.value)
 
 
+@pytest.mark.parametrize("history", [-1, 2**70])
+def test_config_count_out_of_range_is_a_library_error(history: int) -> None:
+    with pytest.raises(bs.InvalidParameterError, match="history"):
+        bs.Config(init="mte-clone", history=history)
+    with pytest.raises(TypeError, match="history"):
+        bs.Config(init="mte-clone", history="many")
+
+
+@pytest.mark.parametrize("landmark_id", [-1, 2**70])
+def test_config_prior_ids_out_of_range_are_a_library_error(landmark_id: int) -> None:
+    """Found by atheris (tests/fuzz_py/fuzz_config.py): OverflowError before."""
+    with pytest.raises(bs.InvalidParameterError, match="per_landmark_priors"):
+        bs.Config(init="pi-sr", per_landmark_priors={landmark_id: (0.01, 0.005)})
+
+
 def test_config_used_parameters_and_round_trips_still_work(fig4_log: bs.SensorLog) -> None:
     assert bs.Config(init="pi-sr", rho_ini=0.5).rho_ini == 0.5
     assert bs.Config(odometry="velocity", velocity_sigma_v_min=0.2).velocity_sigma_v_min == 0.2

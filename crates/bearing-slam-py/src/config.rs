@@ -12,7 +12,7 @@ use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
 use bearing_slam::core::slam::{InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::collections::BTreeMap;
@@ -350,7 +350,21 @@ impl PyConfig {
                 } else {
                     v
                 };
-                slf.setattr(key.as_str(), v)?;
+                let shown = v.repr()?.to_string();
+                slf.setattr(key.as_str(), v).map_err(|e| {
+                    let py = slf.py();
+                    if e.is_instance_of::<PyOverflowError>(py) {
+                        // A negative or huge integer for a count (history).
+                        crate::errors::raise(
+                            "InvalidParameterError",
+                            format!("Config: {key} = {shown} is out of range ({e})"),
+                        )
+                    } else if e.is_instance_of::<PyTypeError>(py) {
+                        PyTypeError::new_err(format!("Config: {key} = {shown}: {e}"))
+                    } else {
+                        e
+                    }
+                })?;
             }
         }
         if let Some(kw) = kwargs {

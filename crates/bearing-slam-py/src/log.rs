@@ -205,7 +205,7 @@ impl PySensorLog {
             for (i, r) in rows(v, 4, "velocity")?.into_iter().enumerate() {
                 // `run` drops a command that covers no time: refuse it here,
                 // as the step API does.
-                if !(r[3] > 0.0) {
+                if r[3].is_nan() || r[3] <= 0.0 {
                     return Err(errors::raise(
                         "InvalidParameterError",
                         format!(
