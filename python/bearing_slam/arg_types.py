@@ -24,6 +24,7 @@ __all__ = [
     "output_file",
     "positive_float",
     "positive_int",
+    "positive_named",
     "robot_number",
     "seed",
 ]
@@ -94,6 +95,20 @@ def positive_float(text: str) -> float:
     if not v > 0.0:
         raise argparse.ArgumentTypeError(f"must be greater than 0, got {text}")
     return v
+
+
+def positive_named(name: str) -> Callable[[str], float]:
+    """:func:`positive_float` whose message names the parameter (``rho_ini``),
+    as ``metrics.json`` and ``Config`` call it."""
+
+    def parse(text: str) -> float:
+        v = _float(text)
+        if not v > 0.0:
+            raise argparse.ArgumentTypeError(f"{name} must be greater than 0, got {text}")
+        return v
+
+    parse.__name__ = name
+    return parse
 
 
 def non_negative_float(text: str) -> float:

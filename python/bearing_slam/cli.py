@@ -17,7 +17,7 @@ import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from tqdm import tqdm
 
@@ -37,6 +37,7 @@ from bearing_slam.arg_types import (
     non_negative_int,
     output_file,
     positive_float,
+    positive_named,
     robot_number,
     seed,
 )
@@ -321,8 +322,17 @@ def _cmd_mrclam_figures(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the command's one-line errors: ``bearing-slam: error:
+    argument --seed: ... (see bearing-slam simulate --help)``, exit status 2.
+    Sub-command parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"bearing-slam: error: {message} (see `{self.prog} --help`)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="bearing-slam",
         description="Bearing-only EKF SLAM (Munguía & Grau's stochastic triangulation, 'MTE'): "
         "simulate logs, run the filter on them, and plot and score the results.",
@@ -381,8 +391,12 @@ def _parser() -> argparse.ArgumentParser:
         help="landmark initializer (default: %(default)s; mte-history: mte-clone keeping "
         f"up to {MTE_HISTORY} bearings seen while a landmark waits)",
     )
-    runp.add_argument("--rho-ini", type=positive_float, help="PI-SR initial inverse depth, 1/m")
-    runp.add_argument("--sigma-rho", type=positive_float, help="PI-SR inverse-depth σ, 1/m")
+    runp.add_argument(
+        "--rho-ini", type=positive_named("rho_ini"), help="PI-SR initial inverse depth, 1/m"
+    )
+    runp.add_argument(
+        "--sigma-rho", type=positive_named("sigma_rho"), help="PI-SR inverse-depth σ, 1/m"
+    )
     runp.add_argument(
         "--alpha-min-deg", type=angle_deg(0.0, 180.0), help="MTE minimum parallax, degrees"
     )
