@@ -330,7 +330,15 @@ impl PyConfig {
 
     /// Sets the attributes named in `kwargs` (through Python, so each
     /// attribute's own conversion applies) and validates the result.
-    fn apply(slf: &Bound<'_, Self>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
+    /// With `refuse_unused` (construction: `Config(...)`, `Config.for_log`), a
+    /// parameter given that the configuration would not use (`unused_because`)
+    /// is refused unless it equals the value already there; `replace` edits
+    /// fields one at a time and checks values only.
+    fn apply(
+        slf: &Bound<'_, Self>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+        refuse_unused: bool,
+    ) -> PyResult<()> {
         let before = Bound::new(slf.py(), slf.borrow().clone())?;
         if let Some(kw) = kwargs {
             for (k, v) in kw.iter() {
@@ -367,7 +375,7 @@ impl PyConfig {
                 })?;
             }
         }
-        if let Some(kw) = kwargs {
+        if let Some(kw) = kwargs.filter(|_| refuse_unused) {
             for k in kw.keys() {
                 let key: String = k.extract()?;
                 let changed = !slf
@@ -441,7 +449,7 @@ impl PyConfig {
             ..Self::default()
         };
         let obj = Bound::new(py, cfg)?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, true)?;
         Ok(obj.unbind())
     }
 
@@ -460,7 +468,7 @@ impl PyConfig {
         let mut cfg = Self::from_run_config(&rc);
         cfg.init = init.to_owned();
         let obj = Bound::new(py, cfg)?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, true)?;
         Ok(obj.unbind())
     }
 
@@ -468,7 +476,7 @@ impl PyConfig {
     #[pyo3(signature = (**kwargs))]
     fn replace(&self, py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Py<Self>> {
         let obj = Bound::new(py, self.clone())?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, false)?;
         Ok(obj.unbind())
     }
 

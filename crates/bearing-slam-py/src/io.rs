@@ -157,7 +157,7 @@ pub(crate) fn robot_number(robot: &Bound<'_, PyAny>) -> PyResult<u8> {
         _ => Err(errors::raise(
             "DatasetError",
             format!(
-                "robot {} is out of range: MRCLAM robots are numbered 1 to 5",
+                "robot number {} is out of range: MRCLAM robots are numbered 1 to 5",
                 robot.repr()?
             ),
         )),
