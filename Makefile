@@ -133,3 +133,26 @@ fuzz: fuzz-setup
 
 fuzz-smoke:
 	$(MAKE) fuzz FUZZ_SECONDS=30
+
+# --- Python-side fuzzing (atheris, the `fuzz` extra of pyproject.toml):
+# SensorLog.from_json, read_mcap and Config(**kwargs) through the installed
+# extension. Each target runs FUZZ_SECONDS (default 60 s here; `make fuzz`'s
+# default does not apply) on its working corpus tests/fuzz_py/corpus/TARGET
+# (not committed), seeded from the Rust targets' seeds where they match;
+# findings land in tests/fuzz_py/artifacts/.
+FUZZ_PY_TARGETS := sensor_log_json read_mcap config
+FUZZ_PY_SECONDS = $(if $(filter command line environment,$(origin FUZZ_SECONDS)),$(FUZZ_SECONDS),60)
+.PHONY: fuzz-py
+
+fuzz-py: develop
+	$(VPY) -c 'import atheris' 2>/dev/null || $(VPY) -m pip install --quiet 'atheris>=2.3'
+	mkdir -p tests/fuzz_py/artifacts
+	for t in $(FUZZ_PY_TARGETS); do \
+		mkdir -p tests/fuzz_py/corpus/$$t; \
+		seeds=""; \
+		[ $$t = sensor_log_json ] && seeds=fuzz/seeds/sensor_log_json; \
+		[ $$t = read_mcap ] && seeds=fuzz/seeds/mcap_read; \
+		$(VPY) tests/fuzz_py/fuzz_$$t.py tests/fuzz_py/corpus/$$t $$seeds \
+			-max_total_time=$(FUZZ_PY_SECONDS) -timeout=10 -rss_limit_mb=4096 \
+			-artifact_prefix=tests/fuzz_py/artifacts/$$t- || exit 1; \
+	done

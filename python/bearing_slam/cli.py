@@ -12,11 +12,12 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import shutil
 import sys
 import time
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import Any, NoReturn
 
 from tqdm import tqdm
 
@@ -30,7 +31,25 @@ from bearing_slam._native import (
     simulate,
     write_mcap,
 )
-from bearing_slam.outputs import metrics_record, mrclam_record, write_outputs
+from bearing_slam.arg_types import (
+    angle_deg,
+    non_negative_float,
+    non_negative_int,
+    output_file,
+    positive_float,
+    positive_named,
+    robot_number,
+    seed,
+)
+from bearing_slam.arg_types import positive_int as _positive_int
+from bearing_slam.outputs import (
+    metrics_record,
+    mrclam_record,
+    new_folder_beside,
+    publish_folder,
+    write_outputs,
+    write_text_atomic,
+)
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
     DEFAULT_THRESHOLDS,
@@ -123,35 +142,60 @@ def _run_config(log: SensorLog, init: str, **overrides: Any) -> Config:
     return Config.for_log(log, init=config_name, **extra, **overrides)
 
 
+def _demo_entries() -> list[str]:
+    """What ``demo`` writes into its folder."""
+    return [f"{s}_{label}" for s in DEMO_SCENARIOS for label, _, _ in DEMO_RUNS] + [
+        "metrics_table.txt"
+    ]
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
+    entries = _demo_entries()
+    if out.exists() and not out.is_dir():
+        raise UserError(f"--out {out} is a file; give a folder")
+    if out.is_dir():
+        foreign = sorted(p.name for p in out.iterdir() if p.name not in entries)
+        if foreign:
+            raise UserError(
+                f"--out {out} holds files demo does not write ({', '.join(foreign[:5])}); "
+                "give a new or empty folder, or a folder of an earlier demo"
+            )
     rows: list[tuple[str, str, dict[str, Any]]] = []
     total = len(DEMO_SCENARIOS) * (1 + len(DEMO_RUNS))
-    with tqdm(total=total, desc="demo", unit="step", disable=args.quiet) as bar:
-        for scenario in DEMO_SCENARIOS:
-            bar.set_postfix_str(f"simulating {scenario}")
-            log = simulate(scenario, seed=args.seed)
-            bar.update()
-            for label, init, extra in DEMO_RUNS:
-                bar.set_postfix_str(f"{scenario} / {label}")
-                config = _run_config(log, init, **extra)
-                t0 = time.perf_counter()
-                result = run(log, config)
-                seconds = time.perf_counter() - t0
-                rec = metrics_record(result, log, seconds)
-                write_outputs(
-                    out / f"{scenario}_{label}",
-                    rec,
-                    result,
-                    log,
-                    snapshot_every=args.snapshot_every,
-                )
-                _log_rerun(args, result, log, label=f"{scenario}_{label}")
-                rows.append((scenario, label, rec))
+    # Everything goes into a new folder, swapped in at the end: a demo killed
+    # at any moment leaves the old results or the new ones, never a mix.
+    new = new_folder_beside(out)
+    try:
+        with tqdm(total=total, desc="demo", unit="step", disable=args.quiet) as bar:
+            for scenario in DEMO_SCENARIOS:
+                bar.set_postfix_str(f"simulating {scenario}")
+                log = simulate(scenario, seed=args.seed)
                 bar.update()
-    table = _format_table(rows)
+                for label, init, extra in DEMO_RUNS:
+                    bar.set_postfix_str(f"{scenario} / {label}")
+                    config = _run_config(log, init, **extra)
+                    t0 = time.perf_counter()
+                    result = run(log, config)
+                    seconds = time.perf_counter() - t0
+                    rec = metrics_record(result, log, seconds)
+                    write_outputs(
+                        new / f"{scenario}_{label}",
+                        rec,
+                        result,
+                        log,
+                        snapshot_every=args.snapshot_every,
+                    )
+                    _log_rerun(args, result, log, label=f"{scenario}_{label}")
+                    rows.append((scenario, label, rec))
+                    bar.update()
+        table = _format_table(rows)
+        (new / "metrics_table.txt").write_text(table + "\n")
+        publish_folder(new, out, entries)
+    finally:
+        if new.exists():
+            shutil.rmtree(new)
     print(table)
-    (out / "metrics_table.txt").write_text(table + "\n")
     print(f"\nwrote {len(rows)} runs into {out}/ (metrics.json, PNG plots, estimate.mcap each)")
     return 0
 
@@ -184,6 +228,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
+    if args.init not in PRIOR_INITS and (args.rho_ini is not None or args.sigma_rho is not None):
+        raise UserError(
+            f"--rho-ini and --sigma-rho apply to --init {' and '.join(PRIOR_INITS)} only "
+            "(PI-SR's prior), not to --init " + args.init
+        )
+    if args.init in PRIOR_INITS and args.alpha_min_deg is not None:
+        raise UserError("--alpha-min-deg applies to the MTE initializers only, not to PI-SR")
     path = Path(args.log)
     if not path.is_file():
         raise UserError(f"no such file: {path}")
@@ -287,8 +338,17 @@ def _cmd_mrclam_figures(args: argparse.Namespace) -> int:
     return 0
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with the command's one-line errors: ``bearing-slam: error:
+    argument --seed: ... (see bearing-slam simulate --help)``, exit status 2.
+    Sub-command parsers are of this class too."""
+
+    def error(self, message: str) -> NoReturn:
+        self.exit(2, f"bearing-slam: error: {message} (see `{self.prog} --help`)\n")
+
+
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(
+    p = _Parser(
         prog="bearing-slam",
         description="Bearing-only EKF SLAM (Munguía & Grau's stochastic triangulation, 'MTE'): "
         "simulate logs, run the filter on them, and plot and score the results.",
@@ -307,7 +367,7 @@ def _parser() -> argparse.ArgumentParser:
         "(log + estimate, opens in Foxglove), plus metrics_table.txt.",
     )
     demo.add_argument("--out", default="demo_output", help="output folder (default: %(default)s)")
-    demo.add_argument("--seed", type=int, default=0, help="simulation seed (default: %(default)s)")
+    demo.add_argument("--seed", type=seed, default=0, help="simulation seed (default: %(default)s)")
     demo.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(demo, demo=True)
     demo.set_defaults(func=_cmd_demo)
@@ -321,13 +381,13 @@ def _parser() -> argparse.ArgumentParser:
         "ground truth, landmark truth) to an MCAP file that opens in Foxglove.",
     )
     simp.add_argument("scenario", metavar="SCENARIO", help="scenario name or .toml/.json file")
-    simp.add_argument("--seed", type=int, default=None, help="seed (default: 0, or the file's)")
-    simp.add_argument("--out", required=True, help="output MCAP file")
-    simp.add_argument("--landmark-count", type=int, help="number of random landmarks")
+    simp.add_argument("--seed", type=seed, default=None, help="seed (default: 0, or the file's)")
+    simp.add_argument("--out", required=True, type=output_file, help="output MCAP file")
+    simp.add_argument("--landmark-count", type=non_negative_int, help="number of random landmarks")
     simp.add_argument("--no-far-landmark", action="store_true", help="drop the far landmark")
     simp.add_argument("--slip", action="store_true", help="add the scenario's slip patches")
-    simp.add_argument("--bearing-sigma-deg", type=float, help="bearing noise σ, degrees")
-    simp.add_argument("--duration", type=float, help="duration, seconds")
+    simp.add_argument("--bearing-sigma-deg", type=positive_float, help="bearing noise σ, degrees")
+    simp.add_argument("--duration", type=positive_float, help="duration, seconds")
     simp.set_defaults(func=_cmd_simulate)
 
     runp = sub.add_parser(
@@ -348,10 +408,16 @@ def _parser() -> argparse.ArgumentParser:
         help="landmark initializer (default: %(default)s; mte-history: mte-clone keeping "
         f"up to {MTE_HISTORY} bearings seen while a landmark waits)",
     )
-    runp.add_argument("--rho-ini", type=float, help="PI-SR initial inverse depth, 1/m")
-    runp.add_argument("--sigma-rho", type=float, help="PI-SR inverse-depth σ, 1/m")
-    runp.add_argument("--alpha-min-deg", type=float, help="MTE minimum parallax, degrees")
-    runp.add_argument("--bearing-sigma-deg", type=float, help="bearing noise σ, degrees")
+    runp.add_argument(
+        "--rho-ini", type=positive_named("rho_ini"), help="PI-SR initial inverse depth, 1/m"
+    )
+    runp.add_argument(
+        "--sigma-rho", type=positive_named("sigma_rho"), help="PI-SR inverse-depth σ, 1/m"
+    )
+    runp.add_argument(
+        "--alpha-min-deg", type=angle_deg(0.0, 180.0), help="MTE minimum parallax, degrees"
+    )
+    runp.add_argument("--bearing-sigma-deg", type=positive_float, help="bearing noise σ, degrees")
     runp.add_argument("--use-range", action="store_true", help="use ranges too (reference)")
     runp.add_argument("--out", required=True, help="output folder")
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -385,7 +451,7 @@ def _parser() -> argparse.ArgumentParser:
         "truth show no truth line, the true landmarks aligned onto the map and no NEES.",
     )
     mr.add_argument("dataset", metavar="DATASET_DIR", help="an MRCLAM_DatasetN directory")
-    mr.add_argument("--robot", type=int, required=True, help="robot number, 1 to 5")
+    mr.add_argument("--robot", type=robot_number, required=True, help="robot number, 1 to 5")
     mr.add_argument(
         "--init",
         choices=MRCLAM_INITS,
@@ -398,8 +464,12 @@ def _parser() -> argparse.ArgumentParser:
         action="store_true",
         help="run the classic range-bearing EKF instead (uses the ranges; a reference)",
     )
-    mr.add_argument("--start", type=float, help="window start, s since the robot's first command")
-    mr.add_argument("--end", type=float, help="window end, s since the robot's first command")
+    mr.add_argument(
+        "--start", type=non_negative_float, help="window start, s since the robot's first command"
+    )
+    mr.add_argument(
+        "--end", type=positive_float, help="window end, s since the robot's first command"
+    )
     mr.add_argument("--out", required=True, help="output folder")
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
@@ -446,16 +516,6 @@ def main(argv: Sequence[str] | None = None) -> int:
 # ---------------------------------------------------------------- Monte Carlo and experiments
 
 
-def _positive_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {v}")
-    return v
-
-
 def _cmd_montecarlo(args: argparse.Namespace) -> int:
     from bearing_slam.monte_carlo import make_spec, run_spec
 
@@ -493,7 +553,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
     )
     out = Path(args.json)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(result.to_json() + "\n")
+    write_text_atomic(out, result.to_json() + "\n")
     print(f"wrote {out}")
     return 0
 
@@ -551,28 +611,30 @@ def _add_montecarlo_parsers(sub: Any) -> None:
     )
     mc.add_argument(
         "--rho-ini",
-        type=float,
+        type=positive_float,
         help=f"PI-SR initial inverse depth, 1/m (default {DEFAULT_PRIOR['rho_ini']:g}; "
         f"pi-sr-mixed: near landmarks, the far ones get {FAR_PRIOR['rho_ini']:g})",
     )
     mc.add_argument(
         "--sigma-rho",
-        type=float,
+        type=positive_float,
         help=f"its σ, 1/m (default {DEFAULT_PRIOR['sigma_rho']:g}; "
         f"far: {FAR_PRIOR['sigma_rho']:g})",
     )
-    mc.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
+    mc.add_argument("--seed0", type=seed, default=0, help="seed of run 0 (default: %(default)s)")
     mc.add_argument("--no-far", action="store_true", help="remove the scenario's far landmarks")
     mc.add_argument("--landmarks", type=_positive_int, help="number of random landmarks")
     mc.add_argument("--slip", choices=["on", "off"], help="slippery patches (default: scenario's)")
     mc.add_argument(
         "--scale",
-        type=float,
+        type=positive_float,
         help="multiply the near landmarks' positions by this factor (the far ones stay; the "
         f"{t['drift_landmark_rmse_m']:g} m near-landmark drift threshold does not scale, as it "
         "does in `experiment fig4`)",
     )
-    mc.add_argument("--json", required=True, metavar="OUT.json", help="report file to write")
+    mc.add_argument(
+        "--json", required=True, type=output_file, metavar="OUT.json", help="report file to write"
+    )
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
     mc.set_defaults(func=_cmd_montecarlo)
 
@@ -608,7 +670,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         + ", ".join(f"{n} for {name}" for name, n in EXPERIMENT_DEFAULT_RUNS.items())
         + ")",
     )
-    ex.add_argument("--seed0", type=int, default=0, help="seed of run 0 (default: %(default)s)")
+    ex.add_argument("--seed0", type=seed, default=0, help="seed of run 0 (default: %(default)s)")
     ex.add_argument("--out", default="docs/results", help="output folder (default: %(default)s)")
     ex.add_argument("--quiet", action="store_true", help="no progress bars")
     ex.add_argument(

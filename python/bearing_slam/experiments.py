@@ -45,6 +45,7 @@ from bearing_slam._native import (
     experiment_fig8,
     experiment_fig10,
 )
+from bearing_slam.outputs import write_text_atomic
 from bearing_slam.plots.experiments import save_experiment_figure
 from bearing_slam.vocabulary import EXPERIMENT_DEFAULT_RUNS, EXPERIMENTS
 
@@ -207,9 +208,9 @@ def write_experiment(
     out.mkdir(parents=True, exist_ok=True)
     command = command or f"bearing-slam experiment {name}"
     md = out / f"{name}.md"
-    md.write_text(_markdown(name, str(result["table"]), command))
+    write_text_atomic(md, _markdown(name, str(result["table"]), command))
     js = out / f"{name}.json"
-    js.write_text(json.dumps(compact(result), separators=(",", ":")) + "\n")
+    write_text_atomic(js, json.dumps(compact(result), separators=(",", ":")) + "\n")
     png = out / f"{name}.png"
     save_experiment_figure(name, result, png)
     return [md, js, png]

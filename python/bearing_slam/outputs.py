@@ -8,14 +8,28 @@
 * :func:`write_mrclam_figures`: the MRCLAM figures of ``docs/results/mrclam``.
 
 Numbers that are not finite are written as ``null`` (:func:`finite_or_none`).
+
+Every file is written so that a run killed at any moment leaves either the old
+file or the complete new one, never a part: :func:`atomic_path` gives a
+temporary name in the same folder and renames it onto the target once the
+file is complete (:func:`write_text_atomic` for text, ``save_figure`` for
+PNG; ``write_mcap`` does the same in Rust). The files of one run are written
+into a new folder next to the target and swapped in whole
+(:func:`publish_folder`), so its ``metrics.json`` and plots always belong to
+the same run.
 """
 
 from __future__ import annotations
 
+import contextlib
+import ctypes
+import ctypes.util
+import itertools
 import json
 import math
 import os
-from collections.abc import Mapping
+import shutil
+from collections.abc import Iterable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -34,12 +48,126 @@ from bearing_slam.vocabulary import MRCLAM_METHODS, init_name
 __all__ = [
     "LANDMARK_FRAME_ALIGNED",
     "LANDMARK_FRAME_VICON",
+    "RUN_FILES",
+    "atomic_path",
     "finite_or_none",
     "metrics_record",
     "mrclam_record",
+    "new_folder_beside",
+    "publish_folder",
     "write_mrclam_figures",
     "write_outputs",
+    "write_text_atomic",
 ]
+
+#: The files :func:`write_outputs` writes into a run's folder.
+RUN_FILES = ("metrics.json", "trajectory.png", "pose_errors.png", "nees.png", "estimate.mcap")
+
+_counter = itertools.count()
+
+
+def _sibling(path: Path, tag: str) -> Path:
+    """A hidden name next to ``path``, unique in this process."""
+    return path.with_name(f".{path.name}.{tag}-{os.getpid()}-{next(_counter)}")
+
+
+@contextlib.contextmanager
+def atomic_path(path: str | os.PathLike[str]) -> Iterator[Path]:
+    """Yields a temporary path in ``path``'s folder; when the block ends
+    without an exception, the file written there is flushed to disk and renamed
+    onto ``path`` (atomic on POSIX), else removed. A process killed at any
+    moment leaves either the old ``path`` or the complete new one."""
+    target = Path(path)
+    tmp = _sibling(target, "tmp")
+    try:
+        yield tmp
+        with open(tmp, "rb") as f:
+            os.fsync(f.fileno())
+        os.replace(tmp, target)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def write_text_atomic(path: str | os.PathLike[str], text: str) -> Path:
+    """Writes ``text`` to ``path`` through :func:`atomic_path`; returns the path."""
+    with atomic_path(path) as tmp:
+        tmp.write_text(text)
+    return Path(path)
+
+
+def new_folder_beside(path: str | os.PathLike[str]) -> Path:
+    """A new, empty hidden folder next to ``path`` (its parent is created),
+    where the files of ``path`` are written before :func:`publish_folder`."""
+    target = Path(path)
+    target.parent.mkdir(parents=True, exist_ok=True)
+    tmp = _sibling(target, "new")
+    tmp.mkdir()
+    return tmp
+
+
+_RENAME_EXCHANGE = 2
+_AT_FDCWD = -100
+
+
+def _exchange(a: Path, b: Path) -> bool:
+    """Swaps two paths in one step (Linux ``renameat2(RENAME_EXCHANGE)``);
+    False where the system cannot."""
+    name = ctypes.util.find_library("c")
+    try:
+        libc = ctypes.CDLL(name, use_errno=True)
+        renameat2 = libc.renameat2
+    except (OSError, AttributeError, TypeError):
+        return False
+    renameat2.argtypes = [
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_int,
+        ctypes.c_char_p,
+        ctypes.c_uint,
+    ]
+    renameat2.restype = ctypes.c_int
+    return bool(
+        renameat2(_AT_FDCWD, os.fsencode(a), _AT_FDCWD, os.fsencode(b), _RENAME_EXCHANGE) == 0
+    )
+
+
+def publish_folder(new: Path, target: str | os.PathLike[str], names: Iterable[str]) -> Path:
+    """Puts the folder ``new`` (from :func:`new_folder_beside`) in place of
+    ``target``. When ``target`` does not exist, or holds nothing but entries
+    named in ``names`` (what the command writes), the folders are swapped in
+    one step where the system can (Linux), so ``target`` is always either the
+    old folder or the new one, whole; the old one is then deleted. When
+    ``target`` holds other files too, only the entries of ``new`` are moved in,
+    each in one step, and the other files are left alone."""
+    out = Path(target)
+    if not out.exists():
+        os.rename(new, out)
+        return out
+    ours = set(names)
+    if all(p.name in ours for p in out.iterdir()):
+        if _exchange(new, out):
+            shutil.rmtree(new)
+            return out
+        old = _sibling(out, "old")
+        os.rename(out, old)
+        os.rename(new, out)
+        shutil.rmtree(old)
+        return out
+    for entry in sorted(new.iterdir()):
+        dest = out / entry.name
+        if entry.is_dir() and dest.is_dir():
+            if not _exchange(entry, dest):
+                old = _sibling(dest, "old")
+                os.rename(dest, old)
+                os.rename(entry, dest)
+                entry = old
+            shutil.rmtree(entry)
+        else:
+            os.replace(entry, dest)
+    shutil.rmtree(new)
+    return out
+
 
 #: ``landmark_frame`` with robot ground truth (Dataset 6).
 LANDMARK_FRAME_VICON = (
@@ -164,13 +292,21 @@ def write_outputs(
     """Writes into ``out_dir``: ``metrics.json`` (``record``), ``trajectory.png``,
     ``pose_errors.png``, ``nees.png`` (drawn with ``plot_log``, by default
     ``log``) and ``estimate.mcap`` (``log`` + the estimate, its snapshots at
-    most once per ``snapshot_every`` seconds). Returns the folder."""
+    most once per ``snapshot_every`` seconds). Returns the folder.
+    The files are written into a new folder next to ``out_dir`` and swapped in
+    (:func:`publish_folder`): a run killed at any moment leaves the old
+    results or the new ones, not a mix."""
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "metrics.json").write_text(json.dumps(record, indent=2) + "\n")
-    save_plots(result, log if plot_log is None else plot_log, out)
-    write_mcap(out / "estimate.mcap", log, result, snapshot_every=snapshot_every)
-    return out
+    new = new_folder_beside(out)
+    try:
+        (new / "metrics.json").write_text(json.dumps(record, indent=2) + "
+")
+        save_plots(result, log if plot_log is None else plot_log, new)
+        write_mcap(new / "estimate.mcap", log, result, snapshot_every=snapshot_every)
+        return publish_folder(new, out, RUN_FILES)
+    finally:
+        if new.exists():
+            shutil.rmtree(new)
 
 
 def _gtsam_rows(path: Path, key: str) -> dict[tuple[int, str], float | None]:

@@ -12,7 +12,7 @@ use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
 use bearing_slam::core::slam::{InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
-use pyo3::exceptions::{PyTypeError, PyValueError};
+use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyDict, PyTuple};
 use std::collections::BTreeMap;
@@ -339,7 +339,16 @@ impl PyConfig {
 
     /// Sets the attributes named in `kwargs` (through Python, so each
     /// attribute's own conversion applies) and validates the result.
-    fn apply(slf: &Bound<'_, Self>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<()> {
+    /// With `refuse_unused` (construction: `Config(...)`, `Config.for_log`), a
+    /// parameter given that the configuration would not use (`unused_because`)
+    /// is refused unless it equals the value already there; `replace` edits
+    /// fields one at a time and checks values only.
+    fn apply(
+        slf: &Bound<'_, Self>,
+        kwargs: Option<&Bound<'_, PyDict>>,
+        refuse_unused: bool,
+    ) -> PyResult<()> {
+        let before = Bound::new(slf.py(), slf.borrow().clone())?;
         if let Some(kw) = kwargs {
             for (k, v) in kw.iter() {
                 let key: String = k.extract()?;
@@ -358,11 +367,79 @@ impl PyConfig {
                 } else {
                     v
                 };
-                slf.setattr(key.as_str(), v)?;
+                let shown = v.repr()?.to_string();
+                slf.setattr(key.as_str(), v).map_err(|e| {
+                    let py = slf.py();
+                    if e.is_instance_of::<PyOverflowError>(py) {
+                        // A negative or huge integer for a count (history).
+                        crate::errors::raise(
+                            "InvalidParameterError",
+                            format!("Config: {key} = {shown} is out of range ({e})"),
+                        )
+                    } else if e.is_instance_of::<PyTypeError>(py) {
+                        PyTypeError::new_err(format!("Config: {key} = {shown}: {e}"))
+                    } else {
+                        e
+                    }
+                })?;
+            }
+        }
+        if let Some(kw) = kwargs.filter(|_| refuse_unused) {
+            for k in kw.keys() {
+                let key: String = k.extract()?;
+                let changed = !slf
+                    .getattr(key.as_str())?
+                    .eq(before.getattr(key.as_str())?)?;
+                if changed && let Some(why) = slf.borrow().unused_because(&key) {
+                    return Err(crate::errors::raise(
+                        "InvalidParameterError",
+                        format!("Config: {key} is not used here: {why}"),
+                    ));
+                }
             }
         }
         slf.borrow().run_config()?;
         Ok(())
+    }
+
+    /// Why parameter `key` has no effect with this configuration's
+    /// initializer, odometry model or `use_range`, or None when it is used.
+    fn unused_because(&self, key: &str) -> Option<String> {
+        let pi_sr = matches!(self.init.as_str(), "pi-sr" | "pi-sr-mixed");
+        let init = &self.init;
+        match key {
+            "rho_ini" | "sigma_rho" | "per_landmark_priors" if !pi_sr => Some(format!(
+                "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
+            )),
+            "alpha_min" | "baseline_min" | "beta_min" | "candidate_timeout" | "min_depth"
+                if pi_sr =>
+            {
+                Some(format!(
+                    "it is a parameter of MTE's triangulation (init \"mte\", \"mte-clone\" \
+                     or \"mte-history\"), and init is {init:?}"
+                ))
+            }
+            "wheel_base" | "wheel_floor_sigma" | "wheel_scale_sqrt"
+                if self.odometry != "wheels" =>
+            {
+                Some(format!(
+                    "it is a parameter of the wheel odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "velocity_alpha" | "velocity_sigma_v_min" | "velocity_sigma_omega_min"
+                if self.odometry != "velocity" =>
+            {
+                Some(format!(
+                    "it is a parameter of the velocity odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "range_sigma" if !self.use_range => {
+                Some("it applies to range-bearing runs (use_range=True) only".to_owned())
+            }
+            _ => None,
+        }
     }
 }
 
@@ -381,7 +458,7 @@ impl PyConfig {
             ..Self::default()
         };
         let obj = Bound::new(py, cfg)?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, true)?;
         Ok(obj.unbind())
     }
 
@@ -400,7 +477,7 @@ impl PyConfig {
         let mut cfg = Self::from_run_config(&rc);
         cfg.init = init.to_owned();
         let obj = Bound::new(py, cfg)?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, true)?;
         Ok(obj.unbind())
     }
 
@@ -408,7 +485,7 @@ impl PyConfig {
     #[pyo3(signature = (**kwargs))]
     fn replace(&self, py: Python<'_>, kwargs: Option<&Bound<'_, PyDict>>) -> PyResult<Py<Self>> {
         let obj = Bound::new(py, self.clone())?;
-        Self::apply(&obj, kwargs)?;
+        Self::apply(&obj, kwargs, false)?;
         Ok(obj.unbind())
     }
 

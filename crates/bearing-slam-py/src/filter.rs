@@ -2,7 +2,7 @@
 
 use crate::config::PyConfig;
 use crate::convert::{In1, arr1, arr2, arr3, matrix, pose, row_major, to_py, vector};
-use crate::errors::SlamResultExt;
+use crate::errors::{self, SlamResultExt};
 use bearing_slam::core::landmark::Parameterization;
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel};
@@ -158,7 +158,32 @@ pub(crate) fn snapshot_dict<'py>(
     Ok(d)
 }
 
+/// The filter for one step: its arguments are converted before, so the
+/// filter is held only while Rust runs (never across a call into Python, where
+/// another thread could take the GIL). A filter held by another thread (only
+/// possible without the GIL, on free-threaded Python) is `BearingSlamError`,
+/// not pyo3's `RuntimeError('Already borrowed')`.
+fn take<'py>(slf: &Bound<'py, PySlamFilter>) -> PyResult<PyRefMut<'py, PySlamFilter>> {
+    slf.try_borrow_mut().map_err(|_| {
+        errors::raise(
+            "BearingSlamError",
+            "this SlamFilter is in use by another thread: a filter takes its steps from \
+             one thread at a time, in time order (give each thread its own filter, e.g. \
+             filter.copy())"
+                .to_owned(),
+        )
+    })
+}
+
 /// The bearing-only EKF-SLAM filter, driven one step at a time.
+///
+/// Threads: a filter takes its steps in time order, so it belongs to one
+/// thread at a time. Each call holds the filter only while Rust runs, so
+/// calls from several threads never see a half-updated filter; a call that
+/// finds the filter in use by another thread (possible on free-threaded
+/// Python) raises `BearingSlamError` instead of waiting. Steps from several
+/// threads come in an order no one chose: expect `TimeOrderError`. Give each
+/// thread its own filter (`copy()`).
 #[pyclass(module = "bearing_slam", name = "SlamFilter")]
 #[derive(Clone, Debug)]
 pub(crate) struct PySlamFilter {
@@ -196,24 +221,32 @@ impl PySlamFilter {
 
     /// Predicts with wheel encoder increments (left and right distances
     /// rolled since the previous reading, m) at `time` (s).
-    fn predict_wheels(&mut self, time: f64, left_m: f64, right_m: f64) -> PyResult<()> {
-        let model = match self.wheels {
+    fn predict_wheels(slf: &Bound<'_, Self>, time: f64, left_m: f64, right_m: f64) -> PyResult<()> {
+        let mut f = take(slf)?;
+        let model = match f.wheels {
             Some(m) => m,
-            None => self.config.wheel_model()?,
+            None => f.config.wheel_model()?,
         };
-        self.slam
+        f.slam
             .predict(time, &model, &WheelOdometry { left_m, right_m })
             .py()
     }
 
     /// Predicts with a velocity command `(v m/s, omega rad/s)` held for `dt`
     /// seconds; `time` is the end of the interval.
-    fn predict_velocity(&mut self, time: f64, v: f64, omega: f64, dt: f64) -> PyResult<()> {
-        let model = match self.velocity {
+    fn predict_velocity(
+        slf: &Bound<'_, Self>,
+        time: f64,
+        v: f64,
+        omega: f64,
+        dt: f64,
+    ) -> PyResult<()> {
+        let mut f = take(slf)?;
+        let model = match f.velocity {
             Some(m) => m,
-            None => self.config.velocity_model()?,
+            None => f.config.velocity_model()?,
         };
-        self.slam
+        f.slam
             .predict(time, &model, &VelocityOdometry { v, omega, dt })
             .py()
     }
@@ -221,7 +254,7 @@ impl PySlamFilter {
     /// Updates with one scan of bearings (rad, robot frame) to landmarks
     /// `ids`; unknown ids start landmarks (or candidates).
     fn update_bearings(
-        &mut self,
+        slf: &Bound<'_, Self>,
         time: f64,
         ids: &Bound<'_, PyAny>,
         bearings: In1<'_>,
@@ -236,12 +269,13 @@ impl PySlamFilter {
             )));
         }
         let obs: Vec<(u64, f64)> = ids.into_iter().zip(z.iter().copied()).collect();
-        Ok(self.slam.update_bearings(time, &obs).py()?.into())
+        let mut f = take(slf)?;
+        Ok(f.slam.update_bearings(time, &obs).py()?.into())
     }
 
     /// Updates with one scan of ranges (m) and bearings (rad).
     fn update_range_bearings(
-        &mut self,
+        slf: &Bound<'_, Self>,
         time: f64,
         ids: &Bound<'_, PyAny>,
         ranges: In1<'_>,
@@ -262,7 +296,8 @@ impl PySlamFilter {
             .zip(r.iter().copied().zip(z.iter().copied()))
             .map(|(i, (r, z))| (i, r, z))
             .collect();
-        Ok(self.slam.update_range_bearings(time, &obs).py()?.into())
+        let mut f = take(slf)?;
+        Ok(f.slam.update_range_bearings(time, &obs).py()?.into())
     }
 
     /// Time of the last accepted step, s (None before the first).
@@ -353,8 +388,8 @@ impl PySlamFilter {
     }
 
     /// Removes a landmark from the state.
-    fn remove_landmark(&mut self, id: u64) -> PyResult<()> {
-        self.slam.remove_landmark(id).py()
+    fn remove_landmark(slf: &Bound<'_, Self>, id: u64) -> PyResult<()> {
+        take(slf)?.slam.remove_landmark(id).py()
     }
 
     /// An independent copy of the filter.

@@ -1,7 +1,7 @@
 //! `SensorLog`: a recorded or simulated run, with numpy arrays of its streams.
 
 use crate::convert::{In2, arr1, arr2, rows, to_py};
-use crate::errors::SlamResultExt;
+use crate::errors::{self, SlamResultExt};
 use bearing_slam::core::Pose2;
 use bearing_slam::core::log::{
     BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, VelocityOdometry,
@@ -11,6 +11,92 @@ use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
+
+/// `LogInfo` from a Python dict: every key must be a field of `LogInfo`, and
+/// every value a JSON value of that field (numbers finite); an error names the
+/// key. Keys not given keep their defaults.
+fn info_from_dict(py: Python<'_>, d: &Bound<'_, PyDict>) -> PyResult<LogInfo> {
+    let bad = |m: String| errors::raise("InvalidParameterError", m);
+    let mut merged = match serde_json::to_value(LogInfo::default()) {
+        Ok(serde_json::Value::Object(m)) => m,
+        _ => serde_json::Map::new(),
+    };
+    let known: Vec<String> = merged.keys().cloned().collect();
+    let dumps = py.import("json")?.getattr("dumps")?;
+    let kwargs = PyDict::new(py);
+    kwargs.set_item("allow_nan", false)?;
+    for (k, v) in d.iter() {
+        let Ok(key) = k.extract::<String>() else {
+            return Err(bad(format!("info keys must be strings, got {}", k.repr()?)));
+        };
+        if !known.contains(&key) {
+            return Err(bad(format!(
+                "info has no key {key:?}; keys: {}",
+                known.join(", ")
+            )));
+        }
+        let text: String = match dumps.call((&v,), Some(&kwargs)) {
+            Ok(t) => t.extract()?,
+            Err(_) => {
+                return Err(bad(format!(
+                    "info[{key:?}] = {}: not a finite number or a JSON value",
+                    v.repr()?
+                )));
+            }
+        };
+        let value: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| bad(format!("info[{key:?}] = {text}: {e}")))?;
+        // Check the key alone on the defaults, so a type error names it.
+        let mut alone = merged.clone();
+        alone.insert(key.clone(), value.clone());
+        serde_json::from_value::<LogInfo>(serde_json::Value::Object(alone))
+            .map_err(|e| bad(format!("info[{key:?}] = {text}: {e}")))?;
+        merged.insert(key, value);
+    }
+    serde_json::from_value(serde_json::Value::Object(merged))
+        .map_err(|e| bad(format!("invalid info dict: {e}")))
+}
+
+/// A digest of a log's content (events and landmark truth, bit for bit; not
+/// `info`): a result remembers the digest of the log it ran on, so that it is
+/// not written next to another log.
+pub(crate) fn fingerprint(log: &SensorLog) -> u64 {
+    use std::hash::{DefaultHasher, Hash, Hasher};
+    let mut h = DefaultHasher::new();
+    log.events.len().hash(&mut h);
+    for e in &log.events {
+        e.time.to_bits().hash(&mut h);
+        match &e.kind {
+            EventKind::Wheels(w) => {
+                0u8.hash(&mut h);
+                [w.left_m, w.right_m].map(f64::to_bits).hash(&mut h);
+            }
+            EventKind::Velocity(v) => {
+                1u8.hash(&mut h);
+                [v.v, v.omega, v.dt].map(f64::to_bits).hash(&mut h);
+            }
+            EventKind::Bearings(scan) => {
+                2u8.hash(&mut h);
+                scan.len().hash(&mut h);
+                for b in scan {
+                    b.landmark_id.hash(&mut h);
+                    b.bearing.to_bits().hash(&mut h);
+                    b.range.map(f64::to_bits).hash(&mut h);
+                }
+            }
+            EventKind::GroundTruth(p) => {
+                3u8.hash(&mut h);
+                [p.x, p.y, p.theta].map(f64::to_bits).hash(&mut h);
+            }
+        }
+    }
+    log.landmarks.len().hash(&mut h);
+    for l in &log.landmarks {
+        l.id.hash(&mut h);
+        [l.x, l.y].map(f64::to_bits).hash(&mut h);
+    }
+    h.finish()
+}
 
 /// A time-ordered stream of odometry, bearing scans and ground truth, with
 /// the true landmark positions.
@@ -116,7 +202,19 @@ impl PySensorLog {
             }
         }
         if let Some(v) = &velocity {
-            for r in rows(v, 4, "velocity")? {
+            for (i, r) in rows(v, 4, "velocity")?.into_iter().enumerate() {
+                // `run` drops a command that covers no time: refuse it here,
+                // as the step API does.
+                if r[3].is_nan() || r[3] <= 0.0 {
+                    return Err(errors::raise(
+                        "InvalidParameterError",
+                        format!(
+                            "velocity[{i}]: dt = {} s; a velocity command must be held \
+                             for a positive, finite time",
+                            r[3]
+                        ),
+                    ));
+                }
                 let k = EventKind::Velocity(VelocityOdometry {
                     v: r[1],
                     omega: r[2],
@@ -144,19 +242,7 @@ impl PySensorLog {
         }
         let info: LogInfo = match info {
             None => LogInfo::default(),
-            Some(d) => {
-                let text: String = py.import("json")?.call_method1("dumps", (d,))?.extract()?;
-                let bad =
-                    |e: serde_json::Error| PyValueError::new_err(format!("invalid info dict: {e}"));
-                let given: serde_json::Map<String, serde_json::Value> =
-                    serde_json::from_str(&text).map_err(bad)?;
-                let mut merged = match serde_json::to_value(LogInfo::default()).map_err(bad)? {
-                    serde_json::Value::Object(m) => m,
-                    _ => serde_json::Map::new(),
-                };
-                merged.extend(given);
-                serde_json::from_value(serde_json::Value::Object(merged)).map_err(bad)?
-            }
+            Some(d) => info_from_dict(py, d)?,
         };
         let log = SensorLog {
             info,

@@ -57,8 +57,17 @@ fn invalid(message: String) -> PyErr {
 /// Parses a spec and checks that its scenario builds and its initializer is
 /// valid (`SimulationError`, `InvalidParameterError`, … otherwise).
 fn parse_spec(spec_json: &str) -> PyResult<MonteCarloSpec> {
-    let spec: MonteCarloSpec = serde_json::from_str(spec_json)
+    let given: serde_json::Value = serde_json::from_str(spec_json)
         .map_err(|e| invalid(format!("invalid Monte Carlo spec: {e}")))?;
+    let spec: MonteCarloSpec = serde_json::from_value(given.clone())
+        .map_err(|e| invalid(format!("invalid Monte Carlo spec: {e}")))?;
+    let understood = serde_json::to_value(&spec)
+        .map_err(|e| invalid(format!("invalid Monte Carlo spec: {e}")))?;
+    if let Some(key) = unknown_key(&given, &understood, "") {
+        return Err(invalid(format!(
+            "Monte Carlo spec: unknown key {key:?} (not a parameter of the spec; check its spelling)"
+        )));
+    }
     let scenario = spec.scenario.build(0).map_err(sim)?;
     spec.initializer
         .to_config(&scenario.far_landmark_ids)
@@ -77,6 +86,35 @@ fn parse_spec(spec_json: &str) -> PyResult<MonteCarloSpec> {
         }
     }
     Ok(spec)
+}
+
+/// The first key of `given` (a dotted path) that the parsed spec does not
+/// have: a key serde ignored.
+fn unknown_key(
+    given: &serde_json::Value,
+    understood: &serde_json::Value,
+    at: &str,
+) -> Option<String> {
+    use serde_json::Value;
+    match (given, understood) {
+        (Value::Object(g), Value::Object(u)) => g.iter().find_map(|(k, v)| {
+            let path = if at.is_empty() {
+                k.clone()
+            } else {
+                format!("{at}.{k}")
+            };
+            match u.get(k) {
+                None => Some(path),
+                Some(uv) => unknown_key(v, uv, &path),
+            }
+        }),
+        (Value::Array(g), Value::Array(u)) => g
+            .iter()
+            .zip(u)
+            .enumerate()
+            .find_map(|(i, (gv, uv))| unknown_key(gv, uv, &format!("{at}[{i}]"))),
+        _ => None,
+    }
 }
 
 fn f64_list<'py>(py: Python<'py>, v: &[f64]) -> PyResult<Bound<'py, PyList>> {
@@ -421,6 +459,24 @@ pub(crate) fn experiment_fig5<'py>(
     seed: u64,
 ) -> PyResult<Bound<'py, PyAny>> {
     let angles = parallax_deg.unwrap_or_else(|| FIG5_ANGLES.to_vec());
+    for (name, v) in [("sigma_deg", sigma_deg), ("distance_m", distance_m)] {
+        if !(v.is_finite() && v > 0.0) {
+            return Err(invalid(format!(
+                "{name} = {v}: must be positive and finite"
+            )));
+        }
+    }
+    if let Some(a) = angles
+        .iter()
+        .find(|a| !(a.is_finite() && **a > 0.0 && **a < 180.0))
+    {
+        return Err(invalid(format!(
+            "parallax_deg: {a} is not a parallax angle (greater than 0° and less than 180°)"
+        )));
+    }
+    if samples == 0 {
+        return Err(invalid("samples must be at least 1".to_owned()));
+    }
     let r = py
         .detach(|| fig5(sigma_deg, distance_m, &angles, samples, seed))
         .py()?;

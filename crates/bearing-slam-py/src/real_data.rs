@@ -116,6 +116,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
             output,
             summary,
             config,
+            log_digest: crate::log::fingerprint(&log),
         },
         metrics,
         PySensorLog::new(log),

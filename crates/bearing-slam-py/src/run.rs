@@ -132,6 +132,9 @@ pub(crate) struct PyRunResult {
     pub summary: Option<RunSummary>,
     /// The configuration it ran with.
     pub config: PyConfig,
+    /// `log::fingerprint` of the log it ran on (`write_mcap` refuses
+    /// another log's result).
+    pub log_digest: u64,
 }
 
 #[pymethods]
@@ -312,5 +315,6 @@ pub(crate) fn py_run(
         output,
         summary,
         config,
+        log_digest: crate::log::fingerprint(inner),
     })
 }

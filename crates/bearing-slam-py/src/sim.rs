@@ -2,9 +2,11 @@
 
 use crate::errors;
 use crate::log::PySensorLog;
-use bearing_slam::sim::{Scenario, scenario_names, simulate};
+use bearing_slam::sim::{Scenario, SimError, Simulation, scenario_names};
 use pyo3::prelude::*;
+use pyo3::types::PyBool;
 use std::path::PathBuf;
+use std::time::{Duration, Instant};
 
 /// The names of the built-in scenarios.
 #[pyfunction(name = "scenario_names")]
@@ -35,9 +37,33 @@ fn load_scenario(scenario: &Bound<'_, PyAny>, seed: Option<u64>) -> PyResult<Sce
     }
 }
 
+/// An optional non-negative integer argument that fits a `u64`; anything else
+/// is `InvalidParameterError` naming the argument (not an `OverflowError`).
+pub(crate) fn optional_u64(value: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Option<u64>> {
+    match value {
+        None => Ok(None),
+        Some(v) if v.is_none() => Ok(None),
+        Some(v) => match v.extract::<u64>() {
+            Ok(n) if !v.is_instance_of::<PyBool>() => Ok(Some(n)),
+            _ => Err(errors::raise(
+                "InvalidParameterError",
+                format!(
+                    "{name} must be an integer from 0 to 2**64 - 1, got {}",
+                    v.repr()?
+                ),
+            )),
+        },
+    }
+}
+
+/// How long the simulator runs with the GIL released between two checks for
+/// Ctrl-C (`KeyboardInterrupt`).
+const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(50);
+
 /// Simulates a scenario (a built-in name or a `.toml`/`.json` file) and
 /// returns its sensor log. Deterministic: the same scenario and seed give
-/// the same log, bit for bit. Runs in Rust with the GIL released.
+/// the same log, bit for bit. Runs in Rust with the GIL released, checking
+/// for Ctrl-C every 50 ms (`KeyboardInterrupt`).
 ///
 /// Options: `seed` (default 0 for names, the file's own for files),
 /// `landmark_count` (scenarios with random landmarks), `far_landmark=False`
@@ -50,8 +76,8 @@ fn load_scenario(scenario: &Bound<'_, PyAny>, seed: Option<u64>) -> PyResult<Sce
 pub(crate) fn py_simulate(
     py: Python<'_>,
     scenario: &Bound<'_, PyAny>,
-    seed: Option<u64>,
-    landmark_count: Option<usize>,
+    seed: Option<&Bound<'_, PyAny>>,
+    landmark_count: Option<&Bound<'_, PyAny>>,
     far_landmark: bool,
     slip: Option<bool>,
     bearing_sigma: Option<f64>,
@@ -59,8 +85,16 @@ pub(crate) fn py_simulate(
     encoder_noise: Option<f64>,
     duration: Option<f64>,
 ) -> PyResult<PySensorLog> {
+    let seed = optional_u64(seed, "seed")?;
+    let landmark_count = optional_u64(landmark_count, "landmark_count")?;
     let mut s = load_scenario(scenario, seed)?;
     if let Some(n) = landmark_count {
+        let n = usize::try_from(n).map_err(|_| {
+            errors::raise(
+                "InvalidParameterError",
+                format!("landmark_count = {n} does not fit this machine's usize"),
+            )
+        })?;
         s = s.with_landmark_count(n);
     }
     if !far_landmark {
@@ -81,7 +115,27 @@ pub(crate) fn py_simulate(
     if let Some(v) = duration {
         s = s.with_duration(v);
     }
-    let log = py.detach(|| simulate(&s)).map_err(errors::sim)?;
+    let mut sim = py.detach(|| Simulation::new(&s)).map_err(errors::sim)?;
+    loop {
+        let finished = py
+            .detach(|| -> Result<bool, SimError> {
+                let started = Instant::now();
+                while !sim.is_finished() {
+                    sim.step()?;
+                    if started.elapsed() >= SIGNAL_CHECK_INTERVAL {
+                        break;
+                    }
+                }
+                Ok(sim.is_finished())
+            })
+            .map_err(errors::sim)?;
+        if finished {
+            break;
+        }
+        py.check_signals()?;
+    }
+    let log = sim.into_log();
+    log.validate().map_err(|e| errors::sim(SimError::from(e)))?;
     Ok(PySensorLog::new(log))
 }
 
@@ -89,8 +143,11 @@ pub(crate) fn py_simulate(
 /// point for a scenario file of your own.
 #[pyfunction(name = "scenario_toml")]
 #[pyo3(signature = (scenario, seed = None))]
-pub(crate) fn py_scenario_toml(scenario: &Bound<'_, PyAny>, seed: Option<u64>) -> PyResult<String> {
-    load_scenario(scenario, seed)?
+pub(crate) fn py_scenario_toml(
+    scenario: &Bound<'_, PyAny>,
+    seed: Option<&Bound<'_, PyAny>>,
+) -> PyResult<String> {
+    load_scenario(scenario, optional_u64(seed, "seed")?)?
         .to_toml_string()
         .map_err(errors::sim)
 }

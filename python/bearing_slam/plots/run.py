@@ -131,7 +131,10 @@ def _fit_to_points(ax: Axes, result: RunResult, log: SensorLog | None) -> None:
     pts.append(pos)
     if log is not None and len(log.landmarks):
         pts.append(log.landmarks[:, 1:])
-    xy = np.concatenate([p for p in pts if len(p)])
+    nonempty = [p for p in pts if len(p)]
+    if not nonempty:
+        return
+    xy = np.concatenate(nonempty)
     xy = xy[np.isfinite(xy).all(axis=1)]
     if not len(xy):
         return
@@ -273,7 +276,14 @@ def save_plots(result: RunResult, log: SensorLog | None, out_dir: str | Path) ->
 
 
 def save_figure(fig: Figure, path: str | Path, dpi: int) -> Path:
-    """Writes ``fig`` to ``path`` (PNG) at ``dpi`` and closes it; returns the path."""
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
+    """Writes ``fig`` to ``path`` (PNG) at ``dpi`` and closes it; returns the
+    path. The file is written under a temporary name and renamed when complete
+    (:func:`bearing_slam.outputs.atomic_path`)."""
+    from bearing_slam.outputs import atomic_path
+
+    try:
+        with atomic_path(path) as tmp:
+            fig.savefig(tmp, dpi=dpi, format="png")
+    finally:
+        plt.close(fig)
     return Path(path)
