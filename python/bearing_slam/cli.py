@@ -23,7 +23,9 @@ from tqdm import tqdm
 from bearing_slam._native import (
     BearingSlamError,
     Config,
+    RunResult,
     SensorLog,
+    __version__,
     read_mcap,
     run,
     scenario_names,
@@ -31,6 +33,7 @@ from bearing_slam._native import (
     write_mcap,
 )
 from bearing_slam.outputs import metrics_record, mrclam_record, write_outputs
+from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
     DEFAULT_THRESHOLDS,
@@ -123,6 +126,26 @@ def _run_config(log: SensorLog, init: str, **overrides: Any) -> Config:
     return Config.for_log(log, init=config_name, **extra, **overrides)
 
 
+def _write_tum(path: str | Path | None, result: RunResult, quiet: bool = False) -> None:
+    """``--tum FILE``: the estimate (and the truth beside it) in the TUM format."""
+    if path is None:
+        return
+    try:
+        estimate, truth = write_tum(path, result)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    if not quiet:
+        print(f"wrote {estimate}" + (f" and {truth} (TUM)" if truth else " (TUM; no ground truth)"))
+
+
+#: Help of ``--tum`` (run, mrclam).
+_TUM_HELP = (
+    "also write the estimate in the TUM format (timestamp x y z qx qy qz qw) to FILE and "
+    "the ground truth at the same times beside it (run.tum -> run.truth.tum): "
+    "`evo_ape tum run.truth.tum run.tum` (no --align) gives ate_rmse_m"
+)
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     rows: list[tuple[str, str, dict[str, Any]]] = []
@@ -140,6 +163,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 seconds = time.perf_counter() - t0
                 rec = metrics_record(result, log, seconds)
                 write_outputs(out / f"{scenario}_{label}", rec, result, log)
+                if args.tum is not None:
+                    _write_tum(out / f"{scenario}_{label}" / args.tum, result, quiet=True)
                 rows.append((scenario, label, rec))
                 bar.update()
     table = _format_table(rows)
@@ -194,6 +219,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     write_outputs(out, rec, result, log)
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
+    _write_tum(args.tum, result)
     return 0
 
 
@@ -224,6 +250,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         rec = mrclam_record(run_)
         write_outputs(out, rec, run_.result, run_.log, mrclam.plot_log(run_))
         bar.update()
+    _write_tum(args.tum, run_.result)
 
     def f(key: str) -> str:
         v = rec.get(key)
@@ -277,6 +304,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Bearing-only EKF SLAM (Munguía & Grau's stochastic triangulation, 'MTE'): "
         "simulate logs, run the filter on them, and plot and score the results.",
     )
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     demo = sub.add_parser(
@@ -293,6 +321,12 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="demo_output", help="output folder (default: %(default)s)")
     demo.add_argument("--seed", type=int, default=0, help="simulation seed (default: %(default)s)")
     demo.add_argument("--quiet", action="store_true", help="no progress bar")
+    demo.add_argument(
+        "--tum",
+        metavar="NAME",
+        help="also write each run's estimate in the TUM format to OUT/SCENARIO_METHOD/NAME "
+        "and its ground truth beside it (run.tum -> run.truth.tum), for evo",
+    )
     demo.set_defaults(func=_cmd_demo)
 
     simp = sub.add_parser(
@@ -320,7 +354,7 @@ def _parser() -> argparse.ArgumentParser:
         "or the Rust tools) and writes into --out: metrics.json (ate_rmse_m, "
         "final_position_error_m, final_heading_error_deg, landmark_rmse_m, mean_nees_pose, "
         "n_landmarks_initialized, dead-reckoning numbers, counts, config), trajectory.png "
-        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (95 %% χ² band) and "
+        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (95 % χ² band) and "
         "estimate.mcap (log + estimate, opens in Foxglove).",
     )
     runp.add_argument("log", metavar="LOG.mcap", help="input MCAP log")
@@ -337,6 +371,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--bearing-sigma-deg", type=float, help="bearing noise σ, degrees")
     runp.add_argument("--use-range", action="store_true", help="use ranges too (reference)")
     runp.add_argument("--out", required=True, help="output folder")
+    runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     runp.set_defaults(func=_cmd_run)
 
@@ -383,6 +418,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--start", type=float, help="window start, s since the robot's first command")
     mr.add_argument("--end", type=float, help="window end, s since the robot's first command")
     mr.add_argument("--out", required=True, help="output folder")
+    mr.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     mr.set_defaults(func=_cmd_mrclam)
 
@@ -516,7 +552,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         f"error > {t['diverged_position_m']:g} m), prints the class fractions and writes --json: "
         "the spec, "
         "converged_fraction, drift_fraction, diverged_fraction, per-run metrics (runs), "
-        "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 %% band) "
+        "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 % band) "
         "and error_over_time. From Python, bearing_slam.montecarlo(...) also runs on any "
         "concurrent.futures executor, e.g. a Dask cluster.",
     )
@@ -565,7 +601,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         f"{EXPERIMENT_DEFAULT_RUNS['fig4']} runs each), then every initializer with the near "
         "landmarks scaled x0.2 to x4; fig4.png: "
         "class fractions per method and ATE against scale. consistency: the same runs' "
-        "mean pose NEES over time with the 95 %% band per method (consistency.png; reuses "
+        "mean pose NEES over time with the 95 % band per method (consistency.png; reuses "
         "fig4's runs under all). "
         "fig5: σ_d and σ_ρ of a triangulation against parallax, first order and sampled "
         "(fig5.png, log y). fig8: paper_fig8 with 5, 10, 20, 40 landmarks, MTE (default "

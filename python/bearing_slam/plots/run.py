@@ -27,6 +27,7 @@ from bearing_slam._native import RunResult, SensorLog, chi2_interval
 
 __all__ = [
     "covariance_ellipse",
+    "landmark_clusters",
     "plot_nees",
     "plot_pose_errors",
     "plot_trajectory",
@@ -81,12 +82,16 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
     if log is not None and len(log.landmarks):
         lm = log.landmarks
         ax.plot(lm[:, 1], lm[:, 2], "x", color=_LANDMARK, ms=10, mew=2, label="landmarks (truth)")
-        for row in lm:
+        for members in landmark_clusters(lm[:, 1:], _label_radius(result, lm)):
+            # One label per group of close landmarks ("16, 17, 18"), above the group.
+            top = members[np.argmax(lm[members, 2])]
             ax.annotate(
-                f"{int(row[0])}",
-                (row[1], row[2]),
+                ", ".join(str(int(lm[k, 0])) for k in sorted(members, key=lambda k: lm[k, 0])),
+                (lm[top, 1], lm[top, 2]),
                 textcoords="offset points",
-                xytext=(6, 6),
+                xytext=(0, 8),
+                ha="center",
+                va="bottom",
                 color=_LANDMARK,
                 fontsize=9,
                 annotation_clip=True,
@@ -103,7 +108,41 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
     if legend:
-        ax.legend(loc="best", fontsize=8, framealpha=0.85)
+        # Outside the axes, right of the map: a legend inside hides landmarks.
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0)
+
+
+def landmark_clusters(points: NDArray[np.float64], radius: float) -> list[list[int]]:
+    """Groups of landmark indices whose points are chained by gaps of at most
+    ``radius`` (single linkage), each group in index order, groups by their
+    first index: the landmarks that share one label on a map."""
+    n = len(points)
+    parent = list(range(n))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(n):
+        for j in range(i + 1, n):
+            if float(np.hypot(*(points[i] - points[j]))) <= radius:
+                parent[root(j)] = root(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(n):
+        groups.setdefault(root(i), []).append(i)
+    return sorted(groups.values())
+
+
+def _label_radius(result: RunResult, landmarks: NDArray[np.float64]) -> float:
+    """How close two landmarks must be to share a label: 4 % of the map's extent."""
+    pts = [landmarks[:, 1:], result.estimate[:, :2]]
+    xy = np.concatenate(pts)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        return 0.0
+    return 0.04 * max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1.0)
 
 
 def _path_box(result: RunResult) -> tuple[float, float, float, float]:
