@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import math
 import pickle
 from typing import Any
 
@@ -60,15 +59,20 @@ def test_run_result_and_trace_pickle(fig4_result: bs.RunResult) -> None:
 
 
 def test_nan_survives(fig4_log: bs.SensorLog) -> None:
-    # A start known exactly has no pose NEES (NaN at the first track point) and a
-    # run without truth has no summary: both come back as they were.
-    result = bs.run(fig4_log, bs.Config.for_log(fig4_log))
-    assert math.isnan(result.nees[0])
-    same_result(pickle.loads(pickle.dumps(result)), result)
-    bare = bs.SensorLog.from_arrays(wheels=fig4_log.wheels, bearings=fig4_log.bearings)
+    # A run without ground truth has NaN NEES everywhere and no summary (NaN is
+    # what JSON would lose): both come back as they were.
+    bare = bs.SensorLog.from_arrays(
+        wheels=fig4_log.wheels,
+        bearings=fig4_log.bearings,
+        info={"wheel_base_m": fig4_log.info["wheel_base_m"]},
+    )
     no_truth = bs.run(bare)
     assert no_truth.summary is None
-    same_result(pickle.loads(pickle.dumps(no_truth)), no_truth)
+    assert np.isnan(no_truth.nees).all()
+    back = pickle.loads(pickle.dumps(no_truth))
+    assert np.isnan(back.nees).all()
+    same_result(back, no_truth)
+    assert pickle.loads(pickle.dumps(bare)) == bare
 
 
 def test_corrupt_pickle_is_a_clear_error(fig4_log: bs.SensorLog) -> None:

@@ -114,7 +114,11 @@ def test_cli_run_tum(tmp_path: Path) -> None:
 
 def test_write_tum_without_truth(tmp_path: Path, fig4_log: bs.SensorLog) -> None:
     bare = fig4_log.head(20.0)
-    log = bs.SensorLog.from_arrays(wheels=bare.wheels, bearings=bare.bearings)
+    log = bs.SensorLog.from_arrays(
+        wheels=bare.wheels,
+        bearings=bare.bearings,
+        info={"wheel_base_m": fig4_log.info["wheel_base_m"]},
+    )
     result = bs.run(log, bs.Config.for_log(log))
     estimate, truth = bs.write_tum(tmp_path / "run.tum", result)
     assert truth is None

@@ -440,12 +440,8 @@ impl PyConfig {
         self.clone()
     }
 
-    /// Pickling: `Config(init)` ...
-    fn __getnewargs__(&self) -> (String,) {
-        (self.init.clone(),)
-    }
-
-    /// ... then every parameter set from this dict (`to_dict`).
+    /// Pickling: `Config()` (the defaults), then every parameter set from
+    /// this dict (`to_dict`) by `__setstate__`.
     fn __getstate__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyDict>> {
         Self::to_dict(slf)
     }
