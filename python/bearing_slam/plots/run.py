@@ -26,6 +26,7 @@ from numpy.typing import NDArray
 from bearing_slam._native import RunResult, SensorLog, chi2_interval
 
 __all__ = [
+    "SCAN_GAP_S",
     "covariance_ellipse",
     "landmark_clusters",
     "plot_nees",
@@ -33,6 +34,7 @@ __all__ = [
     "plot_trajectory",
     "save_figure",
     "save_plots",
+    "scan_gaps",
 ]
 
 _TRUTH = "#2ca02c"
@@ -108,8 +110,10 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
     if legend:
-        # Outside the axes, right of the map: a legend inside hides landmarks.
-        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8, borderaxespad=0.0)
+        # A figure legend right of the map (constrained layout makes room for
+        # it): a legend inside the axes hides landmarks.
+        handles, labels = ax.get_legend_handles_labels()
+        ax.figure.legend(handles, labels, loc="outside right center", fontsize=8)
 
 
 def landmark_clusters(points: NDArray[np.float64], radius: float) -> list[list[int]]:
@@ -201,7 +205,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         far = reach > 2.0 * size
     if far:
         fig, (ax, zoom) = plt.subplots(
-            1, 2, figsize=(13, 6), layout="constrained", width_ratios=[1, 1.3]
+            1, 2, figsize=(14.5, 6), layout="constrained", width_ratios=[1, 1.3]
         )
         _draw_map(ax, result, log, legend=False)
         _fit_to_points(ax, result, log)
@@ -215,7 +219,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         zoom.set_aspect("equal", adjustable="box")
         zoom.set_title("around the path")
     else:
-        fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
+        fig, ax = plt.subplots(figsize=(9.5, 6.5), layout="constrained")
         _draw_map(ax, result, log, legend=True)
         _fit_to_points(ax, result, log)
         ax.set_aspect("equal", adjustable="box")
@@ -227,11 +231,30 @@ def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray((a + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
 
 
+#: A pause in the scans longer than this (s) is shaded on the pose-error plot.
+SCAN_GAP_S = 5.0
+
+
+def scan_gaps(result: RunResult, min_gap: float = SCAN_GAP_S) -> list[tuple[float, float]]:
+    """The ``(start, end)`` times between consecutive scans (the trace's
+    snapshot times) that are more than ``min_gap`` seconds apart."""
+    times = np.asarray(result.trace.times, dtype=np.float64)
+    if len(times) < 2:
+        return []
+    gaps = np.flatnonzero(np.diff(times) > min_gap)
+    return [(float(times[i]), float(times[i + 1])) for i in gaps]
+
+
 def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
     """Pose errors (estimate − truth) in x, y [m] and θ [deg] over time, with
-    the filter's ±3σ bounds."""
+    the filter's ±3σ bounds (square roots of the covariance's diagonal; θ's is
+    not wrapped). The bounds grow while the robot only drives (prediction) and
+    drop when it sees mapped landmarks (update): a saw-tooth that is the filter
+    telling the truth. Pauses in the scans longer than :data:`SCAN_GAP_S` are
+    shaded grey, which is where the bounds grow the most."""
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True, layout="constrained")
     t = result.time
+    gaps = scan_gaps(result)
     err = result.estimate - result.truth
     err[:, 2] = _wrap(err[:, 2])
     cov = result.covariance
@@ -246,6 +269,9 @@ def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
         ax.plot(t, -b, color=_ESTIMATE, lw=0.5)
         ax.plot(t, e, color="k", lw=1.0, label="error")
         ax.axhline(0.0, color="0.5", lw=0.5)
+        for k, (start, end) in enumerate(gaps):
+            label = f"no scan for > {SCAN_GAP_S:g} s" if k == 0 else None
+            ax.axvspan(start, end, color="0.6", alpha=0.25, lw=0, label=label)
         ax.set_ylabel(labels[i])
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=9)
