@@ -18,7 +18,7 @@ RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.to
 help:
 	@echo "make demo        - simulate paper_fig4 and slip_patch; MTE, MTE-clone, MTE-history and PI-SR on each (demo_output/)"
 	@echo "make test        - lint (Rust fmt, clippy, rustdoc; ruff, mypy, stubtest), then cargo test and pytest (notebooks included)"
-	@echo "make lint        - formatting checks, lints and rustdoc only (Rust and Python): rust-lint rust-doc py-lint"
+	@echo "make lint        - formatting checks, lints, rustdoc and the docs site only (Rust and Python): rust-lint rust-doc py-lint docs"
 	@echo "make format      - rewrite the sources: cargo fmt, ruff format, ruff check --fix"
 	@echo "make rust-lint   - cargo fmt --check and clippy -D warnings on every target"
 	@echo "make rust-doc    - rustdoc of the workspace, warnings as errors"
@@ -83,7 +83,7 @@ py-lint: develop
 py-test: develop
 	$(VPY) -m pytest
 
-lint: rust-lint rust-doc py-lint
+lint: rust-lint rust-doc py-lint docs
 
 test: lint rust-test py-test
 
@@ -99,10 +99,11 @@ clean:
 	rm -f python/bearing_slam/_native*.so python/bearing_slam/_native*.pyd
 
 # --- Documentation and packaging
-# The site (mkdocs.yml): docs/*.md, the Python API reference (mkdocstrings,
-# from the sources and the stubs: no build of the extension needed), and the
-# rustdoc of the workspace under site/rust/. Warnings are errors on both sides.
-docs: rust-setup $(STAMP)
+# The site (mkdocs.yml): docs/*.md, the Python API reference (mkdocstrings:
+# the Python sources, and the built extension for the docstrings of its
+# classes), and the rustdoc of the workspace under site/rust/. Warnings are
+# errors on both sides.
+docs: rust-setup develop
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --workspace
 	$(VENV)/bin/mkdocs build --strict
 

@@ -11,8 +11,9 @@ sides: the position error at every track time that has ground truth, with **no
 alignment** (the filter starts at the true initial pose, so the estimate is already
 in the truth's frame). Do not pass ``--align`` (``-a``) or ``--correct_scale``
 (``-s``) to evo for that number; ``ate_aligned_rmse_m`` is the same RMSE after the
-best planar rigid motion (SE(2)), which evo's ``--align`` (an SE(3) Umeyama fit)
-matches only up to its extra freedom out of the plane.
+best planar rigid motion (SE(2)). evo's ``--align`` (a 3-D Umeyama fit) refuses
+exactly planar trajectories ("Degenerate covariance rank"), so use
+``ate_aligned_rmse_m`` for the aligned number.
 
 Poses are planar: ``z = 0`` and the heading θ is the quaternion of a rotation
 about z, ``(qx, qy, qz, qw) = (0, 0, sin θ/2, cos θ/2)``. Timestamps are the
