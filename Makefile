@@ -28,14 +28,14 @@ help:
 	@echo "make py-test     - pytest (tests/python, the notebooks of examples/notebooks)"
 	@echo "make venv        - the Python venv (.venv/) with the runtime, dev, test and docs dependencies"
 	@echo "make develop     - build the extension (release) into the venv"
-	@echo "make docs        - the documentation site in site/: pages, Python API (mkdocs --strict), rustdoc in site/rust/"
+	@echo "make docs        - the documentation site in target/site/: pages, Python API (mkdocs --strict), rustdoc in rust/"
 	@echo "make wheel-check - build the release abi3 wheel, install it into a clean venv, run the README quickstart"
 	@echo "make bench       - criterion benchmarks, then the peer comparison (bench-peers)"
 	@echo "make bench-peers - our EKF step vs numpy, filterpy, GTSAM (benches/PEERS.md, peers.png)"
 	@echo "make fuzz        - every cargo-fuzz target for FUZZ_SECONDS (default 600) each (nightly)"
 	@echo "make fuzz-smoke  - the same, 30 s per target"
 	@echo "make fuzz-setup  - install the nightly toolchain and cargo-fuzz"
-	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, site/, caches"
+	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true
@@ -94,14 +94,14 @@ format: rust-setup $(STAMP)
 
 clean:
 	$(CARGO) clean
-	rm -rf $(VENV) demo_output site .mypy_cache .ruff_cache .pytest_cache .hypothesis
+	rm -rf $(VENV) demo_output .mypy_cache .ruff_cache .pytest_cache .hypothesis
 	find . -name __pycache__ -type d -prune -not -path './target/*' -exec rm -rf {} +
 	rm -f python/bearing_slam/_native*.so python/bearing_slam/_native*.pyd
 
 # --- Documentation and packaging
 # The site (mkdocs.yml): docs/*.md, the Python API reference (mkdocstrings:
 # the Python sources, and the built extension for the docstrings of its
-# classes), and the rustdoc of the workspace under site/rust/. Warnings are
+# classes), and the rustdoc of the workspace under target/site/rust/. Warnings are
 # errors on both sides.
 docs: rust-setup develop
 	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --workspace
