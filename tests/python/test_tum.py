@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 import subprocess
 import sys
@@ -124,3 +125,19 @@ def test_write_tum_without_truth(tmp_path: Path, fig4_log: bs.SensorLog) -> None
     assert truth is None
     assert not truth_path(estimate).exists()
     assert len(estimate.read_text().splitlines()) == len(result.time) + 1
+
+
+@pytest.mark.slow
+def test_evo_agrees_on_mrclam(tmp_path: Path) -> None:
+    # Real data (as tests/python/test_mrclam.py finds it): the Vicon truth at
+    # 10 Hz and MRCLAM's own clock, a 150 s window of robot 3.
+    from bearing_slam import mrclam
+
+    data = Path(
+        os.environ.get("BEARING_SLAM_DATA") or ROOT.parent / "shared" / "datasets" / "mrclam"
+    )
+    run = mrclam.evaluate(data / "MRCLAM_Dataset6", 3, "mte", start=100.0, end=250.0)
+    estimate, truth = bs.write_tum(tmp_path / "r3.tum", run.result)
+    assert truth is not None
+    rmse = evo_ape_rmse(truth, estimate)
+    assert rmse == pytest.approx(run.metrics["ate_rmse_m"], abs=1e-6)
