@@ -13,17 +13,28 @@ NATIVE_STAMP := $(VENV)/.native-built
 RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.toml Cargo.lock
 
 .PHONY: help test demo bench bench-peers lint format clean rust-setup rust-lint rust-doc \
-	rust-test venv develop py-lint py-test
+	rust-test venv develop py-lint py-test docs wheel-check
 
 help:
 	@echo "make demo        - simulate paper_fig4 and slip_patch; MTE, MTE-clone, MTE-history and PI-SR on each (demo_output/)"
-	@echo "make test        - lint (Rust fmt, clippy, rustdoc; ruff, mypy, stubtest), then cargo test and pytest"
-	@echo "make lint        - formatting checks, lints and rustdoc only (Rust and Python)"
+	@echo "make test        - lint (Rust fmt, clippy, rustdoc; ruff, mypy, stubtest), then cargo test and pytest (notebooks included)"
+	@echo "make lint        - formatting checks, lints, rustdoc and the docs site only (Rust and Python): rust-lint rust-doc py-lint docs"
 	@echo "make format      - rewrite the sources: cargo fmt, ruff format, ruff check --fix"
+	@echo "make rust-lint   - cargo fmt --check and clippy -D warnings on every target"
+	@echo "make rust-doc    - rustdoc of the workspace, warnings as errors"
+	@echo "make rust-test   - cargo test --workspace"
+	@echo "make rust-setup  - add rustfmt and clippy to the toolchain"
+	@echo "make py-lint     - ruff, ruff format --check, mypy --strict, stubtest"
+	@echo "make py-test     - pytest (tests/python, the notebooks of examples/notebooks)"
+	@echo "make venv        - the Python venv (.venv/) with the runtime, dev, test and docs dependencies"
+	@echo "make develop     - build the extension (release) into the venv"
+	@echo "make docs        - the documentation site in target/site/: pages, Python API (mkdocs --strict), rustdoc in rust/"
+	@echo "make wheel-check - build the release abi3 wheel, install it into a clean venv, run the README quickstart"
 	@echo "make bench       - criterion benchmarks, then the peer comparison (bench-peers)"
 	@echo "make bench-peers - our EKF step vs numpy, filterpy, GTSAM (benches/PEERS.md, peers.png)"
-	@echo "make venv        - the Python venv (.venv/) with the runtime and dev dependencies"
-	@echo "make develop     - build the extension (release) into the venv"
+	@echo "make fuzz        - every cargo-fuzz target for FUZZ_SECONDS (default 600) each (nightly)"
+	@echo "make fuzz-smoke  - the same, 30 s per target"
+	@echo "make fuzz-setup  - install the nightly toolchain and cargo-fuzz"
 	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
 
 rust-setup:
@@ -40,12 +51,13 @@ rust-doc: rust-setup
 rust-test: rust-setup
 	$(CARGO) test --workspace
 
-# The venv with maturin, the runtime dependencies and the dev tools (the
-# `dev` extra of pyproject.toml), from PyPI. Re-run when pyproject changes.
+# The venv with maturin, the runtime dependencies, the dev tools, what the
+# tests import and the docs builder (the `dev`, `test` and `docs` extras of
+# pyproject.toml), from PyPI. Re-run when pyproject changes.
 $(STAMP): pyproject.toml
 	test -x $(VPY) || $(PYTHON) -m venv $(VENV)
 	$(VPY) -m pip install --quiet --upgrade pip
-	$(VPY) -c 'import tomllib; p = tomllib.load(open("pyproject.toml", "rb"))["project"]; print("\n".join(p["dependencies"] + p["optional-dependencies"]["dev"]))' > $(VENV)/requirements.txt
+	$(VPY) -c 'import tomllib; p = tomllib.load(open("pyproject.toml", "rb"))["project"]; print("\n".join(p["dependencies"] + p["optional-dependencies"]["dev"] + p["optional-dependencies"]["test"] + p["optional-dependencies"]["docs"]))' > $(VENV)/requirements.txt
 	$(VPY) -m pip install --quiet -r $(VENV)/requirements.txt
 	touch $@
 
@@ -71,7 +83,7 @@ py-lint: develop
 py-test: develop
 	$(VPY) -m pytest
 
-lint: rust-lint rust-doc py-lint
+lint: rust-lint rust-doc py-lint docs
 
 test: lint rust-test py-test
 
@@ -86,11 +98,36 @@ clean:
 	find . -name __pycache__ -type d -prune -not -path './target/*' -exec rm -rf {} +
 	rm -f python/bearing_slam/_native*.so python/bearing_slam/_native*.pyd
 
+# --- Documentation and packaging
+# The site (mkdocs.yml): docs/*.md, the Python API reference (mkdocstrings:
+# the Python sources, and the built extension for the docstrings of its
+# classes), and the rustdoc of the workspace under target/site/rust/. Warnings are
+# errors on both sides.
+docs: rust-setup develop
+	RUSTDOCFLAGS="-D warnings" $(CARGO) doc --no-deps --workspace
+	$(VENV)/bin/mkdocs build --strict
+
+# The release wheel (abi3: one wheel for every CPython >= 3.11) installed into
+# a clean venv with nothing but its own dependencies, then the README's Python
+# quickstart run from an empty folder against it.
+WHEEL_DIR := target/wheels
+WHEEL_VENV := target/wheel-check-venv
+wheel-check: $(STAMP)
+	rm -rf $(WHEEL_DIR) $(WHEEL_VENV)
+	$(VENV)/bin/maturin build --release --out $(WHEEL_DIR)
+	ls $(WHEEL_DIR)/*-abi3-*.whl
+	$(PYTHON) -m venv $(WHEEL_VENV)
+	$(WHEEL_VENV)/bin/python -m pip install --quiet $(WHEEL_DIR)/*-abi3-*.whl
+	$(VPY) -c 'import re, pathlib; t = pathlib.Path("README.md").read_text().split("## Python quickstart", 1)[1]; pathlib.Path("$(WHEEL_VENV)/quickstart.py").write_text(re.findall(r"```python\n(.*?)```", t, flags=re.S)[0])'
+	mkdir -p $(WHEEL_VENV)/run && cd $(WHEEL_VENV)/run && ../bin/python ../quickstart.py
+	$(WHEEL_VENV)/bin/bearing-slam --version
+	@echo "wheel-check: $$(ls $(WHEEL_DIR)/*.whl) installs into a clean venv and runs the quickstart"
+
 demo: develop
 	$(VENV)/bin/bearing-slam demo --out demo_output
 
 bench: rust-setup
-	$(CARGO) bench -p bearing-slam
+	$(CARGO) bench -p bearing-slam-benches
 	$(MAKE) bench-peers
 
 # The `bench` extra (filterpy, gtsam, scipy, ...), one package at a time: a

@@ -40,7 +40,7 @@
 //! (`iter_custom`). The floor kernels run in place (their values drift
 //! linearly, which does not change the speed of the arithmetic).
 //!
-//! `cargo bench -p bearing-slam --bench ekf_step` (add `-- --quick` while
+//! `cargo bench -p bearing-slam-benches --bench ekf_step` (add `-- --quick` while
 //! iterating; `EKF_SIZES=10,200` restricts the sizes, `EKF_RSS_STEPS=0`
 //! skips the memory run).
 

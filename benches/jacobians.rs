@@ -11,7 +11,7 @@
 //!   candidate's first ray and the current ray, with all four Jacobians.
 //!
 //! Inputs are fixed, non-degenerate values behind `black_box`.
-//! `cargo bench -p bearing-slam --bench jacobians`
+//! `cargo bench -p bearing-slam-benches --bench jacobians`
 
 use bearing_slam::core::init::{Candidate, triangulate_candidate};
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};

@@ -25,7 +25,7 @@
 //! (default 10,000) steps at n = 200 and prints the largest relative
 //! difference of mean and covariance.
 //!
-//! `nice -n 10 cargo bench -p bearing-slam --bench large_map`
+//! `nice -n 10 cargo bench -p bearing-slam-benches --bench large_map`
 //! (`LARGE_SIZES=200,1000` restricts the sizes; default 200, 500, 1000,
 //! 2000, 5000).
 

@@ -2,7 +2,7 @@
 //! the sensors due at that step), and the real-time factor of a whole
 //! `slip_patch` run (simulated seconds per wall-clock second).
 //!
-//! `cargo bench -p bearing-slam --bench sim_step`
+//! `cargo bench -p bearing-slam-benches --bench sim_step`
 
 use bearing_slam_sim::{Scenario, Simulation, simulate};
 use criterion::{Criterion, Throughput, criterion_group, criterion_main};

@@ -107,7 +107,11 @@ __all__ = [
 # the function `bs.montecarlo`; its module is `bearing_slam.monte_carlo`.
 from bearing_slam.monte_carlo import MonteCarloResult, montecarlo
 
+# Trajectories in the TUM format, for evo (module `bearing_slam.tum`).
+from bearing_slam.tum import write_tum
+
 __all__ += ["MonteCarloResult", "montecarlo"]
+__all__ += ["write_tum"]
 
 # A run as a Rerun recording (the `rerun` extra): `bs.log_rerun`; its module is
 # `bearing_slam.rerun`. Acoustic bearings (the `acoustics` extra): `bearing_slam.acoustics`.

@@ -24,7 +24,9 @@ from tqdm import tqdm
 from bearing_slam._native import (
     BearingSlamError,
     Config,
+    RunResult,
     SensorLog,
+    __version__,
     read_mcap,
     run,
     scenario_names,
@@ -50,6 +52,7 @@ from bearing_slam.outputs import (
     write_outputs,
     write_text_atomic,
 )
+from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
     DEFAULT_THRESHOLDS,
@@ -149,6 +152,26 @@ def _demo_entries() -> list[str]:
     ]
 
 
+def _write_tum(path: str | Path | None, result: RunResult, quiet: bool = False) -> None:
+    """``--tum FILE``: the estimate (and the truth beside it) in the TUM format."""
+    if path is None:
+        return
+    try:
+        estimate, truth = write_tum(path, result)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    if not quiet:
+        print(f"wrote {estimate}" + (f" and {truth} (TUM)" if truth else " (TUM; no ground truth)"))
+
+
+#: Help of ``--tum`` (run, mrclam).
+_TUM_HELP = (
+    "also write the estimate in the TUM format (timestamp x y z qx qy qz qw) to FILE and "
+    "the ground truth at the same times beside it (run.tum -> run.truth.tum): "
+    "`evo_ape tum run.truth.tum run.tum` (no --align) gives ate_rmse_m"
+)
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     entries = _demo_entries()
@@ -186,6 +209,8 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                         log,
                         snapshot_every=args.snapshot_every,
                     )
+                    if args.tum is not None:
+                        _write_tum(new / f"{scenario}_{label}" / args.tum, result, quiet=True)
                     _log_rerun(args, result, log, label=f"{scenario}_{label}")
                     rows.append((scenario, label, rec))
                     bar.update()
@@ -253,6 +278,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     _log_rerun(args, result, log)
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
+    _write_tum(args.tum, result)
     return 0
 
 
@@ -291,6 +317,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         )
         _log_rerun(args, run_.result, run_.log, landmarks=mrclam.plot_log(run_).landmarks)
         bar.update()
+    _write_tum(args.tum, run_.result)
 
     def f(key: str) -> str:
         v = rec.get(key)
@@ -353,6 +380,7 @@ def _parser() -> argparse.ArgumentParser:
         description="Bearing-only EKF SLAM (Munguía & Grau's stochastic triangulation, 'MTE'): "
         "simulate logs, run the filter on them, and plot and score the results.",
     )
+    p.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     sub = p.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     demo = sub.add_parser(
@@ -370,6 +398,12 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--seed", type=seed, default=0, help="simulation seed (default: %(default)s)")
     demo.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(demo, demo=True)
+    demo.add_argument(
+        "--tum",
+        metavar="NAME",
+        help="also write each run's estimate in the TUM format to OUT/SCENARIO_METHOD/NAME "
+        "and its ground truth beside it (run.tum -> run.truth.tum), for evo",
+    )
     demo.set_defaults(func=_cmd_demo)
 
     simp = sub.add_parser(
@@ -397,7 +431,7 @@ def _parser() -> argparse.ArgumentParser:
         "or the Rust tools) and writes into --out: metrics.json (ate_rmse_m, "
         "final_position_error_m, final_heading_error_deg, landmark_rmse_m, mean_nees_pose, "
         "n_landmarks_initialized, dead-reckoning numbers, counts, config), trajectory.png "
-        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (95 %% χ² band) and "
+        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (95 % χ² band) and "
         "estimate.mcap (log + estimate, opens in Foxglove).",
     )
     runp.add_argument("log", metavar="LOG.mcap", help="input MCAP log")
@@ -420,6 +454,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--bearing-sigma-deg", type=positive_float, help="bearing noise σ, degrees")
     runp.add_argument("--use-range", action="store_true", help="use ranges too (reference)")
     runp.add_argument("--out", required=True, help="output folder")
+    runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
     runp.set_defaults(func=_cmd_run)
@@ -471,6 +506,7 @@ def _parser() -> argparse.ArgumentParser:
         "--end", type=positive_float, help="window end, s since the robot's first command"
     )
     mr.add_argument("--out", required=True, help="output folder")
+    mr.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
     mr.set_defaults(func=_cmd_mrclam)
@@ -597,7 +633,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         f"error > {t['diverged_position_m']:g} m), prints the class fractions and writes --json: "
         "the spec, "
         "converged_fraction, drift_fraction, diverged_fraction, per-run metrics (runs), "
-        "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 %% band) "
+        "means (all_finite, converged), mean_nees, nees_over_time (mean with the 95 % band) "
         "and error_over_time. From Python, bearing_slam.montecarlo(...) also runs on any "
         "concurrent.futures executor, e.g. a Dask cluster.",
     )
@@ -648,7 +684,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         f"{EXPERIMENT_DEFAULT_RUNS['fig4']} runs each), then every initializer with the near "
         "landmarks scaled x0.2 to x4; fig4.png: "
         "class fractions per method and ATE against scale. consistency: the same runs' "
-        "mean pose NEES over time with the 95 %% band per method (consistency.png; reuses "
+        "mean pose NEES over time with the 95 % band per method (consistency.png; reuses "
         "fig4's runs under all). "
         "fig5: σ_d and σ_ρ of a triangulation against parallax, first order and sampled "
         "(fig5.png, log y). fig8: paper_fig8 with 5, 10, 20, 40 landmarks, MTE (default "

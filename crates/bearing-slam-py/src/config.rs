@@ -525,4 +525,15 @@ impl PyConfig {
     fn __deepcopy__(&self, _memo: &Bound<'_, PyAny>) -> Self {
         self.clone()
     }
+
+    /// Pickling: `Config()` (the defaults), then every parameter set from
+    /// this dict (`to_dict`) by `__setstate__`.
+    fn __getstate__<'py>(slf: &Bound<'py, Self>) -> PyResult<Bound<'py, PyDict>> {
+        Self::to_dict(slf)
+    }
+
+    /// Sets every parameter of a `__getstate__` dict, checked as `replace` does.
+    fn __setstate__(slf: &Bound<'_, Self>, state: &Bound<'_, PyDict>) -> PyResult<()> {
+        Self::apply(slf, Some(state))
+    }
 }

@@ -10,7 +10,7 @@ use bearing_slam::core::log::{
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
-use pyo3::types::PyDict;
+use pyo3::types::{PyBytes, PyDict};
 
 /// `LogInfo` from a Python dict: every key must be a field of `LogInfo`, and
 /// every value a JSON value of that field (numbers finite); an error names the
@@ -398,6 +398,24 @@ impl PySensorLog {
     fn from_json(text: &str) -> PyResult<Self> {
         let log: SensorLog = serde_json::from_str(text)
             .map_err(|e| PyValueError::new_err(format!("invalid sensor-log JSON: {e}")))?;
+        log.validate().py()?;
+        Ok(Self::new(log))
+    }
+
+    /// Pickling: rebuilt by `SensorLog._from_pickle` from CBOR bytes of the
+    /// log (exact floats; validated again on load).
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let bytes = crate::pickle::to_state(&slf.get().inner, "sensor log")?;
+        let rebuild = slf.get_type().getattr("_from_pickle")?;
+        Ok((rebuild, (PyBytes::new(slf.py(), &bytes),)))
+    }
+
+    /// A log from the bytes of `__reduce__`; validated.
+    #[staticmethod]
+    fn _from_pickle(state: &[u8]) -> PyResult<Self> {
+        let log: SensorLog = crate::pickle::from_state(state, "sensor log")?;
         log.validate().py()?;
         Ok(Self::new(log))
     }

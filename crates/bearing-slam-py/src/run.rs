@@ -12,7 +12,7 @@ use bearing_slam::core::score::{RunSummary, summarize};
 use bearing_slam::core::trace::SlamTrace;
 use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
-use pyo3::types::{PyDict, PyList};
+use pyo3::types::{PyBytes, PyDict, PyList};
 
 /// The summary as a dict (NaN kept as float NaN; `landmark_rmse_m` None
 /// when no landmark has a truth).
@@ -119,6 +119,23 @@ impl PyTrace {
     /// covariances (n, 2, 2))`.
     fn final_landmarks<'py>(&self, py: Python<'py>) -> PyResult<LandmarkArrays<'py>> {
         snapshot_landmarks(py, self.inner.snapshots.last())
+    }
+
+    /// Pickling: rebuilt by `Trace._from_pickle` from CBOR bytes of the trace.
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>,))> {
+        let bytes = crate::pickle::to_state(&slf.get().inner, "trace")?;
+        let rebuild = slf.get_type().getattr("_from_pickle")?;
+        Ok((rebuild, (PyBytes::new(slf.py(), &bytes),)))
+    }
+
+    /// A trace from the bytes of `__reduce__`.
+    #[staticmethod]
+    fn _from_pickle(state: &[u8]) -> PyResult<Self> {
+        Ok(Self {
+            inner: crate::pickle::from_state(state, "trace")?,
+        })
     }
 }
 
@@ -273,6 +290,30 @@ impl PyRunResult {
     #[getter]
     fn counts<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         to_py(py, &self.output.counts)
+    }
+
+    /// Pickling: rebuilt by `RunResult._from_pickle` from CBOR bytes of the
+    /// output and summary (exact floats, NaN kept) and the `Config` (which
+    /// pickles itself).
+    #[allow(clippy::type_complexity)]
+    fn __reduce__<'py>(
+        slf: &Bound<'py, Self>,
+    ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>, PyConfig))> {
+        let r = slf.get();
+        let bytes = crate::pickle::to_state(&(&r.output, &r.summary), "run result")?;
+        let rebuild = slf.get_type().getattr("_from_pickle")?;
+        Ok((rebuild, (PyBytes::new(slf.py(), &bytes), r.config.clone())))
+    }
+
+    /// A result from the arguments of `__reduce__`.
+    #[staticmethod]
+    fn _from_pickle(state: &[u8], config: PyConfig) -> PyResult<Self> {
+        let (output, summary) = crate::pickle::from_state(state, "run result")?;
+        Ok(Self {
+            output,
+            summary,
+            config,
+        })
     }
 
     /// The trace (snapshots after every scan, events), as written to MCAP.

@@ -26,12 +26,15 @@ from numpy.typing import NDArray
 from bearing_slam._native import RunResult, SensorLog, chi2_interval
 
 __all__ = [
+    "SCAN_GAP_S",
     "covariance_ellipse",
+    "landmark_clusters",
     "plot_nees",
     "plot_pose_errors",
     "plot_trajectory",
     "save_figure",
     "save_plots",
+    "scan_gaps",
 ]
 
 _TRUTH = "#2ca02c"
@@ -81,12 +84,16 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
     if log is not None and len(log.landmarks):
         lm = log.landmarks
         ax.plot(lm[:, 1], lm[:, 2], "x", color=_LANDMARK, ms=10, mew=2, label="landmarks (truth)")
-        for row in lm:
+        for members in landmark_clusters(lm[:, 1:], _label_radius(result, lm)):
+            # One label per group of close landmarks ("16, 17, 18"), above the group.
+            top = members[np.argmax(lm[members, 2])]
             ax.annotate(
-                f"{int(row[0])}",
-                (row[1], row[2]),
+                ", ".join(str(int(lm[k, 0])) for k in sorted(members, key=lambda k: lm[k, 0])),
+                (lm[top, 1], lm[top, 2]),
                 textcoords="offset points",
-                xytext=(6, 6),
+                xytext=(0, 8),
+                ha="center",
+                va="bottom",
                 color=_LANDMARK,
                 fontsize=9,
                 annotation_clip=True,
@@ -103,7 +110,43 @@ def _draw_map(ax: Axes, result: RunResult, log: SensorLog | None, legend: bool) 
     ax.set_ylabel("y [m]")
     ax.grid(True, alpha=0.3)
     if legend:
-        ax.legend(loc="best", fontsize=8, framealpha=0.85)
+        # A figure legend right of the map (constrained layout makes room for
+        # it): a legend inside the axes hides landmarks.
+        handles, labels = ax.get_legend_handles_labels()
+        ax.figure.legend(handles, labels, loc="outside right center", fontsize=8)
+
+
+def landmark_clusters(points: NDArray[np.float64], radius: float) -> list[list[int]]:
+    """Groups of landmark indices whose points are chained by gaps of at most
+    ``radius`` (single linkage), each group in index order, groups by their
+    first index: the landmarks that share one label on a map."""
+    n = len(points)
+    parent = list(range(n))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(n):
+        for j in range(i + 1, n):
+            if float(np.hypot(*(points[i] - points[j]))) <= radius:
+                parent[root(j)] = root(i)
+    groups: dict[int, list[int]] = {}
+    for i in range(n):
+        groups.setdefault(root(i), []).append(i)
+    return sorted(groups.values())
+
+
+def _label_radius(result: RunResult, landmarks: NDArray[np.float64]) -> float:
+    """How close two landmarks must be to share a label: 4 % of the map's extent."""
+    pts = [landmarks[:, 1:], result.estimate[:, :2]]
+    xy = np.concatenate(pts)
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        return 0.0
+    return 0.04 * max(float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1])), 1.0)
 
 
 def _path_box(result: RunResult) -> tuple[float, float, float, float]:
@@ -165,7 +208,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         far = reach > 2.0 * size
     if far:
         fig, (ax, zoom) = plt.subplots(
-            1, 2, figsize=(13, 6), layout="constrained", width_ratios=[1, 1.3]
+            1, 2, figsize=(14.5, 6), layout="constrained", width_ratios=[1, 1.3]
         )
         _draw_map(ax, result, log, legend=False)
         _fit_to_points(ax, result, log)
@@ -179,7 +222,7 @@ def plot_trajectory(result: RunResult, log: SensorLog | None = None) -> Figure:
         zoom.set_aspect("equal", adjustable="box")
         zoom.set_title("around the path")
     else:
-        fig, ax = plt.subplots(figsize=(8, 6.5), layout="constrained")
+        fig, ax = plt.subplots(figsize=(9.5, 6.5), layout="constrained")
         _draw_map(ax, result, log, legend=True)
         _fit_to_points(ax, result, log)
         ax.set_aspect("equal", adjustable="box")
@@ -191,11 +234,30 @@ def _wrap(a: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.asarray((a + np.pi) % (2.0 * np.pi) - np.pi, dtype=np.float64)
 
 
+#: A pause in the scans longer than this (s) is shaded on the pose-error plot.
+SCAN_GAP_S = 5.0
+
+
+def scan_gaps(result: RunResult, min_gap: float = SCAN_GAP_S) -> list[tuple[float, float]]:
+    """The ``(start, end)`` times between consecutive scans (the trace's
+    snapshot times) that are more than ``min_gap`` seconds apart."""
+    times = np.asarray(result.trace.times, dtype=np.float64)
+    if len(times) < 2:
+        return []
+    gaps = np.flatnonzero(np.diff(times) > min_gap)
+    return [(float(times[i]), float(times[i + 1])) for i in gaps]
+
+
 def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
     """Pose errors (estimate − truth) in x, y [m] and θ [deg] over time, with
-    the filter's ±3σ bounds."""
+    the filter's ±3σ bounds (square roots of the covariance's diagonal; θ's is
+    not wrapped). The bounds grow while the robot only drives (prediction) and
+    drop when it sees mapped landmarks (update): a saw-tooth that is the filter
+    telling the truth. Pauses in the scans longer than :data:`SCAN_GAP_S` are
+    shaded grey, which is where the bounds grow the most."""
     fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True, layout="constrained")
     t = result.time
+    gaps = scan_gaps(result)
     err = result.estimate - result.truth
     err[:, 2] = _wrap(err[:, 2])
     cov = result.covariance
@@ -210,6 +272,9 @@ def plot_pose_errors(result: RunResult, log: SensorLog | None = None) -> Figure:
         ax.plot(t, -b, color=_ESTIMATE, lw=0.5)
         ax.plot(t, e, color="k", lw=1.0, label="error")
         ax.axhline(0.0, color="0.5", lw=0.5)
+        for k, (start, end) in enumerate(gaps):
+            label = f"no scan for > {SCAN_GAP_S:g} s" if k == 0 else None
+            ax.axvspan(start, end, color="0.6", alpha=0.25, lw=0, label=label)
         ax.set_ylabel(labels[i])
         ax.grid(True, alpha=0.3)
     axes[0].legend(loc="upper left", fontsize=9)
