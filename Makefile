@@ -136,14 +136,15 @@ fuzz: fuzz-setup
 
 # The CI smoke: every target FUZZ_SMOKE_SECONDS (30 s) on its committed
 # seeds, in a throw-away corpus (the working corpora are left alone). All
-# targets are built once first, so each run starts at once.
+# targets are built once first, with the flags of `make fuzz` (release with
+# debug assertions), so the two share one build and each run starts at once.
 FUZZ_SMOKE_SECONDS ?= 30
 fuzz-smoke: fuzz-setup
-	cd fuzz && $(CARGO) +nightly fuzz build -O
+	cd fuzz && $(CARGO) +nightly fuzz build
 	cd fuzz && set -o pipefail && smoke=$$(mktemp -d) && trap 'rm -rf "$$smoke"' EXIT && \
 	for t in $(FUZZ_TARGETS); do \
 		mkdir -p "$$smoke/$$t" && \
-		$(CARGO) +nightly fuzz run -O $$t "$$smoke/$$t" seeds/$$t -- \
+		$(CARGO) +nightly fuzz run $$t "$$smoke/$$t" seeds/$$t -- \
 			-max_total_time=$(FUZZ_SMOKE_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
 			-print_final_stats=1 2>&1 | tail -n 12 || exit 1; \
 	done
