@@ -33,9 +33,12 @@ help:
 	@echo "make bench       - criterion benchmarks, then the peer comparison (bench-peers)"
 	@echo "make bench-peers - our EKF step vs numpy, filterpy, GTSAM (benches/PEERS.md, peers.png)"
 	@echo "make fuzz        - every cargo-fuzz target for FUZZ_SECONDS (default 600) each (nightly)"
-	@echo "make fuzz-smoke  - the same, 30 s per target"
+	@echo "make fuzz-smoke  - every fuzz target 30 s on its committed seeds (run by CI after make test)"
 	@echo "make fuzz-setup  - install the nightly toolchain and cargo-fuzz"
+	@echo "make fuzz-py     - atheris on SensorLog.from_json, read_mcap, Config(**kwargs) (FUZZ_SECONDS, default 60)"
 	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
+	@echo "make mutants     - cargo-mutants on the estimator's core modules (hours; MUTANTS_ARGS='--shard 0/20')"
+	@echo "make soak        - long runs: 1e6 filter steps (RSS), 1e6 random operations (PSD), 6 h simulated"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true
@@ -168,9 +171,6 @@ fuzz: fuzz-setup
 			-print_final_stats=1 || exit 1; \
 	done
 
-fuzz-smoke:
-	$(MAKE) fuzz FUZZ_SECONDS=30
-
 # --- Python-side fuzzing (atheris, the `fuzz` extra of pyproject.toml):
 # SensorLog.from_json, read_mcap and Config(**kwargs) through the installed
 # extension. Each target runs FUZZ_SECONDS (default 60 s here; `make fuzz`'s
@@ -193,3 +193,51 @@ fuzz-py: develop
 			-max_total_time=$(FUZZ_PY_SECONDS) -timeout=10 -rss_limit_mb=4096 \
 			-artifact_prefix=tests/fuzz_py/artifacts/$$t- || exit 1; \
 	done
+
+# The CI smoke: every target FUZZ_SMOKE_SECONDS (30 s) on its committed
+# seeds, in a throw-away corpus (the working corpora are left alone). All
+# targets are built once first, with the flags of `make fuzz` (release with
+# debug assertions), so the two share one build and each run starts at once.
+FUZZ_SMOKE_SECONDS ?= 30
+fuzz-smoke: fuzz-setup
+	cd fuzz && $(CARGO) +nightly fuzz build
+	cd fuzz && set -o pipefail && smoke=$$(mktemp -d) && trap 'rm -rf "$$smoke"' EXIT && \
+	for t in $(FUZZ_TARGETS); do \
+		mkdir -p "$$smoke/$$t" && \
+		$(CARGO) +nightly fuzz run $$t "$$smoke/$$t" seeds/$$t -- \
+			-max_total_time=$(FUZZ_SMOKE_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
+			-print_final_stats=1 2>&1 | tail -n 12 || exit 1; \
+	done
+
+# --- Mutation testing (cargo-mutants) of the estimator's core modules: the
+# EKF, landmark initialization, measurement and motion models, landmark
+# parameterizations and the metrics. Each mutant is built and the core's
+# tests run against it: hours for all ~1900 on two cores. MUTANTS_ARGS
+# passes more options (`--shard 0/20` for a sample, `--list` to count).
+MUTANTS_FILES := -f 'crates/bearing-slam-core/src/ekf/*.rs' \
+	-f crates/bearing-slam-core/src/init.rs \
+	-f crates/bearing-slam-core/src/measurement.rs \
+	-f 'crates/bearing-slam-core/src/motion/*.rs' \
+	-f crates/bearing-slam-core/src/landmark.rs \
+	-f crates/bearing-slam-core/src/metrics.rs
+MUTANTS_ARGS ?=
+
+.PHONY: mutants soak
+
+mutants:
+	@command -v cargo-mutants >/dev/null 2>&1 || $(CARGO) install cargo-mutants --locked
+	nice -n 10 $(CARGO) mutants -p bearing-slam-core --test-package bearing-slam-core -j 1 --profile mutants --gitignore true \
+		$(MUTANTS_FILES) $(MUTANTS_ARGS)
+
+# Long runs (not in CI): 1e6 filter steps at a fixed state size with the
+# resident memory sampled, 1e6 random operations with the covariance checked
+# symmetric PSD after each, and 6 hours of simulated time through physics,
+# filter, scoring and MCAP. SOAK_STEPS, SOAK_OPS, SOAK_HOURS shorten them.
+SOAK_STEPS ?= 1000000
+SOAK_OPS ?= 1000000
+SOAK_HOURS ?= 6
+soak:
+	nice -n 10 $(CARGO) build --release -p bearing-slam --example soak
+	nice -n 10 target/release/examples/soak steps $(SOAK_STEPS)
+	nice -n 10 target/release/examples/soak ops $(SOAK_OPS)
+	nice -n 10 target/release/examples/soak sim $(SOAK_HOURS)

@@ -7,6 +7,26 @@ use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::Pose2;
 use serde::{Deserialize, Serialize};
 
+/// The largest bearing magnitude a log or a scan may hold, radians (2π).
+/// Sensors report bearings in (−π, π] or [0, 2π); anything beyond one turn
+/// either way is a corrupt value (1e300 rad would wrap to a meaningless
+/// angle), so it is refused rather than wrapped.
+pub const MAX_ABS_BEARING_RAD: f64 = std::f64::consts::TAU;
+
+/// Returns `bearing` if it is finite and within ±[`MAX_ABS_BEARING_RAD`],
+/// otherwise an error naming it.
+pub fn ensure_bearing(bearing: f64) -> Result<f64> {
+    ensure_finite("bearing", bearing)?;
+    if bearing.abs() > MAX_ABS_BEARING_RAD {
+        return Err(SlamError::InvalidParameter {
+            name: "bearing",
+            value: bearing,
+            reason: "beyond ±2π rad: not a bearing (corrupt value?)",
+        });
+    }
+    Ok(bearing)
+}
+
 /// Distances rolled by each wheel since the previous reading, from the wheel
 /// encoders (input of the differential-drive model, Munguía & Grau (2)(3)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -104,8 +124,10 @@ pub struct SensorLog {
 }
 
 impl SensorLog {
-    /// Checks that times are finite and non-decreasing and that every number
-    /// in every event is finite; names the first offending event.
+    /// Checks that times are finite and non-decreasing, that every number
+    /// in every event is finite, that every bearing lies within
+    /// ±[`MAX_ABS_BEARING_RAD`] and that every velocity command covers a
+    /// positive `dt`; names the first offending value.
     pub fn validate(&self) -> Result<()> {
         let mut previous = f64::NEG_INFINITY;
         for event in &self.events {
@@ -126,10 +148,17 @@ impl SensorLog {
                     ensure_finite("velocity v", v.v)?;
                     ensure_finite("velocity omega", v.omega)?;
                     ensure_finite("velocity dt", v.dt)?;
+                    if v.dt <= 0.0 {
+                        return Err(SlamError::InvalidParameter {
+                            name: "velocity dt",
+                            value: v.dt,
+                            reason: "must be > 0 (a command held for no time)",
+                        });
+                    }
                 }
                 EventKind::Bearings(obs) => {
                     for o in obs {
-                        ensure_finite("bearing", o.bearing)?;
+                        ensure_bearing(o.bearing)?;
                         if let Some(r) = o.range {
                             ensure_finite("range", r)?;
                         }

@@ -234,12 +234,46 @@ impl Runner<'_> {
     }
 }
 
+/// Refuses a run whose odometry model has nothing to predict with in a log
+/// that does carry the other kind of odometry (a velocity log run with a
+/// wheel model would never predict and report the estimate stuck at the
+/// start as if it were valid). A log with both kinds, or with neither, runs.
+pub fn check_odometry_matches(log: &SensorLog, odometry: &OdometryConfig) -> Result<()> {
+    let has = |wanted: OdometryKind| {
+        log.events.iter().any(|e| {
+            matches!(
+                (&e.kind, wanted),
+                (EventKind::Wheels(_), OdometryKind::Wheels)
+                    | (EventKind::Velocity(_), OdometryKind::Velocity)
+            )
+        })
+    };
+    match odometry.kind() {
+        OdometryKind::Wheels if !has(OdometryKind::Wheels) && has(OdometryKind::Velocity) => {
+            Err(SlamError::Mismatch(
+                "the run is configured for wheel odometry but the log has only velocity \
+                 odometry: nothing would ever predict (configure velocity odometry)",
+            ))
+        }
+        OdometryKind::Velocity if !has(OdometryKind::Velocity) && has(OdometryKind::Wheels) => {
+            Err(SlamError::Mismatch(
+                "the run is configured for velocity odometry but the log has only wheel \
+                 odometry: nothing would ever predict (configure wheel odometry)",
+            ))
+        }
+        _ => Ok(()),
+    }
+}
+
 /// Runs `log` through a new filter. The filter starts at
 /// `config.slam.initial_pose` unless the log states its initial pose, which
 /// then wins (the map frame is the world frame of the log). Ground truth is
-/// recorded from the first odometry or measurement event on.
+/// recorded from the first odometry or measurement event on. Errors when the
+/// log does not validate ([`SensorLog::validate`]) or carries only the other
+/// kind of odometry ([`check_odometry_matches`]).
 pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
     log.validate()?;
+    check_odometry_matches(log, &config.odometry)?;
     let mut slam_config = config.slam.clone();
     if let Some(pose) = log.info.initial_pose {
         slam_config.initial_pose = pose;

@@ -7,7 +7,7 @@ use crate::geometry::Pose2;
 use crate::log::SensorLog;
 use crate::metrics::{Alignment, ate, pose_nees};
 use crate::runner::{RunOutput, TrackPoint};
-use crate::trace::EstimateSnapshot;
+use crate::trace::{EstimateSnapshot, SlamEvent};
 use nalgebra::Matrix3;
 use serde::{Deserialize, Serialize};
 
@@ -36,6 +36,16 @@ pub struct RunSummary {
     pub n_landmarks_initialized: usize,
     /// Whether every covariance stayed finite (a non-finite one is divergence).
     pub finite: bool,
+    /// Whether the filter diverged: its windowed NIS stayed far above the χ²
+    /// bound (a [`SlamEvent::Diverging`] in the trace, see
+    /// [`crate::divergence`]). A diverged run's other numbers describe a
+    /// filter that lost track.
+    #[serde(default)]
+    pub diverged: bool,
+    /// When the first divergent stretch began, seconds (`None` when the
+    /// filter never diverged).
+    #[serde(default)]
+    pub diverged_at_s: Option<f64>,
 }
 
 /// Scores a run against the log's ground truth. Errors when the log has no
@@ -71,6 +81,7 @@ pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
         }
     }
     let last = output.trace.snapshots.last();
+    let diverged_at_s = first_divergence(output);
     Ok(RunSummary {
         ate_rmse_m: raw.rmse_m,
         ate_aligned_rmse_m: aligned.rmse_m,
@@ -86,7 +97,20 @@ pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
         },
         n_landmarks_initialized: last.map_or(0, |s| s.landmarks.len()),
         finite,
+        diverged: diverged_at_s.is_some(),
+        diverged_at_s,
     })
+}
+
+/// The time of the run's first [`SlamEvent::Diverging`], if any.
+#[must_use]
+pub fn first_divergence(output: &RunOutput) -> Option<f64> {
+    output
+        .trace
+        .events
+        .iter()
+        .find(|e| matches!(e.event, SlamEvent::Diverging { .. }))
+        .map(|e| e.time)
 }
 
 /// RMSE of a snapshot's landmarks against the log's landmark truth, over the

@@ -57,6 +57,20 @@ pub enum SlamEvent {
         /// Its normalized innovation squared.
         nis: f64,
     },
+    /// The filter began diverging: the NIS of the measurements of mapped
+    /// landmarks, summed over the last
+    /// [`DIVERGENCE_WINDOW_SCANS`](crate::divergence::DIVERGENCE_WINDOW_SCANS)
+    /// scans, is more than
+    /// [`DIVERGENCE_FACTOR`](crate::divergence::DIVERGENCE_FACTOR) times its χ²
+    /// bound. Recorded once per divergent stretch.
+    Diverging {
+        /// The windowed NIS sum.
+        window_nis: f64,
+        /// Its degrees of freedom (measurement rows in the window).
+        dof: usize,
+        /// The χ² bound (before the factor).
+        bound: f64,
+    },
 }
 
 /// A [`SlamEvent`] with the time it happened.

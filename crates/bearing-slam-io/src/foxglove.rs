@@ -34,6 +34,7 @@ pub(crate) mod level {
     pub const DEBUG: u8 = 1;
     pub const INFO: u8 = 2;
     pub const WARNING: u8 = 3;
+    pub const ERROR: u8 = 4;
 }
 
 /// `foxglove.LinePrimitive` types used here.

@@ -412,6 +412,12 @@ pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
             linearity_index, ..
         } => fin("event.linearity_index", *linearity_index),
         SlamEvent::MeasurementRejected { nis, .. } => fin("event.nis", *nis),
+        SlamEvent::Diverging {
+            window_nis, bound, ..
+        } => {
+            fin("event.window_nis", *window_nis)?;
+            fin("event.bound", *bound)
+        }
     }
 }
 
@@ -612,7 +618,8 @@ fn slam_event_schema() -> Value {
                             "candidate_expired",
                             "landmark_initialized",
                             "landmark_converted",
-                            "measurement_rejected"
+                            "measurement_rejected",
+                            "diverging"
                         ]
                     },
                     "id": id("Landmark id"),
@@ -623,8 +630,11 @@ fn slam_event_schema() -> Value {
                     "parallax_rad": number("Parallax at initialization, radians"),
                     "linearity_index": number("Linearity index that triggered the conversion"),
                     "nis": number("Normalized innovation squared of the rejected measurement"),
+                    "window_nis": number("Windowed NIS sum when the filter began diverging"),
+                    "dof": id("Degrees of freedom of the window (measurement rows)"),
+                    "bound": number("Chi-square bound of the windowed NIS (before the factor)"),
                 },
-                "required": ["kind", "id"],
+                "required": ["kind"],
             },
         }),
         &["time", "event"],

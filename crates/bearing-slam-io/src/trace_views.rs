@@ -72,7 +72,7 @@ pub(crate) fn map_scene(stamp: Time, s: &EstimateSnapshot) -> SceneUpdate {
 
 /// Level and text of the `/slam/events` log line of a filter decision.
 pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
-    use fx::level::{DEBUG, INFO, WARNING};
+    use fx::level::{DEBUG, ERROR, INFO, WARNING};
     match event {
         SlamEvent::CandidateCreated { id } => (DEBUG, format!("candidate landmark {id} created")),
         SlamEvent::CandidateExpired { id } => (WARNING, format!("candidate landmark {id} expired")),
@@ -106,6 +106,18 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
         SlamEvent::MeasurementRejected { id, nis } => (
             WARNING,
             format!("measurement of landmark {id} rejected by the gate (NIS {nis:.2})"),
+        ),
+        SlamEvent::Diverging {
+            window_nis,
+            dof,
+            bound,
+        } => (
+            ERROR,
+            format!(
+                "filter diverging: windowed NIS {window_nis:.1} over {dof} dof, \
+                 {:.1} times its chi-square bound {bound:.1}",
+                window_nis / bound
+            ),
         ),
     }
 }

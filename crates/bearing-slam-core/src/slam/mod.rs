@@ -16,11 +16,13 @@ mod delayed;
 pub use config::{InitializerConfig, InitializerKind, SlamConfig};
 use delayed::{PendingCandidate, PoseClone};
 
+use crate::divergence::DivergenceMonitor;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{InverseDepthPrior, pi_sr};
 use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
+use crate::log::ensure_bearing;
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
@@ -91,6 +93,8 @@ pub struct BearingSlam {
     gate_thresholds: Option<[f64; 2]>,
     time: Option<f64>,
     events: Vec<TimedSlamEvent>,
+    /// The windowed NIS test on every scan's measurements of mapped landmarks.
+    divergence: DivergenceMonitor,
 }
 
 impl BearingSlam {
@@ -117,6 +121,7 @@ impl BearingSlam {
             gate_thresholds,
             time: None,
             events: Vec::new(),
+            divergence: DivergenceMonitor::new(),
         })
     }
 
@@ -168,6 +173,13 @@ impl BearingSlam {
     #[must_use]
     pub fn clone_count(&self) -> usize {
         self.clones.len()
+    }
+
+    /// The divergence test: whether the filter is diverging now and how many
+    /// divergent stretches began (each is also a [`SlamEvent::Diverging`]).
+    #[must_use]
+    pub fn divergence(&self) -> &DivergenceMonitor {
+        &self.divergence
     }
 
     /// The filter's decisions so far.
@@ -300,6 +312,7 @@ impl BearingSlam {
     /// all taken at `time`: mapped landmarks are gated and stacked into one
     /// batched update; unmapped ones go to the initializer afterwards (with the
     /// updated pose). Inputs are checked before anything changes: NaN bearings,
+    /// bearings beyond ±2π ([`crate::log::MAX_ABS_BEARING_RAD`]),
     /// duplicate ids or a time before the last one give an error and leave the
     /// filter as it was.
     pub fn update_bearings(
@@ -308,7 +321,7 @@ impl BearingSlam {
         observations: &[(u64, f64)],
     ) -> Result<BatchReport> {
         for (i, &(id, z)) in observations.iter().enumerate() {
-            ensure_finite("bearing", z)?;
+            ensure_bearing(z)?;
             if observations[..i].iter().any(|&(other, _)| other == id) {
                 return Err(SlamError::DuplicateMeasurement(id));
             }
@@ -327,7 +340,7 @@ impl BearingSlam {
             let linearized = linearize_bearing(&self.ekf, 0, slot, wrap_angle(z), &noise);
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
         }
-        self.commit_batch(time, &batch, &mut report, pending_events)?;
+        self.commit_batch(time, &batch, &mut report, pending_events, 1)?;
         for (id, z) in new_sightings {
             if self.initialize_from_bearing(id, wrap_angle(z))? {
                 report.initialized += 1;
@@ -348,7 +361,7 @@ impl BearingSlam {
         observations: &[(u64, f64, f64)],
     ) -> Result<BatchReport> {
         for (i, &(id, r, z)) in observations.iter().enumerate() {
-            ensure_finite("bearing", z)?;
+            ensure_bearing(z)?;
             ensure_finite("range", r)?;
             if r <= 0.0 {
                 return Err(SlamError::InvalidParameter {
@@ -387,7 +400,7 @@ impl BearingSlam {
                 None => new_points.push((id, r, z)),
             }
         }
-        self.commit_batch(time, &batch, &mut report, pending_events)?;
+        self.commit_batch(time, &batch, &mut report, pending_events, 2)?;
         for (id, r, z) in new_points {
             let pose = self.ekf.block::<3>(0)?;
             let inv = inverse_range_bearing(&pose, r, wrap_angle(z))?;
@@ -477,13 +490,34 @@ impl BearingSlam {
         batch: &[LinearizedMeasurement],
         report: &mut BatchReport,
         pending_events: Vec<SlamEvent>,
+        rows_per_measurement: usize,
     ) -> Result<()> {
         let stats = self.ekf.update(batch)?;
         self.advance_time(time)?;
         report.used = batch.len();
         report.nis = stats.nis;
+        // The divergence test sees every measurement of a mapped landmark:
+        // the batch's NIS and that of each gated-out one (a degenerate
+        // prediction, NIS = f64::MAX, carries no information and is left out).
+        let mut scan_nis = stats.nis;
+        let mut scan_dof = stats.dof;
+        for e in &pending_events {
+            if let SlamEvent::MeasurementRejected { nis, .. } = e
+                && *nis < f64::MAX
+            {
+                scan_nis += nis;
+                scan_dof += rows_per_measurement;
+            }
+        }
         for e in pending_events {
             self.record(e);
+        }
+        if let Some(onset) = self.divergence.observe(scan_nis, scan_dof)? {
+            self.record(SlamEvent::Diverging {
+                window_nis: onset.window_nis.min(f64::MAX),
+                dof: onset.dof,
+                bound: onset.bound,
+            });
         }
         self.wrap_heading()?;
         self.wrap_ray_azimuths()
