@@ -163,7 +163,6 @@ def test_plots_of_empty_and_one_point_results() -> None:
             make(result, log)
 
 
-@pytest.mark.skipif(not (DATA / "MRCLAM_Dataset6").is_dir(), reason="needs the MRCLAM data")
 def test_mrclam_window_of_ten_milliseconds(tmp_path: Path) -> None:
     out = tmp_path / "w"
     r = cli(

@@ -54,7 +54,7 @@ def test_dask_local_cluster_same_report(local_mte: MonteCarloResult) -> None:
     # Worker processes (not threads): the task and its record really cross a
     # process boundary by pickling, as on a remote cluster. Two workers start
     # in a few seconds on loopback.
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with (
         distributed.LocalCluster(
             n_workers=2,

@@ -95,7 +95,7 @@ def _ate_on_worker(log: bs.SensorLog, config: bs.Config) -> tuple[bs.RunResult, 
 
 @pytest.mark.slow
 def test_through_a_dask_worker_process(fig4_log: bs.SensorLog, fig4_result: bs.RunResult) -> None:
-    distributed = pytest.importorskip("distributed")
+    import distributed
     with (
         distributed.LocalCluster(
             n_workers=1,

@@ -31,6 +31,9 @@ pub(crate) fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bou
         s.dead_reckoning_final_position_error_m,
     )?;
     d.set_item("finite", s.finite)?;
+    // The divergence flag (issue 20): the windowed NIS far above its bound.
+    d.set_item("diverged", s.diverged)?;
+    d.set_item("diverged_at_s", s.diverged_at_s)?;
     Ok(d)
 }
 
