@@ -237,7 +237,7 @@ SOAK_STEPS ?= 1000000
 SOAK_OPS ?= 1000000
 SOAK_HOURS ?= 6
 soak:
-	nice -n 10 $(CARGO) build --release -p bearing-slam --example soak
+	nice -n 10 $(CARGO) build --release -p bearing-slam-benches --example soak
 	nice -n 10 target/release/examples/soak steps $(SOAK_STEPS)
 	nice -n 10 target/release/examples/soak ops $(SOAK_OPS)
 	nice -n 10 target/release/examples/soak sim $(SOAK_HOURS)

@@ -534,6 +534,7 @@ impl PyConfig {
 
     /// Sets every parameter of a `__getstate__` dict, checked as `replace` does.
     fn __setstate__(slf: &Bound<'_, Self>, state: &Bound<'_, PyDict>) -> PyResult<()> {
-        Self::apply(slf, Some(state))
+        // Our own state: every parameter, used or not by its method.
+        Self::apply(slf, Some(state), false)
     }
 }

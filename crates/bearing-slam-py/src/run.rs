@@ -296,14 +296,14 @@ impl PyRunResult {
     }
 
     /// Pickling: rebuilt by `RunResult._from_pickle` from CBOR bytes of the
-    /// output and summary (exact floats, NaN kept) and the `Config` (which
+    /// output, the summary and the digest of the log it was run on (exact floats, NaN kept) and the `Config` (which
     /// pickles itself).
     #[allow(clippy::type_complexity)]
     fn __reduce__<'py>(
         slf: &Bound<'py, Self>,
     ) -> PyResult<(Bound<'py, PyAny>, (Bound<'py, PyBytes>, PyConfig))> {
         let r = slf.get();
-        let bytes = crate::pickle::to_state(&(&r.output, &r.summary), "run result")?;
+        let bytes = crate::pickle::to_state(&(&r.output, &r.summary, r.log_digest), "run result")?;
         let rebuild = slf.get_type().getattr("_from_pickle")?;
         Ok((rebuild, (PyBytes::new(slf.py(), &bytes), r.config.clone())))
     }
@@ -311,11 +311,12 @@ impl PyRunResult {
     /// A result from the arguments of `__reduce__`.
     #[staticmethod]
     fn _from_pickle(state: &[u8], config: PyConfig) -> PyResult<Self> {
-        let (output, summary) = crate::pickle::from_state(state, "run result")?;
+        let (output, summary, log_digest) = crate::pickle::from_state(state, "run result")?;
         Ok(Self {
             output,
             summary,
             config,
+            log_digest,
         })
     }
 

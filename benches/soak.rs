@@ -16,7 +16,7 @@
 //!   simulated time (rapier physics, then the filter with the log's default
 //!   configuration), scored, written to MCAP and read back.
 //!
-//! `cargo run --release -p bearing-slam --example soak -- steps 1000000`
+//! `cargo run --release -p bearing-slam-benches --example soak -- steps 1000000`
 
 use bearing_slam::core::geometry::{Pose2, wrap_angle};
 use bearing_slam::core::log::WheelOdometry;
