@@ -299,8 +299,7 @@ def write_outputs(
     out = Path(out_dir)
     new = new_folder_beside(out)
     try:
-        (new / "metrics.json").write_text(json.dumps(record, indent=2) + "
-")
+        (new / "metrics.json").write_text(json.dumps(record, indent=2) + "\n")
         save_plots(result, log if plot_log is None else plot_log, new)
         write_mcap(new / "estimate.mcap", log, result, snapshot_every=snapshot_every)
         return publish_folder(new, out, RUN_FILES)

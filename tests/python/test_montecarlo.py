@@ -4,6 +4,7 @@ the CLI and the experiment writers."""
 
 from __future__ import annotations
 
+import importlib
 import json
 import math
 import pickle
@@ -54,7 +55,8 @@ def test_dask_local_cluster_same_report(local_mte: MonteCarloResult) -> None:
     # Worker processes (not threads): the task and its record really cross a
     # process boundary by pickling, as on a remote cluster. Two workers start
     # in a few seconds on loopback.
-    import distributed
+    distributed = importlib.import_module("distributed")  # installed by the dev/test extras
+
     with (
         distributed.LocalCluster(
             n_workers=2,

@@ -4,6 +4,7 @@ not skip, without it)."""
 
 from __future__ import annotations
 
+import importlib
 import os
 import time
 from pathlib import Path
@@ -22,8 +23,9 @@ def test_the_notebooks_are_there() -> None:
 @pytest.mark.slow
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_notebook_executes(path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    import nbformat
-    import nbclient
+    nbclient = importlib.import_module("nbclient")  # installed by the dev/test extras
+    nbformat = importlib.import_module("nbformat")
+
     monkeypatch.setenv("BEARING_SLAM_DATA", str(DATA))
     notebook = nbformat.read(path, as_version=4)
     assert all(not c.get("outputs") for c in notebook.cells if c.cell_type == "code"), (

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import importlib
 import pickle
 from typing import Any
 
@@ -95,7 +96,8 @@ def _ate_on_worker(log: bs.SensorLog, config: bs.Config) -> tuple[bs.RunResult, 
 
 @pytest.mark.slow
 def test_through_a_dask_worker_process(fig4_log: bs.SensorLog, fig4_result: bs.RunResult) -> None:
-    import distributed
+    distributed = importlib.import_module("distributed")  # installed by the dev/test extras
+
     with (
         distributed.LocalCluster(
             n_workers=1,
