@@ -5,14 +5,20 @@ mod common;
 
 use std::collections::{BTreeMap, BTreeSet};
 
-use bearing_slam_io::{Topic, write_log};
+use bearing_slam_io::{McapWriteOptions, Topic, write_log_with_options};
 use common::{sample_log, sample_trace, tmp};
 use serde_json::Value;
 
 fn written_file() -> Vec<u8> {
     let dir = tmp();
     let path = dir.path().join("run.mcap");
-    write_log(&path, &sample_log(120), Some(&sample_trace(60))).expect("write");
+    // Small chunks (the default is 1 MiB), so this short run spans several.
+    let options = McapWriteOptions {
+        chunk_size: 64 * 1024,
+        ..McapWriteOptions::default()
+    };
+    write_log_with_options(&path, &sample_log(120), Some(&sample_trace(60)), options)
+        .expect("write");
     std::fs::read(&path).expect("bytes")
 }
 
