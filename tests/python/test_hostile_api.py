@@ -261,9 +261,10 @@ def test_simulate_honours_ctrl_c() -> None:
     p.send_signal(signal.SIGINT)
     t0 = time.perf_counter()
     try:
-        out, err = p.communicate(timeout=20)
+        # Generous for a loaded machine: the simulation looks every 50 ms.
+        out, err = p.communicate(timeout=60)
     finally:
         p.kill()
     assert p.returncode == 3, (out, err)
     assert "interrupted" in out
-    assert time.perf_counter() - t0 < 5.0
+    assert time.perf_counter() - t0 < 10.0
