@@ -25,6 +25,10 @@
 //! (default 10,000) steps at n = 200 and prints the largest relative
 //! difference of mean and covariance.
 //!
+//! With `LARGE_BREAKDOWN=1` it prints instead where one region cycle of the
+//! compressed EKF spends its time (plain local step, the step that starts a
+//! phase, the global update alone) at each size.
+//!
 //! `nice -n 10 cargo bench -p bearing-slam-benches --bench large_map`
 //! (`LARGE_SIZES=200,1000` restricts the sizes; default 200, 500, 1000,
 //! 2000, 5000).
@@ -322,6 +326,43 @@ fn summary(rows: &[Row]) {
     }
 }
 
+/// Where one region cycle of the compressed EKF spends its time at `n`:
+/// the mean of the R − 1 plain local steps, the step that starts a local
+/// phase (gathering `P_{·A}(0)`), and the global update alone. Two cycles
+/// are run first so the phase is in its steady state.
+fn breakdown(n: usize) {
+    let (ekf, landmarks) = problem(n);
+    let mut runner = Runner::new(
+        ekf.with_covariance_update(CovarianceUpdate::Symmetric)
+            .with_update_mode(UpdateMode::Compressed),
+        landmarks,
+    );
+    for _ in 0..2 * R {
+        runner.step();
+    }
+    let (mut local, mut start, mut global) = (Duration::ZERO, Duration::ZERO, Duration::ZERO);
+    for i in 0..R {
+        let t = Instant::now();
+        runner.step();
+        if i == 0 {
+            start += t.elapsed();
+        } else {
+            local += t.elapsed();
+        }
+    }
+    let t = Instant::now();
+    runner.ekf.global_update();
+    global += t.elapsed();
+    let ns = |d: Duration| d.as_secs_f64() * 1e9;
+    println!(
+        "| {n} | {} | {} | {} | {} |",
+        fmt_time(ns(local) / (R - 1) as f64),
+        fmt_time(ns(start)),
+        fmt_time(ns(global)),
+        fmt_time((ns(local) + ns(start) + ns(global)) / R as f64),
+    );
+}
+
 fn main() {
     let steps = std::env::var("LARGE_EQUALITY_STEPS")
         .ok()
@@ -334,6 +375,14 @@ fn main() {
         .ok()
         .map(|s| s.split(',').filter_map(|x| x.trim().parse().ok()).collect())
         .unwrap_or_else(|| vec![200, 500, 1000, 2000, 5000]);
+    if std::env::var_os("LARGE_BREAKDOWN").is_some() {
+        println!("| n | local step | phase-start step | global update | per step |");
+        println!("|---|---|---|---|---|");
+        for &n in &sizes {
+            breakdown(n);
+        }
+        return;
+    }
     let mut c = Criterion::default().configure_from_args();
     let rows: Vec<Row> = sizes.iter().map(|&n| bench_size(&mut c, n)).collect();
     c.final_summary();
