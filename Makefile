@@ -198,16 +198,18 @@ fuzz-py: develop
 # seeds, in a throw-away corpus (the working corpora are left alone). All
 # targets are built once first, with the flags of `make fuzz` (release with
 # debug assertions), so the two share one build and each run starts at once.
+# FUZZ_SMOKE_JOBS targets run side by side (default: one per core); each
+# still gets its full FUZZ_SMOKE_SECONDS on one core.
 FUZZ_SMOKE_SECONDS ?= 30
+FUZZ_SMOKE_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 fuzz-smoke: fuzz-setup
 	cd fuzz && $(CARGO) +nightly fuzz build
-	cd fuzz && set -o pipefail && smoke=$$(mktemp -d) && trap 'rm -rf "$$smoke"' EXIT && \
-	for t in $(FUZZ_TARGETS); do \
-		mkdir -p "$$smoke/$$t" && \
-		$(CARGO) +nightly fuzz run $$t "$$smoke/$$t" seeds/$$t -- \
+	cd fuzz && smoke=$$(mktemp -d) && trap 'rm -rf "$$smoke"' EXIT && \
+	printf '%s\n' $(FUZZ_TARGETS) | xargs -P $(FUZZ_SMOKE_JOBS) -I{} bash -c ' \
+		set -o pipefail; mkdir -p "'"$$smoke"'/{}" && \
+		$(CARGO) +nightly fuzz run {} "'"$$smoke"'/{}" seeds/{} -- \
 			-max_total_time=$(FUZZ_SMOKE_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
-			-print_final_stats=1 2>&1 | tail -n 12 || exit 1; \
-	done
+			-print_final_stats=1 2>&1 | tail -n 12 || { echo "fuzz smoke: {} FAILED"; exit 1; }'
 
 # --- Mutation testing (cargo-mutants) of the estimator's core modules: the
 # EKF, landmark initialization, measurement and motion models, landmark
