@@ -25,12 +25,21 @@
 //! kernel ([`triangle_update`]), writes `P_AB = Φ P_AB(0)` and `P_AA` back,
 //! and ends the phase.
 //!
-//! **Choosing A (with hysteresis).** A local phase starts at the first
-//! update whose batch touches a state outside `A`: the global update is run,
-//! and the new `A` is the vehicle, every block of the batch, and the states
-//! of the old `A` observed within the last [`Ekf::set_compressed_hysteresis`]
-//! updates (default [`DEFAULT_HYSTERESIS`]), so that a robot driving along a
-//! region's boundary does not alternate global updates.
+//! **Choosing A: growth, and a global update only at a cap.** When an
+//! update's batch touches states outside `A`, they **join** the phase
+//! (exact, O(n a) per added state: their current covariance columns are
+//! formed from the storage and the auxiliaries, `P_{·A}(0)` gains their
+//! `P(0)` columns, `Φ` gains the rows `−P_JA(0) Ψ`, `Ψ` gains zero rows and
+//! columns; see [`Ekf::grow_local_phase`]). Only when the active set would
+//! pass [`Ekf::set_compressed_max_active`] states (default
+//! [`DEFAULT_MAX_ACTIVE`]) is the global update run and a new phase begun,
+//! whose `A` is the vehicle, every block of the batch, and the states of the
+//! old `A` observed within the last [`Ekf::set_compressed_hysteresis`]
+//! updates (default [`DEFAULT_HYSTERESIS`] = 0). Growth is what keeps a robot
+//! driving along a region's boundary from alternating global updates: going
+//! back into the old region costs O(n a), not O(n² a). The global update's
+//! cost is O(n² a_max) per phase, so the amortized step costs
+//! O(a² m + n a + n² a_max / T) for a phase of T steps.
 //!
 //! **Structure changes.** Augmentation, removal, cloning and
 //! reparameterization run the global update first (a simple rule that is
@@ -117,9 +126,18 @@ fn for_each_lower_cross(
 }
 
 /// Default hysteresis of the active region, in updates: a state stays
-/// active across a region change if it was observed within this many
-/// updates.
-pub const DEFAULT_HYSTERESIS: u64 = 10;
+/// active across a global update if it was observed within this many
+/// updates. Zero: since states re-join a phase in O(n a) (growth), keeping
+/// old states active buys nothing against boundary thrash and only makes
+/// every later global update costlier.
+pub const DEFAULT_HYSTERESIS: u64 = 0;
+
+/// Default cap on the states of a local phase (the vehicle included). A
+/// local step costs O(a² m) and the global update O(n² a), so the cap trades
+/// the two: at 64, a local step costs at most about 2× one at a = 43 (the
+/// vehicle and two regions of 10 point landmarks), and a robot moving
+/// through regions of 10 landmarks runs three of them per global update.
+pub const DEFAULT_MAX_ACTIVE: usize = 64;
 
 /// Marks a state index that is not active.
 const INACTIVE: usize = usize::MAX;
@@ -161,6 +179,19 @@ impl LocalPhase {
         }
     }
 
+    /// The states of `observed` (blocks `(start, len)`) that are not
+    /// active, ascending and without repeats.
+    fn inactive_in(&self, observed: &[(usize, usize)]) -> Vec<usize> {
+        let mut out: Vec<usize> = observed
+            .iter()
+            .flat_map(|&(start, len)| start..start + len)
+            .filter(|&i| self.slot.get(i).is_none_or(|&s| s == INACTIVE))
+            .collect();
+        out.sort_unstable();
+        out.dedup();
+        out
+    }
+
     /// Whether every index in `range` is active.
     fn covers(&self, start: usize, len: usize) -> bool {
         (start..start + len).all(|i| self.slot.get(i).is_some_and(|&s| s != INACTIVE))
@@ -191,7 +222,8 @@ impl Ekf {
     }
 
     /// Sets how many updates a state stays active after it was last
-    /// observed, across region changes (compressed mode; default
+    /// observed, across the global update that begins a new phase
+    /// (compressed mode; default
     /// [`DEFAULT_HYSTERESIS`]).
     pub fn set_compressed_hysteresis(&mut self, updates: u64) {
         self.hysteresis = updates;
@@ -202,6 +234,90 @@ impl Ekf {
     #[must_use]
     pub fn active_len(&self) -> usize {
         self.local.as_ref().map_or(0, |l| l.active.len())
+    }
+
+    /// Sets the most states a local phase grows to (the vehicle included)
+    /// before a global update begins a new one (default
+    /// [`DEFAULT_MAX_ACTIVE`]). Any value gives the same filter to rounding;
+    /// it only moves cost between local steps and global updates.
+    pub fn set_compressed_max_active(&mut self, states: usize) {
+        self.max_active = states;
+    }
+
+    /// Adds the inactive states `added` (ascending, in range) to the local
+    /// phase without a global update (exact, O(n (a + k)) for k added). With
+    /// `C = P_{·A}(0)`, `J = added`, `B' = B \ J`, the current values are
+    /// `P_JJ = P_JJ(0) − C_J Ψ C_Jᵀ`, `P_JA = C_J Φᵀ`; the new phase keeps the
+    /// same `P(0)` storage with `C' = [C_B', P_{B'J}(0)]`,
+    /// `Φ' = [[Φ, 0], [−C_J Ψ, I]]` and `Ψ' = [[Ψ, 0], [0, 0]]`, for which
+    /// `P_{B'A'} = C' Φ'ᵀ` and `P_{B'B'} = P_{B'B'}(0) − C' Ψ' C'ᵀ` hold as
+    /// in Guivant & Nebot's phase (then sorted back to ascending states).
+    pub(super) fn grow_local_phase(&mut self, added: &[usize]) {
+        let n = self.dim();
+        let (p, ld) = (self.cov.as_slice(), self.cov.nrows());
+        let update_count = self.update_count;
+        let Some(local) = self.local.as_mut() else {
+            return;
+        };
+        let (a, k) = (local.active.len(), added.len());
+        let stored = |i: usize, j: usize| if i >= j { p[j * ld + i] } else { p[i * ld + j] };
+        // The added states' rows of C (k × a).
+        let c_j = DMatrix::from_fn(k, a, |r, c| local.cross[(added[r], c)]);
+        let c_j_psi = &c_j * &local.psi;
+        let p_jj =
+            DMatrix::from_fn(k, k, |r, c| stored(added[r], added[c])) - &c_j_psi * c_j.transpose();
+        let p_ja = &c_j * local.phi.transpose();
+        // P_{·J}(0) from storage, read in storage order; rows of A' zeroed.
+        let mut slot_j = vec![INACTIVE; n];
+        for (s, &j) in added.iter().enumerate() {
+            slot_j[j] = s;
+        }
+        let mut new_cols = DMatrix::zeros(n, k);
+        for_each_lower_cross(added, &slot_j, n, |c, r, s| {
+            let row = if slot_j[r] == INACTIVE || added[s] == c {
+                r
+            } else {
+                c
+            };
+            new_cols[(row, s)] = p[c * ld + r];
+        });
+        // Unsorted extended matrices: old slots first, then the added ones.
+        let m = a + k;
+        let mut p_aa = DMatrix::zeros(m, m);
+        p_aa.view_mut((0, 0), (a, a)).copy_from(&local.p_aa);
+        p_aa.view_mut((a, 0), (k, a)).copy_from(&p_ja);
+        p_aa.view_mut((0, a), (a, k)).copy_from(&p_ja.transpose());
+        p_aa.view_mut((a, a), (k, k))
+            .copy_from(&(0.5 * (&p_jj + p_jj.transpose())));
+        let mut phi = DMatrix::zeros(m, m);
+        phi.view_mut((0, 0), (a, a)).copy_from(&local.phi);
+        phi.view_mut((a, 0), (k, a)).copy_from(&(-c_j_psi));
+        phi.view_mut((a, a), (k, k)).fill_with_identity();
+        let mut psi = DMatrix::zeros(m, m);
+        psi.view_mut((0, 0), (a, a)).copy_from(&local.psi);
+        let mut cross = DMatrix::zeros(n, m);
+        cross.columns_mut(0, a).copy_from(&local.cross);
+        cross.columns_mut(a, k).copy_from(&new_cols);
+        let mut active: Vec<usize> = local.active.iter().chain(added).copied().collect();
+        for &i in &active {
+            cross.row_mut(i).fill(0.0);
+        }
+        let mut last_seen = local.last_seen.clone();
+        last_seen.resize(m, update_count);
+        // Back to ascending states.
+        let mut order: Vec<usize> = (0..m).collect();
+        order.sort_by_key(|&s| active[s]);
+        let pick = |x: &DMatrix<f64>| DMatrix::from_fn(m, m, |r, c| x[(order[r], order[c])]);
+        local.p_aa = pick(&p_aa);
+        local.phi = pick(&phi);
+        local.psi = pick(&psi);
+        local.cross = DMatrix::from_fn(n, m, |r, c| cross[(r, order[c])]);
+        local.last_seen = order.iter().map(|&s| last_seen[s]).collect();
+        active = order.iter().map(|&s| active[s]).collect();
+        for (s, &i) in active.iter().enumerate() {
+            local.slot[i] = s;
+        }
+        local.active = active;
     }
 
     /// Ends the compressed EKF's local phase, if any: the global update
@@ -245,7 +361,7 @@ impl Ekf {
         }
         if let Some(old) = &self.local {
             for (s, &i) in old.active.iter().enumerate() {
-                if self.update_count.saturating_sub(old.last_seen[s]) <= self.hysteresis {
+                if self.update_count.saturating_sub(old.last_seen[s]) < self.hysteresis {
                     keep[i] = true;
                 }
             }
@@ -366,7 +482,13 @@ impl Ekf {
             .as_ref()
             .is_some_and(|l| observed.iter().all(|&(s, len)| l.covers(s, len)));
         if !covered {
-            self.begin_local_phase(&observed);
+            let grows = self.local.as_ref().map(|l| l.inactive_in(&observed));
+            match grows {
+                Some(added) if self.active_len() + added.len() <= self.max_active => {
+                    self.grow_local_phase(&added);
+                }
+                _ => self.begin_local_phase(&observed),
+            }
         }
         self.update_count += 1;
         let Some(local) = self.local.as_mut() else {

@@ -88,11 +88,22 @@ fn observed(k: usize, n: usize, rng: &mut StdRng) -> Vec<usize> {
     (start..start + 4).map(|i| 6 * region + i).collect()
 }
 
+/// Caps on the active set for the long run: 11 never grows (every region
+/// change is a global update), 35 grows several times per phase.
+const CAPS: [usize; 2] = [11, 35];
+
 #[test]
 fn compressed_equals_full_over_a_long_run_with_region_changes() {
+    for cap in CAPS {
+        long_run_equals_full(cap);
+    }
+}
+
+fn long_run_equals_full(cap: usize) {
     let n = 24;
     let mut full = random_filter(n, 31).with_covariance_update(CovarianceUpdate::Symmetric);
     let mut comp = full.clone().with_update_mode(UpdateMode::Compressed);
+    comp.set_compressed_max_active(cap);
     let mut rng = StdRng::seed_from_u64(32);
     let (mut local_steps, mut worst) = (0, (0.0f64, 0.0f64));
     for k in 0..2000 {
@@ -109,6 +120,7 @@ fn compressed_equals_full_over_a_long_run_with_region_changes() {
         }
         let a = comp.active_len();
         assert!(a >= 3 + 8, "step {k}: the observed landmarks are active");
+        assert!(a <= cap, "step {k}: {a} active states, over the cap {cap}");
         if a < comp.dim() {
             local_steps += 1;
         }
@@ -131,10 +143,13 @@ fn compressed_equals_full_over_a_long_run_with_region_changes() {
     let d = rel_diff(&full, &comp);
     worst = (worst.0.max(d.0), worst.1.max(d.1));
     eprintln!(
-        "compressed vs full over 2000 steps: mean {:e}, cov {:e}",
+        "compressed (cap {cap}) vs full over 2000 steps: mean {:e}, cov {:e}",
         worst.0, worst.1
     );
-    assert!(worst.0 < 1e-9 && worst.1 < 1e-9, "drift {worst:?}");
+    assert!(
+        worst.0 < 1e-9 && worst.1 < 1e-9,
+        "cap {cap}: drift {worst:?}"
+    );
     assert!(comp.covariance().cholesky().is_some());
 }
 
@@ -192,6 +207,9 @@ fn hysteresis_keeps_recently_observed_states_active() {
     let n = 20;
     let mut ekf = random_filter(n, 51).with_update_mode(UpdateMode::Compressed);
     ekf.set_compressed_hysteresis(3);
+    // Room for two regions only, so the fifth update below must begin a new
+    // phase (a global update) rather than grow this one.
+    ekf.set_compressed_max_active(3 + 8);
     let update = |ekf: &mut Ekf, ids: &[usize]| {
         predict(ekf);
         let b = batch(ekf, ids, &vec![0.0; ids.len()]);
@@ -199,7 +217,7 @@ fn hysteresis_keeps_recently_observed_states_active() {
     };
     update(&mut ekf, &[0, 1]);
     assert_eq!(ekf.active_len(), 3 + 4);
-    // A region change right after: the old landmarks stay active.
+    // A region change right after: the phase grows, the old landmarks stay.
     update(&mut ekf, &[5, 6]);
     assert_eq!(ekf.active_len(), 3 + 8);
     // Back across the boundary: no new phase, nothing added.
@@ -208,9 +226,40 @@ fn hysteresis_keeps_recently_observed_states_active() {
     for _ in 0..4 {
         update(&mut ekf, &[5, 6]);
     }
-    // Landmarks 0 and 1 were last seen 4 updates ago (> 3): dropped.
+    // Over the cap: a new phase. Landmarks 0 and 1 were last seen 4 updates
+    // ago (> 3): dropped; 5 and 6, seen 1 update ago, kept.
     update(&mut ekf, &[9]);
     assert_eq!(ekf.active_len(), 3 + 6);
+}
+
+#[test]
+fn growing_the_phase_avoids_the_global_update_and_equals_the_full_filter() {
+    let n = 24;
+    let mut full = random_filter(n, 71).with_covariance_update(CovarianceUpdate::Symmetric);
+    let mut comp = full.clone().with_update_mode(UpdateMode::Compressed);
+    let mut rng = StdRng::seed_from_u64(72);
+    // Regions of 3 landmarks visited in turn, then revisited out of order:
+    // every visit adds states to the phase (a default cap of 64 ≥ 43).
+    for (step, region) in [0, 0, 1, 1, 2, 0, 3, 5, 1, 6, 2, 4].iter().enumerate() {
+        let ids: Vec<usize> = (3 * region..3 * region + 3).collect();
+        let z: Vec<f64> = (0..3)
+            .map(|_| 0.05 * f64::sample_normal(&mut rng))
+            .collect();
+        for ekf in [&mut full, &mut comp] {
+            predict(ekf);
+            let b = batch(ekf, &ids, &z);
+            ekf.update(&b).expect("updates");
+        }
+        let (e, f) = (comp.covariance_entry(3, 40), full.covariance_entry(3, 40));
+        assert!(
+            (e - f).abs() <= 1e-12 * full.covariance().amax(),
+            "step {step}: P[3,40]"
+        );
+    }
+    // Seven regions seen: all of them active, no state dropped.
+    assert_eq!(comp.active_len(), 3 + 2 * 3 * 7);
+    let (dx, dp) = rel_diff(&full, &comp);
+    assert!(dx < 1e-12 && dp < 1e-12, "{dx:e} {dp:e}");
 }
 
 #[test]

@@ -24,7 +24,7 @@ mod tests;
 mod update;
 
 use compressed::LocalPhase;
-pub use compressed::{DEFAULT_HYSTERESIS, UpdateMode};
+pub use compressed::{DEFAULT_HYSTERESIS, DEFAULT_MAX_ACTIVE, UpdateMode};
 
 use update::Workspace;
 
@@ -146,6 +146,9 @@ pub struct Ekf {
     local: Option<Box<LocalPhase>>,
     /// Compressed mode: updates a state stays active after its last sighting.
     hysteresis: u64,
+    /// Compressed mode: the most states a local phase grows to before a
+    /// global update starts a new one.
+    max_active: usize,
     /// Size of the vehicle block (the largest `V` predicted so far), always
     /// active in a local phase.
     vehicle_dim: usize,
@@ -216,6 +219,7 @@ impl Ekf {
             update_mode: UpdateMode::default(),
             local: None,
             hysteresis: DEFAULT_HYSTERESIS,
+            max_active: DEFAULT_MAX_ACTIVE,
             vehicle_dim: 0,
             update_count: 0,
         };
