@@ -10,24 +10,21 @@ filter goes, with the ``rerun-sdk`` package (the ``rerun`` extra:
 Everything sits on one timeline, ``time`` (seconds of the log's clock), in the
 2-D world frame (x right, y up, metres). The entities:
 
-======================================  =========================================================
-entity                                  what
-======================================  =========================================================
-``world/truth/path``                    the true path so far (static line, redrawn as it grows)
-``world/truth/pose``                    the true pose (an arrow along the heading), per track time
-``world/dead_reckoning/path``, ``/pose``  the same for dead reckoning (odometry alone)
-``world/estimate/path``, ``/pose``      the same for the SLAM estimate
-``world/estimate/covariance``           the estimate's 2σ position ellipse, per snapshot
-``world/landmarks/truth``               true landmarks, labelled by id (static)
-``world/landmarks/estimate``            estimated landmarks, labelled by id, per snapshot
-``world/landmarks/covariance``          their 2σ ellipses, per snapshot
-``world/scan/rays``                     the bearing rays of each scan, from the estimated pose
-``world/candidates``                    the first-sighting rays of the landmarks waiting for
-                                        triangulation (delayed initializers), when that set changes
-``events``                              the filter's events as text (initialized, rejected, …)
-``metrics/nees/pose``                   pose NEES per track time (3 dof)
-``metrics/nees/lower_95``, ``upper_95``  the 95 % χ² band of one run's NEES
-======================================  =========================================================
+| entity | what |
+|---|---|
+| ``world/truth/path`` | the true path so far (static line, redrawn as it grows) |
+| ``world/truth/pose`` | the true pose (an arrow along the heading), per track time |
+| ``world/dead_reckoning/path``, ``/pose`` | the same for dead reckoning (odometry alone) |
+| ``world/estimate/path``, ``/pose`` | the same for the SLAM estimate |
+| ``world/estimate/covariance`` | the estimate's 2σ position ellipse, per snapshot |
+| ``world/landmarks/truth`` | true landmarks, labelled by id (static) |
+| ``world/landmarks/estimate`` | estimated landmarks, labelled by id, per snapshot |
+| ``world/landmarks/covariance`` | their 2σ ellipses, per snapshot |
+| ``world/scan/rays`` | the bearing rays of each scan, from the estimated pose |
+| ``world/candidates`` | first-sighting rays of the candidates (delayed initializers), per change |
+| ``events`` | the filter's events as text (initialized, rejected, …) |
+| ``metrics/nees/pose`` | pose NEES per track time (3 dof) |
+| ``metrics/nees/lower_95``, ``upper_95`` | the 95 % χ² band of one run's NEES |
 
 **Live.** :func:`run_with_rerun` runs the filter with a :class:`RerunLogger`
 as the ``on_scan`` callback of :func:`bearing_slam.run` (or of
@@ -244,9 +241,14 @@ def open_recording(
         if recording_name:
             rec.send_recording_name(recording_name)
     layout = blueprint()
-    if spawn:
+    if spawn and path is not None:
+        # Each of spawn() and save() replaces the other's sink: both at once
+        # go through set_sinks (the viewer listens on spawn's default port).
+        rec.spawn(connect=False, default_blueprint=layout)
+        rec.set_sinks(rr.GrpcSink(), rr.FileSink(os.fspath(path)), default_blueprint=layout)
+    elif spawn:
         rec.spawn(default_blueprint=layout)
-    if path is not None:
+    elif path is not None:
         rec.save(os.fspath(path), default_blueprint=layout)
     return rec
 
