@@ -253,18 +253,45 @@ def open_recording(
     return rec
 
 
+class _Rows:
+    """Rows of one entity waiting to be sent in one ``send_columns``: their
+    times and, per row, its items (``lengths``) in flat lists by component."""
+
+    def __init__(self) -> None:
+        self.times: list[float] = []
+        self.lengths: list[int] = []
+        self.items: dict[str, list[Any]] = {}
+
+    def add(self, t: float, n: int, **components: Any) -> None:
+        self.times.append(t)
+        self.lengths.append(n)
+        for name, values in components.items():
+            self.items.setdefault(name, []).extend(values)
+
+    def take(self) -> tuple[NDArray[np.float64], list[int], dict[str, list[Any]]]:
+        out = np.array(self.times, dtype=np.float64), self.lengths, self.items
+        self.times, self.lengths, self.items = [], [], {}
+        return out
+
+
 class RerunLogger:
     """Logs a run into the Rerun ``recording`` scan by scan: pass it as the
-    ``on_scan`` callback of :func:`bearing_slam.run` (each call logs one
+    ``on_scan`` callback of :func:`bearing_slam.run` (each call takes one
     step), then call :meth:`finish` with the result. ``log``: the run's log,
     to draw the true landmarks at once and size the scene (arrows, rays)
     before the run; ``landmarks`` (rows ``id, x, y``) replaces its
     landmarks; ``scene_size`` (m) replaces the size taken from them.
     ``snapshot_every``: log the map (landmarks and ellipses) at most once per
     this many seconds of log time (0: every scan), and the last.
-    ``path_every_s``: redraw the growing paths at most once per this many
-    seconds of wall time (None: only in :meth:`finish`). ``scans`` counts the
-    steps logged."""
+
+    The rows of the steps are sent in batches (one ``send_columns`` per
+    entity, each row at its own time) at most ``send_every_s`` seconds of
+    wall time apart (0: at every scan; :meth:`flush` sends at once): one
+    call into the SDK costs about as much as a whole scan of the filter, so
+    a call per entity per scan would slow a run many times over for a viewer
+    that redraws a few times a second anyway. ``path_every_s``: redraw the
+    growing paths at most once per this many seconds of wall time (None:
+    only in :meth:`finish`). ``scans`` counts the steps taken."""
 
     def __init__(
         self,
@@ -274,6 +301,7 @@ class RerunLogger:
         landmarks: NDArray[np.float64] | None = None,
         scene_size: float | None = None,
         snapshot_every: float = 0.0,
+        send_every_s: float = 0.1,
         path_every_s: float | None = 1.0,
     ) -> None:
         if snapshot_every < 0 or not math.isfinite(snapshot_every):
@@ -281,6 +309,7 @@ class RerunLogger:
         self._rr = _rerun()
         self.recording = recording
         self.snapshot_every = snapshot_every
+        self.send_every_s = send_every_s
         self.path_every_s = path_every_s
         self.scans = 0
         lm = np.empty((0, 3))
@@ -294,15 +323,18 @@ class RerunLogger:
         self.scene_size = scene_size
         self._arrow = _ARROW_FRACTION * scene_size
         self._ray = 0.5 * scene_size
-        self._events_logged = 0
-        self._track_logged = 0
+        self._events_taken = 0
+        self._track_taken = 0
+        self._rows: dict[str, _Rows] = {}
+        self._styled: set[str] = set()
         self._paths: dict[str, list[NDArray[np.float64]]] = {name: [] for name, _ in _TRACKS}
-        self._paths_drawn_at = _time.monotonic()
-        self._pose_styled: set[str] = set()
+        now = _time.monotonic()
+        self._sent_at = now
+        self._paths_drawn_at = now
         self._nees_first: float | None = None
         self._nees_last: float | None = None
         self._map_at = -math.inf
-        self._map_logged_last = False
+        self._map_taken_last = False
         # Landmark id -> (time, bearing, pose) of its last sighting, and the
         # waiting candidates' first sightings.
         self._seen: dict[int, tuple[float, float, NDArray[np.float64]]] = {}
@@ -310,12 +342,17 @@ class RerunLogger:
         if len(lm):
             self.log_true_landmarks(lm)
 
+    def _buffer(self, entity: str) -> _Rows:
+        rows = self._rows.get(entity)
+        if rows is None:
+            rows = self._rows[entity] = _Rows()
+        return rows
+
     # ------------------------------------------------------------ per step
 
     def __call__(self, step: dict[str, Any]) -> None:
-        """Logs one scan's step (the dict ``bearing_slam.run`` hands its
-        ``on_scan`` callback)."""
-        rr, rec = self._rr, self.recording
+        """Takes one scan's step (the dict ``bearing_slam.run`` hands its
+        ``on_scan`` callback); sends what waits when ``send_every_s`` has passed."""
         t = float(step["time"])
         pose = np.asarray(step["pose"], dtype=np.float64)
         self._track(
@@ -325,33 +362,25 @@ class RerunLogger:
             step["track_truth"],
             step["track_nees"],
         )
-        rr.set_time(TIMELINE, duration=t, recording=rec)
-        ids, bearings = step["ids"], step["bearings"]
+        ids, bearings = step["ids"], np.asarray(step["bearings"], dtype=np.float64)
         if len(ids):
-            rr.log(
-                "world/scan/rays",
-                rr.LineStrips2D(
-                    _rays(pose, np.asarray(bearings, dtype=np.float64), self._ray),
-                    colors=[_RAY],
-                    radii=0.002 * self._ray,
-                    labels=[str(int(i)) for i in ids],
-                    show_labels=False,
-                ),
-                recording=rec,
+            self._buffer("world/scan/rays").add(
+                t,
+                len(ids),
+                strips=_rays(pose, bearings, self._ray),
+                labels=[str(int(i)) for i in ids],
             )
         self._events(step["events"], t, ids, bearings, pose)
         for i, z in zip(ids, bearings, strict=True):
             self._seen[int(i)] = (t, float(z), pose)
-        if t - self._map_at >= self.snapshot_every:
+        self._map_taken_last = t - self._map_at >= self.snapshot_every
+        if self._map_taken_last:
             self._map(step)
-            self._map_logged_last = True
-        else:
-            self._map_logged_last = False
         self.scans += 1
-        if (
-            self.path_every_s is not None
-            and _time.monotonic() - self._paths_drawn_at >= self.path_every_s
-        ):
+        now = _time.monotonic()
+        if now - self._sent_at >= self.send_every_s:
+            self.flush()
+        if self.path_every_s is not None and now - self._paths_drawn_at >= self.path_every_s:
             self._draw_paths()
 
     def _track(
@@ -365,43 +394,25 @@ class RerunLogger:
         """The new track points: pose arrows, the paths' new points, NEES."""
         if not len(times):
             return
-        rr, rec = self._rr, self.recording
-        for (name, color), poses in zip(_TRACKS, (truth, dead_reckoning, estimate), strict=True):
+        for (name, _), poses in zip(_TRACKS, (truth, dead_reckoning, estimate), strict=True):
             ok = np.isfinite(poses).all(axis=1)
             if not ok.any():
                 continue
             p = poses[ok]
             self._paths[name].append(p[:, :2])
-            entity = f"world/{name}/pose"
-            if entity not in self._pose_styled:
-                rr.log(entity, rr.Arrows2D.from_fields(colors=[color]), static=True, recording=rec)
-                self._pose_styled.add(entity)
-            vectors = self._arrow * np.stack([np.cos(p[:, 2]), np.sin(p[:, 2])], axis=1)
-            rr.send_columns(
-                entity,
-                indexes=[rr.TimeColumn(TIMELINE, duration=times[ok])],
-                columns=rr.Arrows2D.columns(origins=p[:, :2], vectors=vectors),
-                recording=rec,
-            )
-        self._track_logged += len(times)
+            rows = self._buffer(f"world/{name}/pose")
+            rows.times.extend(times[ok].tolist())
+            rows.items.setdefault("poses", []).append(p)
+        self._track_taken += len(times)
         ok = np.isfinite(nees)
         if ok.any():
             if self._nees_first is None:
                 self._nees_first = float(times[ok][0])
-                rr.log(
-                    "metrics/nees/pose",
-                    rr.SeriesLines(colors=[_ESTIMATE], names=["pose NEES"]),
-                    static=True,
-                    recording=rec,
-                )
                 self._nees_band(self._nees_first)
             self._nees_last = float(times[ok][-1])
-            rr.send_columns(
-                "metrics/nees/pose",
-                indexes=[rr.TimeColumn(TIMELINE, duration=times[ok])],
-                columns=rr.Scalars.columns(scalars=nees[ok]),
-                recording=rec,
-            )
+            rows = self._buffer("metrics/nees/pose")
+            rows.times.extend(times[ok].tolist())
+            rows.items.setdefault("scalars", []).extend(nees[ok].tolist())
 
     def _nees_band(self, t: float) -> None:
         """One row of the 95 % band at ``t`` (the first NEES time and, in
@@ -431,14 +442,16 @@ class RerunLogger:
         """The events as text, and ``world/candidates`` at every change of the
         waiting set. A candidate's ray is its first sighting: the scan being
         logged (time ``t``) for an event at ``t``, else the last one before."""
+        if not events:
+            return
         rr, rec = self._rr, self.recording
         scan = {int(i): float(z) for i, z in zip(ids, bearings, strict=True)}
+        texts = self._buffer("events")
         for event in events:
             te = float(event["time"])
-            rr.set_time(TIMELINE, duration=te, recording=rec)
             text, level = _event_text(event)
-            rr.log("events", rr.TextLog(text, level=level), recording=rec)
-            self._events_logged += 1
+            texts.add(te, 1, text=[text], level=[level])
+            self._events_taken += 1
             kind = event.get("kind")
             lid = int(event.get("id", -1))
             if kind == "candidate_created":
@@ -456,6 +469,8 @@ class RerunLogger:
                 if math.isfinite(z0):
                     strips.extend(_rays(origin, np.array([z0]), self._ray))
                     labels.append(f"candidate {cid}")
+            # Rare (a few per landmark): logged at once.
+            rr.set_time(TIMELINE, duration=te, recording=rec)
             rr.log(
                 "world/candidates",
                 rr.LineStrips2D(strips, colors=[_CANDIDATE], radii=0.003 * self._ray, labels=labels)
@@ -463,40 +478,117 @@ class RerunLogger:
                 else rr.Clear(recursive=False),
                 recording=rec,
             )
-        rr.set_time(TIMELINE, duration=t, recording=rec)
 
     def _map(self, snap: dict[str, Any]) -> None:
         """The estimate's ellipse and the landmarks with their ellipses."""
-        rr, rec = self._rr, self.recording
         t = float(snap["time"])
         self._map_at = t
-        rr.set_time(TIMELINE, duration=t, recording=rec)
         pose = np.asarray(snap["pose"], dtype=np.float64)
         cov = np.asarray(snap["pose_covariance"], dtype=np.float64)
-        rr.log(
-            "world/estimate/covariance",
-            rr.LineStrips2D([covariance_ellipse_points(pose[:2], cov[:2, :2])], colors=[_ESTIMATE]),
-            recording=rec,
-        )
+        self._buffer("world/estimate/covariance").add(t, 1, means=[pose[:2]], covs=[cov[:2, :2]])
         ids = snap["landmark_ids"]
         pos = np.asarray(snap["landmark_positions"], dtype=np.float64).reshape(-1, 2)
         lcov = np.asarray(snap["landmark_covariances"], dtype=np.float64).reshape(-1, 2, 2)
-        labels = [f"{int(k)}" for k in ids]
-        rr.log(
-            "world/landmarks/estimate",
-            rr.Points2D(pos, colors=[_ESTIMATE], labels=labels, radii=[-4.0]),
-            recording=rec,
+        self._buffer("world/landmarks").add(
+            t, len(ids), means=list(pos), covs=list(lcov), labels=[f"{int(k)}" for k in ids]
         )
-        rr.log(
-            "world/landmarks/covariance",
-            rr.LineStrips2D(
-                list(_ellipses(pos, lcov)) if len(ids) else [],
-                colors=[_ESTIMATE],
-                labels=labels,
-                show_labels=False,
-            ),
-            recording=rec,
+
+    # ------------------------------------------------------------ sending
+
+    def _style(self, entity: str, archetype: Any) -> None:
+        """The entity's constant components (colours, sizes), once, static."""
+        if entity not in self._styled:
+            self._rr.log(entity, archetype, static=True, recording=self.recording)
+            self._styled.add(entity)
+
+    def _send(self, entity: str, times: NDArray[np.float64], columns: Any) -> None:
+        self._rr.send_columns(
+            entity,
+            indexes=[self._rr.TimeColumn(TIMELINE, duration=times)],
+            columns=columns,
+            recording=self.recording,
         )
+
+    def flush(self) -> None:
+        """Sends every row waiting (each at its own time) to the recording."""
+        rr = self._rr
+        for (name, color), _ in zip(_TRACKS, range(3), strict=True):
+            entity = f"world/{name}/pose"
+            if entity not in self._rows or not self._rows[entity].times:
+                continue
+            times, _, items = self._rows[entity].take()
+            p = np.concatenate(items["poses"])
+            vectors = self._arrow * np.stack([np.cos(p[:, 2]), np.sin(p[:, 2])], axis=1)
+            self._style(entity, rr.Arrows2D.from_fields(colors=[color]))
+            self._send(entity, times, rr.Arrows2D.columns(origins=p[:, :2], vectors=vectors))
+        rows = self._rows.get("metrics/nees/pose")
+        if rows is not None and rows.times:
+            times, _, items = rows.take()
+            self._style(
+                "metrics/nees/pose", rr.SeriesLines(colors=[_ESTIMATE], names=["pose NEES"])
+            )
+            self._send("metrics/nees/pose", times, rr.Scalars.columns(scalars=items["scalars"]))
+        rows = self._rows.get("world/scan/rays")
+        if rows is not None and rows.times:
+            times, lengths, items = rows.take()
+            self._style(
+                "world/scan/rays",
+                rr.LineStrips2D.from_fields(
+                    colors=[_RAY], radii=[0.002 * self._ray], show_labels=False
+                ),
+            )
+            self._send(
+                "world/scan/rays",
+                times,
+                rr.LineStrips2D.columns(strips=items["strips"], labels=items["labels"]).partition(
+                    lengths
+                ),
+            )
+        rows = self._rows.get("events")
+        if rows is not None and rows.times:
+            times, _, items = rows.take()
+            self._send(
+                "events", times, rr.TextLog.columns(text=items["text"], level=items["level"])
+            )
+        rows = self._rows.get("world/estimate/covariance")
+        if rows is not None and rows.times:
+            times, lengths, items = rows.take()
+            strips = _ellipses(np.array(items["means"]), np.array(items["covs"]))
+            self._style(
+                "world/estimate/covariance", rr.LineStrips2D.from_fields(colors=[_ESTIMATE])
+            )
+            self._send(
+                "world/estimate/covariance",
+                times,
+                rr.LineStrips2D.columns(strips=list(strips)).partition(lengths),
+            )
+        rows = self._rows.get("world/landmarks")
+        if rows is not None and rows.times:
+            times, lengths, items = rows.take()
+            means = np.array(items.get("means", []), dtype=np.float64).reshape(-1, 2)
+            covs = np.array(items.get("covs", []), dtype=np.float64).reshape(-1, 2, 2)
+            labels = items.get("labels", [])
+            self._style(
+                "world/landmarks/estimate",
+                rr.Points2D.from_fields(colors=[_ESTIMATE], radii=[-4.0]),
+            )
+            self._style(
+                "world/landmarks/covariance",
+                rr.LineStrips2D.from_fields(colors=[_ESTIMATE], show_labels=False),
+            )
+            self._send(
+                "world/landmarks/estimate",
+                times,
+                rr.Points2D.columns(positions=means, labels=labels).partition(lengths),
+            )
+            self._send(
+                "world/landmarks/covariance",
+                times,
+                rr.LineStrips2D.columns(
+                    strips=list(_ellipses(means, covs)), labels=labels
+                ).partition(lengths),
+            )
+        self._sent_at = _time.monotonic()
 
     def _draw_paths(self) -> None:
         """The paths so far, as static lines (each drawing replaces the last)."""
@@ -543,11 +635,12 @@ class RerunLogger:
     ) -> None:
         """Logs what came after the last scan, from ``result``: the last
         track points and events, the last map (when ``snapshot_every``
-        skipped it), the whole paths and the end of the NEES band; then
-        flushes. ``trace`` replaces ``result.trace``; ``landmarks`` (rows
-        ``id, x, y``) are drawn as the true landmarks."""
+        skipped it), the whole paths and the end of the NEES band; sends
+        everything and flushes the recording. ``trace`` replaces
+        ``result.trace``; ``landmarks`` (rows ``id, x, y``) are drawn as the
+        true landmarks."""
         trace = result.trace if trace is None else trace
-        n = self._track_logged
+        n = self._track_taken
         if len(result.time) > n:
             self._track(
                 result.time[n:],
@@ -556,14 +649,15 @@ class RerunLogger:
                 result.truth[n:],
                 result.nees[n:],
             )
-        events = trace.events[self._events_logged :]
+        events = trace.events[self._events_taken :]
         if events:
             t_end = float(result.time[-1]) if len(result.time) else float(events[-1]["time"])
             self._events(events, t_end, np.empty(0, np.uint64), np.empty(0), np.zeros(3))
-        if self.scans and not self._map_logged_last and len(trace):
+        if self.scans and not self._map_taken_last and len(trace):
             self._map(trace.snapshot(len(trace) - 1))
         if landmarks is not None:
             self.log_true_landmarks(landmarks)
+        self.flush()
         self._draw_paths()
         if self._nees_last is not None and self._nees_last != self._nees_first:
             self._nees_band(self._nees_last)

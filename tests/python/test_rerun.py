@@ -119,6 +119,7 @@ def test_live_run_is_the_plain_run_bit_for_bit(
     assert np.array_equal(nees, result.nees[: len(nees)], equal_nan=True)
 
 
+@pytest.mark.filterwarnings("ignore:RRD file has no footer")  # read before it is finished
 def test_the_recording_grows_while_the_run_goes(
     tmp_path: Path, short_run: tuple[bs.SensorLog, bs.RunResult]
 ) -> None:
@@ -128,7 +129,7 @@ def test_the_recording_grows_while_the_run_goes(
     log, result = short_run
     path = tmp_path / "live.rrd"
     rec = open_recording(path=path)
-    logger = RerunLogger(rec, log)
+    logger = RerunLogger(rec, log, send_every_s=0.0)  # every scan sent as it comes
     middle = len(result.trace) // 2
     seen: dict[str, Any] = {}
 
@@ -166,7 +167,8 @@ def test_mrclam_live_is_the_plain_evaluation(tmp_path: Path) -> None:
     logger.finish(live.result)
     assert logger.scans == len(plain.result.trace) > 10
     assert np.array_equal(live.result.estimate, plain.result.estimate)
-    assert live.metrics == plain.metrics
+    same = {k: v for k, v in live.metrics.items() if k != "run_time_s"}
+    assert same == {k: v for k, v in plain.metrics.items() if k != "run_time_s"}
     rows, _ = rrd_rows(tmp_path / "r3.rrd")
     assert rows["world/scan/rays"] == logger.scans
 

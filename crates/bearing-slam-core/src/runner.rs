@@ -302,7 +302,7 @@ pub fn run_observed<E, F>(
     log: &SensorLog,
     config: &RunConfig,
     mut observer: F,
-) -> Result<RunOutput, E>
+) -> std::result::Result<RunOutput, E>
 where
     E: From<SlamError>,
     F: FnMut(ScanStep<'_>) -> std::result::Result<(), E>,
