@@ -3,7 +3,7 @@
 
     nice -n 10 .venv/bin/python benches/rerun_live.py [--mrclam DIR] [--repeat N]
 
-On paper_fig4 (seed 3, 98 s) and on MRCLAM Dataset 6 robot 3 (its whole
+On paper_fig4 (seed 3, 21 s) and on MRCLAM Dataset 6 robot 3 (its whole
 25 minutes, the log ``evaluate_mrclam`` gives the filter), the best of N
 wall times of:
 
@@ -49,8 +49,9 @@ def best_of(repeat: int, fn: Callable[[], object]) -> float:
 def python_loop(log: bs.SensorLog, config: bs.Config) -> NDArray[np.float64]:
     """The runner's loop (crates/bearing-slam-core/src/runner.rs) in Python
     over ``bs.SlamFilter``; returns the estimate at every track time."""
-    if "initial_pose" in log.info and log.info["initial_pose"] is not None:
-        config = config.replace(initial_pose=tuple(log.info["initial_pose"]))
+    start = log.info.get("initial_pose")
+    if start is not None:
+        config = config.replace(initial_pose=(start["x"], start["y"], start["theta"]))
     f = bs.SlamFilter(config)
     dr = np.array(config.initial_pose, dtype=np.float64)
     wheels = config.odometry == "wheels"

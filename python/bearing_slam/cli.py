@@ -810,6 +810,7 @@ def _log_rerun(
     if live is None:
         return
     live.finish(result, landmarks=landmarks)
+    live.recording.disconnect()  # closes the file (its footer) or the viewer's connection
     path = _rerun_path(args, label)
     if path and not getattr(args, "quiet", False):
         print(f"wrote {path}")

@@ -181,10 +181,12 @@ def scene_size_of(log: SensorLog) -> float:
 
 def _rays(
     origin: NDArray[np.float64], bearings: NDArray[np.float64], length: float
-) -> list[NDArray[np.float64]]:
+) -> NDArray[np.float64]:
+    """One segment per bearing from ``origin`` ``(x, y, θ)``, (n, 2, 2)."""
     angles = origin[2] + bearings
     ends = origin[:2] + length * np.stack([np.cos(angles), np.sin(angles)], axis=1)
-    return [np.stack([origin[:2], e]) for e in ends]
+    rays: NDArray[np.float64] = np.stack([np.broadcast_to(origin[:2], ends.shape), ends], axis=1)
+    return rays
 
 
 def _event_text(event: dict[str, Any]) -> tuple[str, str]:
@@ -367,7 +369,7 @@ class RerunLogger:
             self._buffer("world/scan/rays").add(
                 t,
                 len(ids),
-                strips=_rays(pose, bearings, self._ray),
+                strips=[_rays(pose, bearings, self._ray)],
                 labels=[str(int(i)) for i in ids],
             )
         self._events(step["events"], t, ids, bearings, pose)
@@ -540,9 +542,9 @@ class RerunLogger:
             self._send(
                 "world/scan/rays",
                 times,
-                rr.LineStrips2D.columns(strips=items["strips"], labels=items["labels"]).partition(
-                    lengths
-                ),
+                rr.LineStrips2D.columns(
+                    strips=np.concatenate(items["strips"]), labels=items["labels"]
+                ).partition(lengths),
             )
         rows = self._rows.get("events")
         if rows is not None and rows.times:
@@ -560,7 +562,7 @@ class RerunLogger:
             self._send(
                 "world/estimate/covariance",
                 times,
-                rr.LineStrips2D.columns(strips=list(strips)).partition(lengths),
+                rr.LineStrips2D.columns(strips=strips).partition(lengths),
             )
         rows = self._rows.get("world/landmarks")
         if rows is not None and rows.times:
@@ -584,9 +586,9 @@ class RerunLogger:
             self._send(
                 "world/landmarks/covariance",
                 times,
-                rr.LineStrips2D.columns(
-                    strips=list(_ellipses(means, covs)), labels=labels
-                ).partition(lengths),
+                rr.LineStrips2D.columns(strips=_ellipses(means, covs), labels=labels).partition(
+                    lengths
+                ),
             )
         self._sent_at = _time.monotonic()
 
@@ -679,7 +681,7 @@ def run_with_rerun(
     goes (:class:`RerunLogger`): into the ``.rrd`` file ``path``, to a
     viewer it starts (``spawn``) or to ``recording``. Returns the run's
     result, the one :func:`bearing_slam.run` returns. The other arguments
-    are :class:`RerunLogger`'s."""
+    are :class:`RerunLogger`'s. A recording it opens is closed at the end."""
     rec = open_recording(
         path=path,
         spawn=spawn,
@@ -689,6 +691,8 @@ def run_with_rerun(
     logger = RerunLogger(rec, log, landmarks=landmarks, snapshot_every=snapshot_every)
     result = run(log, config, on_scan=logger)
     logger.finish(result)
+    if recording is None:
+        rec.disconnect()  # closes the file (its footer) or the viewer's connection
     return result
 
 
