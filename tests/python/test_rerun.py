@@ -165,6 +165,7 @@ def test_mrclam_live_is_the_plain_evaluation(tmp_path: Path) -> None:
     logger = RerunLogger(rec, plain.log)
     live = mrclam.evaluate(*window, on_scan=logger)
     logger.finish(live.result)
+    rec.disconnect()
     assert logger.scans == len(plain.result.trace) > 10
     assert np.array_equal(live.result.estimate, plain.result.estimate)
     same = {k: v for k, v in live.metrics.items() if k != "run_time_s"}
