@@ -12,7 +12,8 @@ metrics: :mod:`bearing_slam.metrics`; figures: :mod:`bearing_slam.plots`; Monte 
 :mod:`bearing_slam.experiments`; real robots: :mod:`bearing_slam.mrclam`; what the
 commands write: :mod:`bearing_slam.outputs`; shared names and defaults:
 :mod:`bearing_slam.vocabulary`; CLI: ``bearing-slam`` (:mod:`bearing_slam.cli`); Rerun
-recordings: :func:`log_rerun` (:mod:`bearing_slam.rerun`); acoustic bearings:
+recordings, live: :func:`run_with_rerun`, of a finished run: :func:`log_rerun`
+(:mod:`bearing_slam.rerun`); acoustic bearings:
 :mod:`bearing_slam.acoustics`.
 """
 
@@ -113,8 +114,9 @@ from bearing_slam.tum import write_tum
 __all__ += ["MonteCarloResult", "montecarlo"]
 __all__ += ["write_tum"]
 
-# A run as a Rerun recording (the `rerun` extra): `bs.log_rerun`; its module is
+# A run as a Rerun recording (the `rerun` extra): `bs.run_with_rerun` (live),
+# `bs.log_rerun` (a finished run); its module is
 # `bearing_slam.rerun`. Acoustic bearings (the `acoustics` extra): `bearing_slam.acoustics`.
-from bearing_slam.rerun import log_rerun  # noqa: E402
+from bearing_slam.rerun import log_rerun, run_with_rerun  # noqa: E402
 
-__all__ += ["log_rerun"]
+__all__ += ["log_rerun", "run_with_rerun"]

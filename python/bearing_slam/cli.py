@@ -27,6 +27,7 @@ from bearing_slam._native import (
     RunResult,
     SensorLog,
     __version__,
+    load_mrclam,
     read_mcap,
     run,
     scenario_names,
@@ -198,8 +199,9 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                 for label, init, extra in DEMO_RUNS:
                     bar.set_postfix_str(f"{scenario} / {label}")
                     config = _run_config(log, init, **extra)
+                    live = _rerun_logger(args, log, label=f"{scenario}_{label}")
                     t0 = time.perf_counter()
-                    result = run(log, config)
+                    result = run(log, config, on_scan=live)
                     seconds = time.perf_counter() - t0
                     rec = metrics_record(result, log, seconds)
                     write_outputs(
@@ -211,7 +213,7 @@ def _cmd_demo(args: argparse.Namespace) -> int:
                     )
                     if args.tum is not None:
                         _write_tum(new / f"{scenario}_{label}" / args.tum, result, quiet=True)
-                    _log_rerun(args, result, log, label=f"{scenario}_{label}")
+                    _log_rerun(args, live, result, label=f"{scenario}_{label}")
                     rows.append((scenario, label, rec))
                     bar.update()
         table = _format_table(rows)
@@ -267,15 +269,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     for w in warnings:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
     config = _config(log, args)
+    live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
-        result = run(log, config)
+        result = run(log, config, on_scan=live)
         seconds = time.perf_counter() - t0
         bar.update()
     out = Path(args.out)
     rec = metrics_record(result, log, seconds)
     write_outputs(out, rec, result, log, snapshot_every=args.snapshot_every)
-    _log_rerun(args, result, log)
+    _log_rerun(args, live, result)
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     _write_tum(args.tum, result)
@@ -303,7 +306,8 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
     out = Path(args.out)
     with tqdm(total=2, desc=f"robot {args.robot} {method}", unit="step", disable=args.quiet) as bar:
         bar.set_postfix_str("load + filter")
-        run_ = mrclam.evaluate(dataset, args.robot, method, args.start, args.end)
+        live = _rerun_logger(args, scene=(dataset, args.robot, args.start, args.end))
+        run_ = mrclam.evaluate(dataset, args.robot, method, args.start, args.end, on_scan=live)
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
         rec = mrclam_record(run_)
@@ -315,7 +319,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
             mrclam.plot_log(run_),
             snapshot_every=args.snapshot_every,
         )
-        _log_rerun(args, run_.result, run_.log, landmarks=mrclam.plot_log(run_).landmarks)
+        _log_rerun(args, live, run_.result, landmarks=mrclam.plot_log(run_).landmarks)
         bar.update()
     _write_tum(args.tum, run_.result)
 
@@ -758,36 +762,56 @@ def _add_view_flags(p: argparse.ArgumentParser, demo: bool = False) -> None:
     )
 
 
+def _rerun_path(args: argparse.Namespace, label: str | None) -> str | None:
+    """The ``.rrd`` file of ``--rerun`` (demo: one per run, named by ``label``)."""
+    path: str | None = args.rerun
+    if path and label is not None:
+        from bearing_slam.rerun import rerun_paths
+
+        path = rerun_paths(path, [label])[0]
+    return path
+
+
+def _rerun_logger(
+    args: argparse.Namespace,
+    log: SensorLog | None = None,
+    label: str | None = None,
+    scene: tuple[Path, int, float | None, float | None] | None = None,
+) -> Any:
+    """The live Rerun logger of ``--rerun``/``--rerun-spawn`` (None without
+    them), its recording opened; the run is given it as ``on_scan``.
+    ``scene``: an MRCLAM run's (dataset, robot, start, end), loaded to size
+    the view (its true landmarks are drawn at the end, in the map's frame)."""
+    if not (args.rerun or args.rerun_spawn):
+        return None
+    try:
+        from bearing_slam.rerun import RerunLogger, open_recording, scene_size_of
+    except ImportError as e:  # pragma: no cover - the dev venv has it
+        raise UserError(str(e)) from None
+    path = _rerun_path(args, label)
+    if path:
+        Path(path).parent.mkdir(parents=True, exist_ok=True)
+    source = log.info.get("source") if log is not None else None
+    rec = open_recording(
+        path=path, spawn=args.rerun_spawn, recording_name=label or (str(source) if source else None)
+    )
+    size = None if scene is None else scene_size_of(load_mrclam(*scene)[0])
+    return RerunLogger(rec, log, scene_size=size, snapshot_every=args.snapshot_every)
+
+
 def _log_rerun(
     args: argparse.Namespace,
+    live: Any,
     result: Any,
-    log: SensorLog,
     label: str | None = None,
     landmarks: Any = None,
 ) -> None:
-    if not (args.rerun or args.rerun_spawn):
+    """Finishes the live Rerun recording of ``--rerun`` (the tail of the run)."""
+    if live is None:
         return
-    try:
-        from bearing_slam.rerun import log_rerun, rerun_paths
-    except ImportError as e:  # pragma: no cover - the dev venv has it
-        raise UserError(str(e)) from None
-    path = args.rerun
-    if path and label is not None:
-        path = rerun_paths(path, [label])[0]
-    if path:
-        Path(path).parent.mkdir(parents=True, exist_ok=True)
-    try:
-        log_rerun(
-            result,
-            log,
-            path=path,
-            spawn=args.rerun_spawn,
-            snapshot_every=args.snapshot_every,
-            recording_name=label,
-            landmarks=landmarks,
-        )
-    except ImportError as e:  # pragma: no cover - the dev venv has it
-        raise UserError(str(e)) from None
+    live.finish(result, landmarks=landmarks)
+    live.recording.disconnect()  # closes the file (its footer) or the viewer's connection
+    path = _rerun_path(args, label)
     if path and not getattr(args, "quiet", False):
         print(f"wrote {path}")
 

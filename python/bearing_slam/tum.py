@@ -73,16 +73,23 @@ def write_tum(
 
     The estimate has every track time; the truth only those with a true pose,
     which are the times ``ate_rmse_m`` is computed over, without alignment (see the
-    module's documentation for evo's matching options)."""
+    module's documentation for evo's matching options). Each file is written
+    atomically (:func:`bearing_slam.outputs.atomic_path`): a write that fails
+    or is killed leaves the old file or the complete new one."""
+    # Imported here: bearing_slam.outputs draws with matplotlib, which
+    # `import bearing_slam` does not load.
+    from bearing_slam.outputs import atomic_path
+
     est_path = Path(path)
     est_path.parent.mkdir(parents=True, exist_ok=True)
     times = np.asarray(result.time, dtype=np.float64)
     estimate = np.asarray(result.estimate, dtype=np.float64)
     if not np.isfinite(estimate).all():
         raise ValueError(f"the estimate has non-finite poses: cannot write {est_path}")
-    est_path.write_text(
-        "\n".join(["# timestamp x y z qx qy qz qw", *tum_lines(times, estimate)]) + "\n"
-    )
+    with atomic_path(est_path) as tmp:
+        tmp.write_text(
+            "\n".join(["# timestamp x y z qx qy qz qw", *tum_lines(times, estimate)]) + "\n"
+        )
     true_poses = np.asarray(result.truth, dtype=np.float64)
     has_truth = np.isfinite(true_poses).all(axis=1)
     if not has_truth.any():
@@ -90,5 +97,6 @@ def write_tum(
     out = truth_path(est_path) if truth is None else Path(truth)
     out.parent.mkdir(parents=True, exist_ok=True)
     body = tum_lines(times[has_truth], true_poses[has_truth])
-    out.write_text("\n".join(["# timestamp x y z qx qy qz qw", *body]) + "\n")
+    with atomic_path(out) as tmp:
+        tmp.write_text("\n".join(["# timestamp x y z qx qy qz qw", *body]) + "\n")
     return est_path, out

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 from mcap.reader import make_reader
+
+from conftest import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE_SCENARIO = ROOT / "crates" / "bearing-slam-sim" / "scenarios" / "example.toml"
@@ -22,16 +22,6 @@ KEYS = [
     "n_landmarks_initialized",
 ]
 PLOTS = ["trajectory.png", "pose_errors.png", "nees.png"]
-
-
-def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bearing_slam", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=600,
-        check=False,
-    )
 
 
 def check_outputs(folder: Path) -> dict[str, object]:

@@ -4,12 +4,9 @@ the CLI and the experiment writers."""
 
 from __future__ import annotations
 
-import importlib
 import json
 import math
 import pickle
-import subprocess
-import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
@@ -20,6 +17,7 @@ import pytest
 import bearing_slam as bs
 from bearing_slam._native import montecarlo_report, montecarlo_run_one
 from bearing_slam.monte_carlo import CLASSES, METRICS, MonteCarloResult, make_spec, run_spec
+from conftest import cli
 
 FIG4_MTE = make_spec("paper_fig4", "mte", 4, seed0=10)
 
@@ -51,23 +49,10 @@ def test_records_in_any_order_and_pickled(local_mte: MonteCarloResult) -> None:
     assert canonical(montecarlo_report(spec_json, records)) == canonical(local_mte.report)
 
 
-def test_dask_local_cluster_same_report(local_mte: MonteCarloResult) -> None:
-    # Worker processes (not threads): the task and its record really cross a
-    # process boundary by pickling, as on a remote cluster. Two workers start
-    # in a few seconds on loopback.
-    distributed = importlib.import_module("distributed")  # installed by the dev/test extras
-
-    with (
-        distributed.LocalCluster(
-            n_workers=2,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            host="127.0.0.1",
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
-        remote = run_spec(FIG4_MTE, executor=client.get_executor(), progress=False)
+def test_dask_local_cluster_same_report(local_mte: MonteCarloResult, dask_client: Any) -> None:
+    # Worker processes (conftest's dask_client): the task and its record
+    # really cross a process boundary by pickling, as on a remote cluster.
+    remote = run_spec(FIG4_MTE, executor=dask_client.get_executor(), progress=False)
     assert canonical(remote.report) == canonical(local_mte.report)
 
 
@@ -168,16 +153,6 @@ def test_bad_records_and_inputs() -> None:
         bs.montecarlo("paper_fig4", "ekf", runs=2, progress=False)
     with pytest.raises(ValueError, match="at least 1"):
         bs.montecarlo("paper_fig4", "mte", runs=0, progress=False)
-
-
-def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bearing_slam", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
 
 
 def test_cli_montecarlo_writes_json(tmp_path: Path) -> None:

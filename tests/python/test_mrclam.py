@@ -18,7 +18,6 @@ import json
 import math
 import os
 import subprocess
-import sys
 from pathlib import Path
 from typing import Any
 
@@ -26,6 +25,7 @@ import pytest
 
 import bearing_slam as bs
 from bearing_slam import mrclam, vocabulary
+from conftest import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = Path(os.environ.get("BEARING_SLAM_DATA") or ROOT.parent / "shared" / "datasets" / "mrclam")
@@ -55,14 +55,9 @@ def test_data_present(folder: Path) -> None:
     )
 
 
-def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bearing_slam", "mrclam", *map(str, args)],
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+def mrclam_cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    """``bearing-slam mrclam ARGS`` in a subprocess."""
+    return cli("mrclam", *args)
 
 
 def outputs(folder: Path) -> dict[str, Any]:
@@ -81,7 +76,7 @@ def robot2(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]
     out = tmp_path_factory.mktemp("mrclam")
     records = {}
     for name, extra in (("mte", ("--init", "mte")), ("range-bearing", ("--use-range",))):
-        r = cli(D6, "--robot", "2", *WINDOW, *extra, "--out", out / name, "--quiet")
+        r = mrclam_cli(D6, "--robot", "2", *WINDOW, *extra, "--out", out / name, "--quiet")
         assert r.returncode == 0, r.stderr
         assert "wrote" in r.stdout
         records[name] = outputs(out / name)
@@ -128,7 +123,7 @@ def test_dataset6_slam_beats_dead_reckoning(robot2: dict[str, dict[str, Any]]) -
 
 def test_dataset1_without_ground_truth(tmp_path: Path) -> None:
     out = tmp_path / "d1"
-    r = cli(D1, "--robot", "3", "--start", "0", "--end", "300", "--out", out, "--quiet")
+    r = mrclam_cli(D1, "--robot", "3", "--start", "0", "--end", "300", "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
     m = outputs(out)
     assert m["has_ground_truth"] is False
@@ -155,7 +150,7 @@ def test_dataset1_without_ground_truth(tmp_path: Path) -> None:
 )
 def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
     mapping = {"D6": str(D6), "MISSING": str(tmp_path / "MRCLAM_Dataset9")}
-    r = cli(*[mapping.get(a, a) for a in args], "--out", tmp_path / "o", "--quiet")
+    r = mrclam_cli(*[mapping.get(a, a) for a in args], "--out", tmp_path / "o", "--quiet")
     assert r.returncode == 2
     assert "Traceback" not in r.stderr
     lines = [line for line in r.stderr.splitlines() if line.strip()]
@@ -166,7 +161,7 @@ def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
 
 
 def test_help_says_what_it_writes() -> None:
-    r = cli("--help")
+    r = mrclam_cli("--help")
     assert r.returncode == 0, r.stderr
     for word in ("metrics.json", "estimate.mcap", "trajectory.png", "Vicon", "SE(2)", "n_dropped"):
         assert word in r.stdout, word

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import copy
-import importlib
 import pickle
 from typing import Any
 
@@ -95,24 +94,15 @@ def _ate_on_worker(log: bs.SensorLog, config: bs.Config) -> tuple[bs.RunResult, 
 
 
 @pytest.mark.slow
-def test_through_a_dask_worker_process(fig4_log: bs.SensorLog, fig4_result: bs.RunResult) -> None:
-    distributed = importlib.import_module("distributed")  # installed by the dev/test extras
-
-    with (
-        distributed.LocalCluster(
-            n_workers=1,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            host="127.0.0.1",
-        ) as cluster,
-        distributed.Client(cluster) as client,
-    ):
-        # The log and config go to the worker, the result comes back: every
-        # object crosses the process boundary twice by pickling.
-        log_future = client.scatter(fig4_log)
-        remote, summary = client.submit(_ate_on_worker, log_future, fig4_result.config).result()
-        echoed = client.submit(lambda r: r, fig4_result).result()
+def test_through_a_dask_worker_process(
+    fig4_log: bs.SensorLog, fig4_result: bs.RunResult, dask_client: Any
+) -> None:
+    # The log and config go to a worker process (conftest's dask_client), the
+    # result comes back: every object crosses the process boundary twice by
+    # pickling.
+    log_future = dask_client.scatter(fig4_log)
+    remote, summary = dask_client.submit(_ate_on_worker, log_future, fig4_result.config).result()
+    echoed = dask_client.submit(lambda r: r, fig4_result).result()
     same_result(remote, fig4_result)
     same_result(echoed, fig4_result)
     assert summary["ate_rmse_m"] == fig4_result.summary["ate_rmse_m"]  # type: ignore[index]

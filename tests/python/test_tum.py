@@ -15,6 +15,7 @@ import pytest
 
 import bearing_slam as bs
 from bearing_slam.tum import truth_path, tum_lines
+from conftest import cli
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -92,15 +93,6 @@ def test_evo_python_api_equals_ate_rmse(tmp_path: Path, fig4_result: bs.RunResul
 
 @pytest.mark.slow
 def test_cli_run_tum(tmp_path: Path) -> None:
-    def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
-        return subprocess.run(
-            [sys.executable, "-m", "bearing_slam", *map(str, args)],
-            capture_output=True,
-            text=True,
-            timeout=600,
-            check=False,
-        )
-
     log = tmp_path / "fig4.mcap"
     r = cli("simulate", "paper_fig4", "--seed", "4", "--out", log)
     assert r.returncode == 0, r.stderr
@@ -111,6 +103,34 @@ def test_cli_run_tum(tmp_path: Path) -> None:
     metrics = json.loads((tmp_path / "run" / "metrics.json").read_text())
     rmse = evo_ape_rmse(tmp_path / "tum" / "run.truth.tum", tum)
     assert rmse == pytest.approx(metrics["ate_rmse_m"], abs=1e-6)
+
+
+def test_write_tum_is_atomic(
+    tmp_path: Path, fig4_result: bs.RunResult, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A write torn half-way (a full disk, a kill) leaves the old files whole
+    # and no temporary file beside them; a good write then replaces both.
+    estimate = tmp_path / "run.tum"
+    truth = truth_path(estimate)
+    estimate.write_text("old estimate\n")
+    truth.write_text("old truth\n")
+    write_text = Path.write_text
+
+    def torn(self: Path, data: str, *args: object, **kwargs: object) -> int:
+        write_text(self, data[: len(data) // 2])
+        raise OSError("no space left on device")
+
+    monkeypatch.setattr(Path, "write_text", torn)
+    with pytest.raises(OSError, match="no space"):
+        bs.write_tum(estimate, fig4_result)
+    monkeypatch.undo()
+    assert estimate.read_text() == "old estimate\n"
+    assert truth.read_text() == "old truth\n"
+    assert sorted(tmp_path.iterdir()) == sorted([estimate, truth])
+    bs.write_tum(estimate, fig4_result)
+    assert len(estimate.read_text().splitlines()) == len(fig4_result.time) + 1
+    assert truth.read_text().startswith("# timestamp")
+    assert sorted(tmp_path.iterdir()) == sorted([estimate, truth])
 
 
 def test_write_tum_without_truth(tmp_path: Path, fig4_log: bs.SensorLog) -> None:

@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import re
 import subprocess
-import sys
 from pathlib import Path
 
 import matplotlib as mpl
@@ -19,18 +18,9 @@ from bearing_slam.plots.run import (
     plot_trajectory,
     scan_gaps,
 )
+from conftest import cli
 
 ROOT = Path(__file__).resolve().parents[2]
-
-
-def cli(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "bearing_slam", *args],
-        capture_output=True,
-        text=True,
-        timeout=120,
-        check=False,
-    )
 
 
 @pytest.mark.parametrize("command", ["run", "montecarlo", "experiment", "demo", "mrclam"])

@@ -16,7 +16,7 @@ use crate::log::{EventKind, SensorLog, VelocityOdometry, WheelOdometry};
 use crate::model::MotionModel;
 use crate::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use crate::slam::{BearingSlam, SlamConfig};
-use crate::trace::SlamTrace;
+use crate::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
 use serde::{Deserialize, Serialize};
 
 /// Which odometry the filter predicts with, and its noise model.
@@ -272,6 +272,41 @@ pub fn check_odometry_matches(log: &SensorLog, odometry: &OdometryConfig) -> Res
 /// log does not validate ([`SensorLog::validate`]) or carries only the other
 /// kind of odometry ([`check_odometry_matches`]).
 pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
+    run_observed(log, config, |_| Ok::<(), SlamError>(()))
+}
+
+/// What a run did at one bearing scan, handed to the observer of
+/// [`run_observed`] right after the filter's update (and, without ground
+/// truth, after the track point of the scan is recorded).
+#[derive(Clone, Copy, Debug)]
+pub struct ScanStep<'a> {
+    /// The scan's time, s.
+    pub time: f64,
+    /// The scan's observations.
+    pub scan: &'a [crate::log::BearingObservation],
+    /// The estimate after the update (the snapshot the trace keeps).
+    pub snapshot: &'a EstimateSnapshot,
+    /// The filter's events since the previous scan's step.
+    pub events: &'a [TimedSlamEvent],
+    /// The track points recorded since the previous scan's step.
+    pub track: &'a [TrackPoint],
+}
+
+/// [`run`], calling `observer` after every bearing scan with what the scan
+/// did ([`ScanStep`]), so a caller can show the run as it goes. The run is
+/// the same loop as [`run`] (which is this with an observer that does
+/// nothing), so its output is identical: the observer only reads. An error
+/// of the observer ends the run and is returned as is; `E` takes the
+/// filter's errors through `From<SlamError>`.
+pub fn run_observed<E, F>(
+    log: &SensorLog,
+    config: &RunConfig,
+    mut observer: F,
+) -> std::result::Result<RunOutput, E>
+where
+    E: From<SlamError>,
+    F: FnMut(ScanStep<'_>) -> std::result::Result<(), E>,
+{
     log.validate()?;
     check_odometry_matches(log, &config.odometry)?;
     let mut slam_config = config.slam.clone();
@@ -291,6 +326,8 @@ pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
         .iter()
         .any(|e| matches!(e.kind, EventKind::GroundTruth(_)));
     let mut started = false;
+    // What the observer has been handed so far.
+    let (mut events_seen, mut track_seen) = (0, 0);
     for event in &log.events {
         runner.advance_command(event.time)?;
         match &event.kind {
@@ -308,6 +345,19 @@ pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
                 if !has_truth {
                     runner.record(event.time, None);
                 }
+                let events = runner.slam.events();
+                let track = &runner.output.track;
+                if let Some(snapshot) = runner.output.trace.snapshots.last() {
+                    observer(ScanStep {
+                        time: event.time,
+                        scan,
+                        snapshot,
+                        events: &events[events_seen.min(events.len())..],
+                        track: &track[track_seen.min(track.len())..],
+                    })?;
+                }
+                events_seen = events.len();
+                track_seen = track.len();
             }
             EventKind::GroundTruth(pose) => {
                 if started || event.time <= 0.0 {

@@ -15,6 +15,7 @@ mod log;
 mod metrics;
 mod models;
 mod montecarlo;
+mod observe;
 mod pickle;
 mod real_data;
 mod run;

@@ -7,13 +7,14 @@ use crate::config::{PyConfig, parse_name};
 use crate::convert::to_py;
 use crate::errors;
 use crate::log::PySensorLog;
+use crate::observe::call_python;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
-    filter_log,
+    evaluate_run_observed, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::prelude::*;
@@ -38,8 +39,11 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `parameters`, `landmark_alignment` `(x, y, θ)` mapping the map onto the
 /// surveyed landmarks or None, `has_ground_truth`) and the log the filter
 /// was given (commands corrected; ground truth decimated to 10 Hz).
+/// `on_scan`: as in `run`, a callable given each scan's step as the filter
+/// goes (the result is the same without it).
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None))]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, *, on_scan = None))]
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -47,6 +51,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     method: &str,
     start: Option<f64>,
     end: Option<f64>,
+    on_scan: Option<Py<PyAny>>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
     let robot = u8::try_from(robot)
@@ -67,30 +72,40 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         ..defaults.load
     };
     let parameters = defaults.parameters;
-    let (scores, output, log, summary, alignment, t0) = py
-        .detach(|| {
-            let run = load_mrclam_with(&dataset_dir, robot, &load)?;
-            let log = filter_log(&run, method, &parameters)?;
-            let mut scores = evaluate_run(&run, method, &parameters)?;
-            // evaluate_run always keeps its output.
-            let output = scores.output.take().unwrap_or_default();
-            let summary = if output.track.iter().any(|p| p.truth.is_some()) {
-                Some(summarize(&log, &output)?)
-            } else {
-                None
-            };
-            let estimated: Vec<(u64, f64, f64)> = output
-                .trace
-                .snapshots
-                .last()
-                .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
-                .unwrap_or_default();
-            let truth: Vec<(u64, f64, f64)> =
-                log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
-            let alignment = align_landmarks_se2(&estimated, &truth).map(|(a, _)| a);
-            Ok::<_, RealDataError>((scores, output, log, summary, alignment, run.t0_epoch_s))
-        })
-        .map_err(real_data_error)?;
+    let mut raised = None;
+    let evaluated = py.detach(|| {
+        let run = load_mrclam_with(&dataset_dir, robot, &load)?;
+        let log = filter_log(&run, method, &parameters)?;
+        let mut scores = match &on_scan {
+            None => evaluate_run(&run, method, &parameters)?,
+            Some(callback) => evaluate_run_observed(
+                &run,
+                method,
+                &parameters,
+                call_python(callback, &mut raised, || RealDataError::Stopped),
+            )?,
+        };
+        // evaluate_run always keeps its output.
+        let output = scores.output.take().unwrap_or_default();
+        let summary = if output.track.iter().any(|p| p.truth.is_some()) {
+            Some(summarize(&log, &output)?)
+        } else {
+            None
+        };
+        let estimated: Vec<(u64, f64, f64)> = output
+            .trace
+            .snapshots
+            .last()
+            .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+            .unwrap_or_default();
+        let truth: Vec<(u64, f64, f64)> = log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+        let alignment = align_landmarks_se2(&estimated, &truth).map(|(a, _)| a);
+        Ok::<_, RealDataError>((scores, output, log, summary, alignment, run.t0_epoch_s))
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let (scores, output, log, summary, alignment, t0) = evaluated.map_err(real_data_error)?;
     let metrics = to_py(py, &scores)?;
     let has_truth = summary.is_some();
     metrics.set_item("method", method.name())?;

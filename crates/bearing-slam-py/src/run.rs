@@ -6,8 +6,10 @@ use crate::convert::{arr1, arr2, arr3, mat3_from_rows, to_py};
 use crate::errors::SlamResultExt;
 use crate::filter::{LandmarkArrays, events_list, snapshot_dict, snapshot_landmarks};
 use crate::log::PySensorLog;
+use crate::observe::call_python;
+use bearing_slam::core::SlamError;
 use bearing_slam::core::metrics::pose_nees;
-use bearing_slam::core::runner::{RunOutput, run};
+use bearing_slam::core::runner::{RunOutput, run, run_observed};
 use bearing_slam::core::score::{RunSummary, summarize};
 use bearing_slam::core::trace::SlamTrace;
 use numpy::{PyArray1, PyArray2, PyArray3};
@@ -330,13 +332,17 @@ impl PyRunResult {
 }
 
 /// Runs a whole log through a new filter, in Rust with the GIL released.
-/// Without a config, `Config.for_log(log)` (MTE) is used.
+/// Without a config, `Config.for_log(log)` (MTE) is used. `on_scan`: a
+/// callable given each scan's step as a dict (`crate::observe`) right after
+/// the filter's update, to show the run as it goes; the result is the same
+/// with or without it, and an exception it raises ends the run.
 #[pyfunction(name = "run")]
-#[pyo3(signature = (log, config = None))]
+#[pyo3(signature = (log, config = None, *, on_scan = None))]
 pub(crate) fn py_run(
     py: Python<'_>,
     log: &PySensorLog,
     config: Option<PyConfig>,
+    on_scan: Option<Py<PyAny>>,
 ) -> PyResult<PyRunResult> {
     let config = match config {
         Some(c) => c,
@@ -344,18 +350,30 @@ pub(crate) fn py_run(
     };
     let rc = config.run_config()?;
     let inner = &log.inner;
-    let (output, summary) = py
-        .detach(|| {
-            let output = run(inner, &rc)?;
-            let has_truth = output.track.iter().any(|p| p.truth.is_some());
-            let summary = if has_truth {
-                Some(summarize(inner, &output)?)
-            } else {
-                None
-            };
-            Ok((output, summary))
-        })
-        .py()?;
+    let mut raised = None;
+    let result = py.detach(|| {
+        let output = match &on_scan {
+            None => run(inner, &rc)?,
+            Some(callback) => run_observed(
+                inner,
+                &rc,
+                call_python(callback, &mut raised, || {
+                    SlamError::Mismatch("the run was stopped by its on_scan callback")
+                }),
+            )?,
+        };
+        let has_truth = output.track.iter().any(|p| p.truth.is_some());
+        let summary = if has_truth {
+            Some(summarize(inner, &output)?)
+        } else {
+            None
+        };
+        Ok((output, summary))
+    });
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let (output, summary) = result.py()?;
     Ok(PyRunResult {
         output,
         summary,

@@ -74,7 +74,8 @@ pub use export::export_logs;
 pub use method::{CommandModel, Method};
 pub use parameters::{CALIBRATED_PARAMETERS, FilterParameters, NAIVE_PARAMETERS};
 pub use run::{
-    EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run, filter_log,
+    EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run,
+    evaluate_run_observed, filter_log,
 };
 
 use bearing_slam_core::SlamError;
@@ -110,6 +111,9 @@ pub enum RealDataError {
         /// What went wrong.
         problem: String,
     },
+    /// The observer of a run ([`evaluate_run_observed`]) stopped it.
+    #[error("the run was stopped by its observer")]
+    Stopped,
     /// An invalid calibration option.
     #[error("invalid option {name} = {value}: {reason}")]
     InvalidOption {

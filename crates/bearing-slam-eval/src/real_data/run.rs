@@ -185,10 +185,28 @@ pub fn evaluate_run(
     method: Method,
     parameters: &FilterParameters,
 ) -> Result<RealDataResult, RealDataError> {
+    evaluate_run_observed(run, method, parameters, |_| Ok(()))
+}
+
+/// [`evaluate_run`], calling `observer` after every bearing scan of the
+/// filter ([`runner::run_observed`]), e.g. to show the run as it goes. The
+/// scores are those of [`evaluate_run`] (the observer only reads).
+///
+/// # Errors
+/// As [`evaluate_run`], and the observer's error, which ends the run.
+pub fn evaluate_run_observed<F>(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    observer: F,
+) -> Result<RealDataResult, RealDataError>
+where
+    F: FnMut(runner::ScanStep<'_>) -> Result<(), RealDataError>,
+{
     let log = filter_log(run, method, parameters)?;
     let config = parameters.run_config(method, Pose2::default())?;
     let started = Instant::now();
-    let output = runner::run(&log, &config)?;
+    let output = runner::run_observed(&log, &config, observer)?;
     let run_time_s = started.elapsed().as_secs_f64();
 
     let has_truth = output.track.iter().any(|p| p.truth.is_some());
