@@ -296,6 +296,7 @@ impl PyConfig {
             conversion_threshold: self.conversion_threshold,
             covariance_update,
             update,
+            ..SlamConfig::default()
         };
         cfg.validate().py()?;
         Ok(cfg)

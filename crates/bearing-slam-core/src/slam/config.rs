@@ -1,6 +1,7 @@
 //! What [`BearingSlam`](super::BearingSlam) needs to start, and the checks
 //! of every parameter's range.
 
+use super::Consistency;
 use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
@@ -132,6 +133,11 @@ pub struct SlamConfig {
     /// rounding (see [`UpdateMode`]).
     #[serde(default)]
     pub update: UpdateMode,
+    /// Where the Jacobians are evaluated: at the latest estimate (the
+    /// standard EKF), at the first estimates (FEJ), or projected to keep the
+    /// unobservable directions (OC). See [`Consistency`].
+    #[serde(default)]
+    pub consistency: Consistency,
 }
 
 impl Default for SlamConfig {
@@ -150,6 +156,7 @@ impl Default for SlamConfig {
             conversion_threshold: Some(0.1),
             covariance_update: CovarianceUpdate::Symmetric,
             update: UpdateMode::Full,
+            consistency: Consistency::Standard,
         }
     }
 }

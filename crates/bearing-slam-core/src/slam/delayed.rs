@@ -8,6 +8,7 @@
 //!
 //! [`TriangulationConfig::history`]: crate::init::TriangulationConfig::history
 
+use super::consistency::{Consistency, PoseAt};
 use super::{
     BatchReport, BearingSlam, InitializerConfig, LandmarkSlot, VEHICLE_DIM, linearize_bearing,
 };
@@ -16,7 +17,7 @@ use crate::error::Result;
 use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
 use crate::trace::{InitMethod, SlamEvent};
-use nalgebra::{DMatrix, Matrix1, Matrix3};
+use nalgebra::{DMatrix, Matrix1, Matrix3, Vector3};
 
 /// Linearizations of the replayed waiting bearings (1 = a plain EKF update).
 const REPLAY_ITERATIONS: usize = 3;
@@ -42,6 +43,8 @@ pub(super) struct PoseClone {
     pub(super) offset: usize,
     /// Candidates that refer to it; it leaves the state at zero.
     users: usize,
+    /// Its first estimate (see `consistency`).
+    pub(super) first: Vector3<f64>,
 }
 
 impl BearingSlam {
@@ -183,7 +186,16 @@ impl BearingSlam {
                 let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
                 let c = self.next_clone_id;
                 self.next_clone_id += 1;
-                self.clones.insert(c, PoseClone { offset, users: 0 });
+                // A copy of the vehicle has the vehicle's nullspace.
+                let first = self.fej_pose;
+                self.clones.insert(
+                    c,
+                    PoseClone {
+                        offset,
+                        users: 0,
+                        first,
+                    },
+                );
                 self.batch_clone = Some(c);
                 c
             }
@@ -253,11 +265,16 @@ impl BearingSlam {
             let Some(clone) = self.clones.get(&clone_id).copied() else {
                 continue;
             };
-            let linearized = linearize_bearing(&self.ekf, clone.offset, slot, z, &noise);
+            let pose = PoseAt {
+                offset: clone.offset,
+                first: clone.first,
+            };
+            let linearized =
+                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
             if batch.len() > before {
-                accepted.push((clone.offset, z));
+                accepted.push((pose, z));
             }
         }
         for e in events {
@@ -267,13 +284,16 @@ impl BearingSlam {
             return Ok(());
         }
         let prior = self.ekf.clone();
+        let consistency = self.config.consistency;
         self.ekf.update(&batch)?;
         for _ in 1..REPLAY_ITERATIONS {
             // A relinearization that fails (a degenerate geometry at the new
             // estimate) keeps the last iterate, which is a valid update.
             let Ok(relinearized) = accepted
                 .iter()
-                .map(|&(offset, z)| relinearize_about(&prior, &self.ekf, offset, slot, z, &noise))
+                .map(|&(pose, z)| {
+                    relinearize_about(&prior, &self.ekf, consistency, pose, slot, z, &noise)
+                })
                 .collect::<Result<Vec<_>>>()
             else {
                 break;
@@ -348,12 +368,13 @@ impl BearingSlam {
 fn relinearize_about(
     prior: &Ekf,
     estimate: &Ekf,
-    pose_offset: usize,
+    consistency: Consistency,
+    pose: PoseAt,
     slot: LandmarkSlot,
     z: f64,
     noise: &Matrix1<f64>,
 ) -> Result<LinearizedMeasurement> {
-    let mut m = linearize_bearing(estimate, pose_offset, slot, z, noise)?;
+    let mut m = linearize_bearing(estimate, consistency, pose, slot, z, noise)?;
     let mut shift = 0.0;
     for block in &m.blocks {
         // One row: the Jacobian's entries are its columns in order.
