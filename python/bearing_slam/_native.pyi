@@ -101,6 +101,7 @@ class Config:
     conversion_threshold: float | None
     covariance_update: str
     update: str
+    consistency: str
     alpha_min: float
     baseline_min: float
     beta_min: float
