@@ -102,6 +102,7 @@ class Config:
     covariance_update: str
     update: str
     consistency: str
+    update_iterations: int
     alpha_min: float
     baseline_min: float
     beta_min: float

@@ -14,7 +14,8 @@
 //! 0.25)) and Fig. 4's convergence. `fig8`: Fig. 8 (`paper_fig8`, 5–40
 //! landmarks, MTE). The runs are those of `bearing-slam experiment` (same
 //! scenarios, seeds, scoring and classification); only the filter's
-//! consistency option differs.
+//! consistency option differs. `CONSISTENCY=oc,fej` restricts the methods,
+//! `ITERATIONS=3` makes every scan update an iterated EKF update.
 
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::metrics::pose_nees;
@@ -46,6 +47,14 @@ fn methods() -> Vec<Consistency> {
         Ok(list) => list.split(',').filter_map(|s| s.parse().ok()).collect(),
         Err(_) => METHODS.to_vec(),
     }
+}
+
+/// `ITERATIONS=N`: linearizations per scan update (default 1, the EKF).
+fn iterations() -> usize {
+    std::env::var("ITERATIONS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
 }
 
 fn main() -> Result<(), BoxError> {
@@ -85,6 +94,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
                 let log = filter_log(&loaded, method, &params)?;
                 let mut config = params.run_config(method, Pose2::default())?;
                 config.slam.consistency = consistency;
+                config.slam.update_iterations = iterations();
                 let output = run(&log, &config)?;
                 let s = summarize(&log, &output)?;
                 let (mut inside, mut total) = (0, 0);
@@ -119,7 +129,9 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
             }
             let mean = ates.iter().sum::<f64>() / ates.len() as f64;
             let worst = ates.iter().copied().fold(0.0, f64::max);
-            println!("| {method} | {consistency} | mean | {mean:.2} (worst {worst:.2}) | | | | | | |");
+            println!(
+                "| {method} | {consistency} | mean | {mean:.2} (worst {worst:.2}) | | | | | | |"
+            );
         }
     }
     Ok(())
@@ -175,6 +187,7 @@ fn try_run_one(
     let far_ids = scenario.far_landmark_ids.clone();
     let mut config = run_config(spec, &log, &far_ids)?;
     config.slam.consistency = consistency;
+    config.slam.update_iterations = iterations();
     let output = run(&log, &config)?;
     let summary = summarize(&log, &output)?;
     let mut series = RunSeries::default();
@@ -191,9 +204,11 @@ fn try_run_one(
         series
             .position_error_m
             .push((p.estimate.position() - truth.position()).norm());
-        series
-            .heading_error_deg
-            .push(wrap_angle(p.estimate.theta - truth.theta).abs().to_degrees());
+        series.heading_error_deg.push(
+            wrap_angle(p.estimate.theta - truth.theta)
+                .abs()
+                .to_degrees(),
+        );
         series
             .dead_reckoning_position_error_m
             .push((p.dead_reckoning.position() - truth.position()).norm());
@@ -211,7 +226,10 @@ fn try_run_one(
             s.landmarks
                 .iter()
                 .filter(|l| !far_ids.contains(&l.id))
-                .filter_map(|l| log.landmark_truth(l.id).map(|t| (l.x - t.x).hypot(l.y - t.y)))
+                .filter_map(|l| {
+                    log.landmark_truth(l.id)
+                        .map(|t| (l.x - t.x).hypot(l.y - t.y))
+                })
                 .collect()
         })
         .unwrap_or_default();

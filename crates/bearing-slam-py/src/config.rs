@@ -61,6 +61,10 @@ pub(crate) struct PyConfig {
     /// `"oc"` (observability-constrained).
     #[pyo3(get, set)]
     pub consistency: String,
+    /// Linearizations per scan update: 1 (default) is the EKF, more the
+    /// iterated EKF.
+    #[pyo3(get, set)]
+    pub update_iterations: usize,
     /// MTE: minimum parallax α_min, rad.
     #[pyo3(get, set)]
     pub alpha_min: f64,
@@ -116,7 +120,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 27] = [
+const FIELDS: [&str; 28] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -127,6 +131,7 @@ const FIELDS: [&str; 27] = [
     "covariance_update",
     "update",
     "consistency",
+    "update_iterations",
     "alpha_min",
     "baseline_min",
     "beta_min",
@@ -162,6 +167,7 @@ impl Default for PyConfig {
             covariance_update: slam.covariance_update.to_string(),
             update: slam.update.to_string(),
             consistency: slam.consistency.to_string(),
+            update_iterations: slam.update_iterations,
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
@@ -198,6 +204,7 @@ impl PyConfig {
         c.covariance_update = s.covariance_update.to_string();
         c.update = s.update.to_string();
         c.consistency = s.consistency.to_string();
+        c.update_iterations = s.update_iterations;
         c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
@@ -306,6 +313,7 @@ impl PyConfig {
             covariance_update,
             update,
             consistency,
+            update_iterations: self.update_iterations,
         };
         cfg.validate().py()?;
         Ok(cfg)

@@ -138,6 +138,14 @@ pub struct SlamConfig {
     /// unobservable directions (OC). See [`Consistency`].
     #[serde(default)]
     pub consistency: Consistency,
+    /// Linearizations of each scan's update (≥ 1; 1 is the plain EKF, more
+    /// the iterated EKF, relinearized at each iterate).
+    #[serde(default = "one")]
+    pub update_iterations: usize,
+}
+
+fn one() -> usize {
+    1
 }
 
 impl Default for SlamConfig {
@@ -157,6 +165,7 @@ impl Default for SlamConfig {
             covariance_update: CovarianceUpdate::Symmetric,
             update: UpdateMode::Full,
             consistency: Consistency::Standard,
+            update_iterations: 1,
         }
     }
 }
@@ -180,6 +189,13 @@ impl SlamConfig {
             }
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        if self.update_iterations == 0 {
+            return Err(SlamError::InvalidParameter {
+                name: "update_iterations",
+                value: 0.0,
+                reason: "must be at least 1",
+            });
+        }
         ensure_positive_noise("range sigma", self.range_sigma)?;
         if let Some(p) = self.gate_probability
             && !(p > 0.0 && p < 1.0)

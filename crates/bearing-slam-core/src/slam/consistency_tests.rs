@@ -320,3 +320,32 @@ fn log_final_truth(log: &SensorLog) -> nalgebra::Vector2<f64> {
         })
         .expect("ground truth")
 }
+
+#[test]
+fn iterated_updates_relinearize_and_keep_the_covariance_psd() {
+    let s = scenario();
+    let log = s.simulate(9);
+    let m = model(&s);
+    let mut poses = Vec::new();
+    for iterations in [1, 3] {
+        let mut slam = BearingSlam::new(SlamConfig {
+            update_iterations: iterations,
+            ..config(Consistency::Oc, pi_sr())
+        })
+        .expect("valid");
+        run(&mut slam, &log, &m, usize::MAX, |_| {});
+        check_covariance(&slam.ekf().covariance()).expect("PSD");
+        let err = (slam.pose().position() - log_final_truth(&log)).norm();
+        assert!(err < 0.5, "{iterations} iterations: final error {err} m");
+        poses.push(slam.pose());
+    }
+    assert!(
+        (poses[0].position() - poses[1].position()).norm() > 1e-9,
+        "the iterated update changes the estimate"
+    );
+    let zero = SlamConfig {
+        update_iterations: 0,
+        ..SlamConfig::default()
+    };
+    assert!(BearingSlam::new(zero).is_err(), "0 iterations refused");
+}

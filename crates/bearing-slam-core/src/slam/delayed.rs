@@ -8,13 +8,10 @@
 //!
 //! [`TriangulationConfig::history`]: crate::init::TriangulationConfig::history
 
-use super::consistency::{Consistency, PoseAt};
-use super::{
-    BatchReport, BearingSlam, InitializerConfig, LandmarkSlot, VEHICLE_DIM, linearize_bearing,
-};
-use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
+use super::consistency::PoseAt;
+use super::{BatchReport, BearingSlam, InitializerConfig, VEHICLE_DIM, linearize_bearing};
+use crate::ekf::BlockJacobian;
 use crate::error::Result;
-use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
 use crate::trace::{InitMethod, SlamEvent};
 use nalgebra::{DMatrix, Matrix1, Matrix3, Vector3};
@@ -284,28 +281,12 @@ impl BearingSlam {
             return Ok(());
         }
         let prior = self.ekf.clone();
-        let consistency = self.config.consistency;
         self.ekf.update(&batch)?;
-        for _ in 1..REPLAY_ITERATIONS {
-            // A relinearization that fails (a degenerate geometry at the new
-            // estimate) keeps the last iterate, which is a valid update.
-            let Ok(relinearized) = accepted
-                .iter()
-                .map(|&(pose, z)| {
-                    relinearize_about(&prior, &self.ekf, consistency, pose, slot, z, &noise)
-                })
-                .collect::<Result<Vec<_>>>()
-            else {
-                break;
-            };
-            let mut next = prior.clone();
-            if next.update(&relinearized).is_err() {
-                break;
-            }
-            self.ekf = next;
-        }
-        self.wrap_heading()?;
-        self.wrap_ray_azimuths()
+        let accepted: Vec<_> = accepted
+            .into_iter()
+            .map(|(pose, z)| (pose, slot, z))
+            .collect();
+        self.iterate_update(&prior, &accepted, REPLAY_ITERATIONS)
     }
 
     /// Forgets a candidate and releases its pose clones (each removed from the
@@ -361,30 +342,4 @@ impl BearingSlam {
             }
         }
     }
-}
-
-/// [`linearize_bearing`] linearized at `estimate` for an update of
-/// `prior` (one iterated-EKF pass): `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`.
-fn relinearize_about(
-    prior: &Ekf,
-    estimate: &Ekf,
-    consistency: Consistency,
-    pose: PoseAt,
-    slot: LandmarkSlot,
-    z: f64,
-    noise: &Matrix1<f64>,
-) -> Result<LinearizedMeasurement> {
-    let mut m = linearize_bearing(estimate, consistency, pose, slot, z, noise)?;
-    let mut shift = 0.0;
-    for block in &m.blocks {
-        // One row: the Jacobian's entries are its columns in order.
-        for (c, &h) in block.jacobian.iter().enumerate() {
-            let index = block.offset + c;
-            let d = estimate.mean()[index] - prior.mean()[index];
-            // Entry 2 of a pose and of an inverse-depth landmark is an angle.
-            shift += h * if c == 2 { wrap_angle(d) } else { d };
-        }
-    }
-    m.innovation[0] = wrap_angle(m.innovation[0] + shift);
-    Ok(m)
 }

@@ -15,6 +15,7 @@ mod consistency;
 #[cfg(test)]
 mod consistency_tests;
 mod delayed;
+mod iterated;
 
 pub use config::{InitializerConfig, InitializerKind, SlamConfig};
 pub use consistency::Consistency;
@@ -345,22 +346,28 @@ impl BearingSlam {
         let mut report = BatchReport::default();
         let mut new_sightings = Vec::new();
         let mut pending_events = Vec::new();
+        let mut accepted = Vec::new();
         for &(id, z) in observations {
             let Some(slot) = self.landmarks.get(&id).copied() else {
                 new_sightings.push((id, z));
                 continue;
             };
-            let linearized = linearize_bearing(
-                &self.ekf,
-                self.config.consistency,
-                self.vehicle_at(),
-                slot,
-                wrap_angle(z),
-                &noise,
-            );
+            let pose = self.vehicle_at();
+            let z = wrap_angle(z);
+            let linearized =
+                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
+            let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
+            if batch.len() > before {
+                accepted.push((pose, slot, z));
+            }
         }
+        let iterations = self.config.update_iterations;
+        let prior = (iterations > 1 && !batch.is_empty()).then(|| self.ekf.clone());
         self.commit_batch(time, &batch, &mut report, pending_events, 1)?;
+        if let Some(prior) = prior {
+            self.iterate_update(&prior, &accepted, iterations)?;
+        }
         for (id, z) in new_sightings {
             if self.initialize_from_bearing(id, wrap_angle(z))? {
                 report.initialized += 1;
