@@ -101,6 +101,8 @@ class Config:
     conversion_threshold: float | None
     covariance_update: str
     update: str
+    consistency: str
+    update_iterations: int
     alpha_min: float
     baseline_min: float
     beta_min: float

@@ -60,6 +60,11 @@ COVARIANCE_UPDATES: tuple[str, ...] = tuple(_RUST["covariance_updates"])
 #: The update modes, full or compressed (Rust: ``UpdateMode::ALL``).
 UPDATE_MODES: tuple[str, ...] = tuple(_RUST["update_modes"])
 
+#: Where the filter's Jacobians are evaluated, ``Config(consistency=...)``:
+#: standard, first estimates (FEJ) or observability-constrained (OC)
+#: (Rust: ``Consistency::ALL``).
+CONSISTENCIES: tuple[str, ...] = tuple(_RUST["consistencies"])
+
 #: The odometry models (Rust: ``OdometryKind::ALL``).
 ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])
 

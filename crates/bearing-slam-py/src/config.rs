@@ -10,7 +10,7 @@ use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConf
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
-use bearing_slam::core::slam::{InitializerConfig, InitializerKind, SlamConfig};
+use bearing_slam::core::slam::{Consistency, InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
 use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -56,6 +56,15 @@ pub(crate) struct PyConfig {
     /// EKF: local updates, one global update per region change).
     #[pyo3(get, set)]
     pub update: String,
+    /// Where the filter's Jacobians are evaluated (`Consistency`):
+    /// `"standard"` (the latest estimate), `"fej"` (first estimates) or
+    /// `"oc"` (observability-constrained).
+    #[pyo3(get, set)]
+    pub consistency: String,
+    /// Linearizations per scan update: 1 (default) is the EKF, more the
+    /// iterated EKF.
+    #[pyo3(get, set)]
+    pub update_iterations: usize,
     /// MTE: minimum parallax α_min, rad.
     #[pyo3(get, set)]
     pub alpha_min: f64,
@@ -111,7 +120,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 26] = [
+const FIELDS: [&str; 28] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -121,6 +130,8 @@ const FIELDS: [&str; 26] = [
     "conversion_threshold",
     "covariance_update",
     "update",
+    "consistency",
+    "update_iterations",
     "alpha_min",
     "baseline_min",
     "beta_min",
@@ -155,6 +166,8 @@ impl Default for PyConfig {
             conversion_threshold: slam.conversion_threshold,
             covariance_update: slam.covariance_update.to_string(),
             update: slam.update.to_string(),
+            consistency: slam.consistency.to_string(),
+            update_iterations: slam.update_iterations,
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
@@ -190,6 +203,8 @@ impl PyConfig {
         c.conversion_threshold = s.conversion_threshold;
         c.covariance_update = s.covariance_update.to_string();
         c.update = s.update.to_string();
+        c.consistency = s.consistency.to_string();
+        c.update_iterations = s.update_iterations;
         c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
@@ -286,6 +301,7 @@ impl PyConfig {
         let (sx, sy, st) = self.initial_pose_sigma;
         let covariance_update = parse_name::<CovarianceUpdate>(&self.covariance_update)?;
         let update = parse_name::<UpdateMode>(&self.update)?;
+        let consistency = parse_name::<Consistency>(&self.consistency)?;
         let cfg = SlamConfig {
             initial_pose: Pose2::new(x, y, t),
             initial_pose_sigma: [sx, sy, st],
@@ -296,6 +312,8 @@ impl PyConfig {
             conversion_threshold: self.conversion_threshold,
             covariance_update,
             update,
+            consistency,
+            update_iterations: self.update_iterations,
         };
         cfg.validate().py()?;
         Ok(cfg)

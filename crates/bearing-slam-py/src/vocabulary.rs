@@ -7,7 +7,7 @@ use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::OdometryKind;
-use bearing_slam::core::slam::InitializerKind;
+use bearing_slam::core::slam::{Consistency, InitializerKind};
 use bearing_slam::eval::experiments::Experiment;
 use bearing_slam::eval::montecarlo::{RunClass, RunMetrics, Thresholds};
 use bearing_slam::eval::real_data::Method;
@@ -20,7 +20,7 @@ fn names<T: Named>() -> Vec<&'static str> {
 }
 
 /// The vocabulary as a dict: `initializers`, `prior_initializers`,
-/// `covariance_updates`, `update_modes`, `odometries`, `mrclam_methods` (with
+/// `covariance_updates`, `update_modes`, `consistencies`, `odometries`, `mrclam_methods` (with
 /// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
 /// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`.
 #[pyfunction]
@@ -38,6 +38,7 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     )?;
     d.set_item("covariance_updates", names::<CovarianceUpdate>())?;
     d.set_item("update_modes", names::<UpdateMode>())?;
+    d.set_item("consistencies", names::<Consistency>())?;
     d.set_item("odometries", names::<OdometryKind>())?;
     d.set_item("mrclam_methods", names::<Method>())?;
     let labels = PyDict::new(py);

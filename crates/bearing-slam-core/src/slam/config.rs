@@ -1,6 +1,7 @@
 //! What [`BearingSlam`](super::BearingSlam) needs to start, and the checks
 //! of every parameter's range.
 
+use super::Consistency;
 use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
@@ -132,6 +133,19 @@ pub struct SlamConfig {
     /// rounding (see [`UpdateMode`]).
     #[serde(default)]
     pub update: UpdateMode,
+    /// Where the Jacobians are evaluated: at the latest estimate (the
+    /// standard EKF), at the first estimates (FEJ), or projected to keep the
+    /// unobservable directions (OC). See [`Consistency`].
+    #[serde(default)]
+    pub consistency: Consistency,
+    /// Linearizations of each scan's update (≥ 1; 1 is the plain EKF, more
+    /// the iterated EKF, relinearized at each iterate).
+    #[serde(default = "one")]
+    pub update_iterations: usize,
+}
+
+fn one() -> usize {
+    1
 }
 
 impl Default for SlamConfig {
@@ -150,6 +164,8 @@ impl Default for SlamConfig {
             conversion_threshold: Some(0.1),
             covariance_update: CovarianceUpdate::Symmetric,
             update: UpdateMode::Full,
+            consistency: Consistency::Standard,
+            update_iterations: 1,
         }
     }
 }
@@ -173,6 +189,13 @@ impl SlamConfig {
             }
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        if self.update_iterations == 0 {
+            return Err(SlamError::InvalidParameter {
+                name: "update_iterations",
+                value: 0.0,
+                reason: "must be at least 1",
+            });
+        }
         ensure_positive_noise("range sigma", self.range_sigma)?;
         if let Some(p) = self.gate_probability
             && !(p > 0.0 && p < 1.0)

@@ -8,15 +8,13 @@
 //!
 //! [`TriangulationConfig::history`]: crate::init::TriangulationConfig::history
 
-use super::{
-    BatchReport, BearingSlam, InitializerConfig, LandmarkSlot, VEHICLE_DIM, linearize_bearing,
-};
-use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
+use super::consistency::PoseAt;
+use super::{BatchReport, BearingSlam, InitializerConfig, VEHICLE_DIM, linearize_bearing};
+use crate::ekf::BlockJacobian;
 use crate::error::Result;
-use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
 use crate::trace::{InitMethod, SlamEvent};
-use nalgebra::{DMatrix, Matrix1, Matrix3};
+use nalgebra::{DMatrix, Matrix1, Matrix3, Vector3};
 
 /// Linearizations of the replayed waiting bearings (1 = a plain EKF update).
 const REPLAY_ITERATIONS: usize = 3;
@@ -42,6 +40,8 @@ pub(super) struct PoseClone {
     pub(super) offset: usize,
     /// Candidates that refer to it; it leaves the state at zero.
     users: usize,
+    /// Its first estimate (see `consistency`).
+    pub(super) first: Vector3<f64>,
 }
 
 impl BearingSlam {
@@ -183,7 +183,16 @@ impl BearingSlam {
                 let offset = self.ekf.clone_block(0, VEHICLE_DIM)?;
                 let c = self.next_clone_id;
                 self.next_clone_id += 1;
-                self.clones.insert(c, PoseClone { offset, users: 0 });
+                // A copy of the vehicle has the vehicle's nullspace.
+                let first = self.fej_pose;
+                self.clones.insert(
+                    c,
+                    PoseClone {
+                        offset,
+                        users: 0,
+                        first,
+                    },
+                );
                 self.batch_clone = Some(c);
                 c
             }
@@ -253,11 +262,16 @@ impl BearingSlam {
             let Some(clone) = self.clones.get(&clone_id).copied() else {
                 continue;
             };
-            let linearized = linearize_bearing(&self.ekf, clone.offset, slot, z, &noise);
+            let pose = PoseAt {
+                offset: clone.offset,
+                first: clone.first,
+            };
+            let linearized =
+                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
             if batch.len() > before {
-                accepted.push((clone.offset, z));
+                accepted.push((pose, z));
             }
         }
         for e in events {
@@ -268,24 +282,11 @@ impl BearingSlam {
         }
         let prior = self.ekf.clone();
         self.ekf.update(&batch)?;
-        for _ in 1..REPLAY_ITERATIONS {
-            // A relinearization that fails (a degenerate geometry at the new
-            // estimate) keeps the last iterate, which is a valid update.
-            let Ok(relinearized) = accepted
-                .iter()
-                .map(|&(offset, z)| relinearize_about(&prior, &self.ekf, offset, slot, z, &noise))
-                .collect::<Result<Vec<_>>>()
-            else {
-                break;
-            };
-            let mut next = prior.clone();
-            if next.update(&relinearized).is_err() {
-                break;
-            }
-            self.ekf = next;
-        }
-        self.wrap_heading()?;
-        self.wrap_ray_azimuths()
+        let accepted: Vec<_> = accepted
+            .into_iter()
+            .map(|(pose, z)| (pose, slot, z))
+            .collect();
+        self.iterate_update(&prior, &accepted, REPLAY_ITERATIONS)
     }
 
     /// Forgets a candidate and releases its pose clones (each removed from the
@@ -341,29 +342,4 @@ impl BearingSlam {
             }
         }
     }
-}
-
-/// [`linearize_bearing`] linearized at `estimate` for an update of
-/// `prior` (one iterated-EKF pass): `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`.
-fn relinearize_about(
-    prior: &Ekf,
-    estimate: &Ekf,
-    pose_offset: usize,
-    slot: LandmarkSlot,
-    z: f64,
-    noise: &Matrix1<f64>,
-) -> Result<LinearizedMeasurement> {
-    let mut m = linearize_bearing(estimate, pose_offset, slot, z, noise)?;
-    let mut shift = 0.0;
-    for block in &m.blocks {
-        // One row: the Jacobian's entries are its columns in order.
-        for (c, &h) in block.jacobian.iter().enumerate() {
-            let index = block.offset + c;
-            let d = estimate.mean()[index] - prior.mean()[index];
-            // Entry 2 of a pose and of an inverse-depth landmark is an angle.
-            shift += h * if c == 2 { wrap_angle(d) } else { d };
-        }
-    }
-    m.innovation[0] = wrap_angle(m.innovation[0] + shift);
-    Ok(m)
 }

@@ -11,9 +11,15 @@
 //! seen while waiting).
 
 mod config;
+mod consistency;
+#[cfg(test)]
+mod consistency_tests;
 mod delayed;
+mod iterated;
 
 pub use config::{InitializerConfig, InitializerKind, SlamConfig};
+pub use consistency::Consistency;
+use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};
 
 use crate::divergence::DivergenceMonitor;
@@ -23,13 +29,11 @@ use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{InverseDepthPrior, pi_sr};
 use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
 use crate::log::ensure_bearing;
-use crate::measurement::{
-    BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
-};
+use crate::measurement::{RangeBearing, inverse_range_bearing};
 use crate::model::MotionModel;
 use crate::stats::chi2_quantile;
 use crate::trace::{EstimateSnapshot, InitMethod, LandmarkSnapshot, SlamEvent, TimedSlamEvent};
-use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector1, Vector2, Vector3, Vector4};
+use nalgebra::{DMatrix, DVector, Matrix1, Matrix2, Matrix3, Vector2, Vector3, Vector4};
 use std::collections::BTreeMap;
 
 /// Size of the vehicle block `[x, y, θ]`.
@@ -76,6 +80,9 @@ struct LandmarkSlot {
     offset: usize,
     parameterization: Parameterization,
     method: InitMethod,
+    /// The first estimate (see `consistency`), padded with zeros to four
+    /// entries for a point.
+    first: Vector4<f64>,
 }
 
 /// The bearing-only EKF SLAM filter.
@@ -95,6 +102,9 @@ pub struct BearingSlam {
     events: Vec<TimedSlamEvent>,
     /// The windowed NIS test on every scan's measurements of mapped landmarks.
     divergence: DivergenceMonitor,
+    /// The vehicle's first estimate: the pose predicted at the last
+    /// prediction, `x̂_{k|k−1}` (see `consistency`).
+    fej_pose: Vector3<f64>,
 }
 
 impl BearingSlam {
@@ -108,6 +118,7 @@ impl BearingSlam {
             Some(p) => Some([chi2_quantile(1.0, p)?, chi2_quantile(2.0, p)?]),
             None => None,
         };
+        let fej_pose = config.initial_pose.to_vector();
         Ok(Self {
             ekf: Ekf::new(mean, cov)?
                 .with_covariance_update(config.covariance_update)
@@ -122,6 +133,7 @@ impl BearingSlam {
             time: None,
             events: Vec::new(),
             divergence: DivergenceMonitor::new(),
+            fej_pose,
         })
     }
 
@@ -278,7 +290,8 @@ impl BearingSlam {
     ) -> Result<()> {
         self.check_time(time)?;
         let vehicle = self.ekf.block::<3>(0)?;
-        let prediction = model.predict(&vehicle, control)?;
+        let mut prediction = model.predict(&vehicle, control)?;
+        self.constrain_prediction(&mut prediction);
         let p_vv = self.pose_covariance();
         let f = prediction.j_state_state;
         let new_p_vv = f * p_vv * f.transpose() + prediction.process_noise;
@@ -297,6 +310,7 @@ impl BearingSlam {
             });
         }
         self.ekf.apply_prediction(&prediction)?;
+        self.fej_pose = prediction.state;
         self.wrap_heading()?;
         self.time = Some(time);
         Ok(())
@@ -332,15 +346,28 @@ impl BearingSlam {
         let mut report = BatchReport::default();
         let mut new_sightings = Vec::new();
         let mut pending_events = Vec::new();
+        let mut accepted = Vec::new();
         for &(id, z) in observations {
             let Some(slot) = self.landmarks.get(&id).copied() else {
                 new_sightings.push((id, z));
                 continue;
             };
-            let linearized = linearize_bearing(&self.ekf, 0, slot, wrap_angle(z), &noise);
+            let pose = self.vehicle_at();
+            let z = wrap_angle(z);
+            let linearized =
+                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
+            let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
+            if batch.len() > before {
+                accepted.push((pose, slot, z));
+            }
         }
+        let iterations = self.config.update_iterations;
+        let prior = (iterations > 1 && !batch.is_empty()).then(|| self.ekf.clone());
         self.commit_batch(time, &batch, &mut report, pending_events, 1)?;
+        if let Some(prior) = prior {
+            self.iterate_update(&prior, &accepted, iterations)?;
+        }
         for (id, z) in new_sightings {
             if self.initialize_from_bearing(id, wrap_angle(z))? {
                 report.initialized += 1;
@@ -387,9 +414,23 @@ impl BearingSlam {
             match self.landmarks.get(&id).copied() {
                 Some(slot) if slot.parameterization == Parameterization::Euclidean => {
                     let measured = Vector2::new(r, wrap_angle(z));
-                    let linearized =
-                        self.ekf
-                            .linearize(&RangeBearing, slot.offset, &measured, &noise);
+                    let mut linearized = LinearizedMeasurement {
+                        innovation: DVector::zeros(2),
+                        noise: DMatrix::zeros(2, 2),
+                        blocks: Vec::with_capacity(2),
+                    };
+                    let linearized = linearize_consistent(
+                        &self.ekf,
+                        &RangeBearing,
+                        self.config.consistency,
+                        self.vehicle_at(),
+                        slot.offset,
+                        &slot.first.fixed_rows::<2>(0).into_owned(),
+                        &measured,
+                        &noise,
+                        &mut linearized,
+                    )
+                    .map(|()| linearized);
                     self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
                 }
                 Some(_) => {
@@ -405,12 +446,14 @@ impl BearingSlam {
             let pose = self.ekf.block::<3>(0)?;
             let inv = inverse_range_bearing(&pose, r, wrap_angle(z))?;
             let added = inv.j_point_measurement * noise * inv.j_point_measurement.transpose();
+            let jacobians = [BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()),
+            }];
+            let first = self.first_estimate_of_new(inv.point.as_slice(), &jacobians);
             let offset = self.ekf.augment(
                 &DVector::from_column_slice(inv.point.as_slice()),
-                &[BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()),
-                }],
+                &jacobians,
                 &DMatrix::from_column_slice(2, 2, added.as_slice()),
             )?;
             self.landmarks.insert(
@@ -419,6 +462,7 @@ impl BearingSlam {
                     offset,
                     parameterization: Parameterization::Euclidean,
                     method: InitMethod::RangeBearing,
+                    first,
                 },
             );
             self.record(SlamEvent::LandmarkInitialized {
@@ -545,6 +589,7 @@ impl BearingSlam {
         method: InitMethod,
         parallax_rad: f64,
     ) -> Result<bool> {
+        let first = self.first_estimate_of_new(landmark.as_slice(), jacobians);
         let offset = self.ekf.augment(
             &DVector::from_column_slice(landmark.as_slice()),
             jacobians,
@@ -556,6 +601,7 @@ impl BearingSlam {
                 offset,
                 parameterization: Parameterization::InverseDepth,
                 method,
+                first,
             },
         );
         self.record(SlamEvent::LandmarkInitialized {
@@ -641,15 +687,22 @@ impl BearingSlam {
                 continue;
             }
             let converted = inverse_depth_to_point(&y)?;
+            let j_point_landmark =
+                DMatrix::from_column_slice(2, 4, converted.j_point_landmark.as_slice());
             self.ekf.reparameterize(
                 slot.offset,
                 4,
                 &DVector::from_column_slice(converted.point.as_slice()),
-                &DMatrix::from_column_slice(2, 4, converted.j_point_landmark.as_slice()),
+                &j_point_landmark,
             )?;
             self.shift_offsets_after(slot.offset, 2);
             if let Some(s) = self.landmarks.get_mut(&id) {
                 s.parameterization = Parameterization::Euclidean;
+                s.first = converted_first_estimate(
+                    converted.point.as_slice(),
+                    &slot.first,
+                    &j_point_landmark,
+                );
             }
             self.record(SlamEvent::LandmarkConverted {
                 id,
@@ -667,42 +720,4 @@ impl BearingSlam {
             .ok_or(SlamError::UnknownLandmark(id))?;
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
-}
-
-/// A bearing `z` of the landmark in `slot` taken from the pose held in the
-/// state at `pose_offset` (0: the vehicle; else a pose clone), linearized at
-/// `ekf`'s estimate with the model of the landmark's parameterization
-/// ((8)(9) for a point, (11)(12) for inverse depth).
-fn linearize_bearing(
-    ekf: &Ekf,
-    pose_offset: usize,
-    slot: LandmarkSlot,
-    z: f64,
-    noise: &Matrix1<f64>,
-) -> Result<LinearizedMeasurement> {
-    let mut out = LinearizedMeasurement {
-        innovation: DVector::zeros(1),
-        noise: DMatrix::zeros(1, 1),
-        blocks: Vec::with_capacity(2),
-    };
-    let measured = Vector1::new(z);
-    match slot.parameterization {
-        Parameterization::Euclidean => ekf.linearize_from_into(
-            &BearingToPoint,
-            pose_offset,
-            slot.offset,
-            &measured,
-            noise,
-            &mut out,
-        ),
-        Parameterization::InverseDepth => ekf.linearize_from_into(
-            &BearingToInverseDepth,
-            pose_offset,
-            slot.offset,
-            &measured,
-            noise,
-            &mut out,
-        ),
-    }?;
-    Ok(out)
 }

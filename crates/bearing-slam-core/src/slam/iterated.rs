@@ -1,0 +1,77 @@
+//! The iterated EKF update (Bell & Cathey 1993): the same prior updated
+//! again with every measurement relinearized at the latest iterate,
+//! `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`, a Gauss–Newton step on the MAP problem of
+//! one scan. Used for the replay of waiting bearings and, with
+//! [`SlamConfig::update_iterations`](super::SlamConfig::update_iterations)
+//! > 1, for every scan.
+
+use super::consistency::{Consistency, PoseAt};
+use super::{BearingSlam, LandmarkSlot, linearize_bearing};
+use crate::ekf::{Ekf, LinearizedMeasurement};
+use crate::error::Result;
+use crate::geometry::wrap_angle;
+use nalgebra::Matrix1;
+
+impl BearingSlam {
+    /// Repeats the update of `prior` (the filter before this scan's update)
+    /// with the `accepted` bearings relinearized at the current estimate,
+    /// `iterations − 1` times. A relinearization or update that fails (a
+    /// degenerate geometry at the new estimate) keeps the last iterate,
+    /// which is a valid update.
+    pub(super) fn iterate_update(
+        &mut self,
+        prior: &Ekf,
+        accepted: &[(PoseAt, LandmarkSlot, f64)],
+        iterations: usize,
+    ) -> Result<()> {
+        if accepted.is_empty() {
+            return Ok(());
+        }
+        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
+        let consistency = self.config.consistency;
+        for _ in 1..iterations {
+            let Ok(relinearized) = accepted
+                .iter()
+                .map(|&(pose, slot, z)| {
+                    relinearize_about(prior, &self.ekf, consistency, pose, slot, z, &noise)
+                })
+                .collect::<Result<Vec<_>>>()
+            else {
+                break;
+            };
+            let mut next = prior.clone();
+            if next.update(&relinearized).is_err() {
+                break;
+            }
+            self.ekf = next;
+        }
+        self.wrap_heading()?;
+        self.wrap_ray_azimuths()
+    }
+}
+
+/// [`linearize_bearing`] linearized at `estimate` for an update of
+/// `prior` (one iterated-EKF pass): `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`.
+pub(super) fn relinearize_about(
+    prior: &Ekf,
+    estimate: &Ekf,
+    consistency: Consistency,
+    pose: PoseAt,
+    slot: LandmarkSlot,
+    z: f64,
+    noise: &Matrix1<f64>,
+) -> Result<LinearizedMeasurement> {
+    let mut m = linearize_bearing(estimate, consistency, pose, slot, z, noise)?;
+    let mut shift = 0.0;
+    for block in &m.blocks {
+        // One row: the Jacobian's entries are its columns in order.
+        for (c, &h) in block.jacobian.iter().enumerate() {
+            let index = block.offset + c;
+            let d = estimate.mean()[index] - prior.mean()[index];
+            // Entry 2 of a pose and of an inverse-depth landmark is an angle.
+            shift += h * if c == 2 { wrap_angle(d) } else { d };
+        }
+    }
+    m.innovation[0] = wrap_angle(m.innovation[0] + shift);
+    Ok(m)
+}

@@ -1,0 +1,327 @@
+//! The consistency methods (`SlamConfig::consistency`: standard, FEJ, OC)
+//! measured side by side, for docs/results/consistency_methods.md:
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example consistency_study -- mrclam [DATA_DIR]
+//! cargo run --release -p bearing-slam-eval --example consistency_study -- consistency RUNS
+//! cargo run --release -p bearing-slam-eval --example consistency_study -- fig8 RUNS
+//! ```
+//!
+//! `mrclam`: Dataset 6, robots 1–5, every bearing-only method with the
+//! calibrated parameters of the evaluation, under each consistency method.
+//! `consistency`: the consistency experiment (`paper_fig4`, with and
+//! without the far landmark, MTE / MTE-clone / MTE-history / PI-SR (0.5,
+//! 0.25)) and Fig. 4's convergence. `fig8`: Fig. 8 (`paper_fig8`, 5–40
+//! landmarks, MTE). The runs are those of `bearing-slam experiment` (same
+//! scenarios, seeds, scoring and classification); only the filter's
+//! consistency option differs. `CONSISTENCY=oc,fej` restricts the methods,
+//! `ITERATIONS=3` makes every scan update an iterated EKF update.
+
+use bearing_slam_core::geometry::{Pose2, wrap_angle};
+use bearing_slam_core::metrics::pose_nees;
+use bearing_slam_core::nalgebra::Matrix3;
+use bearing_slam_core::runner::run;
+use bearing_slam_core::score::{landmark_rmse, summarize};
+use bearing_slam_core::slam::Consistency;
+use bearing_slam_eval::experiments::{
+    Fig8Result, Fig8Row, consistency_table, fig4_initializers, fig8_table,
+};
+use bearing_slam_eval::montecarlo::{
+    InitializerSpec, MonteCarloReport, MonteCarloSpec, RunClass, RunMetrics, RunRecord, RunSeries,
+    classify, run_config,
+};
+use bearing_slam_eval::real_data::{
+    CALIBRATED_PARAMETERS, EvalOptions, Method, align_landmarks_se2, filter_log,
+};
+use bearing_slam_io::mrclam::load_mrclam_with;
+use bearing_slam_sim::simulate;
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+type BoxError = Box<dyn std::error::Error + Send + Sync>;
+
+const METHODS: [Consistency; 3] = [Consistency::Standard, Consistency::Fej, Consistency::Oc];
+
+fn methods() -> Vec<Consistency> {
+    match std::env::var("CONSISTENCY") {
+        Ok(list) => list.split(',').filter_map(|s| s.parse().ok()).collect(),
+        Err(_) => METHODS.to_vec(),
+    }
+}
+
+/// `ITERATIONS=N`: linearizations per scan update (default 1, the EKF).
+fn iterations() -> usize {
+    std::env::var("ITERATIONS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(1)
+}
+
+fn main() -> Result<(), BoxError> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("mrclam") => mrclam(args.get(1).map(PathBuf::from)),
+        Some("consistency") => consistency(runs(&args)?),
+        Some("fig8") => fig8(runs(&args)?),
+        _ => Err("usage: consistency_study mrclam [DIR] | consistency RUNS | fig8 RUNS".into()),
+    }
+}
+
+fn runs(args: &[String]) -> Result<usize, BoxError> {
+    Ok(args.get(1).map_or(Ok(50), |s| s.parse())?)
+}
+
+// ------------------------------------------------------------------ MRCLAM
+
+fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
+    let dir = dir.unwrap_or_else(|| {
+        PathBuf::from(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../../shared/datasets/mrclam/MRCLAM_Dataset6"
+        ))
+    });
+    let options = EvalOptions::default();
+    let params = CALIBRATED_PARAMETERS;
+    println!(
+        "| method | consistency | robot | ATE m | mean NEES | NEES ≤ χ²₀.₉₅(3) | landmarks | raw / aligned landmark RMSE m | used | gated |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for method in [Method::Mte, Method::MteClone, Method::PiSr] {
+        for consistency in methods() {
+            let mut ates = Vec::new();
+            for robot in 1..=5u8 {
+                let loaded = load_mrclam_with(&dir, robot, &options.load)?;
+                let log = filter_log(&loaded, method, &params)?;
+                let mut config = params.run_config(method, Pose2::default())?;
+                config.slam.consistency = consistency;
+                config.slam.update_iterations = iterations();
+                let output = run(&log, &config)?;
+                let s = summarize(&log, &output)?;
+                let (mut inside, mut total) = (0, 0);
+                for p in &output.track {
+                    let Some(t) = p.truth else { continue };
+                    let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+                    if let Ok(nees) = pose_nees(&p.estimate, &cov, &t) {
+                        total += 1;
+                        inside += usize::from(nees <= 7.814_727_903_251_178);
+                    }
+                }
+                let last = output.trace.snapshots.last();
+                let est: Vec<(u64, f64, f64)> = last
+                    .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+                    .unwrap_or_default();
+                let truth: Vec<(u64, f64, f64)> =
+                    log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+                let aligned = align_landmarks_se2(&est, &truth).map(|(_, r)| r);
+                let raw = last.and_then(|snap| landmark_rmse(&log, snap));
+                ates.push(s.ate_rmse_m);
+                println!(
+                    "| {method} | {consistency} | R{robot} | {:.2} | {:.2} | {:.2} | {} | {:.2} / {:.2} | {} | {} |",
+                    s.ate_rmse_m,
+                    s.mean_nees_pose,
+                    inside as f64 / total.max(1) as f64,
+                    est.len(),
+                    raw.unwrap_or(f64::NAN),
+                    aligned.unwrap_or(f64::NAN),
+                    output.counts.measurements_used,
+                    output.counts.measurements_rejected,
+                );
+            }
+            let mean = ates.iter().sum::<f64>() / ates.len() as f64;
+            let worst = ates.iter().copied().fold(0.0, f64::max);
+            println!(
+                "| {method} | {consistency} | mean | {mean:.2} (worst {worst:.2}) | | | | | | |"
+            );
+        }
+    }
+    Ok(())
+}
+
+// ------------------------------------------------------------- simulation
+
+/// `run_one` of the Monte Carlo module with the consistency option set.
+fn run_one(spec: &MonteCarloSpec, index: usize, consistency: Consistency) -> RunRecord {
+    let seed = spec.scenario.seed0.wrapping_add(index as u64);
+    match try_run_one(spec, index, seed, consistency) {
+        Ok(r) => r,
+        Err(e) => failed(index, seed, e.to_string()),
+    }
+}
+
+fn failed(run_index: usize, seed: u64, reason: String) -> RunRecord {
+    RunRecord {
+        metrics: RunMetrics {
+            run_index,
+            seed,
+            class: RunClass::Diverged,
+            reason: Some(reason),
+            ate_rmse_m: None,
+            final_position_error_m: None,
+            final_heading_error_deg: None,
+            landmark_rmse_m: None,
+            near_landmark_rmse_m: None,
+            mean_nees: None,
+            n_landmarks: None,
+            dead_reckoning_ate_rmse_m: None,
+            dead_reckoning_final_position_error_m: None,
+            dead_reckoning_final_heading_error_deg: None,
+            measurements_rejected: None,
+        },
+        series: RunSeries::default(),
+        init_events: Vec::new(),
+    }
+}
+
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+fn try_run_one(
+    spec: &MonteCarloSpec,
+    index: usize,
+    seed: u64,
+    consistency: Consistency,
+) -> Result<RunRecord, BoxError> {
+    let scenario = spec.scenario.build(index)?;
+    let log = simulate(&scenario)?;
+    let far_ids = scenario.far_landmark_ids.clone();
+    let mut config = run_config(spec, &log, &far_ids)?;
+    config.slam.consistency = consistency;
+    config.slam.update_iterations = iterations();
+    let output = run(&log, &config)?;
+    let summary = summarize(&log, &output)?;
+    let mut series = RunSeries::default();
+    let mut dr_heading = None;
+    let mut reason = None;
+    for p in &output.track {
+        let Some(truth) = p.truth else { continue };
+        let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+        if !p.estimate.is_finite() || !cov.iter().all(|v| v.is_finite()) {
+            reason = Some("non-finite estimate".to_owned());
+        }
+        series.time.push(p.time);
+        series.nees.push(pose_nees(&p.estimate, &cov, &truth).ok());
+        series
+            .position_error_m
+            .push((p.estimate.position() - truth.position()).norm());
+        series.heading_error_deg.push(
+            wrap_angle(p.estimate.theta - truth.theta)
+                .abs()
+                .to_degrees(),
+        );
+        series
+            .dead_reckoning_position_error_m
+            .push((p.dead_reckoning.position() - truth.position()).norm());
+        dr_heading = Some(
+            wrap_angle(p.dead_reckoning.theta - truth.theta)
+                .abs()
+                .to_degrees(),
+        );
+    }
+    let near: Vec<f64> = output
+        .trace
+        .snapshots
+        .last()
+        .map(|s| {
+            s.landmarks
+                .iter()
+                .filter(|l| !far_ids.contains(&l.id))
+                .filter_map(|l| {
+                    log.landmark_truth(l.id)
+                        .map(|t| (l.x - t.x).hypot(l.y - t.y))
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    let near_rmse = (!near.is_empty())
+        .then(|| (near.iter().map(|e| e * e).sum::<f64>() / near.len() as f64).sqrt());
+    let mut metrics = RunMetrics {
+        run_index: index,
+        seed,
+        class: RunClass::Converged,
+        reason,
+        ate_rmse_m: finite(summary.ate_rmse_m),
+        final_position_error_m: finite(summary.final_position_error_m),
+        final_heading_error_deg: finite(summary.final_heading_error_deg),
+        landmark_rmse_m: summary.landmark_rmse_m.and_then(finite),
+        near_landmark_rmse_m: near_rmse.and_then(finite),
+        mean_nees: finite(summary.mean_nees_pose),
+        n_landmarks: Some(summary.n_landmarks_initialized),
+        dead_reckoning_ate_rmse_m: finite(summary.dead_reckoning_ate_rmse_m),
+        dead_reckoning_final_position_error_m: finite(
+            summary.dead_reckoning_final_position_error_m,
+        ),
+        dead_reckoning_final_heading_error_deg: dr_heading.and_then(finite),
+        measurements_rejected: Some(output.counts.measurements_rejected),
+    };
+    let (class, why) = classify(&metrics, &spec.thresholds);
+    metrics.class = class;
+    metrics.reason = why;
+    Ok(RunRecord {
+        metrics,
+        series,
+        init_events: Vec::new(),
+    })
+}
+
+fn report(spec: &MonteCarloSpec, consistency: Consistency) -> Result<MonteCarloReport, BoxError> {
+    let records: Vec<RunRecord> = (0..spec.runs)
+        .into_par_iter()
+        .map(|i| run_one(spec, i, consistency))
+        .collect();
+    let mut r = MonteCarloReport::from_records(spec, records)?;
+    r.label = format!("{} [{consistency}]", r.label);
+    Ok(r)
+}
+
+fn consistency(runs: usize) -> Result<(), BoxError> {
+    let initializers: Vec<InitializerSpec> = fig4_initializers()
+        .into_iter()
+        .filter(|i| {
+            !matches!(i, InitializerSpec::PiSr { rho_ini, .. } if *rho_ini < 0.1)
+                && !matches!(i, InitializerSpec::PiSrMixed { .. })
+        })
+        .collect();
+    let mut reports = Vec::new();
+    println!("| scenario | method | converged | drift | diverged | mean ATE m |");
+    println!("|---|---|---|---|---|---|");
+    for far in [true, false] {
+        for init in &initializers {
+            for c in methods() {
+                let mut spec = MonteCarloSpec::new("paper_fig4", init.clone(), runs);
+                spec.scenario.far_landmark = far;
+                let r = report(&spec, c)?;
+                println!(
+                    "| paper_fig4{} | {} | {:.1} % | {:.1} % | {:.1} % | {:.3} |",
+                    if far { "" } else { " (no far)" },
+                    r.label,
+                    100.0 * r.converged_fraction,
+                    100.0 * r.drift_fraction,
+                    100.0 * r.diverged_fraction,
+                    r.all_finite.ate_rmse_m.unwrap_or(f64::NAN),
+                );
+                reports.push(r);
+            }
+        }
+    }
+    println!();
+    print!("{}", consistency_table(&reports));
+    Ok(())
+}
+
+fn fig8(runs: usize) -> Result<(), BoxError> {
+    for c in methods() {
+        let mut rows = Vec::new();
+        for n in [5, 10, 20, 40] {
+            let mut spec = MonteCarloSpec::new("paper_fig8", InitializerSpec::Mte, runs);
+            spec.scenario.landmark_count = Some(n);
+            rows.push(Fig8Row {
+                landmarks: n,
+                report: report(&spec, c)?,
+            });
+        }
+        println!("consistency = {c}");
+        print!("{}", fig8_table(&Fig8Result { rows }));
+    }
+    Ok(())
+}
