@@ -52,6 +52,7 @@ pub enum LandmarkTruth {
     /// `Landmark_Groundtruth.dat` as distributed.
     AsDistributed,
     /// With the positions of [`SWAPPED_SUBJECTS`] exchanged.
+    #[serde(rename = "swapped-11-17")]
     Swapped11And17,
 }
 
@@ -268,4 +269,25 @@ pub fn read_gtsam(dir: &Path) -> BTreeMap<u8, serde_json::Value> {
                 .collect()
         })
         .unwrap_or_default()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn swap_truth_exchanges_the_two_subjects_only() {
+        let truth = [(6, 0.0, 1.0), (11, 2.0, 3.0), (17, 4.0, 5.0)];
+        let swapped = swap_truth(&truth, SWAPPED_SUBJECTS);
+        assert_eq!(swapped, vec![(6, 0.0, 1.0), (11, 4.0, 5.0), (17, 2.0, 3.0)]);
+        // A truth without one of them is left as it is.
+        assert_eq!(
+            swap_truth(&truth[..2], SWAPPED_SUBJECTS),
+            truth[..2].to_vec()
+        );
+        assert_eq!(
+            super::super::tables::file_name("MRCLAM_Dataset4"),
+            "dataset4.md"
+        );
+    }
 }
