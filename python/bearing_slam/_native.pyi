@@ -52,6 +52,7 @@ __all__ = [
     "linearity_index",
     "load_mrclam",
     "nees",
+    "nees_summary",
     "nis",
     "odometry",
     "odometry_increment",

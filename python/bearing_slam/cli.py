@@ -488,8 +488,9 @@ def _parser() -> argparse.ArgumentParser:
         "times under the one-sided chi2(3) 95 % bound, the number in nees.png's title), "
         "n_measurements_used, n_gated, n_dropped (landmark rows the loader dropped as "
         "unusable: other robots' barcodes, unknown barcodes, outside the log, duplicates), "
-        "n_outside_window (rows outside --start/--end) and the parameters. The plots of a run without ground "
-        "truth show no truth line, the true landmarks aligned onto the map and no NEES.",
+        "n_outside_window (rows outside --start/--end) and the parameters. The plots of a "
+        "run without ground truth show no truth line, the true landmarks aligned onto the "
+        "map and no NEES.",
     )
     mr.add_argument("dataset", metavar="DATASET_DIR", help="an MRCLAM_DatasetN directory")
     mr.add_argument("--robot", type=robot_number, required=True, help="robot number, 1 to 5")

@@ -38,10 +38,13 @@ def _title_percent(result: bs.RunResult) -> str:
 
 
 def test_the_bound_is_the_one_sided_chi2_quantile() -> None:
-    assert POSE_NEES["dof"] == 3.0 and POSE_NEES["probability"] == 0.95
+    assert POSE_NEES["dof"] == 3.0
+    assert POSE_NEES["probability"] == 0.95
     assert POSE_NEES["bound"] == bs.chi2_quantile(3.0, 0.95)
     s = nees_summary(np.array([1.0, np.nan, 2.0, 3.0, 10.0]))
-    assert s["n_scored"] == 4 and s["median"] == 2.5 and s["fraction_within_bound"] == 0.75
+    assert s["n_scored"] == 4
+    assert s["median"] == 2.5
+    assert s["fraction_within_bound"] == 0.75
 
 
 def test_simulated_run_metrics_json_and_plot_agree() -> None:

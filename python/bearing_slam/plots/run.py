@@ -309,9 +309,7 @@ def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
     nees = result.nees
     bound = float(nees_summary(nees)["bound"])
     ok = np.isfinite(nees)
-    ax.axhline(
-        bound, color=_TRUTH, lw=1.2, label=f"χ²(3) 95 % bound ({bound:.2f})"
-    )
+    ax.axhline(bound, color=_TRUTH, lw=1.2, label=f"χ²(3) 95 % bound ({bound:.2f})")
     ax.axhline(3.0, color=_TRUTH, lw=1.0, ls="--", label="expected (3)")
     ax.plot(t[ok], nees[ok], color="k", lw=0.8, label="pose NEES")
     if ok.any():
