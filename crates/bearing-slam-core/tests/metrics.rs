@@ -587,7 +587,13 @@ fn pose_nees_scoring_starts_at_the_floor_and_keeps_later_collapses() {
         (series[5] - 1e-6 / 1e-12).abs() < 1e-3,
         "a collapse counts: {series:?}"
     );
-    assert!(NEES_MIN_HEADING_SIGMA_RAD > 0.0);
+    // A heading variance under its floor does not start the scoring either.
+    let thin_heading = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+        1e-4,
+        1e-4,
+        0.9 * NEES_MIN_HEADING_SIGMA_RAD.powi(2),
+    ));
+    assert!(pose_nees_series(&[Some((off, thin_heading, truth))])[0].is_nan());
 
     let s = NeesSummary::from_series(&[1.0, f64::NAN, 2.0, 3.0, 10.0]).unwrap();
     assert_eq!(s.n_scored, 4);

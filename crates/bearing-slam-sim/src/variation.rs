@@ -99,7 +99,10 @@ mod tests {
         let p = Pose2::new(1.0, 2.0, 0.5);
         assert_eq!(v.start_pose(p, &mut rng), p);
         let patch = FrictionPatch::rect([0.0, 0.0], [1.0, 1.0], 0.05);
-        assert_eq!(v.slip_patches(&[patch.clone()], &mut rng), vec![patch]);
+        assert_eq!(
+            v.slip_patches(std::slice::from_ref(&patch), &mut rng),
+            vec![patch]
+        );
     }
 
     #[test]
