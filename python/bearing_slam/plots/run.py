@@ -313,7 +313,7 @@ def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
     ax.axhline(3.0, color=_TRUTH, lw=1.0, ls="--", label="expected (3)")
     ax.plot(t[ok], nees[ok], color="k", lw=0.8, label="pose NEES")
     if ok.any():
-        ax.set_title(f"Pose NEES: {_title(result, log)} ({nees_caption(result)})")
+        ax.set_title(f"Pose NEES: {_title(result, log)}\n{nees_caption(result)}")
         ax.set_yscale("log")
     else:
         ax.set_title(f"Pose NEES: {_title(result, log)} (no ground truth)")
