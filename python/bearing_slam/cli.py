@@ -335,7 +335,9 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         f"aligned {f('landmark_rmse_aligned_m')}), "
         f"{rec['n_landmarks_mapped']}/{rec['n_landmarks_truth']} landmarks mapped, "
         f"{rec['n_measurements_used']}/{rec['n_measurements']} bearings used, "
-        f"{rec['n_dropped']} rows dropped by the loader"
+        f"{rec['n_dropped']} landmark rows dropped by the loader as unusable "
+        f"(other robots, unknown barcodes, outside the log, duplicates), "
+        f"{rec['n_outside_window']} outside the --start/--end window"
     )
     print(f"wrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     return 0
@@ -434,8 +436,9 @@ def _parser() -> argparse.ArgumentParser:
         description="Runs bearing-only SLAM on LOG (an MCAP file from `bearing-slam simulate` "
         "or the Rust tools) and writes into --out: metrics.json (ate_rmse_m, "
         "final_position_error_m, final_heading_error_deg, landmark_rmse_m, mean_nees_pose, "
+        "median_nees_pose, nees_within_95 (fraction under the one-sided χ²(3) 95 % bound), "
         "n_landmarks_initialized, dead-reckoning numbers, counts, config), trajectory.png "
-        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (95 % χ² band) and "
+        "(with landmark 2σ ellipses), pose_errors.png (±3σ), nees.png (χ² 95 % bound) and "
         "estimate.mcap (log + estimate, opens in Foxglove).",
     )
     runp.add_argument("log", metavar="LOG.mcap", help="input MCAP log")
@@ -485,9 +488,13 @@ def _parser() -> argparse.ArgumentParser:
         "(Dataset 1) the map is in the robot's start frame and landmark_rmse_m is SE(2)-aligned "
         "(landmark_frame says which). With ground truth also ate_rmse_m and "
         "odometry_ate_rmse_m (dead reckoning on the same corrected commands), otherwise null. "
-        "Also n_measurements_used, n_gated, n_dropped (rows the loader dropped: other robots' "
-        "barcodes, unknown barcodes) and the parameters. The plots of a run without ground "
-        "truth show no truth line, the true landmarks aligned onto the map and no NEES.",
+        "Also mean_nees_pose, median_nees_pose and nees_within_95 (fraction of the scored "
+        "times under the one-sided chi2(3) 95 % bound, the number in nees.png's title), "
+        "n_measurements_used, n_gated, n_dropped (landmark rows the loader dropped as "
+        "unusable: other robots' barcodes, unknown barcodes, outside the log, duplicates), "
+        "n_outside_window (rows outside --start/--end) and the parameters. The plots of a "
+        "run without ground truth show no truth line, the true landmarks aligned onto the "
+        "map and no NEES.",
     )
     mr.add_argument("dataset", metavar="DATASET_DIR", help="an MRCLAM_DatasetN directory")
     mr.add_argument("--robot", type=robot_number, required=True, help="robot number, 1 to 5")

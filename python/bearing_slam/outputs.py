@@ -203,6 +203,8 @@ def metrics_record(result: RunResult, log: SensorLog, seconds: float) -> dict[st
                     "final_position_error_m",
                     "final_heading_error_deg",
                     "mean_nees_pose",
+                    "median_nees_pose",
+                    "nees_within_95",
                 )
             }
         )
@@ -242,6 +244,7 @@ def mrclam_record(run: MrclamRun) -> dict[str, Any]:
             "odometry_ate_rmse_m": finite_or_none(m["odometry_ate_rmse_m"]),
             "ate_aligned_rmse_m": finite_or_none(m["ate_aligned_rmse_m"]),
             "mean_nees_pose": finite_or_none(m["mean_nees_pose"]),
+            "median_nees_pose": finite_or_none(m["median_nees_pose"]),
             "nees_within_95": finite_or_none(m["nees_within_95"]),
             "landmark_rmse_m": finite_or_none(
                 m["landmark_rmse_m"] if truth else m["landmark_rmse_aligned_m"]
@@ -263,6 +266,7 @@ def mrclam_record(run: MrclamRun) -> dict[str, Any]:
             "n_gated": m["n_gated"],
             "n_not_used_for_update": m["n_not_used_for_update"],
             "n_dropped": m["n_dropped_loader"],
+            "n_outside_window": m["n_outside_window"],
             "n_dropped_by_reason": {
                 "other_robot": report["n_dropped_robot"],
                 "unknown_barcode": report["n_dropped_unknown_barcode"],

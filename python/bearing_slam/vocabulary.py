@@ -31,6 +31,7 @@ __all__ = [
     "MRCLAM_METHOD_LABELS",
     "MTE_HISTORY",
     "ODOMETRIES",
+    "POSE_NEES",
     "PRIOR_INITS",
     "RUN_INITS",
     "UPDATE_MODES",
@@ -95,6 +96,13 @@ MRCLAM_METHODS: tuple[str, ...] = tuple(_RUST["mrclam_methods"])
 #: Labels of the MRCLAM methods (Rust: ``Method::label``) and of the GTSAM
 #: yardstick (a Python script's) in tables and figures.
 MRCLAM_METHOD_LABELS: dict[str, str] = {**_RUST["mrclam_method_labels"], "gtsam": "GTSAM batch"}
+
+#: The pose-NEES scoring rule of one run (Rust: ``metrics::pose_nees_bound``
+#: and the ``NEES_*`` constants): ``dof``, ``probability``, the one-sided
+#: ``bound`` (χ²(3) 95 % quantile, 7.81) a sample is "under", and the floor
+#: (``min_position_sigma_m``, ``min_heading_sigma_rad``) the covariance must
+#: first rise above before samples are scored.
+POSE_NEES: dict[str, float] = dict(_RUST["pose_nees"])
 
 #: The paper's experiments, in the order ``all`` runs them (Rust: ``Experiment::ALL``).
 EXPERIMENTS: tuple[str, ...] = tuple(_RUST["experiments"])

@@ -196,7 +196,7 @@ def test_python_api() -> None:
 def test_results_page_tables_match_results_json() -> None:
     """The Dataset 6 ATE and Dataset 1 tables of ``docs/results/mrclam.md`` are
     the numbers of ``docs/results/mrclam/results.json`` (written by the
-    ``bearing-slam-eval tables``)."""
+    ``bearing-slam-eval tables``), and every dataset has its table file."""
     results = json.loads((ROOT / "docs/results/mrclam/results.json").read_text())
     text = (ROOT / "docs/results/mrclam.md").read_text().split("# Results: real data", 1)[1]
     ate_table, rest = text.split("**Dataset 6, landmark RMSE", 1)
@@ -207,11 +207,24 @@ def test_results_page_tables_match_results_json() -> None:
         line = next(ln for ln in table.splitlines() if ln.startswith(f"| R{robot} |"))
         return [c.strip() for c in line.strip("|").split("|")][1:]
 
-    for r in results["dataset6"]:
+    def dataset(name: str, truth: str = "as-distributed") -> list[dict[str, Any]]:
+        return next(
+            d["results"]
+            for d in results["datasets"]
+            if d["dataset"] == name and d["landmark_truth"] == truth
+        )
+
+    for r in dataset("MRCLAM_Dataset6"):
         cells = row(ate_table, r["robot"])
         assert cells[order.index(r["method"])] == f"{r['ate_rmse_m']:.2f}", r["source"]
-    for r in results["dataset1"]:
+    for r in dataset("MRCLAM_Dataset1"):
         if r["method"] == "dead-reckoning":
             continue
         cell = row(d1_table, r["robot"])[order.index(r["method"]) - 1]
         assert cell == f"{r['landmark_rmse_aligned_m']:.2f} ({r['n_landmarks_mapped']})"
+    names = {(d["dataset"], d["landmark_truth"]) for d in results["datasets"]}
+    for n in (6, 1, 2, 4):
+        assert (f"MRCLAM_Dataset{n}", "as-distributed") in names
+        table = (ROOT / f"docs/results/mrclam/dataset{n}.md").read_text()
+        assert all(f"| R{robot} |" in table for robot in range(1, 6)), n
+    assert ("MRCLAM_Dataset1", "swapped-11-17") in names

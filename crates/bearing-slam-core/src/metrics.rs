@@ -411,3 +411,130 @@ impl ConsistencyStats {
         self.inside as f64 / self.steps.max(1) as f64
     }
 }
+
+// ------------------------------------------------------ one run's pose NEES
+
+/// Probability of the one-sided χ² bound a single run's pose NEES is
+/// compared with: a sample is "under the 95 % bound" when its NEES is at most
+/// the 0.95 quantile of χ²(3) ([`pose_nees_bound`], 7.815). A consistent
+/// filter is under it 95 % of the time; an over-confident one less often.
+/// This is the one definition of "the fraction under the χ² 95 % bound" of
+/// `metrics.json`, the MRCLAM tables and the NEES plots (the two-sided band
+/// of [`chi2_interval`] is for the Monte Carlo average over runs).
+pub const NEES_BOUND_PROBABILITY: f64 = 0.95;
+
+/// Degrees of freedom of the pose NEES (`x`, `y`, `θ`).
+pub const POSE_NEES_DOF: f64 = 3.0;
+
+/// Position standard deviation below which a pose covariance is "near zero",
+/// metres: 1 mm, the order of the Vicon's own error on MRCLAM.
+pub const NEES_MIN_POSITION_SIGMA_M: f64 = 1e-3;
+
+/// Heading standard deviation below which a pose covariance is "near zero",
+/// radians: 1 mrad.
+pub const NEES_MIN_HEADING_SIGMA_RAD: f64 = 1e-3;
+
+/// The one-sided bound of a single pose NEES: the [`NEES_BOUND_PROBABILITY`]
+/// quantile of χ²([`POSE_NEES_DOF`]) from [`chi2_quantile`](crate::stats::chi2_quantile).
+///
+/// # Errors
+/// Never in practice (the arguments are in the quantile's domain).
+pub fn pose_nees_bound() -> Result<f64> {
+    crate::stats::chi2_quantile(POSE_NEES_DOF, NEES_BOUND_PROBABILITY)
+}
+
+/// Whether `cov` is above the floor in every direction: the smallest
+/// eigenvalue of its position block at least [`NEES_MIN_POSITION_SIGMA_M`]²
+/// and its heading variance at least [`NEES_MIN_HEADING_SIGMA_RAD`]².
+fn above_nees_floor(cov: &Matrix3<f64>) -> bool {
+    let (a, b, d) = (cov[(0, 0)], 0.5 * (cov[(0, 1)] + cov[(1, 0)]), cov[(1, 1)]);
+    // Smallest eigenvalue of the symmetric 2 × 2 position block.
+    let smallest = 0.5 * (a + d) - (0.25 * (a - d).powi(2) + b * b).sqrt();
+    smallest >= NEES_MIN_POSITION_SIGMA_M.powi(2)
+        && cov[(2, 2)] >= NEES_MIN_HEADING_SIGMA_RAD.powi(2)
+}
+
+/// The pose NEES of a run, sample by sample, by the **scoring rule**: a run
+/// whose start is known exactly (zero covariance) has a covariance near zero
+/// for its first instants, where a millimetre of ground-truth error gives a
+/// NEES of millions that would dominate any mean. So scoring **starts at the
+/// first sample whose covariance is above the floor** (position σ ≥
+/// [`NEES_MIN_POSITION_SIGMA_M`] in every direction and heading σ ≥
+/// [`NEES_MIN_HEADING_SIGMA_RAD`]); samples before it are not scored. From
+/// there on every sample is scored whose covariance is positive definite: a
+/// covariance that later collapses is over-confidence and counts.
+///
+/// `samples[k]` is `(estimate, covariance [x, y, θ], truth)`, or `None`
+/// where there is no truth; the result has one entry per sample, NaN where
+/// it is not scored.
+#[must_use]
+pub fn pose_nees_series(samples: &[Option<(Pose2, Matrix3<f64>, Pose2)>]) -> Vec<f64> {
+    let mut started = false;
+    samples
+        .iter()
+        .map(|sample| {
+            let Some((estimate, cov, truth)) = sample else {
+                return f64::NAN;
+            };
+            started = started || above_nees_floor(cov);
+            if !started {
+                return f64::NAN;
+            }
+            pose_nees(estimate, cov, truth).unwrap_or(f64::NAN)
+        })
+        .collect()
+}
+
+/// What a run's pose NEES says (`metrics.json`, the MRCLAM tables and the
+/// title of the NEES plot), over the scored samples of [`pose_nees_series`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NeesSummary {
+    /// Mean of the scored NEES (consistent ≈ 3); NaN when none is scored.
+    pub mean: f64,
+    /// Median of the scored NEES (consistent ≈ 2.37, the χ²(3) median); NaN
+    /// when none is scored.
+    pub median: f64,
+    /// Fraction of the scored samples whose NEES is at most [`Self::bound`]
+    /// (consistent ≈ 0.95); NaN when none is scored.
+    pub fraction_within_bound: f64,
+    /// The bound, [`pose_nees_bound`].
+    pub bound: f64,
+    /// Samples scored.
+    pub n_scored: usize,
+}
+
+impl NeesSummary {
+    /// Summarizes a series of [`pose_nees_series`]: NaN entries (not scored)
+    /// are left out.
+    ///
+    /// # Errors
+    /// Never in practice ([`pose_nees_bound`]).
+    pub fn from_series(series: &[f64]) -> Result<Self> {
+        let bound = pose_nees_bound()?;
+        let mut scored: Vec<f64> = series.iter().copied().filter(|v| v.is_finite()).collect();
+        let n = scored.len();
+        if n == 0 {
+            return Ok(Self {
+                mean: f64::NAN,
+                median: f64::NAN,
+                fraction_within_bound: f64::NAN,
+                bound,
+                n_scored: 0,
+            });
+        }
+        scored.sort_by(f64::total_cmp);
+        let median = if n % 2 == 1 {
+            scored[n / 2]
+        } else {
+            0.5 * (scored[n / 2 - 1] + scored[n / 2])
+        };
+        let within = scored.iter().filter(|&&v| v <= bound).count();
+        Ok(Self {
+            mean: scored.iter().sum::<f64>() / n as f64,
+            median,
+            fraction_within_bound: within as f64 / n as f64,
+            bound,
+            n_scored: n,
+        })
+    }
+}

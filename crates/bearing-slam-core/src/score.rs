@@ -5,7 +5,7 @@
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::SensorLog;
-use crate::metrics::{Alignment, ate, pose_nees};
+use crate::metrics::{Alignment, NeesSummary, ate, pose_nees_series};
 use crate::runner::{RunOutput, TrackPoint};
 use crate::trace::{EstimateSnapshot, SlamEvent};
 use nalgebra::Matrix3;
@@ -29,9 +29,21 @@ pub struct RunSummary {
     /// RMSE of the mapped landmarks' positions against the truth (map frame =
     /// the log's world frame, as the filter starts at the true initial pose), metres.
     pub landmark_rmse_m: Option<f64>,
-    /// Mean pose NEES over the ground-truth times where the covariance is
-    /// positive definite (3 dof: consistent ≈ 3; NaN when there is none).
+    /// Mean pose NEES over the scored ground-truth times (3 dof: consistent
+    /// ≈ 3; NaN when none is scored). Which times are scored is the rule of
+    /// [`pose_nees_series`]: from the first covariance above the floor on.
     pub mean_nees_pose: f64,
+    /// Median pose NEES over the same times (consistent ≈ 2.37).
+    #[serde(default = "nan")]
+    pub median_nees_pose: f64,
+    /// Fraction of the scored times whose pose NEES is under the one-sided
+    /// χ²(3) 95 % bound ([`crate::metrics::pose_nees_bound`], 7.81):
+    /// consistent ≈ 0.95.
+    #[serde(default = "nan")]
+    pub nees_within_95: f64,
+    /// Ground-truth times whose NEES was scored.
+    #[serde(default)]
+    pub n_nees_scored: usize,
     /// Landmarks in the map at the end.
     pub n_landmarks_initialized: usize,
     /// Whether every covariance stayed finite (a non-finite one is divergence).
@@ -67,19 +79,10 @@ pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
     let raw = ate(&estimate, &truth, Alignment::None)?;
     let aligned = ate(&estimate, &truth, Alignment::Se2)?;
     let dr = ate(&dead_reckoning, &truth, Alignment::None)?;
-    // NEES is scored where the covariance is positive definite: a start pose
-    // known exactly (zero covariance) has no NEES.
-    let mut nees_sum = 0.0;
-    let mut nees_count = 0usize;
-    let mut finite = true;
-    for (p, t) in &scored {
-        let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
-        finite &= cov.iter().all(|v| v.is_finite());
-        if let Ok(nees) = pose_nees(&p.estimate, &cov, t) {
-            nees_sum += nees;
-            nees_count += 1;
-        }
-    }
+    let finite = scored
+        .iter()
+        .all(|(p, _)| p.covariance.iter().flatten().all(|v| v.is_finite()));
+    let nees = NeesSummary::from_series(&track_nees(&scored))?;
     let last = output.trace.snapshots.last();
     let diverged_at_s = first_divergence(output);
     Ok(RunSummary {
@@ -90,16 +93,45 @@ pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
         dead_reckoning_ate_rmse_m: dr.rmse_m,
         dead_reckoning_final_position_error_m: dr.final_position_m,
         landmark_rmse_m: last.and_then(|s| landmark_rmse(log, s)),
-        mean_nees_pose: if nees_count > 0 {
-            nees_sum / nees_count as f64
-        } else {
-            f64::NAN
-        },
+        mean_nees_pose: nees.mean,
+        median_nees_pose: nees.median,
+        nees_within_95: nees.fraction_within_bound,
+        n_nees_scored: nees.n_scored,
         n_landmarks_initialized: last.map_or(0, |s| s.landmarks.len()),
         finite,
         diverged: diverged_at_s.is_some(),
         diverged_at_s,
     })
+}
+
+fn nan() -> f64 {
+    f64::NAN
+}
+
+/// The pose NEES of the track points that have a truth, by the scoring rule
+/// of [`pose_nees_series`] (NaN where not scored).
+fn track_nees(scored: &[(&TrackPoint, Pose2)]) -> Vec<f64> {
+    let samples: Vec<_> = scored
+        .iter()
+        .map(|(p, t)| Some((p.estimate, Matrix3::from_fn(|r, c| p.covariance[r][c]), *t)))
+        .collect();
+    pose_nees_series(&samples)
+}
+
+/// The pose NEES at every point of a run's track by the scoring rule of
+/// [`pose_nees_series`]: NaN where the point has no truth or is not scored.
+/// [`summarize`] summarizes exactly these values ([`NeesSummary`]).
+#[must_use]
+pub fn run_nees(output: &RunOutput) -> Vec<f64> {
+    let samples: Vec<_> = output
+        .track
+        .iter()
+        .map(|p| {
+            p.truth
+                .map(|t| (p.estimate, Matrix3::from_fn(|r, c| p.covariance[r][c]), t))
+        })
+        .collect();
+    pose_nees_series(&samples)
 }
 
 /// The time of the run's first [`SlamEvent::Diverging`], if any.

@@ -553,3 +553,55 @@ fn bad_inputs_are_errors() {
     assert_eq!((s.inside, s.below, s.above), (3, 1, 1));
     assert_relative_eq!(s.fraction_inside(), 0.6);
 }
+
+/// The scoring rule of a run's pose NEES: nothing is scored before the
+/// covariance first rises above the floor, everything with a positive
+/// definite covariance after it (a later collapse counts).
+#[test]
+fn pose_nees_scoring_starts_at_the_floor_and_keeps_later_collapses() {
+    use bearing_slam_core::metrics::{
+        NEES_MIN_HEADING_SIGMA_RAD, NEES_MIN_POSITION_SIGMA_M, NeesSummary, pose_nees_bound,
+        pose_nees_series,
+    };
+    let truth = Pose2::new(1.0, 2.0, 0.3);
+    let off = Pose2::new(1.001, 2.0, 0.3); // 1 mm off in x
+    let tiny = Matrix3::from_diagonal_element(1e-12);
+    let normal = Matrix3::from_diagonal(&nalgebra::Vector3::new(1e-4, 1e-4, 1e-4));
+    // Just below the floor in y only: still not started.
+    let skinny = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+        1e-4,
+        0.9 * NEES_MIN_POSITION_SIGMA_M.powi(2),
+        1e-4,
+    ));
+    let series = pose_nees_series(&[
+        Some((truth, Matrix3::zeros(), truth)),
+        Some((off, tiny, truth)),
+        Some((off, skinny, truth)),
+        None,
+        Some((off, normal, truth)),
+        Some((off, tiny, truth)),
+    ]);
+    assert!(series[..4].iter().all(|v| v.is_nan()), "{series:?}");
+    assert!((series[4] - 1e-6 / 1e-4).abs() < 1e-9, "{series:?}");
+    assert!(
+        (series[5] - 1e-6 / 1e-12).abs() < 1e-3,
+        "a collapse counts: {series:?}"
+    );
+    // A heading variance under its floor does not start the scoring either.
+    let thin_heading = Matrix3::from_diagonal(&nalgebra::Vector3::new(
+        1e-4,
+        1e-4,
+        0.9 * NEES_MIN_HEADING_SIGMA_RAD.powi(2),
+    ));
+    assert!(pose_nees_series(&[Some((off, thin_heading, truth))])[0].is_nan());
+
+    let s = NeesSummary::from_series(&[1.0, f64::NAN, 2.0, 3.0, 10.0]).unwrap();
+    assert_eq!(s.n_scored, 4);
+    assert!((s.mean - 4.0).abs() < 1e-12 && (s.median - 2.5).abs() < 1e-12);
+    assert!((s.fraction_within_bound - 0.75).abs() < 1e-12);
+    // The one-sided 95 % quantile of χ²(3).
+    assert!((s.bound - 7.814_727_903_251_178).abs() < 1e-9);
+    assert_eq!(s.bound, pose_nees_bound().unwrap());
+    let none = NeesSummary::from_series(&[f64::NAN]).unwrap();
+    assert!(none.n_scored == 0 && none.mean.is_nan() && none.fraction_within_bound.is_nan());
+}

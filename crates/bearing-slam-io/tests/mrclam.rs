@@ -311,6 +311,18 @@ fn time_window_yields_a_shorter_log() {
         (window.report.log_end_s - 200.0).abs() < 1e-9,
         "last command clipped to end"
     );
+    // Rows outside the window are counted apart from the rows dropped as
+    // unusable: the window's landmark rows plus those outside it are the
+    // full log's landmark rows, and nothing more is counted as dropped.
+    assert_eq!(full.report.n_outside_window, 0);
+    assert!(window.report.n_outside_window > 1000);
+    assert_eq!(
+        window.report.n_landmark_bearings
+            + window.report.n_outside_window
+            + window.report.n_dropped_outside,
+        full.report.n_landmark_bearings + full.report.n_dropped_outside
+    );
+    assert_eq!(window.report.n_dropped_robot, full.report.n_dropped_robot);
     // The initial pose is the truth at the window's first command.
     let expected = interpolate_pose(&full.ground_truth, first.time).expect("truth at 100 s");
     assert_eq!(window.log.info.initial_pose, Some(expected));

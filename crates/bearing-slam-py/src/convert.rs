@@ -2,7 +2,7 @@
 //! arrays built from nalgebra matrices (which are column-major).
 
 use bearing_slam::core::Pose2;
-use bearing_slam::core::nalgebra::{Matrix3, SMatrix, SVector, Vector2, Vector3};
+use bearing_slam::core::nalgebra::{SMatrix, SVector, Vector2, Vector3};
 use numpy::{
     AllowTypeChange, PyArray1, PyArray2, PyArray3, PyArrayLike1, PyArrayLike2, PyArrayMethods,
     PyUntypedArrayMethods,
@@ -176,11 +176,6 @@ pub(crate) fn vector<'py, const N: usize>(
 /// A pose as `[x, y, θ]`.
 pub(crate) fn pose<'py>(py: Python<'py>, p: &Pose2) -> Bound<'py, PyArray1<f64>> {
     arr1(py, vec![p.x, p.y, p.theta])
-}
-
-/// A 3×3 row-major array as a matrix.
-pub(crate) fn mat3_from_rows(c: &[[f64; 3]; 3]) -> Matrix3<f64> {
-    Matrix3::from_fn(|r, k| c[r][k])
 }
 
 // ---------------------------------------------------------- serde <-> Python

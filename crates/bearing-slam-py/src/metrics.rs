@@ -94,6 +94,24 @@ pub(crate) fn pose_nees(estimate: In1<'_>, covariance: In2<'_>, truth: In1<'_>) 
     metrics::pose_nees(&e, &c, &t).py()
 }
 
+/// What a run's pose NEES series says: dict `mean, median,
+/// fraction_within_bound, bound, n_scored` over its finite entries (NaN:
+/// not scored), the one definition of `metrics.json`, the MRCLAM tables and
+/// the NEES plot (`bearing_slam::core::metrics::NeesSummary`: the fraction
+/// whose NEES is at most the one-sided χ²(3) 95 % bound).
+#[pyfunction]
+pub(crate) fn nees_summary<'py>(py: Python<'py>, series: In1<'py>) -> PyResult<Bound<'py, PyDict>> {
+    let values: Vec<f64> = series.as_array().iter().copied().collect();
+    let s = metrics::NeesSummary::from_series(&values).py()?;
+    let d = PyDict::new(py);
+    d.set_item("mean", s.mean)?;
+    d.set_item("median", s.median)?;
+    d.set_item("fraction_within_bound", s.fraction_within_bound)?;
+    d.set_item("bound", s.bound)?;
+    d.set_item("n_scored", s.n_scored)?;
+    Ok(d)
+}
+
 /// Normalized innovation squared `νᵀ S⁻¹ ν`.
 #[pyfunction]
 pub(crate) fn nis(innovation: In1<'_>, s: In2<'_>) -> PyResult<f64> {

@@ -2,15 +2,14 @@
 //! and its results as numpy arrays.
 
 use crate::config::PyConfig;
-use crate::convert::{arr1, arr2, arr3, mat3_from_rows, to_py};
+use crate::convert::{arr1, arr2, arr3, to_py};
 use crate::errors::SlamResultExt;
 use crate::filter::{LandmarkArrays, events_list, snapshot_dict, snapshot_landmarks};
 use crate::log::PySensorLog;
 use crate::observe::call_python;
 use bearing_slam::core::SlamError;
-use bearing_slam::core::metrics::pose_nees;
 use bearing_slam::core::runner::{RunOutput, run, run_observed};
-use bearing_slam::core::score::{RunSummary, summarize};
+use bearing_slam::core::score::{RunSummary, run_nees, summarize};
 use bearing_slam::core::trace::SlamTrace;
 use numpy::{PyArray1, PyArray2, PyArray3};
 use pyo3::prelude::*;
@@ -26,6 +25,9 @@ pub(crate) fn summary_dict<'py>(py: Python<'py>, s: &RunSummary) -> PyResult<Bou
     d.set_item("final_heading_error_deg", s.final_heading_error_deg)?;
     d.set_item("landmark_rmse_m", s.landmark_rmse_m)?;
     d.set_item("mean_nees_pose", s.mean_nees_pose)?;
+    d.set_item("median_nees_pose", s.median_nees_pose)?;
+    d.set_item("nees_within_95", s.nees_within_95)?;
+    d.set_item("n_nees_scored", s.n_nees_scored)?;
     d.set_item("n_landmarks_initialized", s.n_landmarks_initialized)?;
     d.set_item("dead_reckoning_ate_rmse_m", s.dead_reckoning_ate_rmse_m)?;
     d.set_item(
@@ -262,21 +264,14 @@ impl PyRunResult {
         arr2(py, v, 3)
     }
 
-    /// Pose NEES at each track point, (n,); NaN where there is no truth or
-    /// the covariance is not positive definite (e.g. a start known exactly).
+    /// Pose NEES at each track point, (n,), by the scoring rule of
+    /// `metrics::pose_nees_series`: NaN where there is no truth, before the
+    /// covariance first rises above the floor (a start known exactly) or
+    /// where it is not positive definite. The summary's NEES numbers are
+    /// `nees_summary` of exactly this array.
     #[getter]
     fn nees<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let v = self
-            .output
-            .track
-            .iter()
-            .map(|p| {
-                p.truth
-                    .and_then(|t| pose_nees(&p.estimate, &mat3_from_rows(&p.covariance), &t).ok())
-                    .unwrap_or(f64::NAN)
-            })
-            .collect();
-        arr1(py, v)
+        arr1(py, run_nees(&self.output))
     }
 
     /// The final map: `(ids, positions (n, 2), covariances (n, 2, 2))`.

@@ -3,8 +3,10 @@
 //! Python restates none of them.
 
 use crate::convert::to_py;
+use crate::errors::SlamResultExt;
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY};
+use bearing_slam::core::metrics;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::OdometryKind;
 use bearing_slam::core::slam::{Consistency, InitializerKind};
@@ -22,7 +24,9 @@ fn names<T: Named>() -> Vec<&'static str> {
 /// The vocabulary as a dict: `initializers`, `prior_initializers`,
 /// `covariance_updates`, `update_modes`, `consistencies`, `odometries`, `mrclam_methods` (with
 /// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
-/// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`.
+/// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`,
+/// `pose_nees` (the NEES scoring rule: `dof`, `probability`, `bound`,
+/// `min_position_sigma_m`, `min_heading_sigma_rad`).
 #[pyfunction]
 #[pyo3(name = "vocabulary")]
 pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
@@ -56,5 +60,13 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     )?;
     d.set_item("paper_far_prior", to_py(py, &InverseDepthPrior::PAPER_FAR)?)?;
     d.set_item("mte_history", MTE_HISTORY)?;
+    // The NEES scoring rule and bound (issue 13): one definition in Rust.
+    let nees = PyDict::new(py);
+    nees.set_item("dof", metrics::POSE_NEES_DOF)?;
+    nees.set_item("probability", metrics::NEES_BOUND_PROBABILITY)?;
+    nees.set_item("bound", metrics::pose_nees_bound().py()?)?;
+    nees.set_item("min_position_sigma_m", metrics::NEES_MIN_POSITION_SIGMA_M)?;
+    nees.set_item("min_heading_sigma_rad", metrics::NEES_MIN_HEADING_SIGMA_RAD)?;
+    d.set_item("pose_nees", nees)?;
     Ok(d)
 }

@@ -57,6 +57,23 @@ impl FrictionPatch {
         }
     }
 
+    /// The same patch with friction coefficient `mu`.
+    #[must_use]
+    pub fn with_mu(&self, mu: f64) -> Self {
+        match self {
+            Self::Rect { min, max, .. } => Self::Rect {
+                min: *min,
+                max: *max,
+                mu,
+            },
+            Self::Circle { center, radius, .. } => Self::Circle {
+                center: *center,
+                radius: *radius,
+                mu,
+            },
+        }
+    }
+
     /// Whether the world point `(x, y)` lies in the patch (boundary included).
     #[must_use]
     pub fn contains(&self, x: f64, y: f64) -> bool {

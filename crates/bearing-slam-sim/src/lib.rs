@@ -40,6 +40,10 @@
 //! far_landmark_ids = []        # ids removed by Scenario::without_far_landmark
 //! initial_pose = { x = 0.0, y = 0.0, theta = 0.0 }   # omit: start of the path
 //!
+//! [variation]                  # drawn from the seed once per run (variation::RunVariation)
+//! start_pose_sigma = [0.0, 0.0, 0.0]   # σ of the true start around initial_pose
+//! slip_mu_log_sigma = 0.0      # σ of ln μ of every slip patch
+//!
 //! [rates]                      # every rate must divide physics_hz
 //! physics_hz = 200.0
 //! odometry_hz = 50.0           # Wheels + Velocity events, and the controller
@@ -135,6 +139,7 @@ pub mod robot;
 pub mod scenario;
 pub mod sensor;
 pub mod sim;
+pub mod variation;
 pub mod world;
 
 pub use error::{Result, SimError};

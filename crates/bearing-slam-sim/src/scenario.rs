@@ -10,6 +10,7 @@ use crate::friction::FrictionPatch;
 use crate::path::{PathSpec, figure_eight_half_width_for_length};
 use crate::robot::RobotParams;
 use crate::sensor::SensorParams;
+use crate::variation::RunVariation;
 use crate::world::{Obstacle, Room, WorldSpec};
 use bearing_slam_core::Pose2;
 use bearing_slam_core::log::LandmarkTruth;
@@ -41,6 +42,8 @@ pub(crate) const STREAM_LANDMARKS: u64 = 1;
 pub(crate) const STREAM_ENCODERS: u64 = 2;
 /// The bearing sensor's stream.
 pub(crate) const STREAM_SENSOR: u64 = 3;
+/// The stream of the per-run [`RunVariation`] (start pose, slip friction).
+pub(crate) const STREAM_VARIATION: u64 = 4;
 
 /// A seeded generator for stream `stream` of run `seed`.
 pub(crate) fn stream_rng(seed: u64, stream: u64) -> StdRng {
@@ -156,6 +159,10 @@ pub struct Scenario {
     /// Whether `world.slip_patches` are on the floor.
     #[serde(default)]
     pub slip: bool,
+    /// What the seed varies besides the sensor and encoder noise: the true
+    /// start pose and the slip patches' friction (none by default).
+    #[serde(default)]
+    pub variation: RunVariation,
     /// Landmarks at fixed positions.
     #[serde(default)]
     pub landmarks: Vec<LandmarkTruth>,
@@ -188,6 +195,7 @@ impl Scenario {
             sensor: SensorParams::default(),
             world: WorldSpec::default(),
             slip: false,
+            variation: RunVariation::default(),
             landmarks: Vec::new(),
             random_landmarks: None,
             far_landmark_ids: Vec::new(),
@@ -297,6 +305,7 @@ impl Scenario {
         self.encoders.validate()?;
         self.sensor.validate()?;
         self.world.validate()?;
+        self.variation.validate()?;
         self.controller.validate()?;
         if let Some(r) = &self.random_landmarks {
             check_finite("random_landmarks.center.x", r.center[0])?;
@@ -314,8 +323,9 @@ impl Scenario {
         self.landmark_truth().map(|_| ())
     }
 
-    /// The start pose of the run.
-    pub fn start_pose(&self) -> Result<Pose2> {
+    /// The nominal start pose: `initial_pose`, or the start of the path
+    /// (the origin for a script).
+    pub fn nominal_start_pose(&self) -> Result<Pose2> {
         if let Some(p) = self.initial_pose {
             return Ok(p);
         }
@@ -323,6 +333,29 @@ impl Scenario {
             ControllerSpec::PurePursuit { path, .. } => path.build()?.start_pose(),
             ControllerSpec::Script { .. } => Pose2::default(),
         })
+    }
+
+    /// The true start pose of the run: the nominal one moved by the seed's
+    /// draw of [`RunVariation::start_pose`] (the nominal one without
+    /// variation).
+    pub fn start_pose(&self) -> Result<Pose2> {
+        let nominal = self.nominal_start_pose()?;
+        let mut rng = stream_rng(self.seed, STREAM_VARIATION);
+        Ok(self.variation.start_pose(nominal, &mut rng))
+    }
+
+    /// The world of the run: the scenario's, with the slip patches' friction
+    /// drawn from the seed ([`RunVariation::slip_patches`], after the start
+    /// pose's draw).
+    pub fn world_for_run(&self) -> Result<WorldSpec> {
+        let nominal = self.nominal_start_pose()?;
+        let mut rng = stream_rng(self.seed, STREAM_VARIATION);
+        let _start = self.variation.start_pose(nominal, &mut rng);
+        let mut world = self.world.clone();
+        world.slip_patches = self
+            .variation
+            .slip_patches(&self.world.slip_patches, &mut rng);
+        Ok(world)
     }
 
     /// Every landmark of the run (fixed ones, then the random ones drawn from
@@ -430,6 +463,17 @@ impl Scenario {
         self
     }
 }
+
+/// The seeded spread of the true start pose of the non-paper scenarios
+/// (`single_source_*`, `slip_patch`): 2 cm in x and y, 1° in heading. The
+/// paper's scenarios (`paper_fig4`, `paper_fig8`) keep the paper's exact
+/// start; their seed varies the encoder and bearing noise (and Fig. 8's
+/// landmark layout).
+const START_POSE_SIGMA: [f64; 3] = [0.02, 0.02, 0.017_453_292_519_943_295];
+
+/// The seeded spread of the slip patches' friction: σ of ln μ = 0.3 (ice at
+/// μ = 0.05 ranges over 0.037–0.067 at ±1σ).
+const SLIP_MU_LOG_SIGMA: f64 = 0.3;
 
 fn lm(id: u64, x: f64, y: f64) -> LandmarkTruth {
     LandmarkTruth { id, x, y }
@@ -539,6 +583,10 @@ fn single_source(name: &str, seed: u64, figure_eight: bool) -> Scenario {
     s.sensor.max_range_m = 20.0;
     s.encoders.noise_var_per_m = 1e-4;
     s.world.slip_patches = vec![slip_patch];
+    s.variation = RunVariation {
+        start_pose_sigma: START_POSE_SIGMA,
+        slip_mu_log_sigma: SLIP_MU_LOG_SIGMA,
+    };
     s
 }
 
@@ -591,5 +639,12 @@ fn slip_patch(seed: u64) -> Scenario {
     ];
     s.sensor.bearing_sigma_rad = 2f64.to_radians();
     s.sensor.max_range_m = 20.0;
+    // Encoder noise as in the other scenarios, so that the seed varies the
+    // odometry too, not only the bearings and the ice.
+    s.encoders.noise_var_per_m = 1e-4;
+    s.variation = RunVariation {
+        start_pose_sigma: START_POSE_SIGMA,
+        slip_mu_log_sigma: SLIP_MU_LOG_SIGMA,
+    };
     s
 }

@@ -69,6 +69,7 @@ impl Simulation {
         let cap_s = scenario.duration_s.unwrap_or(2.0 * nominal + 30.0);
         let max_steps = ((cap_s / dt_odo).ceil().max(1.0) as u64) * odometry_every;
         let pose = scenario.start_pose()?;
+        let world = scenario.world_for_run()?;
         let landmarks = scenario.landmark_truth()?;
         let robot = scenario.robot.clone();
         let info = LogInfo {
@@ -86,7 +87,7 @@ impl Simulation {
             ground_truth_every,
             end_step,
             max_steps,
-            scene: PhysicsScene::new(&scenario.world, scenario.slip, &robot, &pose, dt),
+            scene: PhysicsScene::new(&world, scenario.slip, &robot, &pose, dt),
             encoders: Encoders::new(scenario.encoders.clone(), robot.wheel_radius_m),
             sensor: BearingSensor::new(scenario.sensor.clone()),
             controller: Controller::new(&scenario.controller, &robot)?,

@@ -7,12 +7,21 @@ mod common;
 use bearing_slam_core::Pose2;
 use bearing_slam_sim::controller::{ControllerSpec, Segment};
 use bearing_slam_sim::friction::FrictionPatch;
+use bearing_slam_sim::variation::RunVariation;
 use bearing_slam_sim::{Scenario, simulate};
 use common::{dead_reckon, intervals};
 
+/// `scenario` without extra encoder noise and without the seeded variation
+/// of start and friction: what these tests measure is the physics alone.
+fn physics_only(scenario: Scenario) -> Scenario {
+    let mut s = scenario.with_encoder_noise(0.0);
+    s.variation = RunVariation::default();
+    s
+}
+
 #[test]
 fn encoders_track_the_truth_on_normal_ground() {
-    let scenario = Scenario::named("slip_patch", 1).unwrap().with_slip(false);
+    let scenario = physics_only(Scenario::named("slip_patch", 1).unwrap().with_slip(false));
     let log = simulate(&scenario).unwrap();
     let a = scenario.robot.wheel_base_m;
     let truth = log.ground_truth();
@@ -91,7 +100,7 @@ fn accelerating_on_ice_spins_the_wheels() {
 /// intervals spent with the axle midpoint on the slip patch, and the number
 /// of those intervals.
 fn turn_error_on_patch(slip: bool) -> (f64, usize) {
-    let scenario = Scenario::named("slip_patch", 1).unwrap().with_slip(slip);
+    let scenario = physics_only(Scenario::named("slip_patch", 1).unwrap().with_slip(slip));
     let patch = scenario.world.slip_patches[0].clone();
     let log = simulate(&scenario).unwrap();
     let mut err = 0.0;

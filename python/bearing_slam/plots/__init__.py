@@ -1,7 +1,7 @@
 """Figures (matplotlib, Agg backend: files only, no window).
 
 * :mod:`bearing_slam.plots.run`: the plots of one run (trajectory and map,
-  pose errors with ±3σ, NEES with its χ² band) and :func:`save_plots`;
+  pose errors with ±3σ, NEES under its χ² 95 % bound) and :func:`save_plots`;
 * :mod:`bearing_slam.plots.experiments`: the figures of the paper's experiments;
 * :mod:`bearing_slam.plots.mrclam`: the figures of the MRCLAM evaluation.
 
@@ -20,6 +20,7 @@ from bearing_slam.plots.experiments import (
 from bearing_slam.plots.mrclam import ate_figure, comparison_figure
 from bearing_slam.plots.run import (
     covariance_ellipse,
+    nees_caption,
     plot_nees,
     plot_pose_errors,
     plot_trajectory,
@@ -32,6 +33,7 @@ __all__ = [
     "ate_figure",
     "comparison_figure",
     "covariance_ellipse",
+    "nees_caption",
     "plot_consistency",
     "plot_fig4",
     "plot_fig5",

@@ -1,7 +1,7 @@
 //! The logs the filters see, written for the GTSAM yardstick
 //! (`benches/gtsam_mrclam.py`): one JSON file per robot and dataset.
 
-use super::report::DATASETS;
+use super::report::{SWAPPED_DATASET, TRUTH_DATASET};
 use super::{EvalOptions, FilterParameters, Method, RealDataError, evaluate_run, filter_log};
 use bearing_slam_core::log::SensorLog;
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
@@ -25,8 +25,8 @@ struct Export<'a> {
     mte_ate_rmse_m: Option<f64>,
 }
 
-/// Writes `out_dir/MRCLAM_DatasetN_robotR.json` for robots 1–5 of both
-/// datasets under `data_dir`: the log MTE is given (commands corrected,
+/// Writes `out_dir/MRCLAM_DatasetN_robotR.json` for robots 1–5 of Datasets
+/// 6 and 1 under `data_dir`: the log MTE is given (commands corrected,
 /// ground truth decimated), MTE's final map, its pose after every scan, its
 /// ATE and the parameters. Returns the files written.
 ///
@@ -41,7 +41,7 @@ pub fn export_logs(data_dir: &Path, out_dir: &Path) -> Result<Vec<PathBuf>, Real
     std::fs::create_dir_all(out_dir).map_err(|e| write_error(out_dir, e.to_string()))?;
     let options = EvalOptions::default();
     let mut written = Vec::new();
-    for dataset in DATASETS {
+    for dataset in [TRUTH_DATASET, SWAPPED_DATASET] {
         for robot in 1..=ROBOT_COUNT {
             let run = load_mrclam_with(&data_dir.join(dataset), robot, &options.load)?;
             let log = filter_log(&run, Method::Mte, &options.parameters)?;

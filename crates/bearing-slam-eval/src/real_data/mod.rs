@@ -69,6 +69,7 @@ mod method;
 mod parameters;
 pub mod report;
 mod run;
+pub mod tables;
 
 pub use export::export_logs;
 pub use method::{CommandModel, Method};

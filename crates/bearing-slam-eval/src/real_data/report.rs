@@ -1,34 +1,95 @@
-//! The MRCLAM tables (`docs/results/mrclam/results.md` and `results.json`):
-//! every method on every robot of Datasets 6 and 1, the ablation of the
-//! calibration rules, and the GTSAM yardstick's numbers beside them.
+//! The MRCLAM tables (`docs/results/mrclam/dataset{6,1,2,4}.md`, the index
+//! `results.md` and every number in `results.json`): every method on every
+//! robot of every dataset we have, the ablation of the calibration rules on
+//! Dataset 6, and the GTSAM yardstick's numbers beside them. The markdown is
+//! [`super::tables`]'s.
+//!
+//! * **Dataset 6** has Vicon ground truth: trajectories and maps.
+//! * **Datasets 1, 2 and 4** have landmark ground truth only: maps, scored
+//!   after SE(2) alignment.
+//! * **Dataset 1** is scored twice from the same runs: against
+//!   `Landmark_Groundtruth.dat` as distributed, and with the surveyed
+//!   positions of subjects 11 and 17 exchanged ([`SWAPPED_SUBJECTS`]; the
+//!   evidence that they are swapped is in `docs/results/mrclam/README.md`).
+//!
+//! Every run uses [`CALIBRATED_PARAMETERS`] (the tuning rule of
+//! [`super`]: noise from Dataset 6's ground truth, never per robot or per
+//! dataset).
 
 use super::{
     CALIBRATED_PARAMETERS, EvalOptions, FilterParameters, Method, NAIVE_PARAMETERS, RealDataError,
-    RealDataResult, evaluate_run,
+    RealDataResult, align_landmarks_se2, evaluate_run,
 };
 use bearing_slam_core::names::Named;
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::fmt::Write as _;
 use std::path::Path;
 
-/// The datasets of the tables, in order: Dataset 6 (Vicon ground truth)
-/// then Dataset 1 (landmark ground truth only).
-pub const DATASETS: [&str; 2] = ["MRCLAM_Dataset6", "MRCLAM_Dataset1"];
+/// The datasets of the tables, in order: Dataset 6 (Vicon ground truth),
+/// then Datasets 1, 2 and 4 (landmark ground truth only).
+pub const DATASETS: [&str; 4] = [
+    "MRCLAM_Dataset6",
+    "MRCLAM_Dataset1",
+    "MRCLAM_Dataset2",
+    "MRCLAM_Dataset4",
+];
+
+/// The dataset with robot ground truth (the tuning rule's and the GTSAM
+/// yardstick's).
+pub const TRUTH_DATASET: &str = "MRCLAM_Dataset6";
+
+/// The dataset whose landmark truth looks swapped, and the two subjects.
+pub const SWAPPED_DATASET: &str = "MRCLAM_Dataset1";
+
+/// The subjects whose surveyed positions look exchanged in Dataset 1.
+pub const SWAPPED_SUBJECTS: (u64, u64) = (11, 17);
+
+/// How a dataset's maps are scored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LandmarkTruth {
+    /// `Landmark_Groundtruth.dat` as distributed.
+    AsDistributed,
+    /// With the positions of [`SWAPPED_SUBJECTS`] exchanged.
+    #[serde(rename = "swapped-11-17")]
+    Swapped11And17,
+}
+
+/// Every method on robots 1–5 of one dataset, scored against one landmark
+/// truth.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct DatasetResults {
+    /// `MRCLAM_DatasetN`.
+    pub dataset: String,
+    /// The landmark truth the maps are scored against.
+    pub landmark_truth: LandmarkTruth,
+    /// Every method on every robot (runs dropped).
+    pub results: Vec<RealDataResult>,
+}
 
 /// Every result behind the tables (`results.json`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Tables {
     /// The parameters of every method's run.
     pub parameters: FilterParameters,
-    /// Every method on robots 1–5 of Dataset 6 (runs dropped).
-    pub dataset6: Vec<RealDataResult>,
-    /// Every method on robots 1–5 of Dataset 1 (runs dropped).
-    pub dataset1: Vec<RealDataResult>,
+    /// One entry per dataset of [`DATASETS`] (in order) and, after Dataset
+    /// 1, Dataset 1 again scored with [`LandmarkTruth::Swapped11And17`].
+    pub datasets: Vec<DatasetResults>,
     /// MTE on Dataset 6 with each step of the calibration rules
     /// ([`ablation_variants`]): `(variant, result)`.
     pub ablation: Vec<(String, RealDataResult)>,
+}
+
+impl Tables {
+    /// The results of `dataset` scored against `truth` (empty when absent).
+    #[must_use]
+    pub fn results(&self, dataset: &str, truth: LandmarkTruth) -> &[RealDataResult] {
+        self.datasets
+            .iter()
+            .find(|d| d.dataset == dataset && d.landmark_truth == truth)
+            .map_or(&[], |d| d.results.as_slice())
+    }
 }
 
 /// The parameter sets of the ablation, each adding one rule to the previous:
@@ -57,15 +118,67 @@ pub fn ablation_variants() -> [(&'static str, FilterParameters); 4] {
 }
 
 /// A number with two decimals, `–` for none.
-fn fmt(v: Option<f64>) -> String {
+pub(crate) fn fmt(v: Option<f64>) -> String {
     v.map_or_else(|| "–".to_owned(), |x| format!("{x:.2}"))
 }
 
-/// Runs every [`Method`] on robots 1–5 of both datasets under `data_dir`
-/// (the directory holding `MRCLAM_Dataset6/` and `MRCLAM_Dataset1/`) with
-/// the default [`EvalOptions`], MTE-clone keeping `history` waiting bearings
-/// per candidate (0: the paper's method), and the ablation on Dataset 6 when
-/// `ablation`. `progress` receives one line per run.
+/// `truth` with the positions of subjects `a` and `b` exchanged.
+#[must_use]
+pub fn swap_truth(truth: &[(u64, f64, f64)], (a, b): (u64, u64)) -> Vec<(u64, f64, f64)> {
+    let position = |id: u64| truth.iter().find(|t| t.0 == id).map(|t| (t.1, t.2));
+    let (pa, pb) = (position(a), position(b));
+    truth
+        .iter()
+        .map(|&(id, x, y)| match (id, pa, pb) {
+            (i, Some(_), Some(p)) if i == a => (id, p.0, p.1),
+            (i, Some(p), Some(_)) if i == b => (id, p.0, p.1),
+            _ => (id, x, y),
+        })
+        .collect()
+}
+
+/// `result` scored against the landmark truth with [`SWAPPED_SUBJECTS`]
+/// exchanged: its aligned landmark RMSE recomputed from its run's final map
+/// (the run itself is not repeated; the filter never sees the truth).
+fn rescored_swapped(result: &RealDataResult, truth: &[(u64, f64, f64)]) -> RealDataResult {
+    let estimated: Vec<(u64, f64, f64)> = result
+        .output
+        .as_ref()
+        .and_then(|o| o.trace.snapshots.last())
+        .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+        .unwrap_or_default();
+    let swapped = swap_truth(truth, SWAPPED_SUBJECTS);
+    let mut r = result.clone();
+    r.output = None;
+    r.landmark_rmse_aligned_m = align_landmarks_se2(&estimated, &swapped).map(|(_, rmse)| rmse);
+    r
+}
+
+/// One line of progress for a run.
+fn progress_line(dataset: &str, robot: u8, r: &RealDataResult) -> String {
+    format!(
+        "{dataset} R{robot} {:<15} ate {} dr {} nees {} in95 {} lm {} lm_al {} used {} gated {} mapped {} init {:?} {:.1}s",
+        r.method.name(),
+        fmt(r.ate_rmse_m),
+        fmt(r.odometry_ate_rmse_m),
+        fmt(r.mean_nees_pose),
+        fmt(r.nees_within_95),
+        fmt(r.landmark_rmse_m),
+        fmt(r.landmark_rmse_aligned_m),
+        r.n_measurements_used,
+        r.n_gated,
+        r.n_landmarks_mapped,
+        r.n_init_by_method,
+        r.run_time_s
+    )
+}
+
+/// Runs every [`Method`] on robots 1–5 of every dataset of [`DATASETS`]
+/// under `data_dir` (the directory holding `MRCLAM_DatasetN/`) with the
+/// default [`EvalOptions`], MTE-clone keeping `history` waiting bearings per
+/// candidate (0: the paper's method), scores Dataset 1 twice (as distributed
+/// and with [`SWAPPED_SUBJECTS`] exchanged), and runs the ablation on
+/// Dataset 6 when `ablation`. `progress` receives one line per run.
 ///
 /// # Errors
 /// A load or filter error.
@@ -79,53 +192,54 @@ pub fn evaluate_tables(
     options.parameters.triangulation.history = history;
     let mut tables = Tables {
         parameters: options.parameters,
-        dataset6: Vec::new(),
-        dataset1: Vec::new(),
+        datasets: Vec::new(),
         ablation: Vec::new(),
     };
     let variants = ablation_variants();
     for dataset in DATASETS {
+        let mut results = Vec::new();
+        let mut swapped = Vec::new();
         for robot in 1..=ROBOT_COUNT {
             let run = load_mrclam_with(&data_dir.join(dataset), robot, &options.load)?;
+            let truth: Vec<(u64, f64, f64)> =
+                run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
             for &method in Method::ALL {
                 let mut r = evaluate_run(&run, method, &options.parameters)?;
-                r.output = None;
-                progress(&format!(
-                    "{dataset} R{robot} {:<15} ate {} dr {} nees {} lm {} lm_al {} used {} gated {} mapped {} init {:?} {:.1}s",
-                    method.name(),
-                    fmt(r.ate_rmse_m),
-                    fmt(r.odometry_ate_rmse_m),
-                    fmt(r.mean_nees_pose),
-                    fmt(r.landmark_rmse_m),
-                    fmt(r.landmark_rmse_aligned_m),
-                    r.n_measurements_used,
-                    r.n_gated,
-                    r.n_landmarks_mapped,
-                    r.n_init_by_method,
-                    r.run_time_s
-                ));
-                if dataset == DATASETS[0] {
-                    tables.dataset6.push(r);
-                } else {
-                    tables.dataset1.push(r);
+                progress(&progress_line(dataset, robot, &r));
+                if dataset == SWAPPED_DATASET {
+                    let s = rescored_swapped(&r, &truth);
+                    progress(&format!(
+                        "  with subjects 11/17 swapped: lm_al {}",
+                        fmt(s.landmark_rmse_aligned_m)
+                    ));
+                    swapped.push(s);
                 }
+                r.output = None;
+                results.push(r);
             }
-            if ablation && dataset == DATASETS[0] {
+            if ablation && dataset == TRUTH_DATASET {
                 for (name, parameters) in &variants {
                     let mut r = evaluate_run(&run, Method::Mte, parameters)?;
                     r.output = None;
                     progress(&format!(
-                        "  ablation R{robot} {name:<24} ate {} dr {} nees {} in95 {} lm {} gated {}",
-                        fmt(r.ate_rmse_m),
-                        fmt(r.odometry_ate_rmse_m),
-                        fmt(r.mean_nees_pose),
-                        fmt(r.nees_within_95),
-                        fmt(r.landmark_rmse_m),
-                        r.n_gated
+                        "  ablation {name:<24} {}",
+                        progress_line(dataset, robot, &r)
                     ));
                     tables.ablation.push(((*name).to_owned(), r));
                 }
             }
+        }
+        tables.datasets.push(DatasetResults {
+            dataset: dataset.to_owned(),
+            landmark_truth: LandmarkTruth::AsDistributed,
+            results,
+        });
+        if !swapped.is_empty() {
+            tables.datasets.push(DatasetResults {
+                dataset: dataset.to_owned(),
+                landmark_truth: LandmarkTruth::Swapped11And17,
+                results: swapped,
+            });
         }
     }
     Ok(tables)
@@ -147,7 +261,7 @@ pub fn read_gtsam(dir: &Path) -> BTreeMap<u8, serde_json::Value> {
         .and_then(|r| r.as_array())
         .map(|rows| {
             rows.iter()
-                .filter(|r| r.get("dataset").and_then(|d| d.as_str()) == Some(DATASETS[0]))
+                .filter(|r| r.get("dataset").and_then(|d| d.as_str()) == Some(TRUTH_DATASET))
                 .filter_map(|r| {
                     let robot = u8::try_from(r.get("robot")?.as_u64()?).ok()?;
                     Some((robot, r.clone()))
@@ -157,199 +271,23 @@ pub fn read_gtsam(dir: &Path) -> BTreeMap<u8, serde_json::Value> {
         .unwrap_or_default()
 }
 
-fn gt_field(g: Option<&serde_json::Value>, name: &str) -> Option<f64> {
-    g.and_then(|v| v.get(name))
-        .and_then(serde_json::Value::as_f64)
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-fn find(results: &[RealDataResult], robot: u8, method: Method) -> Option<&RealDataResult> {
-    results
-        .iter()
-        .find(|r| r.robot == robot && r.method == method)
-}
-
-/// The tables of `results.md`: Dataset 6 ATE, landmark RMSE, consistency
-/// and measurement use, Dataset 1 aligned landmark RMSE, run times and the
-/// ablation, with the GTSAM yardstick's columns from `gtsam` ([`read_gtsam`];
-/// `–` where it has no row).
-///
-/// # Errors
-/// Never in practice (formatting into a `String`).
-pub fn markdown(
-    tables: &Tables,
-    gtsam: &BTreeMap<u8, serde_json::Value>,
-) -> Result<String, std::fmt::Error> {
-    let (d6, d1, ablation) = (&tables.dataset6, &tables.dataset1, &tables.ablation);
-    let mut s = String::new();
-    let slam = [
-        Method::Mte,
-        Method::MteClone,
-        Method::PiSr,
-        Method::RangeBearing,
-    ];
-    writeln!(
-        s,
-        "## Dataset 6: ATE RMSE [m] (no alignment; filter started at the Vicon pose)\n"
-    )?;
-    writeln!(
-        s,
-        "| robot | dead reckoning | MTE | MTE-clone | PI-SR (0.5, 0.25) | range-bearing EKF | GTSAM batch (bearing-only) |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|")?;
-    for robot in 1..=ROBOT_COUNT {
-        let mut row = format!(
-            "| R{robot} | {}",
-            fmt(find(d6, robot, Method::DeadReckoning).and_then(|r| r.ate_rmse_m))
+    #[test]
+    fn swap_truth_exchanges_the_two_subjects_only() {
+        let truth = [(6, 0.0, 1.0), (11, 2.0, 3.0), (17, 4.0, 5.0)];
+        let swapped = swap_truth(&truth, SWAPPED_SUBJECTS);
+        assert_eq!(swapped, vec![(6, 0.0, 1.0), (11, 4.0, 5.0), (17, 2.0, 3.0)]);
+        // A truth without one of them is left as it is.
+        assert_eq!(
+            swap_truth(&truth[..2], SWAPPED_SUBJECTS),
+            truth[..2].to_vec()
         );
-        for m in slam {
-            write!(
-                row,
-                " | {}",
-                fmt(find(d6, robot, m).and_then(|r| r.ate_rmse_m))
-            )?;
-        }
-        write!(
-            row,
-            " | {} |",
-            fmt(gt_field(gtsam.get(&robot), "ate_rmse_m"))
-        )?;
-        writeln!(s, "{row}")?;
+        assert_eq!(
+            super::super::tables::file_name("MRCLAM_Dataset4"),
+            "dataset4.md"
+        );
     }
-    writeln!(
-        s,
-        "\n## Dataset 6: landmark RMSE [m], raw (Vicon frame) / after SE(2) alignment of the map\n"
-    )?;
-    writeln!(
-        s,
-        "| robot | MTE | MTE-clone | PI-SR | range-bearing EKF | GTSAM batch |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|")?;
-    for robot in 1..=ROBOT_COUNT {
-        let mut row = format!("| R{robot}");
-        for m in slam {
-            let r = find(d6, robot, m);
-            write!(
-                row,
-                " | {} / {} ({})",
-                fmt(r.and_then(|r| r.landmark_rmse_m)),
-                fmt(r.and_then(|r| r.landmark_rmse_aligned_m)),
-                r.map_or(0, |r| r.n_landmarks_mapped)
-            )?;
-        }
-        let g = gtsam.get(&robot);
-        write!(
-            row,
-            " | {} / {} |",
-            fmt(gt_field(g, "landmark_rmse_m")),
-            fmt(gt_field(g, "landmark_rmse_aligned_m"))
-        )?;
-        writeln!(s, "{row}")?;
-    }
-    writeln!(s, "\n(n) = landmarks mapped, of 15.\n")?;
-    writeln!(
-        s,
-        "## Dataset 6: consistency and measurement use\n\nmean pose NEES (3 = consistent) / fraction of times with NEES below the 95 % χ²(3) bound / measurements used / gated\n"
-    )?;
-    writeln!(
-        s,
-        "| robot | bearings | dead reckoning | MTE | MTE-clone | PI-SR | range-bearing EKF |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|")?;
-    for robot in 1..=ROBOT_COUNT {
-        let n = find(d6, robot, Method::Mte).map_or(0, |r| r.n_measurements);
-        let mut row = format!("| R{robot} | {n}");
-        for &m in Method::ALL {
-            let r = find(d6, robot, m);
-            write!(
-                row,
-                " | {} / {} / {} / {}",
-                fmt(r.and_then(|r| r.mean_nees_pose)),
-                fmt(r.and_then(|r| r.nees_within_95)),
-                r.map_or(0, |r| r.n_measurements_used),
-                r.map_or(0, |r| r.n_gated)
-            )?;
-        }
-        writeln!(s, "{row} |")?;
-    }
-    writeln!(
-        s,
-        "\n## Dataset 1 (no robot ground truth; filter started at the origin): landmark RMSE after SE(2) alignment [m]\n"
-    )?;
-    writeln!(s, "| robot | MTE | MTE-clone | PI-SR | range-bearing EKF |")?;
-    writeln!(s, "|---|---|---|---|---|")?;
-    for robot in 1..=ROBOT_COUNT {
-        let mut row = format!("| R{robot}");
-        for m in slam {
-            let r = find(d1, robot, m);
-            write!(
-                row,
-                " | {} ({})",
-                fmt(r.and_then(|r| r.landmark_rmse_aligned_m)),
-                r.map_or(0, |r| r.n_landmarks_mapped)
-            )?;
-        }
-        writeln!(s, "{row} |")?;
-    }
-    writeln!(s, "\n## Run time of the filter alone [s] (release build)\n")?;
-    writeln!(
-        s,
-        "| dataset | robot | dead reckoning | MTE | MTE-clone | PI-SR | range-bearing EKF | GTSAM batch |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|---|")?;
-    for (name, results) in [("6", d6), ("1", d1)] {
-        for robot in 1..=ROBOT_COUNT {
-            let mut row = format!("| {name} | R{robot}");
-            for &m in Method::ALL {
-                write!(
-                    row,
-                    " | {}",
-                    fmt(find(results, robot, m).map(|r| r.run_time_s))
-                )?;
-            }
-            let g = if name == "6" {
-                gt_field(gtsam.get(&robot), "time_s")
-            } else {
-                None
-            };
-            writeln!(s, "{row} | {} |", fmt(g))?;
-        }
-    }
-    if !ablation.is_empty() {
-        writeln!(
-            s,
-            "\n## Ablation (MTE, Dataset 6): what each calibration rule changes\n\nATE [m] / dead reckoning ATE [m] / mean NEES / NEES-in-95 % fraction / gated measurements / raw landmark RMSE [m]\n"
-        )?;
-        let names: Vec<&str> = {
-            let mut v: Vec<&str> = Vec::new();
-            for (n, _) in ablation {
-                if !v.contains(&n.as_str()) {
-                    v.push(n);
-                }
-            }
-            v
-        };
-        writeln!(s, "| robot | {} |", names.join(" | "))?;
-        writeln!(s, "|---|{}", "---|".repeat(names.len()))?;
-        for robot in 1..=ROBOT_COUNT {
-            let mut row = format!("| R{robot}");
-            for n in &names {
-                let r = ablation
-                    .iter()
-                    .find(|(m, r)| m == n && r.robot == robot)
-                    .map(|(_, r)| r);
-                write!(
-                    row,
-                    " | {} / {} / {} / {} / {} / {}",
-                    fmt(r.and_then(|r| r.ate_rmse_m)),
-                    fmt(r.and_then(|r| r.odometry_ate_rmse_m)),
-                    fmt(r.and_then(|r| r.mean_nees_pose)),
-                    fmt(r.and_then(|r| r.nees_within_95)),
-                    r.map_or(0, |r| r.n_gated),
-                    fmt(r.and_then(|r| r.landmark_rmse_m)),
-                )?;
-            }
-            writeln!(s, "{row} |")?;
-        }
-    }
-    Ok(s)
 }

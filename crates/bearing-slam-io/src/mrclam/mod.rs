@@ -256,9 +256,14 @@ pub struct LoadReport {
     /// The distinct unknown barcodes seen, ascending.
     pub unknown_barcodes: Vec<u32>,
     /// Landmark rows dropped because they lie outside the log's time span
-    /// (before the first command, after the end of the last one, or outside
-    /// the window).
+    /// (before the first command or after the end of the last one) while
+    /// inside the time window: bearings the filter cannot use.
     pub n_dropped_outside: usize,
+    /// Landmark rows left out because they lie outside the time window
+    /// ([`LoadOptions::start_s`], [`LoadOptions::end_s`]): asked for, not
+    /// dropped (0 without a window).
+    #[serde(default)]
+    pub n_outside_window: usize,
     /// Landmark rows dropped because the same landmark already appeared at
     /// the same timestamp.
     pub n_dropped_duplicate: usize,
@@ -497,6 +502,10 @@ pub fn load_mrclam_with(
             continue;
         }
         let t = rel(m.t);
+        if t < window.start || t >= window.end {
+            report.n_outside_window += 1;
+            continue;
+        }
         if !in_log(t) {
             report.n_dropped_outside += 1;
             continue;

@@ -1,7 +1,7 @@
 //! `bearing-slam-eval`: the MRCLAM evaluation from the command line.
 //!
 //! ```text
-//! bearing-slam-eval tables                       # docs/results/mrclam/results.{md,json}
+//! bearing-slam-eval tables                       # docs/results/mrclam/{results,dataset6,1,2,4}.md, results.json
 //! bearing-slam-eval calibrate                    # the tuning rule on Dataset 6
 //! bearing-slam-eval export /tmp/mrclam_export    # logs for benches/gtsam_mrclam.py
 //! bearing-slam-eval residuals                    # noise statistics per robot and pooled
@@ -14,7 +14,8 @@ mod residuals;
 
 use bearing_slam_eval::calibration::{calibrate_parameters, comparison_table};
 use bearing_slam_eval::real_data::export_logs;
-use bearing_slam_eval::real_data::report::{evaluate_tables, markdown, read_gtsam};
+use bearing_slam_eval::real_data::report::{evaluate_tables, read_gtsam};
+use bearing_slam_eval::real_data::tables::markdown_files;
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -36,7 +37,7 @@ struct Cli {
 /// Where the datasets are.
 #[derive(Args)]
 struct Data {
-    /// The directory holding `MRCLAM_Dataset1/` and `MRCLAM_Dataset6/`
+    /// The directory holding `MRCLAM_Dataset1/`, `2/`, `4/` and `6/`
     /// (default: `shared/datasets/mrclam` beside the repository).
     #[arg(long, value_name = "DIR")]
     data: Option<PathBuf>,
@@ -52,10 +53,13 @@ impl Data {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Every method on robots 1-5 of Datasets 6 and 1 (and the ablation of
-    /// the calibration rules): prints the tables and writes `results.md` and
-    /// `results.json` to --out, with the GTSAM columns when --out holds a
-    /// `gtsam.json` (from `benches/gtsam_mrclam.py`).
+    /// Every method on robots 1-5 of Datasets 6, 1, 2 and 4 (Dataset 1 also
+    /// scored with landmarks 11 and 17 swapped; the ablation of the
+    /// calibration rules on Dataset 6): prints the tables and writes one
+    /// table per dataset (`dataset6.md`, `dataset1.md`, `dataset2.md`,
+    /// `dataset4.md`), the index `results.md` and `results.json` to --out,
+    /// with the GTSAM columns when --out holds a `gtsam.json` (from
+    /// `benches/gtsam_mrclam.py`).
     Tables {
         #[command(flatten)]
         data: Data,
@@ -104,15 +108,17 @@ enum Command {
 
 fn tables(data: &Path, out: &Path, ablation: bool, history: usize) -> Result<(), BoxError> {
     let tables = evaluate_tables(data, history, ablation, &mut |line| eprintln!("{line}"))?;
-    let md = markdown(&tables, &read_gtsam(out))?;
-    println!("{md}");
     std::fs::create_dir_all(out)?;
-    std::fs::write(out.join("results.md"), &md)?;
+    for (name, text) in markdown_files(&tables, &read_gtsam(out))? {
+        println!("{text}");
+        std::fs::write(out.join(&name), &text)?;
+        eprintln!("wrote {}/{name}", out.display());
+    }
     std::fs::write(
         out.join("results.json"),
-        serde_json::to_string_pretty(&tables)?,
+        serde_json::to_string_pretty(&tables)? + "\n",
     )?;
-    eprintln!("wrote {}/results.md and results.json", out.display());
+    eprintln!("wrote {}/results.json", out.display());
     Ok(())
 }
 
