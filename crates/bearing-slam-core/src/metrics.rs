@@ -469,20 +469,32 @@ fn above_nees_floor(cov: &Matrix3<f64>) -> bool {
 /// it is not scored.
 #[must_use]
 pub fn pose_nees_series(samples: &[Option<(Pose2, Matrix3<f64>, Pose2)>]) -> Vec<f64> {
-    let mut started = false;
-    samples
-        .iter()
-        .map(|sample| {
-            let Some((estimate, cov, truth)) = sample else {
-                return f64::NAN;
-            };
-            started = started || above_nees_floor(cov);
-            if !started {
-                return f64::NAN;
-            }
-            pose_nees(estimate, cov, truth).unwrap_or(f64::NAN)
-        })
-        .collect()
+    let mut scorer = PoseNeesScorer::default();
+    samples.iter().map(|s| scorer.score(s.as_ref())).collect()
+}
+
+/// The scoring rule of [`pose_nees_series`] applied one sample at a time,
+/// for a run shown as it goes: feed it every sample in order.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PoseNeesScorer {
+    /// Whether a covariance above the floor has been seen.
+    started: bool,
+}
+
+impl PoseNeesScorer {
+    /// The pose NEES of the next sample (`(estimate, covariance [x, y, θ],
+    /// truth)`, `None` without truth) by the scoring rule; NaN where it is
+    /// not scored.
+    pub fn score(&mut self, sample: Option<&(Pose2, Matrix3<f64>, Pose2)>) -> f64 {
+        let Some((estimate, cov, truth)) = sample else {
+            return f64::NAN;
+        };
+        self.started = self.started || above_nees_floor(cov);
+        if !self.started {
+            return f64::NAN;
+        }
+        pose_nees(estimate, cov, truth).unwrap_or(f64::NAN)
+    }
 }
 
 /// What a run's pose NEES says (`metrics.json`, the MRCLAM tables and the

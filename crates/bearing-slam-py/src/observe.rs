@@ -5,20 +5,22 @@
 //! the call only. A callback that raises ends the run, and its exception is
 //! the one `run` raises.
 
-use crate::convert::{arr1, arr2, mat3_from_rows};
+use crate::convert::{arr1, arr2};
 use crate::filter::{events_list, snapshot_dict};
-use bearing_slam::core::metrics::pose_nees;
+use bearing_slam::core::metrics::PoseNeesScorer;
+use bearing_slam::core::nalgebra::Matrix3;
 use bearing_slam::core::runner::{ScanStep, TrackPoint};
 use numpy::PyArray1;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 
-/// Pose NEES of a track point, as `RunResult.nees` has it: NaN without
-/// truth or with a covariance that is not positive definite.
-fn track_nees(p: &TrackPoint) -> f64 {
-    p.truth
-        .and_then(|t| pose_nees(&p.estimate, &mat3_from_rows(&p.covariance), &t).ok())
-        .unwrap_or(f64::NAN)
+/// Pose NEES of a track point, as `RunResult.nees` has it (the one scoring
+/// rule of `metrics::pose_nees_series`, fed point by point): NaN without
+/// truth, before scoring starts, or with a covariance that is not positive
+/// definite.
+fn track_nees(scorer: &mut PoseNeesScorer, p: &TrackPoint) -> f64 {
+    let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+    scorer.score(p.truth.map(|t| (p.estimate, cov, t)).as_ref())
 }
 
 /// The step as a dict: the snapshot's keys (`time`, `pose`,
@@ -28,7 +30,11 @@ fn track_nees(p: &TrackPoint) -> f64 {
 /// and the new track points (`track_time` (n,), `track_estimate`,
 /// `track_dead_reckoning`, `track_truth` (n, 3; NaN rows without truth),
 /// `track_nees` (n,)).
-fn step_dict<'py>(py: Python<'py>, step: &ScanStep<'_>) -> PyResult<Bound<'py, PyDict>> {
+fn step_dict<'py>(
+    py: Python<'py>,
+    step: &ScanStep<'_>,
+    scorer: &mut PoseNeesScorer,
+) -> PyResult<Bound<'py, PyDict>> {
     let d = snapshot_dict(py, step.snapshot)?;
     d.set_item("time", step.time)?;
     d.set_item(
@@ -66,7 +72,7 @@ fn step_dict<'py>(py: Python<'py>, step: &ScanStep<'_>) -> PyResult<Bound<'py, P
     )?;
     d.set_item(
         "track_nees",
-        arr1(py, track.iter().map(track_nees).collect()),
+        arr1(py, track.iter().map(|p| track_nees(scorer, p)).collect()),
     )?;
     Ok(d)
 }
@@ -79,9 +85,10 @@ pub(crate) fn call_python<'a, E>(
     raised: &'a mut Option<PyErr>,
     stop: impl Fn() -> E + 'a,
 ) -> impl FnMut(ScanStep<'_>) -> Result<(), E> + 'a {
+    let mut scorer = PoseNeesScorer::default();
     move |step| {
         Python::attach(|py| {
-            step_dict(py, &step).and_then(|d| callback.bind(py).call1((d,)).map(drop))
+            step_dict(py, &step, &mut scorer).and_then(|d| callback.bind(py).call1((d,)).map(drop))
         })
         .map_err(|e| {
             *raised = Some(e);
