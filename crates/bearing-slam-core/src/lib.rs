@@ -22,6 +22,7 @@ pub mod metrics;
 pub mod model;
 pub mod motion;
 pub mod names;
+pub mod online;
 pub mod particle;
 pub mod runner;
 pub mod score;
