@@ -261,7 +261,7 @@ pub fn check_odometry_matches(log: &SensorLog, odometry: &OdometryConfig) -> Res
 /// log does not validate ([`SensorLog::validate`]) or carries only the other
 /// kind of odometry ([`check_odometry_matches`]).
 pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
-    run_online(
+    let run = run_online(
         log,
         &config.odometry,
         config.use_range,
@@ -272,7 +272,18 @@ pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
                 ..config.slam.clone()
             })
         },
-    )
+    )?;
+    Ok(run.output)
+}
+
+/// An online run's output and the estimator as it ended (its final state:
+/// a particle cloud, a smoother's report).
+#[derive(Clone, Debug)]
+pub struct OnlineRun<E> {
+    /// What the run recorded.
+    pub output: RunOutput,
+    /// The estimator after the last event and [`OnlineEstimator::finish`].
+    pub estimator: E,
 }
 
 /// The one event loop of every online estimator ([`OnlineEstimator`]: the
@@ -291,7 +302,7 @@ pub fn run_online<E: OnlineEstimator>(
     use_range: bool,
     default_start: Pose2,
     make: impl FnOnce(Pose2) -> Result<E>,
-) -> Result<RunOutput> {
+) -> Result<OnlineRun<E>> {
     log.validate()?;
     check_odometry_matches(log, odometry)?;
     let start = log.info.initial_pose.unwrap_or(default_start);
@@ -334,5 +345,8 @@ pub fn run_online<E: OnlineEstimator>(
         }
     }
     runner.estimator.finish(&mut runner.output)?;
-    Ok(runner.output)
+    Ok(OnlineRun {
+        output: runner.output,
+        estimator: runner.estimator,
+    })
 }

@@ -82,4 +82,5 @@ pub fn run_fastslam(log: &SensorLog, config: &ParticleRunConfig) -> Result<RunOu
             })
         },
     )
+    .map(|run| run.output)
 }
