@@ -13,6 +13,7 @@
 pub mod divergence;
 pub mod ekf;
 pub mod error;
+pub mod estimator;
 pub mod geometry;
 pub mod init;
 pub mod landmark;
