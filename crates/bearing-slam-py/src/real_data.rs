@@ -9,11 +9,12 @@ use crate::errors;
 use crate::log::PySensorLog;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::eval::real_data::{
-    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
-    filter_log,
+    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
+    evaluate_run_with, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::prelude::*;
@@ -38,8 +39,10 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `parameters`, `landmark_alignment` `(x, y, θ)` mapping the map onto the
 /// surveyed landmarks or None, `has_ground_truth`) and the log the filter
 /// was given (commands corrected; ground truth decimated to 10 Hz).
+/// `estimator` (`EstimatorKind`'s names) runs another estimator than the
+/// EKF on the same log and parameters (`metrics["estimator"]` says which).
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None))]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter"))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -47,8 +50,10 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     method: &str,
     start: Option<f64>,
     end: Option<f64>,
+    estimator: &str,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
+    let estimator = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
     let robot = u8::try_from(robot)
         .ok()
         .filter(|r| (1..=ROBOT_COUNT).contains(r))
@@ -71,7 +76,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         .detach(|| {
             let run = load_mrclam_with(&dataset_dir, robot, &load)?;
             let log = filter_log(&run, method, &parameters)?;
-            let mut scores = evaluate_run(&run, method, &parameters)?;
+            let mut scores = evaluate_run_with(&run, method, &parameters, &estimator)?;
             // evaluate_run always keeps its output.
             let output = scores.output.take().unwrap_or_default();
             let summary = if output.track.iter().any(|p| p.truth.is_some()) {
@@ -111,6 +116,8 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     if method == Method::RangeBearing {
         config.use_range = true;
     }
+    config.estimator = estimator.kind.to_string();
+    metrics.set_item("estimator", estimator.kind.name())?;
     Ok((
         PyRunResult {
             output,

@@ -1,5 +1,6 @@
-//! `run(log, config)`: a whole log through the filter in Rust (GIL released),
-//! and its results as numpy arrays.
+//! `run(log, config)`: a whole log through the estimator in Rust (GIL
+//! released), `smooth(log, config)` through the smoother, and their results
+//! as numpy arrays.
 
 use crate::config::PyConfig;
 use crate::convert::{arr1, arr2, arr3, mat3_from_rows, to_py};
@@ -7,7 +8,9 @@ use crate::errors::SlamResultExt;
 use crate::filter::{LandmarkArrays, events_list, snapshot_dict, snapshot_landmarks};
 use crate::log::PySensorLog;
 use bearing_slam::core::metrics::pose_nees;
-use bearing_slam::core::runner::{RunOutput, run};
+use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
+use bearing_slam::core::names::Named;
+use bearing_slam::core::runner::RunOutput;
 use bearing_slam::core::score::{RunSummary, summarize};
 use bearing_slam::core::trace::SlamTrace;
 use numpy::{PyArray1, PyArray2, PyArray3};
@@ -329,8 +332,9 @@ impl PyRunResult {
     }
 }
 
-/// Runs a whole log through a new filter, in Rust with the GIL released.
-/// Without a config, `Config.for_log(log)` (MTE) is used.
+/// Runs a whole log through a new estimator (`config.estimator`, the EKF
+/// by default), in Rust with the GIL released. Without a config,
+/// `Config.for_log(log)` (MTE) is used.
 #[pyfunction(name = "run")]
 #[pyo3(signature = (log, config = None))]
 pub(crate) fn py_run(
@@ -342,11 +346,54 @@ pub(crate) fn py_run(
         Some(c) => c,
         None => PyConfig::from_run_config(&bearing_slam::default_run_config(&log.inner).py()?),
     };
+    let estimator = config.estimator_config()?;
+    run_with(py, log, config, &estimator)
+}
+
+/// Smooths a whole log: the filter runs, then the batch graph smoother
+/// starts from its estimate (or, with `config.estimator ==
+/// "filter+smoother"`, the online fixed-lag smoother runs with it). The
+/// result has `run`'s shape, with the smoother's marginal covariances (so
+/// NEES is scored). Without a config, `Config.for_log(log)` is used.
+#[pyfunction(name = "smooth")]
+#[pyo3(signature = (log, config = None))]
+pub(crate) fn py_smooth(
+    py: Python<'_>,
+    log: &PySensorLog,
+    config: Option<PyConfig>,
+) -> PyResult<PyRunResult> {
+    let mut config = match config {
+        Some(c) => c,
+        None => PyConfig::from_run_config(&bearing_slam::default_run_config(&log.inner).py()?),
+    };
+    let mut estimator = config.estimator_config()?;
+    match estimator.kind {
+        EstimatorKind::Filter => estimator.kind = EstimatorKind::Smoother,
+        EstimatorKind::Smoother | EstimatorKind::FilterSmoother => {}
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "smooth() runs a smoother (estimator \"smoother\" or \"filter+smoother\"), \
+                 and config.estimator is {:?}: use run() for it",
+                other.name()
+            )));
+        }
+    }
+    config.estimator = estimator.kind.to_string();
+    run_with(py, log, config, &estimator)
+}
+
+/// Runs `log` through `estimator` and scores it.
+fn run_with(
+    py: Python<'_>,
+    log: &PySensorLog,
+    config: PyConfig,
+    estimator: &EstimatorConfig,
+) -> PyResult<PyRunResult> {
     let rc = config.run_config()?;
     let inner = &log.inner;
     let (output, summary) = py
         .detach(|| {
-            let output = run(inner, &rc)?;
+            let output = run_estimator(inner, &rc, estimator)?.output;
             let has_truth = output.track.iter().any(|p| p.truth.is_some());
             let summary = if has_truth {
                 Some(summarize(inner, &output)?)

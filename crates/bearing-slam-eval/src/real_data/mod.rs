@@ -74,7 +74,8 @@ pub use export::export_logs;
 pub use method::{CommandModel, Method};
 pub use parameters::{CALIBRATED_PARAMETERS, FilterParameters, NAIVE_PARAMETERS};
 pub use run::{
-    EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run, filter_log,
+    EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run,
+    evaluate_run_with, filter_log,
 };
 
 use bearing_slam_core::SlamError;

@@ -7,7 +7,8 @@ use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::{Alignment, align_se2, ate};
-use bearing_slam_core::runner::{self, RunOutput};
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
+use bearing_slam_core::runner::RunOutput;
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::trace::{InitMethod, SlamEvent};
 use bearing_slam_io::mrclam::{LoadOptions, LoadReport, MrclamRun, load_mrclam_with};
@@ -185,10 +186,25 @@ pub fn evaluate_run(
     method: Method,
     parameters: &FilterParameters,
 ) -> Result<RealDataResult, RealDataError> {
+    evaluate_run_with(run, method, parameters, &EstimatorConfig::default())
+}
+
+/// [`evaluate_run`] with another estimator than the EKF (the smoothers,
+/// FastSLAM: [`bearing_slam_core::estimator`]), the filter configured by
+/// `method` and `parameters` as for the EKF.
+///
+/// # Errors
+/// [`RealDataError::Slam`] when the estimator fails.
+pub fn evaluate_run_with(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    estimator: &EstimatorConfig,
+) -> Result<RealDataResult, RealDataError> {
     let log = filter_log(run, method, parameters)?;
     let config = parameters.run_config(method, Pose2::default())?;
     let started = Instant::now();
-    let output = runner::run(&log, &config)?;
+    let output = run_estimator(&log, &config, estimator)?.output;
     let run_time_s = started.elapsed().as_secs_f64();
 
     let has_truth = output.track.iter().any(|p| p.truth.is_some());
