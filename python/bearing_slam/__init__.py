@@ -56,6 +56,7 @@ from bearing_slam._native import (
     scenario_names,
     scenario_toml,
     simulate,
+    smooth,
     write_mcap,
 )
 
@@ -100,6 +101,7 @@ __all__ = [
     "scenario_names",
     "scenario_toml",
     "simulate",
+    "smooth",
     "write_mcap",
 ]
 

@@ -52,6 +52,7 @@ from bearing_slam.outputs import (
     write_outputs,
     write_text_atomic,
 )
+from bearing_slam.estimators import add_estimator_options, estimator_problem, with_estimator
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
@@ -266,7 +267,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     log, _, warnings = read_mcap(path)
     for w in warnings:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
-    config = _config(log, args)
+    if problem := estimator_problem(args):
+        raise UserError(problem)
+    config = with_estimator(_config(log, args), args)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
         result = run(log, config)
@@ -300,10 +303,14 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
     if args.start is not None and args.end is not None and args.end <= args.start:
         raise UserError(f"--end ({args.end:g} s) must be greater than --start ({args.start:g} s)")
     method = "range-bearing" if args.use_range else args.init
+    if problem := estimator_problem(args):
+        raise UserError(problem)
     out = Path(args.out)
     with tqdm(total=2, desc=f"robot {args.robot} {method}", unit="step", disable=args.quiet) as bar:
         bar.set_postfix_str("load + filter")
-        run_ = mrclam.evaluate(dataset, args.robot, method, args.start, args.end)
+        run_ = mrclam.evaluate(
+            dataset, args.robot, method, args.start, args.end, args.estimator, args.particles
+        )
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
         rec = mrclam_record(run_)
@@ -324,7 +331,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         return "n/a" if v is None else f"{v:.3f} m"
 
     print(
-        f"{rec['source']} {method}: ATE {f('ate_rmse_m')} "
+        f"{rec['source']} {method} {args.estimator}: ATE {f('ate_rmse_m')} "
         f"(dead reckoning {f('odometry_ate_rmse_m')}), "
         f"landmark RMSE {f('landmark_rmse_m')} "
         f"({'Vicon frame' if rec['has_ground_truth'] else 'SE(2)-aligned'}; "
@@ -457,6 +464,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
+    add_estimator_options(runp)
     runp.set_defaults(func=_cmd_run)
 
     names = sub.add_parser(
@@ -509,6 +517,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
+    add_estimator_options(mr)
     mr.set_defaults(func=_cmd_mrclam)
 
     figs = sub.add_parser(

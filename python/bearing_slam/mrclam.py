@@ -105,12 +105,17 @@ def evaluate(
     method: str = "mte",
     start: float | None = None,
     end: float | None = None,
+    estimator: str = "filter",
+    particles: int | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
-    since the robot's first command."""
+    since the robot's first command, with ``estimator`` (one of
+    :data:`~bearing_slam.vocabulary.ESTIMATORS`; ``particles`` for FastSLAM)."""
     t0 = time.perf_counter()
-    result, metrics, log = evaluate_mrclam(dataset_dir, robot, method, start, end)
+    result, metrics, log = evaluate_mrclam(
+        dataset_dir, robot, method, start, end, estimator=estimator, particles=particles
+    )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 
 

@@ -40,9 +40,10 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// surveyed landmarks or None, `has_ground_truth`) and the log the filter
 /// was given (commands corrected; ground truth decimated to 10 Hz).
 /// `estimator` (`EstimatorKind`'s names) runs another estimator than the
-/// EKF on the same log and parameters (`metrics["estimator"]` says which).
+/// EKF on the same log and parameters (`metrics["estimator"]` says which;
+/// `particles`: FastSLAM's particle count).
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter"))]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -51,9 +52,15 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     start: Option<f64>,
     end: Option<f64>,
     estimator: &str,
+    particles: Option<usize>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
-    let estimator = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
+    let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
+    let estimator = EstimatorConfig {
+        particles: particles.unwrap_or(default.particles),
+        ..default
+    };
+    estimator.validate().map_err(errors::slam)?;
     let robot = u8::try_from(robot)
         .ok()
         .filter(|r| (1..=ROBOT_COUNT).contains(r))
@@ -117,7 +124,11 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         config.use_range = true;
     }
     config.estimator = estimator.kind.to_string();
+    config.particles = estimator.particles;
     metrics.set_item("estimator", estimator.kind.name())?;
+    if estimator.kind.is_particle_filter() {
+        metrics.set_item("particles", estimator.particles)?;
+    }
     Ok((
         PyRunResult {
             output,
