@@ -52,7 +52,12 @@ from bearing_slam.outputs import (
     write_outputs,
     write_text_atomic,
 )
-from bearing_slam.estimators import add_estimator_options, estimator_problem, with_estimator
+from bearing_slam.estimators import (
+    add_estimator_options,
+    estimator_problem,
+    estimator_spec,
+    with_estimator,
+)
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
@@ -570,6 +575,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         raise UserError(
             f"--rho-ini and --sigma-rho apply to --init {' and '.join(PRIOR_INITS)} only"
         )
+    if problem := estimator_problem(args):
+        raise UserError(problem)
     spec = make_spec(
         args.scenario,
         args.init,
@@ -581,6 +588,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         landmark_scale=args.scale,
         rho_ini=DEFAULT_PRIOR["rho_ini"] if args.rho_ini is None else args.rho_ini,
         sigma_rho=DEFAULT_PRIOR["sigma_rho"] if args.sigma_rho is None else args.sigma_rho,
+        **estimator_spec(args),
     )
     result = run_spec(spec, progress=not args.quiet)
 
@@ -681,6 +689,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         "--json", required=True, type=output_file, metavar="OUT.json", help="report file to write"
     )
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_estimator_options(mc)
     mc.set_defaults(func=_cmd_montecarlo)
 
     ex = sub.add_parser(

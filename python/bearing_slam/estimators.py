@@ -1,6 +1,6 @@
 """The estimator options of the command line (issues 14 and 15).
 
-``bearing-slam run`` and ``bearing-slam mrclam`` take ``--estimator`` (the
+``bearing-slam run``, ``mrclam`` and ``montecarlo`` take ``--estimator`` (the
 names of :data:`~bearing_slam.vocabulary.ESTIMATORS`, read from Rust's
 ``EstimatorKind``): ``filter`` (the EKF, the default), ``smoother`` (the
 batch graph smoother started from the filter's run), ``filter+smoother``
@@ -14,6 +14,7 @@ particle's map) are written the same way.
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 from bearing_slam._native import Config
 from bearing_slam.arg_types import positive_int
@@ -25,6 +26,7 @@ __all__ = [
     "PARTICLE_ESTIMATORS",
     "add_estimator_options",
     "estimator_problem",
+    "estimator_spec",
     "with_estimator",
 ]
 
@@ -70,3 +72,9 @@ def with_estimator(config: Config, args: argparse.Namespace) -> Config:
     if args.particles is None:
         return config.replace(estimator=args.estimator)
     return config.replace(estimator=args.estimator, particles=args.particles)
+
+
+def estimator_spec(args: argparse.Namespace) -> dict[str, Any]:
+    """The estimator part of a Monte Carlo spec (``make_spec``'s keywords)."""
+    particles = DEFAULT_PARTICLES if args.particles is None else args.particles
+    return {"estimator": args.estimator, "particles": particles}

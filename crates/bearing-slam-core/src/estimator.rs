@@ -16,6 +16,8 @@ use crate::smoother::{
     FixedLagConfig, SmootherConfig, SmootherMode, SmootherReport, run_from_log,
     run_online_smoother,
 };
+use crate::names::Named;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::time::Instant;
 
 /// The estimators by name.
@@ -43,6 +45,21 @@ crate::named_enum!(EstimatorKind, "estimator", [
     FastSlam1 => "fastslam1",
     FastSlam2 => "fastslam2",
 ]);
+
+impl Serialize for EstimatorKind {
+    /// As its name (`"filter+smoother"`).
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for EstimatorKind {
+    /// From its name; an unknown name lists the known ones.
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Self::from_name(&name).map_err(serde::de::Error::custom)
+    }
+}
 
 impl EstimatorKind {
     /// Whether the estimator is a particle filter (uses
