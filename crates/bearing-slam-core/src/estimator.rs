@@ -8,15 +8,14 @@
 
 use crate::error::{Result, SlamError};
 use crate::log::SensorLog;
-use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
+use crate::names::Named;
 use crate::particle::landmark_ekf::SensorNoise;
+use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
 use crate::runner::{RunConfig, RunOutput, run, run_online};
 use crate::slam::{InitializerConfig, SlamConfig};
 use crate::smoother::{
-    FixedLagConfig, SmootherConfig, SmootherMode, SmootherReport, run_from_log,
-    run_online_smoother,
+    FixedLagConfig, SmootherConfig, SmootherMode, SmootherReport, run_from_log, run_online_smoother,
 };
-use crate::names::Named;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::time::Instant;
 
@@ -225,7 +224,8 @@ pub fn run_estimator(
         }
         EstimatorKind::FilterSmoother => {
             let started = Instant::now();
-            let online = run_online_smoother(log, config, &estimator.smoother, estimator.fixed_lag)?;
+            let online =
+                run_online_smoother(log, config, &estimator.smoother, estimator.fixed_lag)?;
             let mut report = online.estimator.report().clone();
             report.smoother_time_s = started.elapsed().as_secs_f64();
             Ok(EstimatorRun {

@@ -85,7 +85,13 @@ fn bad_estimator_parameters_are_refused_by_name() {
     };
     let err = run_estimator(&log, &config, &zero).unwrap_err();
     assert!(
-        matches!(err, SlamError::InvalidParameter { name: "particles", .. }),
+        matches!(
+            err,
+            SlamError::InvalidParameter {
+                name: "particles",
+                ..
+            }
+        ),
         "{err}"
     );
     let err = "ekf2".parse::<EstimatorKind>().unwrap_err();
@@ -96,6 +102,12 @@ fn bad_estimator_parameters_are_refused_by_name() {
     );
     assert_eq!(
         EstimatorKind::names(),
-        ["filter", "smoother", "filter+smoother", "fastslam1", "fastslam2"]
+        [
+            "filter",
+            "smoother",
+            "filter+smoother",
+            "fastslam1",
+            "fastslam2"
+        ]
     );
 }

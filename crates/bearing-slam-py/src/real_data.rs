@@ -42,6 +42,8 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `estimator` (`EstimatorKind`'s names) runs another estimator than the
 /// EKF on the same log and parameters (`metrics["estimator"]` says which;
 /// `particles`: FastSLAM's particle count).
+// The Python signature: the dataset, the robot, the window and the estimator.
+#[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
 #[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(

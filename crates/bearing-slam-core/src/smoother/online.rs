@@ -258,14 +258,7 @@ impl OnlineEstimator for OnlineSmoother {
         self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>();
         self.waiting.clear();
         let (poses, covs, lms) = self.estimates()?;
-        apply_smoothed(
-            output,
-            &self.scan_node,
-            &self.records,
-            &poses,
-            &covs,
-            &lms,
-        );
+        apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
         Ok(())
     }
 }

@@ -13,9 +13,9 @@ use super::factors::{
     BearingFactor, Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor, RangeBearingFactor,
 };
 use super::fixed_lag::FixedLagConfig;
-use super::online::run_online_smoother;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
+use super::online::run_online_smoother;
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};

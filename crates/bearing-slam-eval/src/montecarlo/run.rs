@@ -4,11 +4,11 @@
 use super::MonteCarloSpec;
 use super::Thresholds;
 use crate::stats;
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::wrap_angle;
 use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::metrics::pose_nees;
 use bearing_slam_core::nalgebra::{Matrix3, SymmetricEigen};
-use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::runner::{RunConfig, RunOutput, default_run_config};
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::trace::SlamEvent;

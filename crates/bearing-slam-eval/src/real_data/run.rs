@@ -4,10 +4,10 @@ use super::{
     CALIBRATED_PARAMETERS, FilterParameters, GROUND_TRUTH_INTERVAL_S, Method, RealDataError,
 };
 use bearing_slam_core::SlamError;
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::{Alignment, align_se2, ate};
-use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::runner::RunOutput;
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::trace::{InitMethod, SlamEvent};
