@@ -13,10 +13,10 @@ use bearing_slam_core::score::summarize;
 use bearing_slam_core::slam::SlamConfig;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 
-/// Fig. 4's straight run, cut short (60 steps, 3 m).
+/// Fig. 4's straight run, cut short (40 steps, 2 m).
 fn short() -> (KinematicScenario, RunConfig) {
     let mut s = KinematicScenario::paper_fig4(false);
-    s.wheel_steps.truncate(60);
+    s.wheel_steps.truncate(40);
     let config = RunConfig {
         slam: SlamConfig {
             bearing_sigma: s.bearing_sigma,
@@ -54,7 +54,7 @@ fn every_estimator_runs_a_short_log_into_the_runners_shape() {
     let filter = run(&log, &config).unwrap();
     for kind in EstimatorKind::ALL {
         let est = EstimatorConfig {
-            particles: 20,
+            particles: 10,
             ..EstimatorConfig::of(*kind)
         };
         let out = run_estimator(&log, &config, &est).unwrap();
@@ -70,7 +70,7 @@ fn every_estimator_runs_a_short_log_into_the_runners_shape() {
         assert_eq!(out.smoother.is_some(), kind.is_smoother(), "{kind}");
         assert_eq!(out.particles.is_some(), kind.is_particle_filter(), "{kind}");
         if let Some(p) = &out.particles {
-            assert_eq!(p.particles().len(), 20);
+            assert_eq!(p.particles().len(), 10);
         }
     }
 }
