@@ -14,7 +14,8 @@ use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitial
 use crate::runner::{RunConfig, RunOutput, run, run_online};
 use crate::slam::{InitializerConfig, SlamConfig};
 use crate::smoother::{
-    FixedLagConfig, SmootherConfig, SmootherMode, SmootherReport, run_from_log, run_online_smoother,
+    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SmootherReport, SolverConfig,
+    run_from_log, run_online_smoother,
 };
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::time::Instant;
@@ -93,16 +94,33 @@ pub struct EstimatorConfig {
     pub fixed_lag: FixedLagConfig,
 }
 
+/// The online smoother's window and solver: 50 poses, relinearized
+/// marginalization (no first-estimate Jacobians), Huber(2), 5 iterations
+/// per scan — the configuration `tests/smoother_run.rs` checks against the
+/// batch (within 1.3× its ATE).
+#[must_use]
+pub fn default_fixed_lag() -> FixedLagConfig {
+    FixedLagConfig {
+        lag: 50,
+        first_estimates: false,
+        solver: SolverConfig {
+            max_iterations: 5,
+            robust: RobustKernel::Huber(2.0),
+            ..SolverConfig::default()
+        },
+    }
+}
+
 impl Default for EstimatorConfig {
-    /// The EKF; FastSLAM with 100 particles and seed 0; the smoothers'
-    /// defaults.
+    /// The EKF; FastSLAM with 100 particles and seed 0; the batch
+    /// smoother's defaults and [`default_fixed_lag`].
     fn default() -> Self {
         Self {
             kind: EstimatorKind::Filter,
             particles: 100,
             seed: 0,
             smoother: SmootherConfig::default(),
-            fixed_lag: FixedLagConfig::default(),
+            fixed_lag: default_fixed_lag(),
         }
     }
 }
