@@ -44,6 +44,12 @@ from bearing_slam.arg_types import (
     seed,
 )
 from bearing_slam.arg_types import positive_int as _positive_int
+from bearing_slam.estimators import (
+    add_estimator_options,
+    estimator_problem,
+    estimator_spec,
+    with_estimator,
+)
 from bearing_slam.outputs import (
     metrics_record,
     mrclam_record,
@@ -51,12 +57,6 @@ from bearing_slam.outputs import (
     publish_folder,
     write_outputs,
     write_text_atomic,
-)
-from bearing_slam.estimators import (
-    add_estimator_options,
-    estimator_problem,
-    estimator_spec,
-    with_estimator,
 )
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
