@@ -64,6 +64,7 @@ __all__ = [
     "scenario_names",
     "scenario_toml",
     "simulate",
+    "smooth",
     "triangulate",
     "triangulation_init",
     "velocity",
