@@ -58,6 +58,7 @@ from bearing_slam._native import (
     scenario_names,
     scenario_toml,
     simulate,
+    smooth,
     write_mcap,
 )
 
@@ -103,6 +104,7 @@ __all__ = [
     "scenario_names",
     "scenario_toml",
     "simulate",
+    "smooth",
     "write_mcap",
 ]
 

@@ -65,6 +65,7 @@ __all__ = [
     "scenario_names",
     "scenario_toml",
     "simulate",
+    "smooth",
     "triangulate",
     "triangulation_init",
     "velocity",
@@ -121,6 +122,10 @@ class Config:
     velocity_sigma_v_min: float
     velocity_sigma_omega_min: float
     use_range: bool
+    # The estimator (issues 14, 15): "filter", "smoother", "filter+smoother",
+    # "fastslam1", "fastslam2"; particles of FastSLAM.
+    estimator: str
+    particles: int
     def __new__(cls, init: str = "mte", **kwargs: Any) -> Config: ...
     @staticmethod
     def for_log(log: SensorLog, init: str = "mte", **kwargs: Any) -> Config: ...
@@ -300,6 +305,7 @@ def run(
     *,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
 ) -> RunResult: ...
+def smooth(log: SensorLog, config: Config | None = None) -> RunResult: ...
 def scenario_names() -> list[str]: ...
 def simulate(
     scenario: _Path,
@@ -332,6 +338,8 @@ def evaluate_mrclam(
     method: str = "mte",
     start: float | None = None,
     end: float | None = None,
+    estimator: str = "filter",
+    particles: int | None = None,
     *,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...

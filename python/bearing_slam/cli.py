@@ -45,6 +45,12 @@ from bearing_slam.arg_types import (
     seed,
 )
 from bearing_slam.arg_types import positive_int as _positive_int
+from bearing_slam.estimators import (
+    add_estimator_options,
+    estimator_problem,
+    estimator_spec,
+    with_estimator,
+)
 from bearing_slam.outputs import (
     metrics_record,
     mrclam_record,
@@ -268,7 +274,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
     log, _, warnings = read_mcap(path)
     for w in warnings:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
-    config = _config(log, args)
+    if problem := estimator_problem(args):
+        raise UserError(problem)
+    config = with_estimator(_config(log, args), args)
     live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
@@ -303,11 +311,22 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
     if args.start is not None and args.end is not None and args.end <= args.start:
         raise UserError(f"--end ({args.end:g} s) must be greater than --start ({args.start:g} s)")
     method = "range-bearing" if args.use_range else args.init
+    if problem := estimator_problem(args):
+        raise UserError(problem)
     out = Path(args.out)
     with tqdm(total=2, desc=f"robot {args.robot} {method}", unit="step", disable=args.quiet) as bar:
         bar.set_postfix_str("load + filter")
         live = _rerun_logger(args, scene=(dataset, args.robot, args.start, args.end))
-        run_ = mrclam.evaluate(dataset, args.robot, method, args.start, args.end, on_scan=live)
+        run_ = mrclam.evaluate(
+            dataset,
+            args.robot,
+            method,
+            args.start,
+            args.end,
+            args.estimator,
+            args.particles,
+            on_scan=live,
+        )
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
         rec = mrclam_record(run_)
@@ -328,7 +347,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         return "n/a" if v is None else f"{v:.3f} m"
 
     print(
-        f"{rec['source']} {method}: ATE {f('ate_rmse_m')} "
+        f"{rec['source']} {method} {args.estimator}: ATE {f('ate_rmse_m')} "
         f"(dead reckoning {f('odometry_ate_rmse_m')}), "
         f"landmark RMSE {f('landmark_rmse_m')} "
         f"({'Vicon frame' if rec['has_ground_truth'] else 'SE(2)-aligned'}; "
@@ -464,6 +483,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
+    add_estimator_options(runp)
     runp.set_defaults(func=_cmd_run)
 
     names = sub.add_parser(
@@ -520,6 +540,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
+    add_estimator_options(mr)
     mr.set_defaults(func=_cmd_mrclam)
 
     figs = sub.add_parser(
@@ -572,6 +593,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         raise UserError(
             f"--rho-ini and --sigma-rho apply to --init {' and '.join(PRIOR_INITS)} only"
         )
+    if problem := estimator_problem(args):
+        raise UserError(problem)
     spec = make_spec(
         args.scenario,
         args.init,
@@ -583,6 +606,7 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         landmark_scale=args.scale,
         rho_ini=DEFAULT_PRIOR["rho_ini"] if args.rho_ini is None else args.rho_ini,
         sigma_rho=DEFAULT_PRIOR["sigma_rho"] if args.sigma_rho is None else args.sigma_rho,
+        **estimator_spec(args),
     )
     result = run_spec(spec, progress=not args.quiet)
 
@@ -683,6 +707,7 @@ def _add_montecarlo_parsers(sub: Any) -> None:
         "--json", required=True, type=output_file, metavar="OUT.json", help="report file to write"
     )
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
+    add_estimator_options(mc)
     mc.set_defaults(func=_cmd_montecarlo)
 
     ex = sub.add_parser(

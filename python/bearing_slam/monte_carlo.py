@@ -46,6 +46,7 @@ from bearing_slam._native import (
     montecarlo_run_many,
     montecarlo_run_one,
 )
+from bearing_slam.estimators import DEFAULT_ESTIMATOR, DEFAULT_PARTICLES
 from bearing_slam.vocabulary import (
     CLASSES,
     DEFAULT_PRIOR,
@@ -111,10 +112,14 @@ def make_spec(
     thresholds: Mapping[str, float] | None = None,
     rho_ini: float = DEFAULT_PRIOR["rho_ini"],
     sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
+    estimator: str = DEFAULT_ESTIMATOR,
+    particles: int = DEFAULT_PARTICLES,
 ) -> dict[str, Any]:
     """A Monte Carlo spec (the JSON of the Rust ``MonteCarloSpec``) as a dict.
     ``landmark_scale`` multiplies the positions of the scenario's near
-    landmarks (all but its far ones) about the world origin."""
+    landmarks (all but its far ones) about the world origin; ``estimator``
+    (:data:`~bearing_slam.vocabulary.ESTIMATORS`) runs another estimator
+    than the EKF (``particles`` for FastSLAM, seeded with each run's seed)."""
     if runs < 1:
         raise ValueError(f"runs must be at least 1, got {runs}")
     return {
@@ -129,6 +134,8 @@ def make_spec(
         "initializer": initializer_spec(init, rho_ini=rho_ini, sigma_rho=sigma_rho),
         "runs": runs,
         "thresholds": {**DEFAULT_THRESHOLDS, **(thresholds or {})},
+        "estimator": estimator,
+        "particles": particles,
     }
 
 
@@ -309,6 +316,8 @@ def montecarlo(
     progress: Progress = True,
     rho_ini: float = DEFAULT_PRIOR["rho_ini"],
     sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
+    estimator: str = DEFAULT_ESTIMATOR,
+    particles: int = DEFAULT_PARTICLES,
 ) -> dict[str, MonteCarloResult]:
     """``runs`` runs of ``scenario`` (seeds ``seed0 …``) for each initializer.
 
@@ -317,7 +326,8 @@ def montecarlo(
     ``"pi-sr-mixed"``, or initializer dicts (:func:`initializer_spec`).
     ``landmark_count``, ``far_landmark``, ``slip`` and ``landmark_scale``
     change the scenario (``None``: its own); ``thresholds``
-    override :data:`DEFAULT_THRESHOLDS`. Without ``executor`` the runs use
+    override :data:`DEFAULT_THRESHOLDS`; ``estimator`` and ``particles``
+    choose the estimator (:func:`make_spec`). Without ``executor`` the runs use
     every local core; with one (e.g. ``distributed.Client().get_executor()``)
     each run is a task, with the same result.
 
@@ -341,6 +351,8 @@ def montecarlo(
             thresholds=thresholds,
             rho_ini=rho_ini,
             sigma_rho=sigma_rho,
+            estimator=estimator,
+            particles=particles,
         )
         result = run_spec(spec, executor=executor, progress=progress)
         key = init if isinstance(init, str) else result.label

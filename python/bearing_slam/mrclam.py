@@ -105,15 +105,28 @@ def evaluate(
     method: str = "mte",
     start: float | None = None,
     end: float | None = None,
+    estimator: str = "filter",
+    particles: int | None = None,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
-    since the robot's first command. ``on_scan``: called with each scan's
-    step as the filter goes (as in :func:`bearing_slam.run`, e.g. a
+    since the robot's first command, with ``estimator`` (one of
+    :data:`~bearing_slam.vocabulary.ESTIMATORS`; ``particles`` for FastSLAM).
+    ``on_scan`` (the filter only): called with each scan's step as the filter
+    goes (as in :func:`bearing_slam.run`, e.g. a
     :class:`bearing_slam.rerun.RerunLogger`)."""
     t0 = time.perf_counter()
-    result, metrics, log = evaluate_mrclam(dataset_dir, robot, method, start, end, on_scan=on_scan)
+    result, metrics, log = evaluate_mrclam(
+        dataset_dir,
+        robot,
+        method,
+        start,
+        end,
+        estimator=estimator,
+        particles=particles,
+        on_scan=on_scan,
+    )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 
 

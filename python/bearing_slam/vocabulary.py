@@ -2,7 +2,7 @@
 
 Every initializer, method, run class, experiment and metric name, the
 classification thresholds and the paper's priors are defined once, in Rust
-(``InitializerKind``, ``CovarianceUpdate``, ``OdometryKind``,
+(``InitializerKind``, ``CovarianceUpdate``, ``OdometryKind``, ``EstimatorKind``,
 ``real_data::Method``, ``RunClass``, ``Experiment``, ``RunMetrics``,
 ``Thresholds``, ``InverseDepthPrior::PAPER_NEAR``/``PAPER_FAR``,
 ``MTE_HISTORY``), and read here from the extension module's
@@ -22,6 +22,7 @@ __all__ = [
     "COVARIANCE_UPDATES",
     "DEFAULT_PRIOR",
     "DEFAULT_THRESHOLDS",
+    "ESTIMATORS",
     "EXPERIMENTS",
     "EXPERIMENT_DEFAULT_RUNS",
     "FAR_PRIOR",
@@ -68,6 +69,10 @@ CONSISTENCIES: tuple[str, ...] = tuple(_RUST["consistencies"])
 
 #: The odometry models (Rust: ``OdometryKind::ALL``).
 ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])
+
+#: The estimators, the EKF first (Rust: ``estimator::EstimatorKind::ALL``):
+#: ``Config(estimator=...)``, ``--estimator``.
+ESTIMATORS: tuple[str, ...] = tuple(_RUST["estimators"])
 
 #: Waiting bearings kept per candidate by ``mte-history`` (Rust: ``init::MTE_HISTORY``).
 MTE_HISTORY: int = int(_RUST["mte_history"])

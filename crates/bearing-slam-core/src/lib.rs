@@ -13,6 +13,7 @@
 pub mod divergence;
 pub mod ekf;
 pub mod error;
+pub mod estimator;
 pub mod geometry;
 pub mod init;
 pub mod landmark;
@@ -22,6 +23,7 @@ pub mod metrics;
 pub mod model;
 pub mod motion;
 pub mod names;
+pub mod online;
 pub mod particle;
 pub mod runner;
 pub mod score;

@@ -1,6 +1,6 @@
-//! Runs a whole [`SensorLog`] through the [`BearingSlam`] filter: odometry
-//! events predict, bearing scans update, ground-truth events record the
-//! estimate (and a dead-reckoning integration of the same odometry) for
+//! Runs a whole [`SensorLog`] through the [`BearingSlam`] filter, or any
+//! other [`OnlineEstimator`] ([`run_online`]): odometry events predict,
+//! bearing scans update, ground-truth events record the estimate (and a dead-reckoning integration of the same odometry) for
 //! scoring ([`crate::score`]). This is the loop the CLI, the Monte Carlo
 //! runner and the Python `run` call; it runs and records, it does not score.
 //!
@@ -15,6 +15,7 @@ use crate::geometry::Pose2;
 use crate::log::{EventKind, SensorLog, VelocityOdometry, WheelOdometry};
 use crate::model::MotionModel;
 use crate::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
+use crate::online::OnlineEstimator;
 use crate::slam::{BearingSlam, SlamConfig};
 use crate::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
 use serde::{Deserialize, Serialize};
@@ -158,21 +159,22 @@ fn dead_reckon<M: MotionModel<3>>(pose: &mut Pose2, model: &M, control: &M::Cont
     Ok(())
 }
 
-/// The filter, the dead-reckoning pose and the pending velocity command.
-struct Runner<'a> {
-    config: &'a RunConfig,
-    slam: BearingSlam,
+/// The estimator, the dead-reckoning pose and the pending velocity command.
+struct Runner<'a, E> {
+    odometry: &'a OdometryConfig,
+    use_range: bool,
+    estimator: E,
     dead_reckoning: Pose2,
     /// `(command, start time, time already applied up to)`.
     command: Option<(VelocityOdometry, f64, f64)>,
     output: RunOutput,
 }
 
-impl Runner<'_> {
+impl<E: OnlineEstimator> Runner<'_, E> {
     /// Predicts with the active velocity command up to `time` (never past its `dt`).
     fn advance_command(&mut self, time: f64) -> Result<()> {
         let (OdometryConfig::Velocity(model), Some((cmd, start, applied))) =
-            (&self.config.odometry, self.command)
+            (self.odometry, self.command)
         else {
             return Ok(());
         };
@@ -180,7 +182,7 @@ impl Runner<'_> {
         let dt = until - applied;
         if dt > 1e-9 {
             let step = VelocityOdometry { dt, ..cmd };
-            self.slam.predict(until, model, &step)?;
+            self.estimator.predict(until, model, &step)?;
             dead_reckon(&mut self.dead_reckoning, model, &step)?;
             self.output.counts.predictions += 1;
             self.command = Some((cmd, start, until));
@@ -189,8 +191,8 @@ impl Runner<'_> {
     }
 
     fn wheels(&mut self, time: f64, reading: &WheelOdometry) -> Result<()> {
-        if let OdometryConfig::Wheels(model) = &self.config.odometry {
-            self.slam.predict(time, model, reading)?;
+        if let OdometryConfig::Wheels(model) = self.odometry {
+            self.estimator.predict(time, model, reading)?;
             dead_reckon(&mut self.dead_reckoning, model, reading)?;
             self.output.counts.predictions += 1;
         }
@@ -198,39 +200,26 @@ impl Runner<'_> {
     }
 
     fn bearings(&mut self, time: f64, scan: &[crate::log::BearingObservation]) -> Result<()> {
-        let report = if self.config.use_range {
-            let obs: Vec<(u64, f64, f64)> = scan
-                .iter()
-                .map(|o| {
-                    o.range
-                        .map(|r| (o.landmark_id, r, o.bearing))
-                        .ok_or(SlamError::Mismatch(
-                            "range-bearing run on a scan without ranges",
-                        ))
-                })
-                .collect::<Result<_>>()?;
-            self.slam.update_range_bearings(time, &obs)?
-        } else {
-            let obs: Vec<(u64, f64)> = scan.iter().map(|o| (o.landmark_id, o.bearing)).collect();
-            self.slam.update_bearings(time, &obs)?
-        };
+        let report = self.estimator.update(time, scan, self.use_range)?;
         let counts = &mut self.output.counts;
         counts.measurements_used += report.used;
         counts.measurements_rejected += report.rejected;
         counts.landmarks_initialized += report.initialized;
-        self.output.trace.snapshots.push(self.slam.snapshot());
+        let snapshot = self.estimator.snapshot(time)?;
+        self.output.trace.snapshots.push(snapshot);
         Ok(())
     }
 
-    fn record(&mut self, time: f64, truth: Option<Pose2>) {
-        let c = self.slam.pose_covariance();
+    fn record(&mut self, time: f64, truth: Option<Pose2>) -> Result<()> {
+        let (estimate, c) = self.estimator.track_pose(time)?;
         self.output.track.push(TrackPoint {
             time,
-            estimate: self.slam.pose(),
+            estimate,
             covariance: c.transpose().into(),
             dead_reckoning: self.dead_reckoning,
             truth,
         });
+        Ok(())
     }
 }
 
@@ -276,8 +265,9 @@ pub fn run(log: &SensorLog, config: &RunConfig) -> Result<RunOutput> {
 }
 
 /// What a run did at one bearing scan, handed to the observer of
-/// [`run_observed`] right after the filter's update (and, without ground
-/// truth, after the track point of the scan is recorded).
+/// [`run_observed`] / [`run_online_observed`] right after the estimator's
+/// update (and, without ground truth, after the track point of the scan is
+/// recorded).
 #[derive(Clone, Copy, Debug)]
 pub struct ScanStep<'a> {
     /// The scan's time, s.
@@ -286,7 +276,7 @@ pub struct ScanStep<'a> {
     pub scan: &'a [crate::log::BearingObservation],
     /// The estimate after the update (the snapshot the trace keeps).
     pub snapshot: &'a EstimateSnapshot,
-    /// The filter's events since the previous scan's step.
+    /// The estimator's events since the previous scan's step.
     pub events: &'a [TimedSlamEvent],
     /// The track points recorded since the previous scan's step.
     pub track: &'a [TrackPoint],
@@ -301,22 +291,82 @@ pub struct ScanStep<'a> {
 pub fn run_observed<E, F>(
     log: &SensorLog,
     config: &RunConfig,
-    mut observer: F,
+    observer: F,
 ) -> std::result::Result<RunOutput, E>
 where
     E: From<SlamError>,
     F: FnMut(ScanStep<'_>) -> std::result::Result<(), E>,
 {
+    let run = run_online_observed(
+        log,
+        &config.odometry,
+        config.use_range,
+        config.slam.initial_pose,
+        |start| {
+            BearingSlam::new(SlamConfig {
+                initial_pose: start,
+                ..config.slam.clone()
+            })
+        },
+        observer,
+    )?;
+    Ok(run.output)
+}
+
+/// An online run's output and the estimator as it ended (its final state:
+/// a particle cloud, a smoother's report).
+#[derive(Clone, Debug)]
+pub struct OnlineRun<E> {
+    /// What the run recorded.
+    pub output: RunOutput,
+    /// The estimator after the last event and [`OnlineEstimator::finish`].
+    pub estimator: E,
+}
+
+/// The one event loop of every online estimator ([`OnlineEstimator`]: the
+/// EKF, FastSLAM, the fixed-lag smoother): `log` is run through the
+/// estimator `make` builds at the start pose (the log's own initial pose
+/// when it states one, else `default_start`). Odometry events predict with
+/// `odometry` (and integrate the dead-reckoning pose), scans update (with
+/// their ranges when `use_range`) and are followed by a snapshot, and
+/// ground-truth events record the estimate next to the truth (without
+/// ground truth in the log, every scan records). Errors when the log does
+/// not validate ([`SensorLog::validate`]), carries only the other kind of
+/// odometry ([`check_odometry_matches`]), or the estimator fails.
+pub fn run_online<Est: OnlineEstimator>(
+    log: &SensorLog,
+    odometry: &OdometryConfig,
+    use_range: bool,
+    default_start: Pose2,
+    make: impl FnOnce(Pose2) -> Result<Est>,
+) -> Result<OnlineRun<Est>> {
+    run_online_observed(log, odometry, use_range, default_start, make, |_| {
+        Ok::<(), SlamError>(())
+    })
+}
+
+/// [`run_online`], calling `observer` after every bearing scan
+/// ([`ScanStep`]); see [`run_observed`] for what the observer may do.
+pub fn run_online_observed<Est, E, F>(
+    log: &SensorLog,
+    odometry: &OdometryConfig,
+    use_range: bool,
+    default_start: Pose2,
+    make: impl FnOnce(Pose2) -> Result<Est>,
+    mut observer: F,
+) -> std::result::Result<OnlineRun<Est>, E>
+where
+    Est: OnlineEstimator,
+    E: From<SlamError>,
+    F: FnMut(ScanStep<'_>) -> std::result::Result<(), E>,
+{
     log.validate()?;
-    check_odometry_matches(log, &config.odometry)?;
-    let mut slam_config = config.slam.clone();
-    if let Some(pose) = log.info.initial_pose {
-        slam_config.initial_pose = pose;
-    }
-    let start = slam_config.initial_pose;
+    check_odometry_matches(log, odometry)?;
+    let start = log.info.initial_pose.unwrap_or(default_start);
     let mut runner = Runner {
-        config,
-        slam: BearingSlam::new(slam_config)?,
+        odometry,
+        use_range,
+        estimator: make(start)?,
         dead_reckoning: start,
         command: None,
         output: RunOutput::default(),
@@ -343,9 +393,9 @@ where
                 started = true;
                 runner.bearings(event.time, scan)?;
                 if !has_truth {
-                    runner.record(event.time, None);
+                    runner.record(event.time, None)?;
                 }
-                let events = runner.slam.events();
+                let events = runner.estimator.events();
                 let track = &runner.output.track;
                 if let Some(snapshot) = runner.output.trace.snapshots.last() {
                     observer(ScanStep {
@@ -361,11 +411,14 @@ where
             }
             EventKind::GroundTruth(pose) => {
                 if started || event.time <= 0.0 {
-                    runner.record(event.time, Some(*pose));
+                    runner.record(event.time, Some(*pose))?;
                 }
             }
         }
     }
-    runner.output.trace.events = runner.slam.take_events();
-    Ok(runner.output)
+    runner.estimator.finish(&mut runner.output)?;
+    Ok(OnlineRun {
+        output: runner.output,
+        estimator: runner.estimator,
+    })
 }

@@ -6,6 +6,7 @@ use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
+use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
@@ -117,10 +118,17 @@ pub(crate) struct PyConfig {
     /// Use the ranges too (range-bearing reference filter).
     #[pyo3(get, set)]
     pub use_range: bool,
+    /// The estimator (`EstimatorKind`: `"filter"`, the EKF, the default;
+    /// `"smoother"`, `"filter+smoother"`, `"fastslam1"`, `"fastslam2"`).
+    #[pyo3(get, set)]
+    pub estimator: String,
+    /// Particles of FastSLAM (≥ 1).
+    #[pyo3(get, set)]
+    pub particles: usize,
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 28] = [
+const FIELDS: [&str; 30] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -149,6 +157,8 @@ const FIELDS: [&str; 28] = [
     "velocity_sigma_v_min",
     "velocity_sigma_omega_min",
     "use_range",
+    "estimator",
+    "particles",
 ];
 
 impl Default for PyConfig {
@@ -185,6 +195,8 @@ impl Default for PyConfig {
             velocity_sigma_v_min: DEFAULT_VELOCITY_NOISE.sigma_v_min,
             velocity_sigma_omega_min: DEFAULT_VELOCITY_NOISE.sigma_omega_min,
             use_range: false,
+            estimator: EstimatorKind::default().to_string(),
+            particles: EstimatorConfig::default().particles,
         }
     }
 }
@@ -355,6 +367,16 @@ impl PyConfig {
         })
     }
 
+    /// The estimator and its parameters, validated.
+    pub(crate) fn estimator_config(&self) -> PyResult<EstimatorConfig> {
+        let est = EstimatorConfig {
+            particles: self.particles,
+            ..EstimatorConfig::of(parse_name::<EstimatorKind>(&self.estimator)?)
+        };
+        est.validate().py()?;
+        Ok(est)
+    }
+
     /// Sets the attributes named in `kwargs` (through Python, so each
     /// attribute's own conversion applies) and validates the result.
     /// With `refuse_unused` (construction: `Config(...)`, `Config.for_log`), a
@@ -417,6 +439,7 @@ impl PyConfig {
             }
         }
         slf.borrow().run_config()?;
+        slf.borrow().estimator_config()?;
         Ok(())
     }
 
@@ -451,6 +474,16 @@ impl PyConfig {
                 Some(format!(
                     "it is a parameter of the velocity odometry model, and odometry is {:?}",
                     self.odometry
+                ))
+            }
+            "particles"
+                if !parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(EstimatorKind::is_particle_filter) =>
+            {
+                Some(format!(
+                    "it is a parameter of FastSLAM (estimator \"fastslam1\" or \"fastslam2\"), \
+                     and estimator is {:?}",
+                    self.estimator
                 ))
             }
             "range_sigma" if !self.use_range => {
@@ -509,7 +542,8 @@ impl PyConfig {
 
     /// Checks every parameter; raises the matching `BearingSlamError` subclass.
     fn validate(&self) -> PyResult<()> {
-        self.run_config().map(|_| ())
+        self.run_config()?;
+        self.estimator_config().map(|_| ())
     }
 
     /// Every parameter as a dict.

@@ -37,6 +37,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::PyRunResult>()?;
     m.add_class::<run::PyTrace>()?;
     m.add_function(wrap_pyfunction!(run::py_run, m)?)?;
+    m.add_function(wrap_pyfunction!(run::py_smooth, m)?)?;
     m.add_function(wrap_pyfunction!(sim::py_simulate, m)?)?;
     m.add_function(wrap_pyfunction!(sim::py_scenario_names, m)?)?;
     m.add_function(wrap_pyfunction!(sim::py_scenario_toml, m)?)?;

@@ -10,11 +10,12 @@ use crate::log::PySensorLog;
 use crate::observe::call_python;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::eval::real_data::{
-    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2, evaluate_run,
-    evaluate_run_observed, filter_log,
+    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
+    evaluate_run_observed, evaluate_run_with, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::prelude::*;
@@ -39,11 +40,16 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `parameters`, `landmark_alignment` `(x, y, θ)` mapping the map onto the
 /// surveyed landmarks or None, `has_ground_truth`) and the log the filter
 /// was given (commands corrected; ground truth decimated to 10 Hz).
-/// `on_scan`: as in `run`, a callable given each scan's step as the filter
-/// goes (the result is the same without it).
-#[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, *, on_scan = None))]
+/// `estimator` (`EstimatorKind`'s names) runs another estimator than the
+/// EKF on the same log and parameters (`metrics["estimator"]` says which;
+/// `particles`: FastSLAM's particle count). `on_scan` (the filter only): as
+/// in `run`, a callable given each scan's step as the filter goes (the
+/// result is the same without it).
+// The Python signature: the dataset, the robot, the window, the estimator
+// and the live callback.
 #[allow(clippy::too_many_arguments)]
+#[pyfunction(name = "evaluate_mrclam")]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -51,9 +57,17 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     method: &str,
     start: Option<f64>,
     end: Option<f64>,
+    estimator: &str,
+    particles: Option<usize>,
     on_scan: Option<Py<PyAny>>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
+    let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
+    let estimator = EstimatorConfig {
+        particles: particles.unwrap_or(default.particles),
+        ..default
+    };
+    estimator.validate().map_err(errors::slam)?;
     let robot = u8::try_from(robot)
         .ok()
         .filter(|r| (1..=ROBOT_COUNT).contains(r))
@@ -72,12 +86,18 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         ..defaults.load
     };
     let parameters = defaults.parameters;
+    if on_scan.is_some() && estimator.kind != EstimatorKind::Filter {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "on_scan shows the filter's run as it goes; estimator {:?} has no live view",
+            estimator.kind.name()
+        )));
+    }
     let mut raised = None;
     let evaluated = py.detach(|| {
         let run = load_mrclam_with(&dataset_dir, robot, &load)?;
         let log = filter_log(&run, method, &parameters)?;
         let mut scores = match &on_scan {
-            None => evaluate_run(&run, method, &parameters)?,
+            None => evaluate_run_with(&run, method, &parameters, &estimator)?,
             Some(callback) => evaluate_run_observed(
                 &run,
                 method,
@@ -125,6 +145,12 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     );
     if method == Method::RangeBearing {
         config.use_range = true;
+    }
+    config.estimator = estimator.kind.to_string();
+    config.particles = estimator.particles;
+    metrics.set_item("estimator", estimator.kind.name())?;
+    if estimator.kind.is_particle_filter() {
+        metrics.set_item("particles", estimator.particles)?;
     }
     Ok((
         PyRunResult {

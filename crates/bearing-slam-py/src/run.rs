@@ -1,5 +1,6 @@
-//! `run(log, config)`: a whole log through the filter in Rust (GIL released),
-//! and its results as numpy arrays.
+//! `run(log, config)`: a whole log through the estimator in Rust (GIL
+//! released), `smooth(log, config)` through the smoother, and their results
+//! as numpy arrays.
 
 use crate::config::PyConfig;
 use crate::convert::{arr1, arr2, arr3, to_py};
@@ -8,7 +9,9 @@ use crate::filter::{LandmarkArrays, events_list, snapshot_dict, snapshot_landmar
 use crate::log::PySensorLog;
 use crate::observe::call_python;
 use bearing_slam::core::SlamError;
-use bearing_slam::core::runner::{RunOutput, run, run_observed};
+use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
+use bearing_slam::core::names::Named;
+use bearing_slam::core::runner::{RunOutput, run_observed};
 use bearing_slam::core::score::{RunSummary, run_nees, summarize};
 use bearing_slam::core::trace::SlamTrace;
 use numpy::{PyArray1, PyArray2, PyArray3};
@@ -326,8 +329,9 @@ impl PyRunResult {
     }
 }
 
-/// Runs a whole log through a new filter, in Rust with the GIL released.
-/// Without a config, `Config.for_log(log)` (MTE) is used. `on_scan`: a
+/// Runs a whole log through a new estimator (`config.estimator`, the EKF
+/// by default), in Rust with the GIL released. Without a config,
+/// `Config.for_log(log)` (MTE) is used. `on_scan` (the filter only): a
 /// callable given each scan's step as a dict (`crate::observe`) right after
 /// the filter's update, to show the run as it goes; the result is the same
 /// with or without it, and an exception it raises ends the run.
@@ -343,12 +347,63 @@ pub(crate) fn py_run(
         Some(c) => c,
         None => PyConfig::from_run_config(&bearing_slam::default_run_config(&log.inner).py()?),
     };
+    let estimator = config.estimator_config()?;
+    run_with(py, log, config, &estimator, on_scan.as_ref())
+}
+
+/// Smooths a whole log: the filter runs, then the batch graph smoother
+/// starts from its estimate (or, with `config.estimator ==
+/// "filter+smoother"`, the online fixed-lag smoother runs with it). The
+/// result has `run`'s shape, with the smoother's marginal covariances (so
+/// NEES is scored). Without a config, `Config.for_log(log)` is used.
+#[pyfunction(name = "smooth")]
+#[pyo3(signature = (log, config = None))]
+pub(crate) fn py_smooth(
+    py: Python<'_>,
+    log: &PySensorLog,
+    config: Option<PyConfig>,
+) -> PyResult<PyRunResult> {
+    let mut config = match config {
+        Some(c) => c,
+        None => PyConfig::from_run_config(&bearing_slam::default_run_config(&log.inner).py()?),
+    };
+    let mut estimator = config.estimator_config()?;
+    match estimator.kind {
+        EstimatorKind::Filter => estimator.kind = EstimatorKind::Smoother,
+        EstimatorKind::Smoother | EstimatorKind::FilterSmoother => {}
+        other => {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "smooth() runs a smoother (estimator \"smoother\" or \"filter+smoother\"), \
+                 and config.estimator is {:?}: use run() for it",
+                other.name()
+            )));
+        }
+    }
+    config.estimator = estimator.kind.to_string();
+    run_with(py, log, config, &estimator, None)
+}
+
+/// Runs `log` through `estimator` and scores it; `on_scan` watches the
+/// filter's run (an error for the other estimators, which have no live view).
+fn run_with(
+    py: Python<'_>,
+    log: &PySensorLog,
+    config: PyConfig,
+    estimator: &EstimatorConfig,
+    on_scan: Option<&Py<PyAny>>,
+) -> PyResult<PyRunResult> {
+    if on_scan.is_some() && estimator.kind != EstimatorKind::Filter {
+        return Err(pyo3::exceptions::PyValueError::new_err(format!(
+            "on_scan shows the filter's run as it goes; estimator {:?} has no live view",
+            estimator.kind.name()
+        )));
+    }
     let rc = config.run_config()?;
     let inner = &log.inner;
     let mut raised = None;
     let result = py.detach(|| {
-        let output = match &on_scan {
-            None => run(inner, &rc)?,
+        let output = match on_scan {
+            None => run_estimator(inner, &rc, estimator)?.output,
             Some(callback) => run_observed(
                 inner,
                 &rc,

@@ -16,13 +16,16 @@
 //! * [`fixed_lag`]: online fixed-lag smoothing, marginalizing the poses that
 //!   leave the window into a linear prior (Schur complement, first-estimate
 //!   Jacobians);
-//! * [`run`]: [`run_from_log`], the filter's run followed by the smoother,
-//!   batch or fixed-lag, returning the runner's output shape.
+//! * [`online`]: [`OnlineSmoother`], the filter and the fixed-lag smoother
+//!   run together event by event (an [`crate::online::OnlineEstimator`]);
+//! * [`run`]: [`run_from_log`], the filter's run followed by the batch
+//!   smoother (or the online one), returning the runner's output shape.
 
 pub mod factors;
 pub mod fixed_lag;
 pub mod graph;
 pub mod marginals;
+pub mod online;
 pub mod preintegration;
 pub mod robust;
 pub mod run;
@@ -37,6 +40,7 @@ pub use factors::{
 pub use fixed_lag::{FinalizedPose, FixedLagConfig, FixedLagSmoother};
 pub use graph::FactorGraph;
 pub use marginals::{Marginals, marginal_covariances};
+pub use online::{OnlineSmoother, run_online_smoother};
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
 pub use run::{SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, run_from_log};

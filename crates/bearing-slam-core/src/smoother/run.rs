@@ -12,9 +12,10 @@
 use super::factors::{
     BearingFactor, Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor, RangeBearingFactor,
 };
-use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
+use super::fixed_lag::FixedLagConfig;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
+use super::online::run_online_smoother;
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
@@ -25,7 +26,7 @@ use crate::log::{BearingObservation, EventKind, SensorLog, VelocityOdometry};
 use crate::runner::{OdometryConfig, RunConfig, RunOutput, run};
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// Whole-run batch or online fixed-lag.
@@ -177,7 +178,7 @@ fn build_skeleton(log: &SensorLog, config: &RunConfig) -> Result<Skeleton> {
 }
 
 /// `T_n ⊕ Δ` with its covariance `J_n Σ_n J_nᵀ + J_Δ Σ_Δ J_Δᵀ`.
-fn compose(
+pub(super) fn compose(
     pose: &Vector3<f64>,
     cov: &Matrix3<f64>,
     motion: &PreintegratedOdometry,
@@ -204,7 +205,11 @@ fn compose(
 }
 
 /// The measurement factor of one observation at `node`.
-fn measurement_factor(node: usize, o: &BearingObservation, config: &RunConfig) -> Result<Factor> {
+pub(super) fn measurement_factor(
+    node: usize,
+    o: &BearingObservation,
+    config: &RunConfig,
+) -> Result<Factor> {
     let node = node as u64;
     if config.use_range {
         let range = o.range.ok_or(SlamError::Mismatch(
@@ -260,6 +265,18 @@ pub fn run_from_log(
     let started = Instant::now();
     let filter = run(log, run_config)?;
     let filter_time_s = started.elapsed().as_secs_f64();
+    if let SmootherMode::FixedLag(fixed_lag) = config.mode {
+        let started = Instant::now();
+        let online = run_online_smoother(log, run_config, config, fixed_lag)?;
+        let mut report = online.estimator.report().clone();
+        report.filter_time_s = filter_time_s;
+        report.smoother_time_s = started.elapsed().as_secs_f64();
+        return Ok(SmoothedRun {
+            output: online.output,
+            filter,
+            report,
+        });
+    }
     let started = Instant::now();
     let skeleton = build_skeleton(log, run_config)?;
     if skeleton.scan_node.len() != filter.trace.snapshots.len()
@@ -318,8 +335,8 @@ pub fn run_from_log(
             })
             .transpose()
     };
-    let (poses, pose_cov, lms) = match config.mode {
-        SmootherMode::Batch => {
+    let (poses, pose_cov, lms) = {
+        {
             let mut values = Values::new();
             let mut graph = FactorGraph::new();
             graph.add(Factor::PosePrior(prior))?;
@@ -359,19 +376,16 @@ pub fn run_from_log(
             }
             (poses, covs, lms)
         }
-        SmootherMode::FixedLag(fl) => smooth_online(
-            fl,
-            &skeleton,
-            &initial,
-            prior,
-            &landmarks,
-            run_config,
-            &mut report,
-            &landmark_prior,
-            &odometry,
-        )?,
     };
-    let output = assemble_output(&filter, &skeleton, &poses, &pose_cov, &lms);
+    let mut output = filter.clone();
+    apply_smoothed(
+        &mut output,
+        &skeleton.scan_node,
+        &skeleton.records,
+        &poses,
+        &pose_cov,
+        &lms,
+    );
     report.smoother_time_s = started.elapsed().as_secs_f64();
     Ok(SmoothedRun {
         output,
@@ -380,112 +394,25 @@ pub fn run_from_log(
     })
 }
 
-type Estimates = (
-    Vec<Vector3<f64>>,
-    Vec<Matrix3<f64>>,
-    BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
-);
-
-#[allow(clippy::too_many_arguments)]
-fn smooth_online(
-    config: FixedLagConfig,
-    skeleton: &Skeleton,
-    initial: &[Vector3<f64>],
-    prior: PosePriorFactor,
-    landmarks: &FilterLandmarks,
-    run_config: &RunConfig,
-    report: &mut SmootherReport,
-    landmark_prior: &dyn Fn(u64, Vector2<f64>) -> Result<Option<Factor>>,
-    odometry: &dyn Fn(usize) -> Result<Option<Factor>>,
-) -> Result<Estimates> {
-    let mut s = FixedLagSmoother::new(config)?;
-    let mut entering: HashMap<usize, Vec<u64>> = HashMap::new();
-    for (id, (k, _)) in &landmarks.entry {
-        entering.entry(*k).or_default().push(*id);
-    }
-    let mut waiting: HashMap<u64, Vec<(usize, BearingObservation)>> = HashMap::new();
-    s.add_pose(0, initial[0])?;
-    s.add_factor(Factor::PosePrior(prior))?;
-    let mut scan = 0;
-    for (node, start) in initial.iter().enumerate() {
-        if node > 0 {
-            s.add_pose(node as u64, *start)?;
-            if let Some(f) = odometry(node)? {
-                s.add_factor(f)?;
-            }
-        }
-        while scan < skeleton.scan_node.len() && skeleton.scan_node[scan] == node {
-            for id in entering.get(&scan).into_iter().flatten() {
-                let p = landmarks.entry[id].1;
-                s.add_landmark(*id, p)?;
-                if let Some(f) = landmark_prior(*id, p)? {
-                    s.add_factor(f)?;
-                }
-                for (n, o) in waiting.remove(id).unwrap_or_default() {
-                    if s.in_window(n as u64) {
-                        s.add_factor(measurement_factor(n, &o, run_config)?)?;
-                        report.n_measurements += 1;
-                    } else {
-                        report.n_dropped += 1;
-                    }
-                }
-            }
-            for o in &skeleton.scans[scan] {
-                if s.values()
-                    .contains(super::values::Key::Landmark(o.landmark_id))
-                {
-                    s.add_factor(measurement_factor(node, o, run_config)?)?;
-                    report.n_measurements += 1;
-                } else {
-                    waiting.entry(o.landmark_id).or_default().push((node, *o));
-                }
-            }
-            scan += 1;
-        }
-        let t = Instant::now();
-        s.update()?;
-        report.update_times_s.push(t.elapsed().as_secs_f64());
-    }
-    report.n_dropped += waiting.values().map(Vec::len).sum::<usize>();
-    let marginals = s.marginals()?;
-    let mut poses = Vec::with_capacity(initial.len());
-    let mut covs = Vec::with_capacity(initial.len());
-    for node in 0..initial.len() {
-        let id = node as u64;
-        if let Some(f) = s.finalized().get(&id) {
-            poses.push(f.pose);
-            covs.push(f.covariance);
-        } else {
-            poses.push(s.values().pose(id)?);
-            covs.push(marginals.pose(id)?);
-        }
-    }
-    let mut lms = BTreeMap::new();
-    for (id, p) in s.values().landmarks() {
-        lms.insert(*id, (*p, marginals.landmark(*id)?));
-    }
-    Ok((poses, covs, lms))
-}
-
-fn assemble_output(
-    filter: &RunOutput,
-    skeleton: &Skeleton,
+/// The smoothed poses (by node) and landmarks written into a run's output
+/// in place: each track point becomes its node's pose composed with the
+/// odometry since (`records`), each snapshot its scan's node pose and the
+/// smoothed landmarks (`scan_node`).
+pub(super) fn apply_smoothed(
+    output: &mut RunOutput,
+    scan_node: &[usize],
+    records: &[(usize, PreintegratedOdometry)],
     poses: &[Vector3<f64>],
     covs: &[Matrix3<f64>],
     lms: &BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
-) -> RunOutput {
-    let mut output = filter.clone();
-    for (point, (node, motion)) in output.track.iter_mut().zip(&skeleton.records) {
+) {
+    for (point, (node, motion)) in output.track.iter_mut().zip(records) {
         let (pose, cov) = compose(&poses[*node], &covs[*node], motion);
         point.estimate = pose;
         point.covariance = cov.transpose().into();
     }
-    let snapshots: Vec<EstimateSnapshot> = filter
-        .trace
-        .snapshots
-        .iter()
-        .zip(&skeleton.scan_node)
-        .map(|(snap, node)| EstimateSnapshot {
+    for (snap, node) in output.trace.snapshots.iter_mut().zip(scan_node) {
+        *snap = EstimateSnapshot {
             time: snap.time,
             pose: Pose2::new(poses[*node].x, poses[*node].y, wrap_angle(poses[*node].z)),
             pose_covariance: covs[*node].transpose().into(),
@@ -503,8 +430,6 @@ fn assemble_output(
                     None => *l,
                 })
                 .collect(),
-        })
-        .collect();
-    output.trace.snapshots = snapshots;
-    output
+        };
+    }
 }

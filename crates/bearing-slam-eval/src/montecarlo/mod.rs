@@ -67,6 +67,7 @@ pub use run::{
     RunClass, RunMetrics, RunRecord, RunSeries, classify, run_config, run_one, run_records,
 };
 
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam_core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
 use bearing_slam_core::slam::{InitializerConfig, InitializerKind};
 use bearing_slam_sim::Scenario;
@@ -297,6 +298,17 @@ pub struct MonteCarloSpec {
     /// The classification thresholds.
     #[serde(default)]
     pub thresholds: Thresholds,
+    /// The estimator (the EKF unless given; issues 14, 15).
+    #[serde(default)]
+    pub estimator: EstimatorKind,
+    /// FastSLAM's particle count (its seed is the run's).
+    #[serde(default = "default_particles")]
+    pub particles: usize,
+}
+
+/// FastSLAM's default particle count ([`EstimatorConfig::default`]).
+fn default_particles() -> usize {
+    EstimatorConfig::default().particles
 }
 
 impl MonteCarloSpec {
@@ -309,6 +321,8 @@ impl MonteCarloSpec {
             initializer,
             runs,
             thresholds: Thresholds::default(),
+            estimator: EstimatorKind::default(),
+            particles: default_particles(),
         }
     }
 }

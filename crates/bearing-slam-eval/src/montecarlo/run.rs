@@ -4,11 +4,12 @@
 use super::MonteCarloSpec;
 use super::Thresholds;
 use crate::stats;
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::wrap_angle;
 use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::metrics::pose_nees;
 use bearing_slam_core::nalgebra::{Matrix3, SymmetricEigen};
-use bearing_slam_core::runner::{RunConfig, RunOutput, default_run_config, run};
+use bearing_slam_core::runner::{RunConfig, RunOutput, default_run_config};
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::trace::SlamEvent;
 use bearing_slam_sim::simulate;
@@ -253,7 +254,13 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
         Ok(c) => c,
         Err(e) => return failed(run_index, seed, format!("configuration: {e}")),
     };
-    let output = match run(&log, &config) {
+    let estimator = EstimatorConfig {
+        kind: spec.estimator,
+        particles: spec.particles,
+        seed,
+        ..EstimatorConfig::default()
+    };
+    let output = match run_estimator(&log, &config, &estimator).map(|r| r.output) {
         Ok(o) => o,
         Err(e) => return failed(run_index, seed, format!("filter: {e}")),
     };

@@ -4,6 +4,7 @@ use super::{
     CALIBRATED_PARAMETERS, FilterParameters, GROUND_TRUTH_INTERVAL_S, Method, RealDataError,
 };
 use bearing_slam_core::SlamError;
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::{Alignment, align_se2, ate};
@@ -200,7 +201,24 @@ pub fn evaluate_run(
     method: Method,
     parameters: &FilterParameters,
 ) -> Result<RealDataResult, RealDataError> {
-    evaluate_run_observed(run, method, parameters, |_| Ok(()))
+    evaluate_run_with(run, method, parameters, &EstimatorConfig::default())
+}
+
+/// [`evaluate_run`] with another estimator than the EKF (the smoothers,
+/// FastSLAM: [`bearing_slam_core::estimator`]), the filter configured by
+/// `method` and `parameters` as for the EKF.
+///
+/// # Errors
+/// [`RealDataError::Slam`] when the estimator fails.
+pub fn evaluate_run_with(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    estimator: &EstimatorConfig,
+) -> Result<RealDataResult, RealDataError> {
+    evaluate_by(run, method, parameters, |log, config| {
+        Ok(run_estimator(log, config, estimator)?.output)
+    })
 }
 
 /// [`evaluate_run`], calling `observer` after every bearing scan of the
@@ -218,10 +236,23 @@ pub fn evaluate_run_observed<F>(
 where
     F: FnMut(runner::ScanStep<'_>) -> Result<(), RealDataError>,
 {
+    evaluate_by(run, method, parameters, |log, config| {
+        runner::run_observed(log, config, observer)
+    })
+}
+
+/// The body of every `evaluate_run*`: the log `method` runs on, the run
+/// (`go`, timed), and its scores.
+fn evaluate_by(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    go: impl FnOnce(&SensorLog, &runner::RunConfig) -> Result<RunOutput, RealDataError>,
+) -> Result<RealDataResult, RealDataError> {
     let log = filter_log(run, method, parameters)?;
     let config = parameters.run_config(method, Pose2::default())?;
     let started = Instant::now();
-    let output = runner::run_observed(&log, &config, observer)?;
+    let output = go(&log, &config)?;
     let run_time_s = started.elapsed().as_secs_f64();
 
     let has_truth = output.track.iter().any(|p| p.truth.is_some());

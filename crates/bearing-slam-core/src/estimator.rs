@@ -1,0 +1,276 @@
+//! Which estimator runs a log, by name: the EKF (`filter`), the batch
+//! smoother started from it (`smoother`), the online fixed-lag smoother
+//! (`filter+smoother`), FastSLAM 1.0 or 2.0 (`fastslam1`, `fastslam2`).
+//! [`run_estimator`] runs any of them on a log with one [`RunConfig`] (the
+//! odometry model, the sensor noise, the initializer) and returns the
+//! runner's output shape, so every estimator is scored, exported and
+//! plotted the same way.
+
+use crate::error::{Result, SlamError};
+use crate::log::SensorLog;
+use crate::names::Named;
+use crate::particle::landmark_ekf::SensorNoise;
+use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
+use crate::runner::{RunConfig, RunOutput, run, run_online};
+use crate::slam::{InitializerConfig, SlamConfig};
+use crate::smoother::{
+    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SmootherReport, SolverConfig,
+    run_from_log, run_online_smoother,
+};
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::time::Instant;
+
+/// The estimators by name.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum EstimatorKind {
+    /// The bearing-only EKF ([`crate::slam::BearingSlam`]), the default.
+    #[default]
+    Filter,
+    /// The batch graph smoother started from the filter's run
+    /// ([`crate::smoother::run_from_log`]): a post-processing step.
+    Smoother,
+    /// The online fixed-lag smoother run with the filter
+    /// ([`crate::smoother::OnlineSmoother`]).
+    FilterSmoother,
+    /// FastSLAM 1.0 ([`crate::particle::FastSlam`]).
+    FastSlam1,
+    /// FastSLAM 2.0.
+    FastSlam2,
+}
+
+crate::named_enum!(EstimatorKind, "estimator", [
+    Filter => "filter",
+    Smoother => "smoother",
+    FilterSmoother => "filter+smoother",
+    FastSlam1 => "fastslam1",
+    FastSlam2 => "fastslam2",
+]);
+
+impl Serialize for EstimatorKind {
+    /// As its name (`"filter+smoother"`).
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for EstimatorKind {
+    /// From its name; an unknown name lists the known ones.
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Self::from_name(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+impl EstimatorKind {
+    /// Whether the estimator is a particle filter (uses
+    /// [`EstimatorConfig::particles`] and [`EstimatorConfig::seed`]).
+    #[must_use]
+    pub fn is_particle_filter(self) -> bool {
+        matches!(self, Self::FastSlam1 | Self::FastSlam2)
+    }
+
+    /// Whether the estimator is a smoother (reports marginal covariances
+    /// from the graph).
+    #[must_use]
+    pub fn is_smoother(self) -> bool {
+        matches!(self, Self::Smoother | Self::FilterSmoother)
+    }
+}
+
+/// The estimator and its own parameters (the filter's, the odometry model
+/// and the sensor noise are the [`RunConfig`]'s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EstimatorConfig {
+    /// Which estimator.
+    pub kind: EstimatorKind,
+    /// Particles M of FastSLAM (≥ 1).
+    pub particles: usize,
+    /// Seed of FastSLAM's random streams.
+    pub seed: u64,
+    /// The smoother's graph and batch solver (`smoother`,
+    /// `filter+smoother`).
+    pub smoother: SmootherConfig,
+    /// The window and solver of the online smoother (`filter+smoother`).
+    pub fixed_lag: FixedLagConfig,
+}
+
+/// The online smoother's window and solver: 50 poses, relinearized
+/// marginalization (no first-estimate Jacobians), Huber(2), 5 iterations
+/// per scan — the configuration `tests/smoother_run.rs` checks against the
+/// batch (within 1.3× its ATE).
+#[must_use]
+pub fn default_fixed_lag() -> FixedLagConfig {
+    FixedLagConfig {
+        lag: 50,
+        first_estimates: false,
+        solver: SolverConfig {
+            max_iterations: 5,
+            robust: RobustKernel::Huber(2.0),
+            ..SolverConfig::default()
+        },
+    }
+}
+
+impl Default for EstimatorConfig {
+    /// The EKF; FastSLAM with 100 particles and seed 0; the batch
+    /// smoother's defaults and [`default_fixed_lag`].
+    fn default() -> Self {
+        Self {
+            kind: EstimatorKind::Filter,
+            particles: 100,
+            seed: 0,
+            smoother: SmootherConfig::default(),
+            fixed_lag: default_fixed_lag(),
+        }
+    }
+}
+
+impl EstimatorConfig {
+    /// The default parameters of estimator `kind`.
+    #[must_use]
+    pub fn of(kind: EstimatorKind) -> Self {
+        Self {
+            kind,
+            ..Self::default()
+        }
+    }
+
+    /// Checks the estimator's own parameters.
+    ///
+    /// # Errors
+    /// [`SlamError::InvalidParameter`] for zero particles, a bad solver or
+    /// window.
+    pub fn validate(&self) -> Result<()> {
+        if self.particles == 0 {
+            return Err(SlamError::InvalidParameter {
+                name: "particles",
+                value: 0.0,
+                reason: "a particle filter needs at least one particle (M ≥ 1)",
+            });
+        }
+        self.smoother.solver.validate()?;
+        if self.kind == EstimatorKind::FilterSmoother {
+            self.fixed_lag.solver.validate()?;
+            if self.fixed_lag.lag < 2 {
+                return Err(SlamError::InvalidParameter {
+                    name: "lag",
+                    value: self.fixed_lag.lag as f64,
+                    reason: "the window must hold at least 2 poses",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// The FastSLAM configuration matching the filter's `slam`
+    /// configuration: its start, sensor noise and conversion threshold, MTE
+    /// (either form) as per-particle triangulation, PI-SR as per-particle
+    /// inverse depth with the same prior; the variant of [`Self::kind`]
+    /// (2.0 unless it is `fastslam1`).
+    #[must_use]
+    pub fn fastslam_config(&self, slam: &SlamConfig) -> FastSlamConfig {
+        let initializer = match &slam.initializer {
+            InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) => {
+                ParticleInitializer::Triangulation(*t)
+            }
+            InitializerConfig::PiSr { prior, .. } => ParticleInitializer::InverseDepth(*prior),
+        };
+        FastSlamConfig {
+            variant: if self.kind == EstimatorKind::FastSlam1 {
+                FastSlamVariant::FastSlam1
+            } else {
+                FastSlamVariant::FastSlam2
+            },
+            particles: self.particles,
+            seed: self.seed,
+            initial_pose: slam.initial_pose,
+            initial_pose_sigma: slam.initial_pose_sigma,
+            noise: SensorNoise {
+                bearing_sigma: slam.bearing_sigma,
+                range_sigma: slam.range_sigma,
+            },
+            initializer,
+            conversion_threshold: slam.conversion_threshold,
+            ..FastSlamConfig::default()
+        }
+    }
+}
+
+/// An estimator's run: the output in the runner's shape, and what the
+/// estimator has beyond it.
+#[derive(Clone, Debug)]
+pub struct EstimatorRun {
+    /// Track and snapshots (the smoothed ones for a smoother, the cloud's
+    /// pose and the best particle's map for FastSLAM).
+    pub output: RunOutput,
+    /// The smoother's counters and timings (smoothers only).
+    pub smoother: Option<SmootherReport>,
+    /// The particle filter as it ended (FastSLAM only).
+    pub particles: Option<FastSlam>,
+}
+
+/// Runs `log` through the estimator of `estimator`, with the odometry
+/// model, sensor noise and initializer of `config`.
+///
+/// # Errors
+/// An invalid estimator configuration ([`EstimatorConfig::validate`]), and
+/// the errors of [`run`], [`run_from_log`] or [`run_online`].
+pub fn run_estimator(
+    log: &SensorLog,
+    config: &RunConfig,
+    estimator: &EstimatorConfig,
+) -> Result<EstimatorRun> {
+    estimator.validate()?;
+    let only = |output| EstimatorRun {
+        output,
+        smoother: None,
+        particles: None,
+    };
+    match estimator.kind {
+        EstimatorKind::Filter => Ok(only(run(log, config)?)),
+        EstimatorKind::Smoother => {
+            let smoother = SmootherConfig {
+                mode: SmootherMode::Batch,
+                ..estimator.smoother
+            };
+            let smoothed = run_from_log(log, config, &smoother)?;
+            Ok(EstimatorRun {
+                output: smoothed.output,
+                smoother: Some(smoothed.report),
+                particles: None,
+            })
+        }
+        EstimatorKind::FilterSmoother => {
+            let started = Instant::now();
+            let online =
+                run_online_smoother(log, config, &estimator.smoother, estimator.fixed_lag)?;
+            let mut report = online.estimator.report().clone();
+            report.smoother_time_s = started.elapsed().as_secs_f64();
+            Ok(EstimatorRun {
+                output: online.output,
+                smoother: Some(report),
+                particles: None,
+            })
+        }
+        EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2 => {
+            let filter = estimator.fastslam_config(&config.slam);
+            let online = run_online(
+                log,
+                &config.odometry,
+                config.use_range,
+                filter.initial_pose,
+                |start| {
+                    FastSlam::new(FastSlamConfig {
+                        initial_pose: start,
+                        ..filter.clone()
+                    })
+                },
+            )?;
+            Ok(EstimatorRun {
+                output: online.output,
+                smoother: None,
+                particles: Some(online.estimator),
+            })
+        }
+    }
+}

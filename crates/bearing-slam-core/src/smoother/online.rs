@@ -1,0 +1,296 @@
+//! The online smoother (`filter+smoother`): the EKF runs event by event and
+//! starts a [`FixedLagSmoother`] as it goes. Each scan that follows motion
+//! adds a pose, started at the filter's estimate after that scan, tied to
+//! the previous one by the odometry preintegrated through the filter's own
+//! motion model; a landmark enters the graph when the filter initializes it
+//! (at the filter's estimate), with the observations that waited for it
+//! while their poses are still in the window. The window is optimized after
+//! every scan and the poses beyond the lag are marginalized, so the work per
+//! scan stays flat as the run grows.
+//!
+//! It is an [`OnlineEstimator`], driven by the runner's one event loop
+//! ([`crate::runner::run_online`]). Live, it reports the filter's estimate;
+//! at the end ([`OnlineEstimator::finish`]) the run's track and snapshots
+//! are rewritten with each pose as it was when it left the window (and the
+//! poses still in it as they are at the end), with marginal covariances.
+
+use super::factors::{Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor};
+use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
+use super::preintegration::PreintegratedOdometry;
+use super::run::{SmootherConfig, SmootherReport, apply_smoothed, measurement_factor};
+use super::values::Key;
+use crate::error::Result;
+use crate::geometry::Pose2;
+use crate::log::{BearingObservation, SensorLog};
+use crate::model::MotionModel;
+use crate::online::{OnlineEstimator, ScanCounts};
+use crate::runner::{OnlineRun, RunConfig, RunOutput, run_online};
+use crate::slam::{BearingSlam, SlamConfig};
+use crate::trace::EstimateSnapshot;
+use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use std::collections::{BTreeMap, HashMap};
+use std::time::Instant;
+
+/// The EKF and the fixed-lag smoother it starts, run together online.
+#[derive(Clone, Debug)]
+pub struct OnlineSmoother {
+    filter: BearingSlam,
+    smoother: FixedLagSmoother,
+    run_config: RunConfig,
+    odometry_floor_sigma: [f64; 3],
+    landmark_prior_sigma_m: Option<f64>,
+    /// Odometry since the latest pose variable.
+    pending: PreintegratedOdometry,
+    /// Pose variables so far (ids `0..nodes`).
+    nodes: usize,
+    /// Observations of landmarks not yet in the graph, with their pose.
+    waiting: HashMap<u64, Vec<(usize, BearingObservation)>>,
+    /// The pose variable of each scan, in order.
+    scan_node: Vec<usize>,
+    /// Per track point: the pose variable before it and the motion since.
+    records: Vec<(usize, PreintegratedOdometry)>,
+    /// The filter's snapshot after the latest scan.
+    latest: Option<EstimateSnapshot>,
+    report: SmootherReport,
+}
+
+impl OnlineSmoother {
+    /// An online smoother whose filter starts at `slam.initial_pose`; the
+    /// first pose variable gets a prior of the filter's initial covariance
+    /// (its standard deviations floored at `config.min_initial_sigma`).
+    ///
+    /// # Errors
+    /// An invalid filter, smoother or solver configuration.
+    pub fn new(
+        slam: SlamConfig,
+        run_config: &RunConfig,
+        config: &SmootherConfig,
+        fixed_lag: FixedLagConfig,
+    ) -> Result<Self> {
+        let start = slam.initial_pose;
+        let sigma = slam
+            .initial_pose_sigma
+            .map(|s| s.max(config.min_initial_sigma));
+        let filter = BearingSlam::new(slam)?;
+        let mut smoother = FixedLagSmoother::new(fixed_lag)?;
+        smoother.add_pose(0, start.to_vector())?;
+        smoother.add_factor(Factor::PosePrior(PosePriorFactor::new(
+            0,
+            start.to_vector(),
+            Matrix3::from_diagonal(&Vector3::from(sigma.map(|s| s * s))),
+        )?))?;
+        let mut this = Self {
+            filter,
+            smoother,
+            run_config: run_config.clone(),
+            odometry_floor_sigma: config.odometry_floor_sigma,
+            landmark_prior_sigma_m: config.landmark_prior_sigma_m,
+            pending: PreintegratedOdometry::new(),
+            nodes: 1,
+            waiting: HashMap::new(),
+            scan_node: Vec::new(),
+            records: Vec::new(),
+            latest: None,
+            report: SmootherReport::default(),
+        };
+        this.solve()?;
+        Ok(this)
+    }
+
+    /// Counters and per-update times so far (`filter_time_s` and
+    /// `smoother_time_s` are the caller's to fill).
+    #[must_use]
+    pub fn report(&self) -> &SmootherReport {
+        &self.report
+    }
+
+    /// The fixed-lag smoother.
+    #[must_use]
+    pub fn smoother(&self) -> &FixedLagSmoother {
+        &self.smoother
+    }
+
+    /// The filter that starts it.
+    #[must_use]
+    pub fn filter(&self) -> &BearingSlam {
+        &self.filter
+    }
+
+    fn solve(&mut self) -> Result<()> {
+        let t = Instant::now();
+        self.smoother.update()?;
+        self.report.update_times_s.push(t.elapsed().as_secs_f64());
+        self.report.n_poses = self.nodes;
+        Ok(())
+    }
+
+    fn add_measurement(&mut self, node: usize, o: &BearingObservation) -> Result<()> {
+        let factor = measurement_factor(node, o, &self.run_config)?;
+        self.smoother.add_factor(factor)?;
+        self.report.n_measurements += 1;
+        Ok(())
+    }
+
+    /// A landmark the filter just initialized enters the graph at the
+    /// filter's estimate, with the observations that waited for it.
+    fn enter_landmark(&mut self, id: u64, p: Vector2<f64>) -> Result<()> {
+        self.smoother.add_landmark(id, p)?;
+        if let Some(s) = self.landmark_prior_sigma_m {
+            self.smoother
+                .add_factor(Factor::LandmarkPrior(LandmarkPriorFactor::new(
+                    id,
+                    p,
+                    Matrix2::identity() * (s * s),
+                )?))?;
+        }
+        self.report.n_landmarks += 1;
+        for (node, o) in self.waiting.remove(&id).unwrap_or_default() {
+            if self.smoother.in_window(node as u64) {
+                self.add_measurement(node, &o)?;
+            } else {
+                self.report.n_dropped += 1;
+            }
+        }
+        Ok(())
+    }
+
+    /// Every pose variable's estimate and covariance and every landmark's,
+    /// as they stand: a pose that left the window as it was then.
+    fn estimates(&self) -> Result<SmoothedEstimates> {
+        let marginals = self.smoother.marginals()?;
+        let mut poses = Vec::with_capacity(self.nodes);
+        let mut covs = Vec::with_capacity(self.nodes);
+        for node in 0..self.nodes {
+            let id = node as u64;
+            if let Some(f) = self.smoother.finalized().get(&id) {
+                poses.push(f.pose);
+                covs.push(f.covariance);
+            } else {
+                poses.push(self.smoother.values().pose(id)?);
+                covs.push(marginals.pose(id)?);
+            }
+        }
+        let mut lms = BTreeMap::new();
+        for (id, p) in self.smoother.values().landmarks() {
+            lms.insert(*id, (*p, marginals.landmark(*id)?));
+        }
+        Ok((poses, covs, lms))
+    }
+}
+
+type SmoothedEstimates = (
+    Vec<Vector3<f64>>,
+    Vec<Matrix3<f64>>,
+    BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
+);
+
+impl OnlineEstimator for OnlineSmoother {
+    fn predict<M>(&mut self, time: f64, model: &M, control: &M::Control) -> Result<()>
+    where
+        M: MotionModel<3> + Sync,
+        M::Control: Sync,
+    {
+        OnlineEstimator::predict(&mut self.filter, time, model, control)?;
+        self.pending.integrate(model, control)
+    }
+
+    fn update(
+        &mut self,
+        time: f64,
+        scan: &[BearingObservation],
+        use_range: bool,
+    ) -> Result<ScanCounts> {
+        let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
+        let snapshot = self.filter.snapshot();
+        if self.pending.steps > 0 {
+            let node = self.nodes as u64;
+            self.smoother.add_pose(node, snapshot.pose.to_vector())?;
+            let motion = std::mem::take(&mut self.pending);
+            self.smoother
+                .add_factor(Factor::Odometry(OdometryFactor::from_preintegrated(
+                    node - 1,
+                    node,
+                    &motion,
+                    self.odometry_floor_sigma,
+                )?))?;
+            self.nodes += 1;
+        }
+        let node = self.nodes - 1;
+        self.scan_node.push(node);
+        for l in &snapshot.landmarks {
+            if !self.smoother.values().contains(Key::Landmark(l.id)) {
+                self.enter_landmark(l.id, Vector2::new(l.x, l.y))?;
+            }
+        }
+        for o in scan {
+            if self
+                .smoother
+                .values()
+                .contains(Key::Landmark(o.landmark_id))
+            {
+                self.add_measurement(node, o)?;
+            } else {
+                self.waiting
+                    .entry(o.landmark_id)
+                    .or_default()
+                    .push((node, *o));
+            }
+        }
+        self.latest = Some(snapshot);
+        self.solve()?;
+        Ok(counts)
+    }
+
+    fn snapshot(&self, time: f64) -> Result<EstimateSnapshot> {
+        match &self.latest {
+            Some(s) => Ok(s.clone()),
+            None => OnlineEstimator::snapshot(&self.filter, time),
+        }
+    }
+
+    fn track_pose(&mut self, time: f64) -> Result<(Pose2, Matrix3<f64>)> {
+        self.records.push((self.nodes - 1, self.pending));
+        OnlineEstimator::track_pose(&mut self.filter, time)
+    }
+
+    fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
+        OnlineEstimator::finish(&mut self.filter, output)?;
+        self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>();
+        self.waiting.clear();
+        let (poses, covs, lms) = self.estimates()?;
+        apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
+        Ok(())
+    }
+}
+
+/// Runs `log` through the online smoother (the filter at
+/// `run_config`, the smoother at `config`'s odometry floor and landmark
+/// prior, the window and solver of `fixed_lag`) with the runner's event
+/// loop. The filter starts at the log's initial pose when it states one.
+///
+/// # Errors
+/// As [`run_online`], and the smoother's solver failing.
+pub fn run_online_smoother(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+    fixed_lag: FixedLagConfig,
+) -> Result<OnlineRun<OnlineSmoother>> {
+    run_online(
+        log,
+        &run_config.odometry,
+        run_config.use_range,
+        run_config.slam.initial_pose,
+        |start| {
+            OnlineSmoother::new(
+                SlamConfig {
+                    initial_pose: start,
+                    ..run_config.slam.clone()
+                },
+                run_config,
+                config,
+                fixed_lag,
+            )
+        },
+    )
+}

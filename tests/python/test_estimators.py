@@ -1,0 +1,99 @@
+"""The estimators' faces (issues 14, 15): ``Config(estimator=, particles=)``,
+``bs.smooth``, ``bs.run`` with FastSLAM, the CLI's ``--estimator``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bearing_slam as bs
+from bearing_slam.vocabulary import ESTIMATORS
+
+
+@pytest.fixture(scope="module")
+def short_log() -> bs.SensorLog:
+    return bs.simulate("paper_fig4", seed=3).head(25.0)
+
+
+def test_the_estimators_are_named_in_rust() -> None:
+    assert ESTIMATORS == ("filter", "smoother", "filter+smoother", "fastslam1", "fastslam2")
+    assert bs.Config().estimator == "filter"
+
+
+def test_smooth_returns_a_run_result_with_marginals(short_log: bs.SensorLog) -> None:
+    config = bs.Config.for_log(short_log)
+    filtered = bs.run(short_log, config)
+    smoothed = bs.smooth(short_log, config)
+    assert smoothed.config.estimator == "smoother"
+    assert smoothed.time.shape == filtered.time.shape
+    assert smoothed.summary is not None
+    assert np.isfinite(smoothed.summary["mean_nees_pose"])
+    # Marginal covariances of the smoother, not the filter's.
+    cov = smoothed.covariance[1:]
+    assert np.all(np.linalg.eigvalsh(cov) > 0)
+    assert not np.allclose(cov, filtered.covariance[1:])
+    assert np.isfinite(smoothed.nees[1:]).all()
+    ids, _, lm_cov = smoothed.landmarks()
+    assert len(ids) == smoothed.summary["n_landmarks_initialized"] > 0
+    assert np.all(np.linalg.eigvalsh(lm_cov) > 0)
+    online = bs.smooth(short_log, config.replace(estimator="filter+smoother"))
+    assert online.config.estimator == "filter+smoother"
+    assert online.summary is not None
+    assert np.isfinite(online.summary["ate_rmse_m"])
+    with pytest.raises(ValueError, match="smooth\\(\\) runs a smoother"):
+        bs.smooth(short_log, config.replace(estimator="fastslam2"))
+
+
+def test_run_with_fastslam(short_log: bs.SensorLog) -> None:
+    config = bs.Config.for_log(short_log, estimator="fastslam2", particles=10)
+    result = bs.run(short_log, config)
+    assert result.config.particles == 10
+    assert result.summary is not None
+    assert result.summary["finite"]
+    assert result.summary["n_landmarks_initialized"] >= 4
+    assert result.counts["measurements_used"] > 100
+
+
+def test_bad_estimator_parameters_are_refused() -> None:
+    with pytest.raises(ValueError, match='unknown estimator "ekf2": expected one of filter'):
+        bs.Config(estimator="ekf2")
+    with pytest.raises(bs.InvalidParameterError, match="particles"):
+        bs.Config(estimator="fastslam2", particles=0)
+    with pytest.raises(bs.InvalidParameterError, match="particles is not used here"):
+        bs.Config(particles=10)
+
+
+def cli(*args: str | Path) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "bearing_slam", *map(str, args)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+        check=False,
+    )
+
+
+def test_cli_estimators_write_metrics(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    r = cli("simulate", "paper_fig4", "--seed", "3", "--duration", "25", "--out", log)
+    assert r.returncode == 0, r.stderr
+    for estimator, extra in [("smoother", []), ("fastslam2", ["--particles", "10"])]:
+        out = tmp_path / estimator
+        r = cli("run", log, "--estimator", estimator, *extra, "--out", out, "--quiet")
+        assert r.returncode == 0, r.stderr
+        m = json.loads((out / "metrics.json").read_text())
+        assert m["config"]["estimator"] == estimator
+        assert m["ate_rmse_m"] is not None
+        assert m["mean_nees_pose"] is not None
+        assert (out / "estimate.mcap").stat().st_size > 0
+    r = cli("run", log, "--estimator", "filter", "--particles", "5", "--out", tmp_path / "x")
+    assert r.returncode != 0
+    assert "--particles applies to --estimator fastslam1 and fastslam2 only" in r.stderr
+    r = cli("run", log, "--estimator", "ekf2", "--out", tmp_path / "y")
+    assert r.returncode != 0
+    assert "invalid choice: 'ekf2'" in r.stderr
