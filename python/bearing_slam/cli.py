@@ -52,6 +52,7 @@ from bearing_slam.outputs import (
     write_outputs,
     write_text_atomic,
 )
+from bearing_slam.live import add_live_arguments, stream_if_asked  # --live
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,
@@ -279,6 +280,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     _write_tum(args.tum, result)
+    stream_if_asked(args, log, result)  # --live
     return 0
 
 
@@ -318,6 +320,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         _log_rerun(args, run_.result, run_.log, landmarks=mrclam.plot_log(run_).landmarks)
         bar.update()
     _write_tum(args.tum, run_.result)
+    stream_if_asked(args, run_.log, run_.result)  # --live
 
     def f(key: str) -> str:
         v = rec.get(key)
@@ -457,6 +460,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
+    add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)
 
     names = sub.add_parser(
@@ -509,6 +513,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
+    add_live_arguments(mr)  # --live
     mr.set_defaults(func=_cmd_mrclam)
 
     figs = sub.add_parser(

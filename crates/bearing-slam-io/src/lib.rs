@@ -61,10 +61,15 @@
 
 pub mod error;
 pub mod foxglove;
+#[cfg(feature = "live")]
+pub mod live;
 pub mod mrclam;
+mod path_view;
 pub mod reader;
 pub mod schema;
+mod time_order;
 mod trace_views;
+mod write_options;
 pub mod writer;
 
 pub use error::IoError;

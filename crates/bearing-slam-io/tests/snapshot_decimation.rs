@@ -94,3 +94,44 @@ fn zero_keeps_every_snapshot_and_zstd_round_trips() {
         sizes[1]
     );
 }
+
+/// Messages per topic of a written file.
+fn topic_counts(path: &std::path::Path) -> std::collections::BTreeMap<String, usize> {
+    let bytes = std::fs::read(path).expect("read");
+    let mut counts = std::collections::BTreeMap::new();
+    for message in mcap::MessageStream::new(&bytes).expect("stream") {
+        let message = message.expect("message");
+        *counts.entry(message.channel.topic.clone()).or_insert(0) += 1;
+    }
+    counts
+}
+
+#[test]
+fn thinned_snapshots_republish_the_path_only_with_the_written_records() {
+    let dir = tmp();
+    let log = sample_log(300);
+    // Snapshots every 0.1 s for 20 s: 200 estimated poses.
+    let trace = sample_trace(200);
+    let path = dir.path().join("path.mcap");
+    write_log_with_options(&path, &log, Some(&trace), every(1.0)).expect("write");
+    let counts = topic_counts(&path);
+    let records = counts["/slam/estimate"];
+    // One path per written record (the last one, held back, comes with the
+    // final path), where every 50 poses gave 200 / 50 = 4.
+    assert!((20..=22).contains(&records), "{counts:?}");
+    assert_eq!(counts["/slam/path"], records, "{counts:?}");
+    assert_eq!(counts["/slam/pose"], 200, "every estimated pose stays");
+    // Without thinning: one path per 50 poses, none at the end (200 is a multiple).
+    let full = dir.path().join("full.mcap");
+    write_log_with_options(&full, &log, Some(&trace), every(0.0)).expect("write");
+    assert_eq!(topic_counts(&full)["/slam/path"], 200 / 50);
+    // A long interval: fewer paths than every 50 poses would give.
+    let sparse = dir.path().join("sparse.mcap");
+    write_log_with_options(&sparse, &log, Some(&trace), every(15.0)).expect("write");
+    let counts = topic_counts(&sparse);
+    assert_eq!(
+        counts["/slam/estimate"], 3,
+        "first, one 15 s later, last: {counts:?}"
+    );
+    assert_eq!(counts["/slam/path"], 3, "{counts:?}");
+}
