@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+import time
 from typing import Any, TextIO
 
 from bearing_slam._native import LiveServer, RunResult, SensorLog, Trace
@@ -24,6 +25,9 @@ from bearing_slam.arg_types import non_negative_float
 
 #: Foxglove's default port for WebSocket connections.
 DEFAULT_PORT = 8765
+
+#: Seconds left to the clients to receive what is queued, before the server stops.
+DRAIN_S = 0.5
 
 
 def stream_live(
@@ -65,6 +69,8 @@ def stream_live(
                 file=out,
                 flush=True,
             )
+        # Let the clients' queues drain before the server disconnects them.
+        time.sleep(DRAIN_S)
         return {"url": url, "subscribed": True, **stats}
     finally:
         server.stop()

@@ -63,6 +63,100 @@ impl LiveChannels {
     }
 }
 
+/// Declares every bearing-slam topic in `context` (JSON, the schemas and
+/// metadata of the MCAP files); `address` names it in errors.
+fn declare_channels(context: &Arc<Context>, address: &str) -> Result<LiveChannels> {
+    let mut channels = Vec::with_capacity(Topic::ALL.len());
+    for topic in Topic::ALL {
+        debug_assert_eq!(topic.index(), channels.len());
+        let schema = serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
+            path: address.into(),
+            topic: topic.name().into(),
+            source,
+        })?;
+        let mut metadata = BTreeMap::new();
+        if topic.is_exact() {
+            metadata.insert(FORMAT_VERSION_KEY.to_owned(), FORMAT_VERSION.to_string());
+        }
+        let channel = context
+            .channel_builder(topic.name())
+            .message_encoding(MESSAGE_ENCODING)
+            .schema(Schema::new(topic.schema_name(), SCHEMA_ENCODING, schema))
+            .metadata(metadata)
+            .build_raw()
+            .map_err(|source| IoError::Live {
+                address: address.into(),
+                action: format!("declare topic {}", topic.name()),
+                source,
+            })?;
+        channels.push(channel);
+    }
+    Ok(LiveChannels { channels })
+}
+
+/// Writes `log` and `trace` as [`crate::write_log_with_options`] does, the
+/// same messages built by the same code, but through the Foxglove SDK's MCAP
+/// writer (`foxglove::McapWriter`: zstd level 9 or LZ4, chunks of
+/// `options.chunk_size`) instead of ours: the comparison of
+/// `docs/results/mcap.md` (`cargo run --release -p bearing-slam-io
+/// --features sdk-bench --example mcap_writers`). The SDK writes no
+/// bearing-slam profile or library name; [`crate::read_log`] reads the file.
+pub fn write_log_with_sdk(
+    path: impl AsRef<std::path::Path>,
+    log: &SensorLog,
+    trace: Option<&SlamTrace>,
+    options: McapWriteOptions,
+) -> Result<()> {
+    let path = path.as_ref();
+    let address = path.display().to_string();
+    let sdk_err = |action: &str, source| IoError::Live {
+        address: address.clone(),
+        action: action.into(),
+        source,
+    };
+    let context = Context::new();
+    let channels = declare_channels(&context, &address)?;
+    let (compression, level) = match options.compression {
+        crate::McapCompression::None => (None, 0),
+        crate::McapCompression::Lz4 => (Some(foxglove::McapCompression::Lz4), 0),
+        crate::McapCompression::Zstd => (Some(foxglove::McapCompression::Zstd), 9),
+    };
+    let sdk_options = foxglove::McapWriteOptions::new()
+        .compression(compression)
+        .compression_level(level)
+        .chunk_size(Some(options.chunk_size));
+    let file = std::fs::File::create(path).map_err(|source| IoError::Io {
+        path: path.to_path_buf(),
+        action: "create",
+        source,
+    })?;
+    let sink = foxglove::McapWriter::with_options(sdk_options)
+        .context(&context)
+        .create(std::io::BufWriter::new(file))
+        .map_err(|e| sdk_err("create the MCAP writer", e))?;
+    let mut writer = McapLogWriter::live(address.clone(), channels, options);
+    writer.write_info(&log.info)?;
+    writer.write_landmark_truth(&log.landmarks)?;
+    let empty = SlamTrace::default();
+    for item in in_time_order(log, trace.unwrap_or(&empty)) {
+        writer.write_timed(item)?;
+    }
+    writer.finish()?;
+    let file = sink.close().map_err(|e| sdk_err("finish the file", e))?;
+    file.into_inner()
+        .map_err(|e| IoError::Io {
+            path: path.to_path_buf(),
+            action: "flush",
+            source: e.into_error(),
+        })?
+        .sync_all()
+        .map_err(|source| IoError::Io {
+            path: path.to_path_buf(),
+            action: "sync",
+            source,
+        })
+}
+
 /// What [`LiveServer::stream`] did.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LiveStats {
@@ -111,28 +205,7 @@ impl LiveServer {
             source,
         };
         let context = Context::new();
-        let mut channels = Vec::with_capacity(Topic::ALL.len());
-        for topic in Topic::ALL {
-            debug_assert_eq!(topic.index(), channels.len());
-            let schema =
-                serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
-                    path: address.clone().into(),
-                    topic: topic.name().into(),
-                    source,
-                })?;
-            let mut metadata = BTreeMap::new();
-            if topic.is_exact() {
-                metadata.insert(FORMAT_VERSION_KEY.to_owned(), FORMAT_VERSION.to_string());
-            }
-            let channel = context
-                .channel_builder(topic.name())
-                .message_encoding(MESSAGE_ENCODING)
-                .schema(Schema::new(topic.schema_name(), SCHEMA_ENCODING, schema))
-                .metadata(metadata)
-                .build_raw()
-                .map_err(|e| live_err(format!("declare topic {}", topic.name()), e))?;
-            channels.push(channel);
-        }
+        let channels = declare_channels(&context, &address)?;
         let handle = WebSocketServer::new()
             .name("bearing-slam")
             .context(&context)
@@ -144,7 +217,7 @@ impl LiveServer {
         Ok(Self {
             handle: Some(handle),
             port,
-            channels: LiveChannels { channels },
+            channels,
             address,
             _context: context,
         })
