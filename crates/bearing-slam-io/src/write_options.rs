@@ -59,9 +59,9 @@ pub struct McapWriteOptions {
     pub ray_length_m: f64,
     /// Publish the path-so-far on `/ground_truth/path` and `/slam/path` every
     /// this many poses (0: no paths; default 50). With
-    /// [`snapshot_every_s`](Self::snapshot_every_s) > 0, `/slam/path` is
-    /// republished with the written snapshot records instead (see there). A
-    /// last path is published by [`McapLogWriter::finish`].
+    /// [`snapshot_every_s`](Self::snapshot_every_s) > 0, `/slam/path` waits
+    /// for the next written snapshot record (see there). A last path is
+    /// published by [`McapLogWriter::finish`].
     pub path_every: usize,
     /// Most poses kept in a published path; older poses are thinned by
     /// halving when it is exceeded (default 1000).
@@ -72,7 +72,9 @@ pub struct McapWriteOptions {
     /// of every snapshot are still written, and the last snapshot is always
     /// kept (written by [`McapLogWriter::finish`] if it was held back).
     /// `/slam/path`, which repeats the whole path so far, is republished only
-    /// with the written records (and holds every snapshot's pose). The sensor
+    /// with a written record, and only once [`path_every`](Self::path_every)
+    /// poses have come since its last publication (it holds every
+    /// snapshot's pose). The sensor
     /// events and filter events stay whole, so the log replays bit-exactly.
     /// 0 (default): every snapshot.
     pub snapshot_every_s: f64,

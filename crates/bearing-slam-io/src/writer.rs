@@ -291,8 +291,10 @@ impl McapLogWriter {
             let p = snapshot.pose;
             let pose = Pose::planar(p.x, p.y, p.theta);
             self.emit_pose_views(stamp, log_time, pose, false)?;
-            // Thinned snapshots: the path follows the written records.
-            if thinning && due && self.options.path_every > 0 {
+            // Thinned snapshots: the path is republished with a written
+            // record, once `path_every` poses have come since the last one.
+            let every = self.options.path_every;
+            if thinning && due && every > 0 && self.estimate_path.since_publish >= every {
                 self.publish_path(Topic::EstimatePath, stamp, log_time)?;
             }
         }
