@@ -44,6 +44,7 @@ from bearing_slam.arg_types import (
     seed,
 )
 from bearing_slam.arg_types import positive_int as _positive_int
+from bearing_slam.live import add_live_arguments, stream_if_asked  # --live
 from bearing_slam.outputs import (
     metrics_record,
     mrclam_record,
@@ -52,7 +53,6 @@ from bearing_slam.outputs import (
     write_outputs,
     write_text_atomic,
 )
-from bearing_slam.live import add_live_arguments, stream_if_asked  # --live
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     DEFAULT_PRIOR,

@@ -29,7 +29,10 @@ fn main() -> Res<()> {
         .first()
         .ok_or("usage: mcap_writers RUN.mcap [SNAPSHOT_EVERY_S ...]")?;
     let every: Vec<f64> = if args.len() > 1 {
-        args[1..].iter().map(|a| a.parse()).collect::<Result<_, _>>()?
+        args[1..]
+            .iter()
+            .map(|a| a.parse())
+            .collect::<Result<_, _>>()?
     } else {
         vec![0.0, 10.0]
     };
@@ -107,7 +110,11 @@ fn protobuf_views(src: &Path, dst: &Path) -> Res<()> {
         let message = message?;
         let topic = &message.channel.topic;
         let meta = PartialMetadata::with_log_time(message.log_time);
-        let schema_name = message.channel.schema.as_ref().map_or("", |s| s.name.as_str());
+        let schema_name = message
+            .channel
+            .schema
+            .as_ref()
+            .map_or("", |s| s.name.as_str());
         if schema_name.starts_with("foxglove.") {
             let mut v: Value = serde_json::from_slice(&message.data)?;
             enums_as_names(&mut v, schema_name);
@@ -180,7 +187,10 @@ fn enums_as_names(v: &mut Value, schema: &str) {
             .map(|s| Value::String((*s).to_owned()))
     };
     if schema == "foxglove.Log"
-        && let Some(s) = name(&v["level"], &["UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL"])
+        && let Some(s) = name(
+            &v["level"],
+            &["UNKNOWN", "DEBUG", "INFO", "WARNING", "ERROR", "FATAL"],
+        )
     {
         v["level"] = s;
     }

@@ -69,11 +69,12 @@ fn declare_channels(context: &Arc<Context>, address: &str) -> Result<LiveChannel
     let mut channels = Vec::with_capacity(Topic::ALL.len());
     for topic in Topic::ALL {
         debug_assert_eq!(topic.index(), channels.len());
-        let schema = serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
-            path: address.into(),
-            topic: topic.name().into(),
-            source,
-        })?;
+        let schema =
+            serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
+                path: address.into(),
+                topic: topic.name().into(),
+                source,
+            })?;
         let mut metadata = BTreeMap::new();
         if topic.is_exact() {
             metadata.insert(FORMAT_VERSION_KEY.to_owned(), FORMAT_VERSION.to_string());

@@ -61,7 +61,7 @@ pub struct McapWriteOptions {
     /// this many poses (0: no paths; default 50). With
     /// [`snapshot_every_s`](Self::snapshot_every_s) > 0, `/slam/path` waits
     /// for the next written snapshot record (see there). A last path is
-    /// published by [`McapLogWriter::finish`].
+    /// published by [`McapLogWriter::finish`](crate::McapLogWriter::finish).
     pub path_every: usize,
     /// Most poses kept in a published path; older poses are thinned by
     /// halving when it is exceeded (default 1000).
@@ -70,7 +70,7 @@ pub struct McapWriteOptions {
     /// back) and its map scene (`/slam/map`) at most once per this many
     /// seconds of log time; the estimated-pose views (`/slam/pose`, `/tf`)
     /// of every snapshot are still written, and the last snapshot is always
-    /// kept (written by [`McapLogWriter::finish`] if it was held back).
+    /// kept (written by [`McapLogWriter::finish`](crate::McapLogWriter::finish) if it was held back).
     /// `/slam/path`, which repeats the whole path so far, is republished only
     /// with a written record, and only once [`path_every`](Self::path_every)
     /// poses have come since its last publication (it holds every

@@ -119,7 +119,11 @@ fn thinned_snapshots_republish_the_path_with_the_written_records_only() {
     write_log_with_options(&path, &log, Some(&trace), every(1.0)).expect("write");
     let times = topic_times(&path);
     let (records, paths) = (&times["/slam/estimate"], &times["/slam/path"]);
-    assert!((20..=22).contains(&records.len()), "{} records", records.len());
+    assert!(
+        (20..=22).contains(&records.len()),
+        "{} records",
+        records.len()
+    );
     assert_eq!(times["/slam/pose"].len(), 200, "every estimated pose stays");
     // With a record once 50 poses (path_every) have come: at poses 51, 101,
     // 151 (the records of 5.01 s, 10.01 s, 15.01 s), and the last one.
