@@ -423,6 +423,8 @@ def experiment_fig10(
 ) -> dict[str, Any]: ...
 
 # The live Foxglove server of `--live` (bearing_slam.live).
+__all__ += ["LiveServer"]
+
 @final
 class LiveServer:
     def __new__(cls, port: int = 8765, host: str = "127.0.0.1") -> LiveServer: ...
