@@ -67,8 +67,8 @@ pub struct McapLogWriter {
 
 /// Where the messages of a [`McapLogWriter`] go.
 enum Output {
-    /// An MCAP file.
-    File(mcap::Writer<BufWriter<File>>),
+    /// An MCAP file (boxed: the writer is large, the live channels small).
+    File(Box<mcap::Writer<BufWriter<File>>>),
     /// The channels of a live Foxglove server (`crate::live`).
     #[cfg(feature = "live")]
     Live(crate::live::LiveChannels),
@@ -120,7 +120,11 @@ impl McapLogWriter {
                 action: "writing the file header".into(),
                 source,
             })?;
-        Ok(Self::with_output(path, Output::File(writer), options))
+        Ok(Self::with_output(
+            path,
+            Output::File(Box::new(writer)),
+            options,
+        ))
     }
 
     /// A writer that streams to the channels of a live Foxglove server;
@@ -394,7 +398,7 @@ impl McapLogWriter {
         let path = self.path.clone();
         let mut writer = match self.writer.take() {
             None => return Err(IoError::Finished { path }),
-            Some(Output::File(writer)) => writer,
+            Some(Output::File(writer)) => *writer,
             #[cfg(feature = "live")]
             Some(Output::Live(_)) => return tails,
         };
