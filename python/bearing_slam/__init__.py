@@ -124,3 +124,10 @@ __all__ += ["write_tum"]
 from bearing_slam.rerun import log_rerun, run_with_rerun  # noqa: E402
 
 __all__ += ["log_rerun", "run_with_rerun"]
+
+# A run streamed live to the Foxglove app (`--live`): `bs.stream_live` and the
+# server `bs.LiveServer`; the module is `bearing_slam.live`.
+from bearing_slam._native import LiveServer  # noqa: E402
+from bearing_slam.live import stream_live  # noqa: E402
+
+__all__ += ["LiveServer", "stream_live"]

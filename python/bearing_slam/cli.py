@@ -51,6 +51,7 @@ from bearing_slam.estimators import (
     estimator_spec,
     with_estimator,
 )
+from bearing_slam.live import add_live_arguments, stream_if_asked  # --live
 from bearing_slam.outputs import (
     metrics_record,
     mrclam_record,
@@ -290,6 +291,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
     print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
     _write_tum(args.tum, result)
+    stream_if_asked(args, log, result)  # --live
     return 0
 
 
@@ -341,6 +343,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         _log_rerun(args, live, run_.result, landmarks=mrclam.plot_log(run_).landmarks)
         bar.update()
     _write_tum(args.tum, run_.result)
+    stream_if_asked(args, run_.log, run_.result)  # --live
 
     def f(key: str) -> str:
         v = rec.get(key)
@@ -484,6 +487,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
     add_estimator_options(runp)
+    add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)
 
     names = sub.add_parser(
@@ -541,6 +545,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
     add_estimator_options(mr)
+    add_live_arguments(mr)  # --live
     mr.set_defaults(func=_cmd_mrclam)
 
     figs = sub.add_parser(

@@ -145,6 +145,23 @@ pub enum IoError {
         /// The file.
         path: PathBuf,
     },
+    /// The live Foxglove server (`--live`) failed: the port is taken, or a
+    /// channel could not be declared.
+    #[cfg(feature = "live")]
+    #[error("live Foxglove server on {address}: cannot {action}: {source}")]
+    Live {
+        /// `host:port` asked for.
+        address: String,
+        /// What was being done ("start the server", "declare topic /bearings").
+        action: String,
+        /// What the Foxglove SDK said.
+        #[source]
+        source: foxglove::FoxgloveError,
+    },
+    /// A live stream option out of range (a negative or NaN speed).
+    #[cfg(feature = "live")]
+    #[error("live stream: {0}")]
+    LiveOption(String),
 }
 
 /// Result with an [`IoError`].

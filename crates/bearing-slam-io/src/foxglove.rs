@@ -74,12 +74,38 @@ pub(crate) struct Duration {
 /// Zero duration: "forever" for a scene entity's lifetime.
 pub(crate) const FOREVER: Duration = Duration { sec: 0, nsec: 0 };
 
-/// `foxglove.Vector3` / `foxglove.Point3`.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+/// `foxglove.Vector3` / `foxglove.Point3`. Written rounded to the
+/// micrometre ([`round_view`]): positions in the views are for the eye, and
+/// the 17-digit floats were a quarter of a file's compressed bytes (see
+/// `docs/results/mcap.md`); the exact values stay on the exact-data topics.
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) struct Vector3 {
     pub x: f64,
     pub y: f64,
     pub z: f64,
+}
+
+/// Decimal places kept by [`round_view`] (metres: micrometres).
+pub(crate) const VIEW_DECIMALS: i32 = 6;
+
+/// A view coordinate rounded to [`VIEW_DECIMALS`] places (NaN and infinity
+/// unchanged; the writer refuses them before).
+#[must_use]
+pub(crate) fn round_view(v: f64) -> f64 {
+    let scale = 10f64.powi(VIEW_DECIMALS);
+    let r = (v * scale).round() / scale;
+    if r.is_finite() { r } else { v }
+}
+
+impl Serialize for Vector3 {
+    fn serialize<S: serde::Serializer>(&self, serializer: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut s = serializer.serialize_struct("Vector3", 3)?;
+        s.serialize_field("x", &round_view(self.x))?;
+        s.serialize_field("y", &round_view(self.y))?;
+        s.serialize_field("z", &round_view(self.z))?;
+        s.end()
+    }
 }
 
 impl Vector3 {
@@ -640,6 +666,19 @@ pub(crate) fn scene_update_schema() -> Value {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn view_positions_are_written_to_the_micrometre() {
+        let v = Vector3 {
+            x: 1.234_567_891_234,
+            y: -0.000_000_4,
+            z: 12_345.678_901_5,
+        };
+        let json = serde_json::to_string(&v).expect("json");
+        assert_eq!(json, r#"{"x":1.234568,"y":-0.0,"z":12345.678902}"#);
+        assert!(round_view(f64::NAN).is_nan());
+        assert_eq!(round_view(f64::INFINITY), f64::INFINITY);
+    }
 
     #[test]
     fn ellipse_of_a_diagonal_covariance_has_the_expected_axes() {

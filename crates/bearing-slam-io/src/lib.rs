@@ -44,7 +44,7 @@
 //! |---|---|---|
 //! | `/ground_truth/pose` | `foxglove.PoseInFrame` | true pose in `world` |
 //! | `/slam/pose` | `foxglove.PoseInFrame` | estimated pose in `world` |
-//! | `/ground_truth/path`, `/slam/path` | `foxglove.PosesInFrame` | trajectory so far (every 50 poses, thinned to ≤ 1000 points) |
+//! | `/ground_truth/path`, `/slam/path` | `foxglove.PosesInFrame` | trajectory so far (every 50 poses, thinned to ≤ 1000 points; with `snapshot_every_s`, `/slam/path` with the next written snapshot) |
 //! | `/tf` | `foxglove.FrameTransform` | `world → base_link_truth`, `world → base_link_estimate` |
 //! | `/landmarks/truth` | `foxglove.SceneUpdate` | green cubes with id labels |
 //! | `/slam/map` | `foxglove.SceneUpdate` | estimated landmarks (blue Euclidean, orange inverse depth) with 2σ ellipses as line strips, robot 2σ ellipse in red |
@@ -52,6 +52,11 @@
 //! | `/slam/events` | `foxglove.Log` | filter decisions as log lines |
 //!
 //! Exact-data channels carry the metadata `bearing_slam.format_version = "1"`.
+//! View positions are written to the micrometre (the exact values are on the
+//! exact-data topics).
+//!
+//! With the feature `live`, `live::LiveServer` streams the same topics to
+//! the Foxglove app over a WebSocket (the Foxglove SDK's server).
 //!
 //! [`SensorLog`]: bearing_slam_core::log::SensorLog
 //! [`SlamTrace`]: bearing_slam_core::trace::SlamTrace
@@ -61,10 +66,15 @@
 
 pub mod error;
 pub mod foxglove;
+#[cfg(feature = "live")]
+pub mod live;
 pub mod mrclam;
+mod path_view;
 pub mod reader;
 pub mod schema;
+mod time_order;
 mod trace_views;
+mod write_options;
 pub mod writer;
 
 pub use error::IoError;

@@ -11,7 +11,7 @@ use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use bearing_slam_core::log::{Event, EventKind, LandmarkTruth, LogInfo, SensorLog};
 use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
@@ -23,157 +23,19 @@ use crate::foxglove::{
     self as fx, Color, CubePrimitive, FrameTransform, LinePrimitive, Pose, PoseInFrame,
     PosesInFrame, SceneEntity, SceneEntityDeletion, SceneUpdate, TextPrimitive, Time, Vector3,
 };
+use crate::path_view::{PathCadence, PathView};
 use crate::schema::{
     self, FORMAT_VERSION, FORMAT_VERSION_KEY, LandmarksMsg, MESSAGE_ENCODING, NonFinite,
     SCHEMA_ENCODING, Topic,
 };
+use crate::time_order::{Timed, in_time_order};
 use crate::trace_views::{describe, map_scene};
-
-/// Chunk compression.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum McapCompression {
-    /// No compression: the largest files, readable by any MCAP reader.
-    None,
-    /// LZ4 frames (read by Foxglove and the official MCAP libraries).
-    Lz4,
-    /// Zstandard: smaller than LZ4 on these JSON messages (see
-    /// `docs/results/mcap.md`); read by Foxglove and the official MCAP
-    /// libraries (Python's `mcap` with `zstandard`).
-    #[default]
-    Zstd,
-}
-
-/// The robot frame the bearing rays of `/bearings/rays` are drawn in.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum RaysFrame {
-    /// `base_link_truth` (needs ground-truth poses in the log).
-    #[default]
-    Truth,
-    /// `base_link_estimate` (needs estimate snapshots).
-    Estimate,
-}
-
-impl RaysFrame {
-    fn frame_id(self) -> &'static str {
-        match self {
-            RaysFrame::Truth => fx::TRUTH_FRAME,
-            RaysFrame::Estimate => fx::ESTIMATE_FRAME,
-        }
-    }
-}
-
-/// How the writer lays out the file.
-#[derive(Clone, Debug, PartialEq)]
-pub struct McapWriteOptions {
-    /// Chunk compression (default zstd).
-    pub compression: McapCompression,
-    /// Target uncompressed chunk size, bytes (default 1 MiB: zstd compresses
-    /// these JSON messages better in larger chunks). A chunk is
-    /// closed and the file flushed once it is reached.
-    pub chunk_size: u64,
-    /// A chunk is also closed and flushed when this much wall-clock time has
-    /// passed since the last flush, checked at each write (default 1 s).
-    pub flush_interval: Duration,
-    /// Write the Foxglove views (`/tf`, poses, paths, scenes, log) next to the
-    /// exact data (default true).
-    pub foxglove_views: bool,
-    /// Frame of the bearing rays (default [`RaysFrame::Truth`]).
-    pub rays_frame: RaysFrame,
-    /// Length of a drawn ray when the observation has no range, metres (default 5).
-    pub ray_length_m: f64,
-    /// Publish the path-so-far on `/ground_truth/path` and `/slam/path` every
-    /// this many poses (0: no paths; default 50). A last path is published by
-    /// [`McapLogWriter::finish`].
-    pub path_every: usize,
-    /// Most poses kept in a published path; older poses are thinned by
-    /// halving when it is exceeded (default 1000).
-    pub path_max_points: usize,
-    /// Write an estimate snapshot's record (`/slam/estimate`, the trace read
-    /// back) and its map scene (`/slam/map`) at most once per this many
-    /// seconds of log time; the estimated-pose views (`/slam/pose`, `/tf`,
-    /// `/slam/path`) of every snapshot are still written, and the last
-    /// snapshot is always kept (written by [`McapLogWriter::finish`] if it
-    /// was held back). The sensor events and filter events stay whole, so the
-    /// log replays bit-exactly. 0 (default): every snapshot.
-    pub snapshot_every_s: f64,
-}
-
-impl Default for McapWriteOptions {
-    fn default() -> Self {
-        Self {
-            compression: McapCompression::Zstd,
-            chunk_size: 1024 * 1024,
-            flush_interval: Duration::from_secs(1),
-            foxglove_views: true,
-            rays_frame: RaysFrame::Truth,
-            ray_length_m: 5.0,
-            path_every: 50,
-            path_max_points: 1000,
-            snapshot_every_s: 0.0,
-        }
-    }
-}
+pub use crate::write_options::{McapCompression, McapWriteOptions, RaysFrame};
 
 /// A data message waiting for the first time stamp (see [`McapLogWriter::write_info`]).
 enum Pending {
     Info(Vec<u8>),
     Landmarks(Vec<LandmarkTruth>),
-}
-
-/// A trajectory kept for the `foxglove.PosesInFrame` views, thinned to stay small.
-struct PathView {
-    poses: Vec<Pose>,
-    stride: usize,
-    seen: usize,
-    since_publish: usize,
-    last: Option<Pose>,
-}
-
-impl PathView {
-    fn new() -> Self {
-        Self {
-            poses: Vec::new(),
-            stride: 1,
-            seen: 0,
-            since_publish: 0,
-            last: None,
-        }
-    }
-
-    /// Adds a pose; true when the path is due for publication.
-    fn push(&mut self, pose: Pose, every: usize, max_points: usize) -> bool {
-        if self.seen.is_multiple_of(self.stride) {
-            self.poses.push(pose);
-            if self.poses.len() > max_points.max(2) {
-                let mut i = 0;
-                self.poses.retain(|_| {
-                    i += 1;
-                    (i - 1) % 2 == 0
-                });
-                self.stride *= 2;
-            }
-        }
-        self.seen += 1;
-        self.last = Some(pose);
-        self.since_publish += 1;
-        if every > 0 && self.since_publish >= every {
-            self.since_publish = 0;
-            true
-        } else {
-            false
-        }
-    }
-
-    /// The kept poses plus the latest one.
-    fn snapshot(&self) -> Vec<Pose> {
-        let mut poses = self.poses.clone();
-        if let Some(last) = self.last
-            && poses.last() != Some(&last)
-        {
-            poses.push(last);
-        }
-        poses
-    }
 }
 
 /// Streams a sensor log and a SLAM trace into an MCAP file that the reader of
@@ -186,7 +48,7 @@ impl PathView {
 /// chunks [`crate::read_log`] recovers, with a warning.
 pub struct McapLogWriter {
     path: PathBuf,
-    writer: Option<mcap::Writer<BufWriter<File>>>,
+    writer: Option<Output>,
     options: McapWriteOptions,
     channels: [Option<u16>; Topic::ALL.len()],
     sequence: u32,
@@ -201,6 +63,15 @@ pub struct McapLogWriter {
     last_snapshot_time: Option<f64>,
     /// The latest snapshot held back by `snapshot_every_s`, written by `finish`.
     held_snapshot: Option<EstimateSnapshot>,
+}
+
+/// Where the messages of a [`McapLogWriter`] go.
+enum Output {
+    /// An MCAP file (boxed: the writer is large, the live channels small).
+    File(Box<mcap::Writer<BufWriter<File>>>),
+    /// The channels of a live Foxglove server (`crate::live`).
+    #[cfg(feature = "live")]
+    Live(crate::live::LiveChannels),
 }
 
 /// The zstd level of [`McapCompression::Zstd`] chunks (the library's default
@@ -249,9 +120,28 @@ impl McapLogWriter {
                 action: "writing the file header".into(),
                 source,
             })?;
-        Ok(Self {
+        Ok(Self::with_output(
             path,
-            writer: Some(writer),
+            Output::File(Box::new(writer)),
+            options,
+        ))
+    }
+
+    /// A writer that streams to the channels of a live Foxglove server;
+    /// `url` names it in errors.
+    #[cfg(feature = "live")]
+    pub(crate) fn live(
+        url: String,
+        channels: crate::live::LiveChannels,
+        options: McapWriteOptions,
+    ) -> Self {
+        Self::with_output(PathBuf::from(url), Output::Live(channels), options)
+    }
+
+    fn with_output(path: PathBuf, output: Output, options: McapWriteOptions) -> Self {
+        Self {
+            path,
+            writer: Some(output),
             options,
             channels: [None; Topic::ALL.len()],
             sequence: 0,
@@ -264,7 +154,7 @@ impl McapLogWriter {
             estimate_path: PathView::new(),
             last_snapshot_time: None,
             held_snapshot: None,
-        })
+        }
     }
 
     /// The file being written.
@@ -403,7 +293,14 @@ impl McapLogWriter {
         }
         if self.options.foxglove_views {
             let p = snapshot.pose;
-            self.emit_pose_views(stamp, log_time, Pose::planar(p.x, p.y, p.theta), false)?;
+            let pose = Pose::planar(p.x, p.y, p.theta);
+            self.emit_pose_views(stamp, log_time, pose, false)?;
+            // Thinned snapshots: the path is republished with a written
+            // record, once `path_every` poses have come since the last one.
+            let every = self.options.path_every;
+            if thinning && due && every > 0 && self.estimate_path.since_publish >= every {
+                self.publish_path(Topic::EstimatePath, stamp, log_time)?;
+            }
         }
         self.maybe_flush()
     }
@@ -423,6 +320,15 @@ impl McapLogWriter {
             self.emit(Topic::MapScene, log_time, &update)?;
         }
         Ok(())
+    }
+
+    /// Writes one record of a run merged in time order ([`write_log`]).
+    pub(crate) fn write_timed(&mut self, item: Timed<'_>) -> Result<()> {
+        match item {
+            Timed::Event(e) => self.write_event(e),
+            Timed::Snapshot(s) => self.write_snapshot(s),
+            Timed::SlamEvent(e) => self.write_slam_event(e),
+        }
     }
 
     /// Writes a filter decision on `/slam/event_data`, and as a log line on
@@ -456,15 +362,16 @@ impl McapLogWriter {
     /// everything written so far survives a crash of this process.
     pub fn flush(&mut self) -> Result<()> {
         let path = &self.path;
-        let writer = self
-            .writer
-            .as_mut()
-            .ok_or_else(|| IoError::Finished { path: path.clone() })?;
-        writer.flush().map_err(|source| IoError::Mcap {
-            path: path.clone(),
-            action: "flushing a chunk".into(),
-            source,
-        })?;
+        match self.writer.as_mut() {
+            None => return Err(IoError::Finished { path: path.clone() }),
+            Some(Output::File(writer)) => writer.flush().map_err(|source| IoError::Mcap {
+                path: path.clone(),
+                action: "flushing a chunk".into(),
+                source,
+            })?,
+            #[cfg(feature = "live")]
+            Some(Output::Live(_)) => {}
+        }
         self.pending_bytes = 0;
         self.last_flush = Instant::now();
         Ok(())
@@ -489,8 +396,11 @@ impl McapLogWriter {
             .and_then(|()| self.publish_final_paths(t))
             .and_then(|()| self.write_held_snapshot());
         let path = self.path.clone();
-        let Some(mut writer) = self.writer.take() else {
-            return Err(IoError::Finished { path });
+        let mut writer = match self.writer.take() {
+            None => return Err(IoError::Finished { path }),
+            Some(Output::File(writer)) => *writer,
+            #[cfg(feature = "live")]
+            Some(Output::Live(_)) => return tails,
         };
         tails?;
         writer.finish().map_err(|source| IoError::Mcap {
@@ -657,22 +567,39 @@ impl McapLogWriter {
             rotation: pose.orientation,
         };
         self.emit(Topic::Tf, log_time, &tf)?;
-        let (every, max_points) = (self.options.path_every, self.options.path_max_points);
+        let every = self.options.path_every;
+        // Thinned snapshots: `/slam/path` is published by `write_snapshot`.
+        let cadence = if !truth && self.options.snapshot_every_s > 0.0 {
+            PathCadence::OnRequest
+        } else {
+            PathCadence::EveryPoses(every)
+        };
+        let max_points = self.options.path_max_points;
         let path = if truth {
             &mut self.truth_path
         } else {
             &mut self.estimate_path
         };
-        if path.push(pose, every, max_points) {
-            let poses = path.snapshot();
-            let msg = PosesInFrame {
-                timestamp: stamp,
-                frame_id: fx::WORLD_FRAME,
-                poses: &poses,
-            };
-            self.emit(path_topic, log_time, &msg)?;
+        if path.push(pose, cadence, max_points) {
+            self.publish_path(path_topic, stamp, log_time)?;
         }
         Ok(())
+    }
+
+    /// Publishes the path so far on `topic` (`/ground_truth/path` or `/slam/path`).
+    fn publish_path(&mut self, topic: Topic, stamp: Time, log_time: u64) -> Result<()> {
+        let path = if topic == Topic::TruthPath {
+            &mut self.truth_path
+        } else {
+            &mut self.estimate_path
+        };
+        let poses = path.publish();
+        let msg = PosesInFrame {
+            timestamp: stamp,
+            frame_id: fx::WORLD_FRAME,
+            poses: &poses,
+        };
+        self.emit(topic, log_time, &msg)
     }
 
     fn publish_final_paths(&mut self, log_time: u64) -> Result<()> {
@@ -680,22 +607,15 @@ impl McapLogWriter {
             return Ok(());
         }
         let stamp = self.stamp(Topic::TruthPath, log_time)?;
-        for (topic, truth) in [(Topic::TruthPath, true), (Topic::EstimatePath, false)] {
-            let path = if truth {
+        for topic in [Topic::TruthPath, Topic::EstimatePath] {
+            let path = if topic == Topic::TruthPath {
                 &self.truth_path
             } else {
                 &self.estimate_path
             };
-            if path.since_publish == 0 {
-                continue;
+            if path.since_publish > 0 {
+                self.publish_path(topic, stamp, log_time)?;
             }
-            let poses = path.snapshot();
-            let msg = PosesInFrame {
-                timestamp: stamp,
-                frame_id: fx::WORLD_FRAME,
-                poses: &poses,
-            };
-            self.emit(topic, log_time, &msg)?;
         }
         Ok(())
     }
@@ -705,16 +625,25 @@ impl McapLogWriter {
             return Ok(id);
         }
         let path = self.path.clone();
+        let writer = match self.writer.as_mut() {
+            None => return Err(IoError::Finished { path }),
+            Some(Output::File(writer)) => writer,
+            // The live server declared every topic when it started.
+            #[cfg(feature = "live")]
+            Some(Output::Live(_)) => {
+                // Topic::ALL has fewer than 2^16 topics.
+                #[allow(clippy::cast_possible_truncation)]
+                let id = topic.index() as u16;
+                self.channels[topic.index()] = Some(id);
+                return Ok(id);
+            }
+        };
         let schema =
             serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
                 path: path.clone(),
                 topic: topic.name().into(),
                 source,
             })?;
-        let writer = self
-            .writer
-            .as_mut()
-            .ok_or(IoError::Finished { path: path.clone() })?;
         let mcap_err = |source| IoError::Mcap {
             path: path.clone(),
             action: format!("declaring topic {}", topic.name()),
@@ -747,23 +676,26 @@ impl McapLogWriter {
     fn emit_bytes(&mut self, topic: Topic, log_time: u64, data: &[u8]) -> Result<()> {
         let channel_id = self.channel(topic)?;
         let path = &self.path;
-        let writer = self
-            .writer
-            .as_mut()
-            .ok_or_else(|| IoError::Finished { path: path.clone() })?;
         let header = MessageHeader {
             channel_id,
             sequence: self.sequence,
             log_time,
             publish_time: log_time,
         };
-        writer
-            .write_to_known_channel(&header, data)
-            .map_err(|source| IoError::Mcap {
-                path: path.clone(),
-                action: format!("writing a message on {}", topic.name()),
-                source,
-            })?;
+        match self.writer.as_mut() {
+            None => return Err(IoError::Finished { path: path.clone() }),
+            Some(Output::File(writer)) => {
+                writer
+                    .write_to_known_channel(&header, data)
+                    .map_err(|source| IoError::Mcap {
+                        path: path.clone(),
+                        action: format!("writing a message on {}", topic.name()),
+                        source,
+                    })?
+            }
+            #[cfg(feature = "live")]
+            Some(Output::Live(live)) => live.log(topic, log_time, data),
+        }
         self.sequence = self.sequence.wrapping_add(1);
         self.messages += 1;
         self.pending_bytes += data.len() as u64 + MESSAGE_OVERHEAD;
@@ -823,37 +755,8 @@ pub fn write_log_with_options(
     if trace.is_some() {
         w.begin_trace()?;
     }
-    let (mut i, mut j, mut k) = (0, 0, 0);
-    let (events, snaps, slam) = (&log.events, &trace_ref.snapshots, &trace_ref.events);
-    loop {
-        let te = events.get(i).map(|e| e.time);
-        let ts = snaps.get(j).map(|s| s.time);
-        let tk = slam.get(k).map(|e| e.time);
-        // Pick the earliest; ties go to sensor events, then snapshots.
-        let pick = [te, ts, tk]
-            .into_iter()
-            .enumerate()
-            .filter_map(|(n, t)| t.map(|t| (n, t)))
-            .fold(None::<(usize, f64)>, |best, (n, t)| match best {
-                Some((_, bt)) if t < bt => Some((n, t)),
-                None => Some((n, t)),
-                _ => best,
-            });
-        match pick {
-            None => break,
-            Some((0, _)) => {
-                w.write_event(&events[i])?;
-                i += 1;
-            }
-            Some((1, _)) => {
-                w.write_snapshot(&snaps[j])?;
-                j += 1;
-            }
-            Some(_) => {
-                w.write_slam_event(&slam[k])?;
-                k += 1;
-            }
-        }
+    for item in in_time_order(log, trace_ref) {
+        w.write_timed(item)?;
     }
     w.finish()
 }

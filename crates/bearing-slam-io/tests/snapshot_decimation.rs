@@ -94,3 +94,54 @@ fn zero_keeps_every_snapshot_and_zstd_round_trips() {
         sizes[1]
     );
 }
+
+/// Log times of the messages of each topic of a written file.
+fn topic_times(path: &std::path::Path) -> std::collections::BTreeMap<String, Vec<u64>> {
+    let bytes = std::fs::read(path).expect("read");
+    let mut times = std::collections::BTreeMap::<String, Vec<u64>>::new();
+    for message in mcap::MessageStream::new(&bytes).expect("stream") {
+        let message = message.expect("message");
+        times
+            .entry(message.channel.topic.clone())
+            .or_default()
+            .push(message.log_time);
+    }
+    times
+}
+
+#[test]
+fn thinned_snapshots_republish_the_path_with_the_written_records_only() {
+    let dir = tmp();
+    let log = sample_log(300);
+    // Snapshots every 0.1 s for 20 s: 200 estimated poses.
+    let trace = sample_trace(200);
+    let path = dir.path().join("path.mcap");
+    write_log_with_options(&path, &log, Some(&trace), every(1.0)).expect("write");
+    let times = topic_times(&path);
+    let (records, paths) = (&times["/slam/estimate"], &times["/slam/path"]);
+    assert!(
+        (20..=22).contains(&records.len()),
+        "{} records",
+        records.len()
+    );
+    assert_eq!(times["/slam/pose"].len(), 200, "every estimated pose stays");
+    // With a record once 50 poses (path_every) have come: at poses 51, 101,
+    // 151 (the records of 5.01 s, 10.01 s, 15.01 s), and the last one.
+    assert_eq!(paths.len(), 4, "path times {paths:?}");
+    // Each with a record, but the last: `finish` writes it at the file's end.
+    for t in &paths[..paths.len() - 1] {
+        assert!(records.contains(t), "a path at {t} ns without a record");
+    }
+    // Without thinning: one path per 50 poses.
+    let full = dir.path().join("full.mcap");
+    write_log_with_options(&full, &log, Some(&trace), every(0.0)).expect("write");
+    assert_eq!(topic_times(&full)["/slam/path"].len(), 200 / 50);
+    // A long interval: records at 0.01 s, 15.01 s and the last; a path with
+    // the second (150 poses since none), and the last one at the end.
+    let sparse = dir.path().join("sparse.mcap");
+    write_log_with_options(&sparse, &log, Some(&trace), every(15.0)).expect("write");
+    let times = topic_times(&sparse);
+    assert_eq!(times["/slam/estimate"].len(), 3, "{times:?}");
+    assert_eq!(times["/slam/path"].len(), 2);
+    assert_eq!(times["/slam/path"][0], times["/slam/estimate"][1]);
+}

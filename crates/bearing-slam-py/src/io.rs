@@ -55,31 +55,7 @@ pub(crate) fn py_write_mcap(
         ..McapWriteOptions::default()
     };
     let inner = &log.inner;
-    let trace: Option<SlamTrace> = match result {
-        None => None,
-        Some(r) if r.is_none() => None,
-        Some(r) => {
-            if let Ok(rr) = r.cast::<PyRunResult>() {
-                if rr.get().log_digest != crate::log::fingerprint(inner) {
-                    return Err(errors::raise(
-                        "MismatchError",
-                        "write_mcap: the result was run on another log; write a result \
-                         with the log it was run on"
-                            .to_owned(),
-                    ));
-                }
-                Some(rr.get().output.trace.clone())
-            } else if let Ok(t) = r.cast::<PyTrace>() {
-                let t = t.get().inner.clone();
-                check_trace_within(inner, &t)?;
-                Some(t)
-            } else {
-                return Err(PyTypeError::new_err(
-                    "result must be a RunResult, a Trace or None",
-                ));
-            }
-        }
-    };
+    let trace = trace_of(inner, result, "write_mcap")?;
     let tmp = temporary_sibling(&path)?;
     let written = py.detach(|| {
         write_log_with_options(&tmp, inner, trace.as_ref(), options)
@@ -90,6 +66,42 @@ pub(crate) fn py_write_mcap(
         let _ = std::fs::remove_file(&tmp);
     }
     written
+}
+
+/// The trace of `result` (a `RunResult` of `log`, a `Trace`, or `None`);
+/// `what` names the caller in errors.
+pub(crate) fn trace_of(
+    log: &SensorLog,
+    result: Option<&Bound<'_, PyAny>>,
+    what: &str,
+) -> PyResult<Option<SlamTrace>> {
+    let trace: Option<SlamTrace> = match result {
+        None => None,
+        Some(r) if r.is_none() => None,
+        Some(r) => {
+            if let Ok(rr) = r.cast::<PyRunResult>() {
+                if rr.get().log_digest != crate::log::fingerprint(log) {
+                    return Err(errors::raise(
+                        "MismatchError",
+                        format!(
+                            "{what}: the result was run on another log; use a result \
+                         with the log it was run on"
+                        ),
+                    ));
+                }
+                Some(rr.get().output.trace.clone())
+            } else if let Ok(t) = r.cast::<PyTrace>() {
+                let t = t.get().inner.clone();
+                check_trace_within(log, &t)?;
+                Some(t)
+            } else {
+                return Err(PyTypeError::new_err(
+                    "result must be a RunResult, a Trace or None",
+                ));
+            }
+        }
+    };
+    Ok(trace)
 }
 
 /// A `Trace`'s estimates must lie within the log's time span.

@@ -11,6 +11,7 @@ mod convert;
 mod errors;
 mod filter;
 mod io;
+mod live;
 mod log;
 mod metrics;
 mod models;
@@ -36,6 +37,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<filter::PyUpdateReport>()?;
     m.add_class::<run::PyRunResult>()?;
     m.add_class::<run::PyTrace>()?;
+    m.add_class::<live::PyLiveServer>()?;
     m.add_function(wrap_pyfunction!(run::py_run, m)?)?;
     m.add_function(wrap_pyfunction!(run::py_smooth, m)?)?;
     m.add_function(wrap_pyfunction!(sim::py_simulate, m)?)?;
