@@ -17,6 +17,7 @@ from pathlib import Path
 
 __all__ = [
     "U64_MAX",
+    "UserError",
     "angle_deg",
     "finite_float",
     "non_negative_float",
@@ -28,6 +29,11 @@ __all__ = [
     "robot_number",
     "seed",
 ]
+
+
+class UserError(Exception):
+    """A mistake in the command line or its inputs: reported in one line."""
+
 
 #: The largest seed: seeds are unsigned 64-bit integers in the Rust simulator.
 U64_MAX = 2**64 - 1
