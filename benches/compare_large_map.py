@@ -23,6 +23,9 @@ Timed, mean time per step (single-threaded BLAS):
   n landmarks at step 0, then per step a Pose2, a ``BetweenFactorPose2`` and
   10 ``BearingFactor2D``; ``isam.update()`` timed over the second cycle.
 
+Memory: the growth of the resident set while each method's state is alive
+(glibc's mmap threshold fixed so freed matrices leave the resident set).
+
 ``.venv/bin/python benches/compare_large_map.py`` (``--sizes 200,1000``,
 ``--full-steps 5``). Writes ``benches/LARGE_MAP.md`` and
 ``benches/large_map.png``.
@@ -36,9 +39,11 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
+import contextlib  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
+from functools import partial  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -118,6 +123,11 @@ class NumpyBlockDgemm:
         self.dgemm(-1.0, PHt, Wt, beta=1.0, c=P.T, overwrite_c=1)
 
 
+def numpy_step(prob: bp.Problem) -> Callable[[np.ndarray, np.ndarray], None]:
+    """The step function of a new :class:`NumpyBlockDgemm`."""
+    return NumpyBlockDgemm(prob).step
+
+
 def ours(
     prob: bp.Problem, symmetric: bool, update: str
 ) -> Callable[[np.ndarray, np.ndarray], None]:
@@ -160,8 +170,9 @@ def time_steps(
     return (time.perf_counter() - t0) / timed
 
 
-def gtsam_mean(prob: bp.Problem, ids: np.ndarray, z: np.ndarray) -> float | None:
-    """Mean ``isam.update()`` time over steps R+1 .. 2R, or None without GTSAM."""
+def gtsam_mean(prob: bp.Problem, ids: np.ndarray, z: np.ndarray, held: list[int]) -> float | None:
+    """Mean ``isam.update()`` time over steps R+1 .. 2R, or None without GTSAM;
+    appends the resident set at the end (iSAM2 still alive) to ``held``."""
     try:
         import gtsam
         from gtsam.symbol_shorthand import L, X
@@ -199,7 +210,43 @@ def gtsam_mean(prob: bp.Problem, ids: np.ndarray, z: np.ndarray) -> float | None
         if k > R:
             total += time.perf_counter() - t0
         estimate = isam.calculateEstimatePose2(X(k))
+    held.append(rss())
     return total / R
+
+
+def _fixed_mmap_threshold() -> None:
+    """Makes glibc serve every block of 128 KiB or more by ``mmap`` and
+    give it back on free (no dynamic threshold), so that the resident set
+    follows what the live objects hold, numpy's and the Rust extension's
+    alike (both allocate through glibc's malloc)."""
+    import ctypes
+
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL("libc.so.6").mallopt(-3, 128 * 1024)  # M_MMAP_THRESHOLD
+
+
+def rss() -> int:
+    """Resident set size of this process, bytes (Linux ``/proc``)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def measured(
+    make: Callable[[], Callable[[np.ndarray, np.ndarray], None]],
+    ids: np.ndarray,
+    z: np.ndarray,
+    skip: int,
+    timed: int,
+) -> tuple[float, int]:
+    """``time_steps`` of the step function ``make`` builds, and the growth of
+    the resident set from before ``make`` to the end of the timed steps (the
+    method's state: its covariance and workspace), bytes."""
+    before = rss()
+    step = make()
+    t = time_steps(step, ids, z, skip, timed)
+    held = rss() - before
+    del step
+    return t, held
 
 
 def fmt(t: float | None) -> str:
@@ -226,28 +273,42 @@ def main() -> None:
         "GTSAM iSAM2",
     ]
     results: dict[str, list[float | None]] = {name: [] for name in names}
+    memory: dict[str, list[int | None]] = {name: [] for name in names}
+    gtsam_rss: list[int] = []
+    _fixed_mmap_threshold()
     for n in sizes:
         prob = make_large(n)
         ids, z = stream(prob, (1 + COMPRESSED_CYCLES) * R)
         full = min(args.full_steps, 3 if n >= 5000 else args.full_steps)
-        res = {
-            "ours compressed": time_steps(
-                ours(prob, True, "compressed"), ids, z, R, COMPRESSED_CYCLES * R
-            ),
-            "ours full Symmetric": time_steps(ours(prob, True, "full"), ids, z, 2, full),
-            "ours full Joseph": time_steps(ours(prob, False, "full"), ids, z, 2, full),
-            "numpy block+dgemm": time_steps(NumpyBlockDgemm(prob).step, ids, z, 2, full),
-            "GTSAM iSAM2": gtsam_mean(prob, ids, z),
+        makers = {
+            "ours compressed": (partial(ours, prob, True, "compressed"), R, COMPRESSED_CYCLES * R),
+            "ours full Symmetric": (partial(ours, prob, True, "full"), 2, full),
+            "ours full Joseph": (partial(ours, prob, False, "full"), 2, full),
+            "numpy block+dgemm": (partial(numpy_step, prob), 2, full),
         }
+        res: dict[str, float | None] = {}
+        for name, (make, skip, timed) in makers.items():
+            res[name], grown = measured(make, ids, z, skip, timed)
+            memory[name].append(grown)
+        before = rss()
+        res["GTSAM iSAM2"] = gtsam_mean(prob, ids, z, gtsam_rss)
+        memory["GTSAM iSAM2"].append(gtsam_rss[0] - before if gtsam_rss else None)
+        gtsam_rss.clear()
+        del makers
         for name in names:
             results[name].append(res[name])
         print(f"n = {n}: " + ", ".join(f"{k} {fmt(v)}" for k, v in res.items()), flush=True)
         del prob
-    report(sizes, results, args.full_steps)
+    report(sizes, results, memory, args.full_steps)
     plot(sizes, results)
 
 
-def report(sizes: list[int], results: dict[str, list[float | None]], full_steps: int) -> None:
+def report(
+    sizes: list[int],
+    results: dict[str, list[float | None]],
+    memory: dict[str, list[int | None]],
+    full_steps: int,
+) -> None:
     head = "| method | " + " | ".join(f"n = {n}" for n in sizes) + " |"
     rule = "|---|" + "---|" * len(sizes)
     lines = [
@@ -277,6 +338,17 @@ def report(sizes: list[int], results: dict[str, list[float | None]], full_steps:
             "—" if t is None or c is None else f"{t / c:.1f}×"
             for t, c in zip(ts, comp, strict=True)
         ]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    lines += [
+        "",
+        "Memory: growth of the resident set while the method's state is alive (its "
+        "covariance, auxiliaries and workspace; the problem's own P0 is not counted), MB:",
+        "",
+        head,
+        rule,
+    ]
+    for name, ms in memory.items():
+        cells = ["—" if m is None else f"{m / 1e6:.1f}" for m in ms]
         lines.append(f"| {name} | " + " | ".join(cells) + " |")
     big = [(n, t) for n, t in zip(sizes, comp, strict=True) if n >= 500 and t is not None]
     if len(big) >= 2:
