@@ -178,7 +178,10 @@ def measure(name: str, log: bs.SensorLog, config: bs.Config, repeat: int) -> Non
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument(
-        "--mrclam", type=Path, default=Path("/work/shared/datasets/mrclam/MRCLAM_Dataset6")
+        "--mrclam",
+        type=Path,
+        default=Path(__file__).resolve().parents[2] / "shared/datasets/mrclam/MRCLAM_Dataset6",
+        help="MRCLAM Dataset 6 (default: ../shared beside the checkout)",
     )
     ap.add_argument("--repeat", type=int, default=3)
     args = ap.parse_args()
