@@ -4,7 +4,7 @@
 //! A Monte Carlo run over seeds must vary everything a scenario leaves to
 //! chance. The encoders and the bearing sensor draw their noise from their
 //! own streams; this module draws, once per run and from its own stream
-//! ([`stream_rng`] with `STREAM_VARIATION`), in this order:
+//! (`scenario::stream_rng` with `STREAM_VARIATION`), in this order:
 //!
 //! 1. the start pose: `x₀ + σ_x z₁`, `y₀ + σ_y z₂`, `θ₀ + σ_θ z₃`
 //!    (`zᵢ ~ N(0, 1)`) around the scenario's `initial_pose` (or the start of
@@ -17,7 +17,6 @@
 //! the same log as before this module existed. The filter is told the true
 //! start (the log's `info.initial_pose`), as for a scenario without variation.
 //!
-//! [`stream_rng`]: crate::scenario::stream_rng
 
 use crate::error::{Result, check_non_negative};
 use crate::friction::FrictionPatch;
