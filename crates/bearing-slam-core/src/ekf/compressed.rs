@@ -21,9 +21,9 @@
 //! The filter keeps `P_AA` (current), `P_{·A}(0)` (the `cross` columns,
 //! dense N×a, with the A rows zeroed), `Φ` and `Ψ` beside the covariance
 //! storage; the storage itself holds `P(0)` until the global update, which
-//! applies `P_BB −= P_BA(0) (Ψ P_AB(0))` with the filter's tiled triangle
-//! kernel ([`triangle_update`]), writes `P_AB = Φ P_AB(0)` and `P_AA` back,
-//! and ends the phase.
+//! applies `P_BB −= P_BA(0) (Ψ P_AB(0))` on the lower triangle with faer's
+//! triangular matrix product (`lower_rank_update`), writes `P_AB = Φ P_AB(0)`
+//! and `P_AA` back, and ends the phase.
 //!
 //! **Choosing A: growth, and a global update only at a cap.** When an
 //! update's batch touches states outside `A`, they **join** the phase
