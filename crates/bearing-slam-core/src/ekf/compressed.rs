@@ -321,7 +321,7 @@ impl Ekf {
     }
 
     /// Ends the compressed EKF's local phase, if any: the global update
-    /// `P_BB −= P_BA(0) Ψ P_AB(0)` (tiled triangle kernel, O(n² a)),
+    /// `P_BB −= P_BA(0) Ψ P_AB(0)` (faer's triangular product, O(n² a)),
     /// `P_AB = Φ P_AB(0)` and `P_AA` written back (Guivant & Nebot (2001)).
     /// The filter's value (mean and covariance) does not change; only its
     /// storage. A no-op in [`UpdateMode::Full`].
