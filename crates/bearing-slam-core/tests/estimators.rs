@@ -6,34 +6,16 @@
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
-use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::names::Named;
-use bearing_slam_core::runner::{OdometryConfig, RunConfig, run};
+use bearing_slam_core::runner::{RunConfig, run};
 use bearing_slam_core::score::summarize;
-use bearing_slam_core::slam::SlamConfig;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 
 /// Fig. 4's straight run, cut short (40 steps, 2 m).
 fn short() -> (KinematicScenario, RunConfig) {
     let mut s = KinematicScenario::paper_fig4(false);
     s.wheel_steps.truncate(40);
-    let config = RunConfig {
-        slam: SlamConfig {
-            bearing_sigma: s.bearing_sigma,
-            ..SlamConfig::default()
-        },
-        odometry: OdometryConfig::Wheels(
-            DiffDriveModel::new(
-                s.wheel_base_m,
-                WheelNoise {
-                    floor_sigma_m: s.encoder_floor_sigma_m,
-                    scale_sqrt_m: s.encoder_scale_sqrt_m,
-                },
-            )
-            .unwrap(),
-        ),
-        use_range: false,
-    };
+    let config = s.run_config().unwrap();
     (s, config)
 }
 

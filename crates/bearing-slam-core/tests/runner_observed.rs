@@ -6,29 +6,11 @@
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::log::EventKind;
-use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam_core::runner::{OdometryConfig, RunConfig, run, run_observed};
-use bearing_slam_core::slam::SlamConfig;
+use bearing_slam_core::runner::{RunConfig, run, run_observed};
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 
 fn run_config(s: &KinematicScenario) -> RunConfig {
-    RunConfig {
-        slam: SlamConfig {
-            bearing_sigma: s.bearing_sigma,
-            ..SlamConfig::default()
-        },
-        odometry: OdometryConfig::Wheels(
-            DiffDriveModel::new(
-                s.wheel_base_m,
-                WheelNoise {
-                    floor_sigma_m: s.encoder_floor_sigma_m,
-                    scale_sqrt_m: s.encoder_scale_sqrt_m,
-                },
-            )
-            .unwrap(),
-        ),
-        use_range: false,
-    }
+    s.run_config().unwrap()
 }
 
 #[test]

@@ -4,10 +4,8 @@
 
 #![allow(clippy::unwrap_used)]
 
-use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam_core::runner::{OdometryConfig, RunConfig};
+use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
-use bearing_slam_core::slam::SlamConfig;
 use bearing_slam_core::smoother::{
     FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SolverConfig, run_from_log,
 };
@@ -33,23 +31,7 @@ fn scenario() -> KinematicScenario {
 }
 
 fn run_config(s: &KinematicScenario) -> RunConfig {
-    RunConfig {
-        slam: SlamConfig {
-            bearing_sigma: s.bearing_sigma,
-            ..SlamConfig::default()
-        },
-        odometry: OdometryConfig::Wheels(
-            DiffDriveModel::new(
-                s.wheel_base_m,
-                WheelNoise {
-                    floor_sigma_m: s.encoder_floor_sigma_m,
-                    scale_sqrt_m: s.encoder_scale_sqrt_m,
-                },
-            )
-            .unwrap(),
-        ),
-        use_range: false,
-    }
+    s.run_config().unwrap()
 }
 
 #[test]

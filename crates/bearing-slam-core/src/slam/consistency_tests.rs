@@ -10,7 +10,7 @@ use crate::landmark::Parameterization;
 use crate::log::{EventKind, LandmarkTruth, SensorLog};
 use crate::measurement::{BearingToInverseDepth, BearingToPoint};
 use crate::model::MeasurementModel;
-use crate::motion::{DiffDriveModel, WheelNoise};
+use crate::motion::DiffDriveModel;
 use crate::testing::check_covariance;
 use crate::testing::kinematic::KinematicScenario;
 use nalgebra::{DMatrix, Matrix1, Matrix3};
@@ -40,14 +40,7 @@ fn scenario() -> KinematicScenario {
 }
 
 fn model(s: &KinematicScenario) -> DiffDriveModel {
-    DiffDriveModel::new(
-        s.wheel_base_m,
-        WheelNoise {
-            floor_sigma_m: s.encoder_floor_sigma_m,
-            scale_sqrt_m: s.encoder_scale_sqrt_m,
-        },
-    )
-    .expect("valid model")
+    s.wheel_model().expect("valid model")
 }
 
 fn config(consistency: Consistency, initializer: InitializerConfig) -> SlamConfig {

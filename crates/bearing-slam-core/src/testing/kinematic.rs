@@ -3,10 +3,14 @@
 //! encoders report them with Gaussian noise, and a 360° bearing sensor sees
 //! every landmark in range with Gaussian noise. Seeded and deterministic.
 
+use crate::error::Result;
 use crate::geometry::{Pose2, wrap_angle};
 use crate::log::{
     BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, WheelOdometry,
 };
+use crate::motion::{DiffDriveModel, WheelNoise};
+use crate::runner::{OdometryConfig, RunConfig};
+use crate::slam::SlamConfig;
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, Normal};
@@ -85,6 +89,38 @@ impl KinematicScenario {
             bearing_sigma: 1f64.to_radians(),
             max_range_m: 200.0,
         }
+    }
+
+    /// The diff-drive model of this robot: its wheel base and encoder noise,
+    /// what a filter run on its log predicts with.
+    ///
+    /// # Errors
+    /// A non-positive wheel base or negative noise.
+    pub fn wheel_model(&self) -> Result<DiffDriveModel> {
+        DiffDriveModel::new(
+            self.wheel_base_m,
+            WheelNoise {
+                floor_sigma_m: self.encoder_floor_sigma_m,
+                scale_sqrt_m: self.encoder_scale_sqrt_m,
+            },
+        )
+    }
+
+    /// The run configuration for this scenario's log: the default filter
+    /// with the scenario's bearing σ, wheel odometry by
+    /// [`Self::wheel_model`], bearings only.
+    ///
+    /// # Errors
+    /// As [`Self::wheel_model`].
+    pub fn run_config(&self) -> Result<RunConfig> {
+        Ok(RunConfig {
+            slam: SlamConfig {
+                bearing_sigma: self.bearing_sigma,
+                ..SlamConfig::default()
+            },
+            odometry: OdometryConfig::Wheels(self.wheel_model()?),
+            use_range: false,
+        })
     }
 
     /// Simulates the run: per step a `Wheels` event (noisy encoders), the true
