@@ -21,6 +21,7 @@ pub mod log;
 pub mod measurement;
 pub mod metrics;
 pub mod model;
+pub mod mono;
 pub mod motion;
 pub mod names;
 pub mod online;

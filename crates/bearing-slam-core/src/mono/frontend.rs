@@ -1,0 +1,65 @@
+//! The contract between a monocular filter and an image front end.
+//!
+//! Each frame the front end asks the filter where to look
+//! ([`MonoFilter::search_regions`]: a predicted pixel and the innovation
+//! covariance `S_i = H_i P H_iᵀ + R` of every tracked feature, Munguía &
+//! Grau (30)), searches the image only inside the ellipse of `S_i`, and
+//! hands back what it found and what it missed
+//! ([`MonoFilter::update`]); it proposes new features where the map is
+//! thin ([`MonoFilter::add_features`]).
+
+use crate::error::Result;
+use nalgebra::{Matrix2, UnitQuaternion, Vector2, Vector3};
+
+/// Where the filter expects one feature in the next image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchRegion {
+    /// The feature's id (a map landmark or a candidate still being triangulated).
+    pub feature_id: u64,
+    /// The predicted pixel `(u, v)` (distorted image coordinates).
+    pub predicted_px: Vector2<f64>,
+    /// The innovation covariance `S_i`, pixels² (30); the front end searches
+    /// the ellipse `νᵀ S_i⁻¹ ν ≤ χ²` around `predicted_px`.
+    pub innovation_cov: Matrix2<f64>,
+}
+
+/// A feature found in the image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PixelObservation {
+    /// The feature's id, as in its [`SearchRegion`].
+    pub feature_id: u64,
+    /// The measured pixel `(u, v)` (distorted image coordinates).
+    pub px: Vector2<f64>,
+}
+
+/// The camera's pose in the world: `world_from_camera`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraPose {
+    /// The optical centre `r` in the world frame, metres (or map units
+    /// before the scale is fixed).
+    pub position: Vector3<f64>,
+    /// The rotation from camera to world coordinates (`q` of (25)).
+    pub orientation: UnitQuaternion<f64>,
+}
+
+/// A monocular filter as an image front end drives it, one frame at a time.
+pub trait MonoFilter {
+    /// Propagates the camera by `dt` seconds (constant velocity, (25)(26)).
+    fn predict(&mut self, dt: f64) -> Result<()>;
+
+    /// Where every tracked feature (mapped landmarks and candidates) should
+    /// appear in the current image, with its innovation covariance.
+    fn search_regions(&self) -> Result<Vec<SearchRegion>>;
+
+    /// Corrects the state with the features `found` in the current image;
+    /// `missed` are the ids searched for and not found (a feature missed
+    /// too often leaves the map).
+    fn update(&mut self, found: &[PixelObservation], missed: &[u64]) -> Result<()>;
+
+    /// Starts tracking new features seen at `px` in the current image;
+    /// returns their ids, in order.
+    fn add_features(&mut self, px: &[Vector2<f64>]) -> Result<Vec<u64>>;
+
+    /// The camera's current pose estimate.
+    fn camera_pose(&self) -> CameraPose;
+}
