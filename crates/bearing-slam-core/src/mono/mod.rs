@@ -9,6 +9,20 @@
 //! outside the core, in the `bearing-slam-vision` crate; it talks to the
 //! filter through the types of [`frontend`] only.
 
+pub mod camera;
+pub mod config;
+pub mod filter;
 pub mod frontend;
+pub mod init;
+pub mod landmark;
+pub mod metrics;
+pub mod motion;
+pub mod observation;
+pub mod quaternion;
 
-pub use frontend::{CameraPose, MonoFilter, PixelObservation, SearchRegion};
+pub use camera::PinholeCamera;
+pub use config::{MonoConfig, MonoStart};
+pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
+pub use frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
+pub use init::MonoInitializer;
+pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
