@@ -45,12 +45,12 @@ impl MonoConfig {
         Self {
             camera,
             motion: ConstantVelocity {
-                linear_accel_sigma: 4.0,
-                angular_accel_sigma: 6.0,
+                linear_accel_sigma: 2.0,
+                angular_accel_sigma: 3.0,
             },
             pixel_sigma: 1.0,
             initializer: MonoInitializer::Delayed(TriangulationConfig {
-                alpha_min: 5f64.to_radians(),
+                alpha_min: 10f64.to_radians(),
                 baseline_min: 0.3,
                 beta_min: 20f64.to_radians(),
                 candidate_timeout: f64::INFINITY,
@@ -63,6 +63,17 @@ impl MonoConfig {
             candidate_search_sigma: 15.0,
             candidate_nominal_depth: 3.0,
         }
+    }
+
+    /// The same with the first pose of each candidate cloned into the state
+    /// ([`MonoInitializer::DelayedWithClone`]).
+    #[must_use]
+    pub fn delayed_with_clone(camera: PinholeCamera) -> Self {
+        let mut config = Self::delayed(camera);
+        if let Some((t, _)) = config.initializer.triangulation() {
+            config.initializer = MonoInitializer::DelayedWithClone(t);
+        }
+        config
     }
 
     /// The same with the undelayed initializer and the prior `(ρ_ini, σ_ρ)`,
@@ -113,9 +124,8 @@ impl MonoConfig {
             MonoInitializer::Undelayed { rho_ini, sigma_rho } => {
                 crate::init::InverseDepthPrior::new(rho_ini, sigma_rho).map(|_| ())
             }
-            MonoInitializer::Delayed(t) => {
+            MonoInitializer::Delayed(mut t) | MonoInitializer::DelayedWithClone(mut t) => {
                 // An infinite timeout is allowed: candidates then leave by misses only.
-                let mut t = t;
                 if t.candidate_timeout == f64::INFINITY {
                     t.candidate_timeout = 1.0;
                 }

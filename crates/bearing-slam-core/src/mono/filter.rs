@@ -50,7 +50,20 @@ struct Pending {
     last_position: Vector3<f64>,
     last_ray: Vector3<f64>,
     misses: u32,
+    /// The clone of the first pose in the state (clone variant only).
+    clone: Option<u64>,
 }
+
+/// A copy of the camera's `[r, q]` in the state, shared by the candidates
+/// created in one frame.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct PoseClone {
+    offset: usize,
+    users: usize,
+}
+
+/// Size of a pose clone `[r, q]`.
+const CLONE_DIM: usize = 7;
 
 /// What the last [`MonoFilter::update`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -78,6 +91,11 @@ pub struct MonoSlam {
     candidates: BTreeMap<u64, Pending>,
     next_id: u64,
     last_report: MonoUpdateReport,
+    clones: BTreeMap<u64, PoseClone>,
+    next_clone: u64,
+    /// The clone of the current camera pose, if one was taken since the
+    /// camera last changed.
+    frame_clone: Option<u64>,
 }
 
 impl MonoSlam {
@@ -118,6 +136,9 @@ impl MonoSlam {
             candidates: BTreeMap::new(),
             next_id: 0,
             last_report: MonoUpdateReport::default(),
+            clones: BTreeMap::new(),
+            next_clone: 0,
+            frame_clone: None,
         })
     }
 
@@ -297,14 +318,74 @@ impl MonoSlam {
         let Some(feature) = self.landmarks.remove(&id) else {
             return Ok(());
         };
-        let len = feature.kind.dim();
-        self.ekf.remove_block(feature.offset, len)?;
+        self.remove_state_block(feature.offset, feature.kind.dim())
+    }
+
+    /// Removes `len` entries at `offset` from the state and moves the
+    /// landmarks and clones after them down.
+    fn remove_state_block(&mut self, offset: usize, len: usize) -> Result<()> {
+        self.ekf.remove_block(offset, len)?;
+        self.shift_after(offset, len);
+        Ok(())
+    }
+
+    fn shift_after(&mut self, offset: usize, len: usize) {
         for f in self.landmarks.values_mut() {
-            if f.offset > feature.offset {
+            if f.offset > offset {
                 f.offset -= len;
             }
         }
+        for c in self.clones.values_mut() {
+            if c.offset > offset {
+                c.offset -= len;
+            }
+        }
+    }
+
+    /// The clone of the current camera pose, taken at the first request
+    /// since the camera last changed, with one more user.
+    fn acquire_clone(&mut self) -> Result<u64> {
+        let id = match self.frame_clone {
+            Some(id) => id,
+            None => {
+                let offset = self.ekf.clone_block(POSITION, CLONE_DIM)?;
+                let id = self.next_clone;
+                self.next_clone += 1;
+                self.clones.insert(id, PoseClone { offset, users: 0 });
+                self.frame_clone = Some(id);
+                id
+            }
+        };
+        if let Some(c) = self.clones.get_mut(&id) {
+            c.users += 1;
+        }
+        Ok(id)
+    }
+
+    /// One user less for a clone; it leaves the state at zero.
+    fn release_clone(&mut self, id: Option<u64>) -> Result<()> {
+        let Some(id) = id else {
+            return Ok(());
+        };
+        let Some(clone) = self.clones.get_mut(&id) else {
+            return Ok(());
+        };
+        clone.users = clone.users.saturating_sub(1);
+        if clone.users == 0 {
+            let offset = clone.offset;
+            self.clones.remove(&id);
+            if self.frame_clone == Some(id) {
+                self.frame_clone = None;
+            }
+            self.remove_state_block(offset, CLONE_DIM)?;
+        }
         Ok(())
+    }
+
+    /// Forgets a candidate and releases its clone.
+    fn drop_candidate(&mut self, id: u64) -> Result<()> {
+        let clone = self.candidates.remove(&id).and_then(|c| c.clone);
+        self.release_clone(clone)
     }
 
     /// Renormalizes the quaternion after an update, `q ← q/‖q‖`, with the
@@ -389,12 +470,25 @@ impl MonoSlam {
         added_noise: &SMatrix<f64, 6, 6>,
         origin: FeatureOrigin,
     ) -> Result<()> {
+        let jacobians = [BlockJacobian {
+            offset: 0,
+            jacobian: DMatrix::from_column_slice(6, CAMERA_DIM, j_camera.as_slice()),
+        }];
+        self.insert_with(id, landmark, &jacobians, added_noise, origin)
+    }
+
+    /// [`MonoSlam::insert`] with Jacobians on any state blocks.
+    fn insert_with(
+        &mut self,
+        id: u64,
+        landmark: &InverseDepth3,
+        jacobians: &[BlockJacobian],
+        added_noise: &SMatrix<f64, 6, 6>,
+        origin: FeatureOrigin,
+    ) -> Result<()> {
         let offset = self.ekf.augment(
             &DVector::from_column_slice(landmark.as_slice()),
-            &[BlockJacobian {
-                offset: 0,
-                jacobian: DMatrix::from_column_slice(6, CAMERA_DIM, j_camera.as_slice()),
-            }],
+            jacobians,
             &DMatrix::from_column_slice(6, 6, added_noise.as_slice()),
         )?;
         self.landmarks.insert(
@@ -426,11 +520,17 @@ impl MonoSlam {
     }
 
     /// A new candidate from a first sighting (16).
-    fn new_candidate(&self, px: &Vector2<f64>) -> Result<Pending> {
+    fn new_candidate(&mut self, px: &Vector2<f64>) -> Result<Pending> {
         let state = self.camera_state()?;
         let q = state.fixed_rows::<4>(QUATERNION).into_owned();
         let ray = world_ray(&self.config.camera, &q, px)?;
         let cov = self.camera_covariance()?;
+        let cloning = matches!(self.config.initializer.triangulation(), Some((_, true)));
+        let clone = if cloning {
+            Some(self.acquire_clone()?)
+        } else {
+            None
+        };
         Ok(Pending {
             candidate: Candidate3 {
                 position: state.fixed_rows::<3>(POSITION).into_owned(),
@@ -441,18 +541,25 @@ impl MonoSlam {
             last_position: state.fixed_rows::<3>(POSITION).into_owned(),
             last_ray: ray.ray,
             misses: 0,
+            clone,
         })
     }
 
     /// A candidate seen again at `px`: wait, restart, triangulate or place
     /// far, by the rule of [`decide_3d`]. Returns whether it entered the map.
     fn candidate_seen(&mut self, id: u64, px: &Vector2<f64>) -> Result<bool> {
-        let MonoInitializer::Delayed(config) = self.config.initializer else {
+        let Some((config, _)) = self.config.initializer.triangulation() else {
             return Ok(false);
         };
-        let Some(pending) = self.candidates.get(&id).copied() else {
+        let Some(mut pending) = self.candidates.get(&id).copied() else {
             return Ok(false);
         };
+        if let Some(clone) = pending.clone.and_then(|c| self.clones.get(&c).copied()) {
+            // The first pose as the state now knows it.
+            let pose = self.ekf.block::<CLONE_DIM>(clone.offset)?;
+            pending.candidate.position = pose.fixed_rows::<3>(0).into_owned();
+            pending.candidate.quaternion = pose.fixed_rows::<4>(3).into_owned();
+        }
         let state = self.camera_state()?;
         let camera = self.config.camera;
         let decision = decide_3d(&config, &camera, &pending.candidate, &state, px);
@@ -468,40 +575,57 @@ impl MonoSlam {
                 Ok(false)
             }
             Ok((CandidateDecision::Restart, _)) | Err(_) => {
-                match self.new_candidate(px) {
-                    Ok(fresh) => {
-                        self.candidates.insert(id, fresh);
-                    }
-                    Err(_) => {
-                        self.candidates.remove(&id);
-                    }
+                self.drop_candidate(id)?;
+                if let Ok(fresh) = self.new_candidate(px) {
+                    self.candidates.insert(id, fresh);
                 }
                 Ok(false)
             }
             Ok((CandidateDecision::Far, parallax)) => {
                 let prior = config.far_prior(&parallax)?;
-                self.candidates.remove(&id);
+                self.drop_candidate(id)?;
                 self.insert_undelayed(id, px, prior.rho_ini, prior.sigma_rho, FeatureOrigin::Far)?;
                 Ok(true)
             }
             Ok((CandidateDecision::Triangulate, _)) => {
                 let t = triangulate_3d(&camera, &pending.candidate, &state, px)?;
                 let r = self.pixel_noise();
-                // (22)(23): both pixels add their noise, and the first pose
-                // (not in the state) its stored covariance, the paper's R_i.
-                let added = t.j_landmark_px * r * t.j_landmark_px.transpose()
-                    + t.j_landmark_first_px * r * t.j_landmark_first_px.transpose()
-                    + t.j_landmark_first_pose
-                        * pending.candidate.pose_covariance
-                        * t.j_landmark_first_pose.transpose();
-                self.candidates.remove(&id);
-                self.insert(
+                // (22)(23): both pixels add their noise; the first pose is
+                // either a clone in the state (exact correlations) or, as in
+                // the paper, independent noise with its stored covariance R_i.
+                let mut added = t.j_landmark_px * r * t.j_landmark_px.transpose()
+                    + t.j_landmark_first_px * r * t.j_landmark_first_px.transpose();
+                let mut jacobians = vec![BlockJacobian {
+                    offset: 0,
+                    jacobian: DMatrix::from_column_slice(
+                        6,
+                        CAMERA_DIM,
+                        t.j_landmark_camera.as_slice(),
+                    ),
+                }];
+                match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
+                    Some(clone) => jacobians.push(BlockJacobian {
+                        offset: clone.offset,
+                        jacobian: DMatrix::from_column_slice(
+                            6,
+                            CLONE_DIM,
+                            t.j_landmark_first_pose.as_slice(),
+                        ),
+                    }),
+                    None => {
+                        added += t.j_landmark_first_pose
+                            * pending.candidate.pose_covariance
+                            * t.j_landmark_first_pose.transpose();
+                    }
+                }
+                self.insert_with(
                     id,
                     &t.landmark,
-                    &t.j_landmark_camera,
+                    &jacobians,
                     &added,
                     FeatureOrigin::Triangulated,
                 )?;
+                self.drop_candidate(id)?;
                 Ok(true)
             }
         }
@@ -520,7 +644,7 @@ impl MonoSlam {
         } else if let Some(c) = self.candidates.get_mut(&id) {
             c.misses += 1;
             if c.misses >= limit {
-                self.candidates.remove(&id);
+                self.drop_candidate(id)?;
                 return Ok(true);
             }
         }
@@ -562,11 +686,7 @@ impl MonoSlam {
                 &DVector::from_column_slice(point.as_slice()),
                 &DMatrix::from_column_slice(3, 6, j.as_slice()),
             )?;
-            for f in self.landmarks.values_mut() {
-                if f.offset > feature.offset {
-                    f.offset -= 3;
-                }
-            }
+            self.shift_after(feature.offset, 3);
             if let Some(f) = self.landmarks.get_mut(&id) {
                 f.kind = Parameterization3::Xyz;
             }
@@ -616,7 +736,10 @@ impl MonoFilter for MonoSlam {
                 reason: "time step must be positive and finite",
             });
         }
-        self.ekf.predict::<CAMERA_DIM, _>(&self.config.motion, &dt)
+        self.ekf
+            .predict::<CAMERA_DIM, _>(&self.config.motion, &dt)?;
+        self.frame_clone = None;
+        Ok(())
     }
 
     fn search_regions(&self) -> Result<Vec<SearchRegion>> {
@@ -652,6 +775,10 @@ impl MonoFilter for MonoSlam {
         self.check_frame(found, missed)?;
         self.last_report = MonoUpdateReport::default();
         let rejected = self.update_map(found)?;
+        if self.last_report.used > 0 {
+            // The camera moved: later candidates need a clone of the new pose.
+            self.frame_clone = None;
+        }
         let mut initialized = 0;
         for o in found {
             if self.candidates.contains_key(&o.feature_id)
@@ -688,7 +815,7 @@ impl MonoFilter for MonoSlam {
                     self.next_id += 1;
                     ids.push(id);
                 }
-                MonoInitializer::Delayed(_) => {
+                MonoInitializer::Delayed(_) | MonoInitializer::DelayedWithClone(_) => {
                     let pending = self.new_candidate(p)?;
                     let id = self.fresh_id();
                     self.candidates.insert(id, pending);

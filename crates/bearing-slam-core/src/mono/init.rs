@@ -35,8 +35,27 @@ pub enum MonoInitializer {
         /// Its standard deviation, 1/m.
         sigma_rho: f64,
     },
-    /// The paper's delayed stochastic triangulation (MTE) with 3-D rays.
+    /// The paper's delayed stochastic triangulation (MTE) with 3-D rays; the
+    /// first pose enters (22)(23) as independent noise with the covariance
+    /// stored in the candidate (the paper's `R_i`).
     Delayed(TriangulationConfig),
+    /// MTE with the first pose `[r₁, q₁]` cloned into the state while the
+    /// candidate waits (shared by the candidates of one frame), so that (23)
+    /// carries its exact correlations with the camera and the map.
+    DelayedWithClone(TriangulationConfig),
+}
+
+impl MonoInitializer {
+    /// The delayed method's parameters and whether it clones the first
+    /// pose; `None` for the undelayed method.
+    #[must_use]
+    pub fn triangulation(&self) -> Option<(TriangulationConfig, bool)> {
+        match *self {
+            MonoInitializer::Undelayed { .. } => None,
+            MonoInitializer::Delayed(c) => Some((c, false)),
+            MonoInitializer::DelayedWithClone(c) => Some((c, true)),
+        }
+    }
 }
 
 /// A world-frame ray through a pixel with its Jacobians.

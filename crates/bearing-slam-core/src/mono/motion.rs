@@ -97,14 +97,9 @@ impl MotionModel<CAMERA_DIM> for ConstantVelocity {
         f.fixed_view_mut::<4, 3>(QUATERNION, ANGULAR_VELOCITY)
             .copy_from(&j_q_w);
 
-        // G: ∂f/∂[V, Ω] (13×6); the impulses enter exactly where v and ω do.
-        let mut g = SMatrix::<f64, CAMERA_DIM, 6>::zeros();
-        g.fixed_view_mut::<3, 3>(POSITION, 0)
-            .copy_from(&(Matrix3::identity() * dt));
-        g.fixed_view_mut::<3, 3>(VELOCITY, 0).fill_with_identity();
-        g.fixed_view_mut::<4, 3>(QUATERNION, 3).copy_from(&j_q_w);
-        g.fixed_view_mut::<3, 3>(ANGULAR_VELOCITY, 3)
-            .fill_with_identity();
+        // G = ∂f/∂[V, Ω]: the impulses enter exactly where v and ω do, so
+        // G is F's columns of [v, ω].
+        let g = f.fixed_columns::<6>(VELOCITY).into_owned();
         let sv = (self.linear_accel_sigma * dt).powi(2);
         let sw = (self.angular_accel_sigma * dt).powi(2);
         let noise = SVector::<f64, 6>::new(sv, sv, sv, sw, sw, sw);

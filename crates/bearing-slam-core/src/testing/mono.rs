@@ -35,17 +35,21 @@ pub struct MonoScenario {
     pub pixel_sigma: f64,
 }
 
+/// Frames of the desk sweep (10 s at 30 Hz).
+pub const SWEEP_FRAMES: usize = 300;
+
 /// Number of known reference points at the start of [`MonoScenario::points`].
 pub const REFERENCE_POINTS: usize = 4;
 
 impl MonoScenario {
     /// The desk scene: a 640×480 camera (f = 400 px, mild barrel
-    /// distortion) at 30 Hz for `frames` frames of a `duration`-second
-    /// sweep: 2 m to the right, 0.4 m forward and back, a little up and
-    /// down, turning up to about 17° toward the scene, starting at rest.
-    /// Points: 4 reference corners of a 30×20 cm sheet 2 m ahead, and
-    /// `n_points` more drawn with `seed` (a back wall 4–6 m, a desk plane
-    /// 0.8 m below the camera, and scattered points in between).
+    /// distortion) at 30 Hz along a 10-second sweep ([`SWEEP_FRAMES`]
+    /// frames): 2 m to the right, 0.4 m forward and back, a little up and
+    /// down, turning up to about 17° toward the scene, starting at rest;
+    /// `frames` frames of it (fewer for a short run, more to stand still at
+    /// the end). Points: 4 reference corners of a 30×20 cm sheet 1.2 m
+    /// ahead, and `n_points` more drawn with `seed` (a back wall 4–6 m, a
+    /// desk plane 0.8 m below the camera, and scattered points in between).
     #[must_use]
     pub fn desk(seed: u64, frames: usize, n_points: usize) -> Self {
         let camera = PinholeCamera {
@@ -60,10 +64,10 @@ impl MonoScenario {
         };
         let mut rng = StdRng::seed_from_u64(seed);
         let mut points = vec![
-            Vector3::new(-0.15, 0.2, 2.0),
-            Vector3::new(0.15, 0.2, 2.0),
-            Vector3::new(0.15, 0.4, 2.0),
-            Vector3::new(-0.15, 0.4, 2.0),
+            Vector3::new(-0.15, 0.1, 1.2),
+            Vector3::new(0.15, 0.1, 1.2),
+            Vector3::new(0.15, 0.3, 1.2),
+            Vector3::new(-0.15, 0.3, 1.2),
         ];
         for i in 0..n_points {
             let p = match i % 3 {
@@ -82,11 +86,11 @@ impl MonoScenario {
             points.push(p);
         }
         let dt = 1.0 / 30.0;
-        let duration = (frames.max(2) - 1) as f64 * dt;
+        let duration = (SWEEP_FRAMES - 1) as f64 * dt;
         let mut positions = Vec::with_capacity(frames);
         let mut quaternions = Vec::with_capacity(frames);
         for k in 0..frames {
-            let u = k as f64 * dt / duration; // 0 → 1
+            let u = (k as f64 * dt / duration).min(1.0); // 0 → 1
             let pi = std::f64::consts::PI;
             let s = 0.5 * (1.0 - (pi * u).cos());
             positions.push(Vector3::new(
@@ -176,8 +180,8 @@ pub struct MonoRunResult {
     pub states: Vec<CameraState>,
     /// 6-DOF pose NEES per frame (`None` where the covariance is singular).
     pub pose_nees: Vec<Option<f64>>,
-    /// The final map: `(true point index, estimated point)`.
-    pub map: Vec<(usize, Vector3<f64>)>,
+    /// The final map: `(true point index, estimated point, its covariance)`.
+    pub map: Vec<(usize, Vector3<f64>, Matrix3<f64>)>,
     /// Map landmarks per frame.
     pub map_sizes: Vec<usize>,
 }
@@ -341,7 +345,7 @@ impl<'a> MonoSimulation<'a> {
         }
         for p in filter.landmarks() {
             if let Some(i) = self.truth_of(p.feature_id) {
-                result.map.push((i, p.position));
+                result.map.push((i, p.position, p.covariance));
             }
         }
         Ok(result)
