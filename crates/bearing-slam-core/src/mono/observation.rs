@@ -36,27 +36,29 @@ fn pose_parts(vehicle: &SVector<f64, CAMERA_DIM>) -> (Vector3<f64>, Vector4<f64>
     )
 }
 
+/// A world-frame ray projected: the pixel, `∂px/∂h^C`, `R^{CW}` and `∂h^C/∂q`.
+struct ProjectedRay {
+    px: Vector2<f64>,
+    j_px_h: SMatrix<f64, 2, 3>,
+    r_cw: Matrix3<f64>,
+    j_h_q: SMatrix<f64, 3, 4>,
+}
+
 /// Projects the world-frame ray `h_w` (already scaled) seen by a camera at
-/// orientation `q`, returning the pixel, `∂px/∂h^C`, `R^{CW}` and `∂h^C/∂q`.
+/// orientation `q`.
 fn project_world_ray(
     camera: &PinholeCamera,
     q: &Vector4<f64>,
     h_w: &Vector3<f64>,
-) -> Result<(
-    Vector2<f64>,
-    SMatrix<f64, 2, 3>,
-    Matrix3<f64>,
-    SMatrix<f64, 3, 4>,
-)> {
+) -> Result<ProjectedRay> {
     let r_cw = rotation(q).transpose();
-    let h_c = r_cw * h_w;
-    let projection = camera.project(&h_c)?;
-    Ok((
-        projection.px,
-        projection.j_px_point,
+    let projection = camera.project(&(r_cw * h_w))?;
+    Ok(ProjectedRay {
+        px: projection.px,
+        j_px_h: projection.j_px_point,
         r_cw,
-        rotate_inverse_jacobian(q, h_w),
-    ))
+        j_h_q: rotate_inverse_jacobian(q, h_w),
+    })
 }
 
 impl MeasurementModel<CAMERA_DIM, 6, 2> for InverseDepthPixel {
@@ -70,7 +72,12 @@ impl MeasurementModel<CAMERA_DIM, 6, 2> for InverseDepthPixel {
         let (theta, phi, rho) = (landmark[3], landmark[4], landmark[5]);
         let m = direction(theta, phi);
         let h_w = (anchor - r) * rho + m;
-        let (px, j_px_h, r_cw, j_h_q) = project_world_ray(&self.camera, &q, &h_w)?;
+        let ProjectedRay {
+            px,
+            j_px_h,
+            r_cw,
+            j_h_q,
+        } = project_world_ray(&self.camera, &q, &h_w)?;
         let mut j_h_vehicle = SMatrix::<f64, 3, CAMERA_DIM>::zeros();
         j_h_vehicle
             .fixed_view_mut::<3, 3>(0, POSITION)
@@ -106,7 +113,12 @@ impl MeasurementModel<CAMERA_DIM, 3, 2> for XyzPixel {
     ) -> Result<MeasurementPrediction<CAMERA_DIM, 3, 2>> {
         let (r, q) = pose_parts(vehicle);
         let h_w = landmark - r;
-        let (px, j_px_h, r_cw, j_h_q) = project_world_ray(&self.camera, &q, &h_w)?;
+        let ProjectedRay {
+            px,
+            j_px_h,
+            r_cw,
+            j_h_q,
+        } = project_world_ray(&self.camera, &q, &h_w)?;
         let mut j_h_vehicle = SMatrix::<f64, 3, CAMERA_DIM>::zeros();
         j_h_vehicle
             .fixed_view_mut::<3, 3>(0, POSITION)
