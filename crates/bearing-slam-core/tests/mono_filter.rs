@@ -243,3 +243,22 @@ fn sim3_alignment_recovers_a_similarity() {
         "a rigid alignment cannot undo the scale: {rigid}"
     );
 }
+
+#[test]
+fn start_from_two_poses_carries_their_velocity() {
+    let q = |angle: f64| {
+        let u = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::y_axis(), angle);
+        nalgebra::Vector4::new(u.w, u.i, u.j, u.k)
+    };
+    let (r0, r1) = (Vector3::new(0.0, 0.0, 0.0), Vector3::new(0.1, 0.0, 0.05));
+    let start =
+        MonoStart::from_two_poses((&r0, &q(0.0)), (&r1, &q(0.01)), 0.1, 0.01, 0.01).expect("start");
+    let scenario = MonoScenario::desk(1, 2, 4);
+    let mut filter = MonoSlam::new(MonoConfig::delayed(scenario.camera), &start).expect("filter");
+    filter.predict(0.1).expect("predict");
+    let pose = filter.camera_pose();
+    assert!((pose.position - Vector3::new(0.2, 0.0, 0.1)).norm() < 1e-12);
+    let expected = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.02);
+    assert!(pose.orientation.angle_to(&expected) < 1e-9);
+    assert!(MonoStart::from_two_poses((&r0, &q(0.0)), (&r1, &q(0.01)), 0.0, 0.01, 0.01).is_err());
+}

@@ -174,4 +174,55 @@ impl MonoStart {
             angular_velocity_sigma,
         }
     }
+
+    /// The start for data without a metric reference (KITTI): the second
+    /// of two known poses `(position, q^{WC})` taken `dt` seconds apart,
+    /// with the velocities they imply, `v = (r₁ − r₀)/Δt` and
+    /// `ω Δt = log(q₀⁻¹ × q₁)` (camera frame, as in (25)); the pose exact and
+    /// the velocities with the given σ. The scale then comes from `v` only.
+    pub fn from_two_poses(
+        first: (&Vector3<f64>, &Vector4<f64>),
+        second: (&Vector3<f64>, &Vector4<f64>),
+        dt: f64,
+        velocity_sigma: f64,
+        angular_velocity_sigma: f64,
+    ) -> Result<Self> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(SlamError::InvalidParameter {
+                name: "dt",
+                value: dt,
+                reason: "time step must be positive and finite",
+            });
+        }
+        for &v in first
+            .0
+            .iter()
+            .chain(first.1.iter())
+            .chain(second.0.iter())
+            .chain(second.1.iter())
+        {
+            crate::error::ensure_finite("start pose", v)?;
+        }
+        let unit = |q: &Vector4<f64>| {
+            super::quaternion::normalize(q)
+                .map(|(u, _)| {
+                    nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                        u[0], u[1], u[2], u[3],
+                    ))
+                })
+                .ok_or(SlamError::Degenerate("start quaternion is zero"))
+        };
+        let (q0, q1) = (unit(first.1)?, unit(second.1)?);
+        let omega = (q0.inverse() * q1).scaled_axis() / dt;
+        Ok(Self {
+            position: *second.0,
+            quaternion: Vector4::new(q1.w, q1.i, q1.j, q1.k),
+            velocity: (second.0 - first.0) / dt,
+            angular_velocity: omega,
+            position_sigma: 0.0,
+            quaternion_sigma: 0.0,
+            velocity_sigma,
+            angular_velocity_sigma,
+        })
+    }
 }
