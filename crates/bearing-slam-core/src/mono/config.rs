@@ -18,7 +18,10 @@ pub struct MonoConfig {
     pub motion: ConstantVelocity,
     /// Pixel noise σ of a matched feature (`R = σ² I`), pixels.
     pub pixel_sigma: f64,
-    /// How new features enter the map.
+    /// How new features enter the map. Of the delayed method's
+    /// [`TriangulationConfig`], `history` and `candidate_timeout` are not
+    /// used here: a candidate leaves by the miss rule
+    /// (`max_consecutive_misses`), as a frame-driven filter has no clock.
     pub initializer: MonoInitializer,
     /// Inverse-depth landmarks whose linearity index (Civera) falls below
     /// this become Euclidean points; 0 never converts.
