@@ -125,7 +125,7 @@ fn quaternion_stays_unit_and_covariance_psd_over_a_long_random_run() {
 #[test]
 fn features_missed_too_often_leave_and_candidates_search_wide() {
     let scenario = MonoScenario::desk(3, 2, 10);
-    let config = MonoConfig::delayed(scenario.camera);
+    let config = MonoConfig::delayed_with_clone(scenario.camera);
     let limit = config.max_consecutive_misses;
     let mut filter = MonoSlam::new(config, &scenario.start()).expect("filter");
     let known = filter
@@ -135,6 +135,8 @@ fn features_missed_too_often_leave_and_candidates_search_wide() {
         .add_features(&[Vector2::new(300.0, 200.0)])
         .expect("candidate")[0];
     assert_eq!(filter.candidate_ids(), vec![candidate]);
+    // The candidate's first pose is cloned into the state.
+    assert_eq!(filter.ekf().dim(), 13 + 4 * 3 + 7);
     let regions = filter.search_regions().expect("regions");
     let wide = regions
         .iter()
@@ -159,6 +161,7 @@ fn features_missed_too_often_leave_and_candidates_search_wide() {
     }
     assert_eq!(filter.landmark_ids(), known[1..].to_vec());
     assert_eq!(filter.landmark_origin(known[1]), Some(FeatureOrigin::Known));
+    // Both left, and the clone with the candidate.
     assert_eq!(filter.ekf().dim(), 13 + 3 * 3);
 }
 
@@ -261,4 +264,62 @@ fn start_from_two_poses_carries_their_velocity() {
     let expected = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.02);
     assert!(pose.orientation.angle_to(&expected) < 1e-9);
     assert!(MonoStart::from_two_poses((&r0, &q(0.0)), (&r1, &q(0.01)), 0.0, 0.01, 0.01).is_err());
+}
+
+#[test]
+fn delayed_rules_on_3d_rays_wait_triangulate_place_far_and_restart() {
+    use bearing_slam_core::init::{CandidateDecision, TriangulationConfig};
+    use bearing_slam_core::model::MeasurementModel;
+    use bearing_slam_core::mono::init::{Candidate3, decide_3d};
+    use bearing_slam_core::mono::motion::camera_state;
+    use bearing_slam_core::mono::observation::XyzPixel;
+    let scenario = MonoScenario::desk(1, 2, 4);
+    let camera = scenario.camera;
+    let config = TriangulationConfig {
+        alpha_min: 10f64.to_radians(),
+        baseline_min: 0.3,
+        ..TriangulationConfig::default()
+    };
+    let identity = nalgebra::Vector4::new(1.0, 0.0, 0.0, 0.0);
+    let at = |x: f64| {
+        camera_state(
+            &Vector3::new(x, 0.0, 0.0),
+            &identity,
+            &Vector3::zeros(),
+            &Vector3::zeros(),
+        )
+    };
+    let pixel = |x: f64, point: Vector3<f64>| {
+        XyzPixel { camera }
+            .predict(&at(x), &point)
+            .expect("visible")
+            .value
+    };
+    let decide = |point: Vector3<f64>, x: f64| {
+        let candidate = Candidate3 {
+            position: Vector3::zeros(),
+            quaternion: identity,
+            px: pixel(0.0, point),
+            pose_covariance: nalgebra::SMatrix::zeros(),
+        };
+        decide_3d(&config, &camera, &candidate, &at(x), &pixel(x, point)).expect("decision")
+    };
+    let near = Vector3::new(0.2, 0.1, 2.0);
+    assert_eq!(decide(near, 0.1).0, CandidateDecision::Wait);
+    let (decision, parallax) = decide(near, 0.6);
+    assert_eq!(decision, CandidateDecision::Triangulate);
+    assert!(parallax.alpha > config.alpha_min);
+    let far = Vector3::new(0.0, 0.0, 60.0);
+    assert_eq!(decide(far, 0.6).0, CandidateDecision::Far);
+    // The second ray crosses the first behind the first camera.
+    let candidate = Candidate3 {
+        position: Vector3::zeros(),
+        quaternion: identity,
+        px: pixel(0.0, Vector3::new(-0.3, 0.0, 2.0)),
+        pose_covariance: nalgebra::SMatrix::zeros(),
+    };
+    let diverging = pixel(0.6, Vector3::new(1.5, 0.0, 2.0));
+    let (decision, _) =
+        decide_3d(&config, &camera, &candidate, &at(0.6), &diverging).expect("decision");
+    assert_eq!(decision, CandidateDecision::Restart);
 }
