@@ -54,8 +54,8 @@ fn method(name: &str, camera: bearing_slam_core::mono::PinholeCamera) -> MonoCon
     }
 }
 
-fn score(name: &str, seed: u64, band: (f64, f64)) -> RunScore {
-    let scenario = MonoScenario::desk(seed, SWEEP_FRAMES, POINTS);
+fn score(name: &str, seed: u64, scale: f64, band: (f64, f64)) -> RunScore {
+    let scenario = MonoScenario::desk_scaled(seed, SWEEP_FRAMES, POINTS, scale);
     let path = scenario.path_length();
     let failed = RunScore {
         outcome: Outcome::Diverged,
@@ -156,7 +156,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for name in methods {
         let runs: Vec<RunScore> = (0..seeds)
             .into_par_iter()
-            .map(|seed| score(name, seed, band))
+            .map(|seed| score(name, seed, 1.0, band))
             .collect();
         let share = |o: Outcome| {
             100.0 * runs.iter().filter(|r| r.outcome == o).count() as f64 / runs.len() as f64
@@ -179,9 +179,35 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             100.0 * med(|r| r.nees_in_band),
         )?;
     }
+    writeln!(
+        report,
+        "\n### The desk scaled (converged % / median ATE in the metric frame, m)\n"
+    )?;
+    let scales = [0.25, 0.5, 1.0, 2.0, 4.0];
+    let header: Vec<String> = scales.iter().map(|s| format!("×{s}")).collect();
+    writeln!(report, "| method | {} |", header.join(" | "))?;
+    writeln!(report, "|---|{}", "---|".repeat(scales.len()))?;
+    for name in methods {
+        let mut cells = Vec::new();
+        for scale in scales {
+            let runs: Vec<RunScore> = (0..seeds)
+                .into_par_iter()
+                .map(|seed| score(name, seed, scale, band))
+                .collect();
+            let converged = 100.0
+                * runs
+                    .iter()
+                    .filter(|r| r.outcome == Outcome::Converged)
+                    .count() as f64
+                / runs.len() as f64;
+            let ate = median(runs.iter().map(|r| r.ate_raw).collect());
+            cells.push(format!("{converged:.0} % / {ate:.4}"));
+        }
+        writeln!(report, "| {name} | {} |", cells.join(" | "))?;
+    }
     println!("{report}");
     println!(
-        "{seeds} seeds x {} methods, {SWEEP_FRAMES} frames, path {path:.2} m, in {:.1} s",
+        "{seeds} seeds x {} methods (x 6 scenes), {SWEEP_FRAMES} frames, path {path:.2} m at scale 1, in {:.1} s",
         methods.len(),
         started.elapsed().as_secs_f64()
     );

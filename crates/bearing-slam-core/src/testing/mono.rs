@@ -33,6 +33,8 @@ pub struct MonoScenario {
     pub dt: f64,
     /// Pixel noise σ of the simulated matches, pixels.
     pub pixel_sigma: f64,
+    /// Points nearer than this in front of the camera are not seen, metres.
+    pub near_clip: f64,
 }
 
 /// Frames of the desk sweep (10 s at 30 Hz).
@@ -52,6 +54,15 @@ impl MonoScenario {
     /// desk plane 0.8 m below the camera, and scattered points in between).
     #[must_use]
     pub fn desk(seed: u64, frames: usize, n_points: usize) -> Self {
+        Self::desk_scaled(seed, frames, n_points, 1.0)
+    }
+
+    /// [`MonoScenario::desk`] with every length (points, path, near clip)
+    /// multiplied by `scale`: the same images, a nearer or farther world
+    /// (the test of a fixed inverse-depth prior, as the scaled runs of the
+    /// paper's Fig. 4).
+    #[must_use]
+    pub fn desk_scaled(seed: u64, frames: usize, n_points: usize, scale: f64) -> Self {
         let camera = PinholeCamera {
             fx: 400.0,
             fy: 400.0,
@@ -113,7 +124,17 @@ impl MonoScenario {
             quaternions,
             dt,
             pixel_sigma: 1.0,
+            near_clip: 0.3,
         }
+        .scaled(scale)
+    }
+
+    fn scaled(mut self, scale: f64) -> Self {
+        for p in self.points.iter_mut().chain(self.positions.iter_mut()) {
+            *p *= scale;
+        }
+        self.near_clip *= scale;
+        self
     }
 
     /// Length of the true path, metres.
@@ -130,7 +151,7 @@ impl MonoScenario {
     pub fn true_pixel(&self, k: usize, i: usize) -> Option<Vector2<f64>> {
         let r_cw: Matrix3<f64> = rotation(self.quaternions.get(k)?).transpose();
         let h = r_cw * (self.points.get(i)? - self.positions[k]);
-        if h.z < 0.3 {
+        if h.z < self.near_clip {
             return None;
         }
         let px = self.camera.project(&h).ok()?.px;
