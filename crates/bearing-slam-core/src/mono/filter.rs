@@ -61,6 +61,30 @@ pub struct MonoUpdateReport {
 }
 
 /// The 6-DOF monocular SLAM filter (Munguía & Grau §"SLAM monocular").
+///
+/// One frame as a front end drives it: predict, search, update, add.
+///
+/// ```
+/// use bearing_slam_core::mono::{MonoConfig, MonoFilter, MonoSlam, MonoStart, PinholeCamera, PixelObservation};
+/// use bearing_slam_core::nalgebra::{Vector2, Vector3};
+///
+/// let camera = PinholeCamera::new(400.0, 400.0, 320.0, 240.0, 0.0, 0.0, (640.0, 480.0))?;
+/// let mut slam = MonoSlam::new(MonoConfig::delayed(camera), &MonoStart::at_origin(0.1, 0.1))?;
+/// // The metric reference: known points fix the scale.
+/// let known = slam.add_known_points(&[Vector3::new(0.0, 0.0, 2.0)], 0.0)?;
+/// slam.predict(1.0 / 30.0)?;
+/// let regions = slam.search_regions()?;
+/// assert_eq!(regions[0].feature_id, known[0]);
+/// // The front end matches each feature inside the ellipse of its S_i ...
+/// let found = [PixelObservation { feature_id: known[0], px: Vector2::new(320.5, 240.0) }];
+/// slam.update(&found, &[])?;
+/// // ... and proposes new features where the map is thin.
+/// let ids = slam.add_features(&[Vector2::new(100.0, 80.0)])?;
+/// assert_eq!(slam.candidate_ids(), ids); // delayed: a candidate until it shows parallax
+/// let pose = slam.camera_pose();
+/// assert!(pose.position.norm() < 0.1);
+/// # Ok::<(), bearing_slam_core::SlamError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct MonoSlam {
     pub(super) config: MonoConfig,
