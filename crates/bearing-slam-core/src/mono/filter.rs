@@ -10,8 +10,10 @@
 use super::config::{MonoConfig, MonoStart};
 use super::delayed::{Pending, PoseClone};
 use super::frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
-use super::init::{MonoInitializer, undelayed};
-use super::landmark::{InverseDepth3, Parameterization3, inverse_depth_to_xyz, linearity_index_3d};
+use super::init::{MonoInitializer, undelayed, world_ray};
+use super::landmark::{
+    InverseDepth3, Parameterization3, inverse_depth_to_xyz, linearity_index_3d, ray_angles,
+};
 use super::motion::{CAMERA_DIM, CameraState, POSITION, QUATERNION};
 use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
@@ -640,9 +642,14 @@ impl MonoFilter for MonoSlam {
     }
 
     fn add_features(&mut self, px: &[Vector2<f64>]) -> Result<Vec<u64>> {
+        // Every pixel checked before any enters: an error leaves the filter
+        // unchanged (no feature without an id returned).
+        let q = self.ekf.block::<4>(QUATERNION)?;
         for p in px {
             ensure_finite("pixel u", p.x)?;
             ensure_finite("pixel v", p.y)?;
+            let ray = world_ray(&self.config.camera, &q, p)?;
+            ray_angles(&ray.ray)?;
         }
         let mut ids = Vec::with_capacity(px.len());
         for p in px {
