@@ -82,9 +82,11 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         return _cmd_experiment_acoustic(args)
     if args.name == "particles":
         return _cmd_experiment_particles(args)
-    if args.estimator or args.particles or args.long_s is not None or args.long_runs is not None:
+    particle_only = [args.estimator, args.particles, args.scenario, args.long_only]
+    if any(particle_only) or args.long_s is not None or args.long_runs is not None:
         raise UserError(
-            "--estimator, --particles, --long-s and --long-runs apply to experiment particles only"
+            "--estimator, --particles, --scenario, --long-only, --long-s and --long-runs apply "
+            "to experiment particles only"
         )
     names = list(EXPERIMENTS) if args.name == "all" else [args.name]
     command = "bearing-slam experiment " + " ".join(
@@ -243,6 +245,18 @@ def _add_particle_options(ex: argparse.ArgumentParser) -> None:
         f"(default: {', '.join(map(str, DEFAULT_PARTICLE_COUNTS))})",
     )
     ex.add_argument(
+        "--scenario",
+        action="append",
+        choices=SCENARIOS,
+        help=f"particles only, repeatable: the Monte Carlo scenarios (default: all of "
+        f"{', '.join(SCENARIOS)})",
+    )
+    ex.add_argument(
+        "--long-only",
+        action="store_true",
+        help="particles only: the long run alone, no Monte Carlo",
+    )
+    ex.add_argument(
         "--long-s",
         type=positive_float,
         help=f"particles only: length of the long run on {LONG_SCENARIO}, s "
@@ -262,6 +276,7 @@ def _cmd_experiment_particles(args: argparse.Namespace) -> int:
         DEFAULT_LONG_S,
         DEFAULT_PARTICLE_COUNTS,
         DEFAULT_RUNS,
+        SCENARIOS,
         run_particle_study,
         write_particle_study,
     )
@@ -273,6 +288,8 @@ def _cmd_experiment_particles(args: argparse.Namespace) -> int:
     command = "bearing-slam experiment particles " + " ".join(
         [f"--estimator {e}" for e in (args.estimator or [])]
         + [f"--particles {m}" for m in (args.particles or [])]
+        + [f"--scenario {n}" for n in (args.scenario or [])]
+        + (["--long-only"] if args.long_only else [])
         + ([f"--runs {args.runs}"] if args.runs is not None else [])
         + ([f"--seed0 {args.seed0}"] if args.seed0 else [])
         + ([f"--long-s {args.long_s:g}"] if args.long_s is not None else [])
@@ -284,6 +301,7 @@ def _cmd_experiment_particles(args: argparse.Namespace) -> int:
         seed0=args.seed0,
         estimators=estimators,
         particle_counts=counts,
+        scenarios=[] if args.long_only else (args.scenario or list(SCENARIOS)),
         long_s=args.long_s if args.long_s is not None else DEFAULT_LONG_S,
         long_runs=args.long_runs if args.long_runs is not None else DEFAULT_LONG_RUNS,
         progress=not args.quiet,

@@ -187,6 +187,8 @@ def run_particle_study(
     "table": markdown}``. ``long_runs = 0`` skips the long run."""
     if runs < 1:
         raise ValueError(f"runs must be at least 1, got {runs}")
+    if not scenarios and long_runs < 1:
+        raise ValueError("nothing to run: no scenario and no long run")
     configs = _configs(estimators, particle_counts)
     rows = []
     for scenario in scenarios:
@@ -251,6 +253,15 @@ def _long_cells(row: dict[str, Any]) -> str:
 
 def particle_table(study: dict[str, Any]) -> str:
     """The study's markdown tables."""
+    lines: list[str] = []
+    if study["montecarlo"]:
+        lines += _montecarlo_lines(study)
+    if study["long"]:
+        lines += _long_lines(study)
+    return "\n".join(lines) + "\n"
+
+
+def _montecarlo_lines(study: dict[str, Any]) -> list[str]:
     lines = [
         f"### Monte Carlo: {study['runs']} seeded runs per configuration (MTE)",
         "",
@@ -261,22 +272,25 @@ def particle_table(study: dict[str, Any]) -> str:
     ]
     for row in study["montecarlo"]:
         lines.append(f"| {row['scenario']} | {row['label']} | {_row_cells(row)} |")
-    if study["long"]:
-        lines += [
-            "",
-            f"### The long run: {study['long_scenario']}, {study['long_s']:g} s, "
-            f"{study['long_runs']} seeds",
-            "",
-            "Mean pose NEES (3 dof) over the seeds; its 95 % band is "
-            f"[{_f(study['long'][0]['lower'], 2)}, {_f(study['long'][0]['upper'], 2)}].",
-            "",
-            "| estimator | mean NEES, first half | mean NEES, second half "
-            "| time in band | time above band | time (s) |",
-            "|---|---|---|---|---|---|",
-        ]
-        for row in study["long"]:
-            lines.append(f"| {row['label']} | {_long_cells(row)} |")
-    return "\n".join(lines) + "\n"
+    return lines
+
+
+def _long_lines(study: dict[str, Any]) -> list[str]:
+    lines = [
+        "",
+        f"### The long run: {study['long_scenario']}, {study['long_s']:g} s, "
+        f"{study['long_runs']} seeds",
+        "",
+        "Mean pose NEES (3 dof) over the seeds; its 95 % band is "
+        f"[{_f(study['long'][0]['lower'], 2)}, {_f(study['long'][0]['upper'], 2)}].",
+        "",
+        "| estimator | mean NEES, first half | mean NEES, second half "
+        "| time in band | time above band | time (s) |",
+        "|---|---|---|---|---|---|",
+    ]
+    for row in study["long"]:
+        lines.append(f"| {row['label']} | {_long_cells(row)} |")
+    return lines
 
 
 def _plot(study: dict[str, Any], path: Path) -> Path:
@@ -292,7 +306,7 @@ def _plot(study: dict[str, Any], path: Path) -> Path:
     )
     flat = list(np.atleast_1d(axes).ravel())
     colours = plt.get_cmap("tab10")
-    labels = list(dict.fromkeys(r["label"] for r in study["montecarlo"]))
+    labels = list(dict.fromkeys(r["label"] for r in [*study["montecarlo"], *study["long"]]))
 
     def draw(ax: Any, t: list[float], mean: list[float], label: str) -> None:
         ax.plot(t, mean, lw=1.3, color=colours(labels.index(label) % 10), label=label)

@@ -62,7 +62,8 @@ def test_plots_and_mcap_carry_the_clouds(
     ours = result.trace.particle_clouds()
     assert len(back) == len(ours)
     for a, b in zip(back, ours, strict=True):
-        assert a["time"] == b["time"] and a["best"] == b["best"]
+        assert a["time"] == b["time"]
+        assert a["best"] == b["best"]
         np.testing.assert_array_equal(a["poses"], b["poses"])
         np.testing.assert_array_equal(a["weights"], b["weights"])
 
