@@ -18,6 +18,10 @@
 //!   10 s of the kidnap, the estimate is within 0.2 m and 5° and stays so to
 //!   the end of the run (30 s after the kidnap) (target: ≥ 90 %).
 //!
+//! `ALPHA_FAST`, `ALPHA_SLOW` (augmented MCL's averaging rates, default
+//! 0.2 and 0.01), `ROUGHENING` (default 0.2) and `KLD=1` (KLD-sampling, at
+//! most PARTICLES) change the filter.
+//!
 //! Every run is seeded (the simulation by `1000 + s`, the filter by `s`), so
 //! the study is reproducible; runs go in parallel (rayon), each run's result
 //! is independent of the thread count.
@@ -109,17 +113,25 @@ fn config(seed: u64, particles: usize) -> MclConfig {
         bearing_sigma: 2f64.to_radians(),
         outlier_probability: 0.05,
         resample_threshold: 0.5,
-        augmented: Some(AugmentedConfig::default()),
+        augmented: Some(AugmentedConfig {
+            alpha_slow: env_or("ALPHA_SLOW", AugmentedConfig::default().alpha_slow),
+            alpha_fast: env_or("ALPHA_FAST", AugmentedConfig::default().alpha_fast),
+        }),
         kld: std::env::var("KLD").is_ok().then(|| KldConfig {
             min_particles: 300,
             max_particles: particles,
             ..KldConfig::default()
         }),
-        roughening: std::env::var("ROUGHENING")
-            .ok()
-            .and_then(|s| s.parse().ok())
-            .unwrap_or(0.2),
+        roughening: env_or("ROUGHENING", 0.2),
     }
+}
+
+/// A number from the environment, or `default`.
+fn env_or(name: &str, default: f64) -> f64 {
+    std::env::var(name)
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(default)
 }
 
 /// Per scan: (time, position error m, heading error rad, particles).

@@ -12,6 +12,9 @@
 //! zero wheel step) so every step costs the same. The existence counter is
 //! off (it visits the whole map, O(K), by design).
 //!
+//! Times are the thread's CPU time (`/proc/thread-self/schedstat`), so a
+//! busy shared machine slows the run but not the numbers much.
+//!
 //! Printed: the median time per step for K = 10 … 10 000 at M = 100 and for
 //! M = 10 … 1000 at K = 1000, with the log-log slopes (O(M log K): slope ≈
 //! 1 in M, ≈ 0 in K with a constant cost per doubling of K); then the
@@ -92,8 +95,23 @@ const STILL: WheelOdometry = WheelOdometry {
     right_m: 0.0,
 };
 
-/// Median seconds per step over `batches` batches of `per_batch` steps,
-/// after a warm-up batch.
+/// CPU time of this thread, seconds: the first field of Linux's
+/// `/proc/thread-self/schedstat` (ns on the CPU), so that other processes on
+/// a shared machine do not count; `None` elsewhere.
+fn thread_cpu_s() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/thread-self/schedstat").ok()?;
+    let ns: f64 = text.split_whitespace().next()?.parse().ok()?;
+    Some(ns * 1e-9)
+}
+
+/// Now, in seconds of this thread's CPU time when the system tells it,
+/// else of wall time since `origin`.
+fn clock(origin: Instant) -> f64 {
+    thread_cpu_s().unwrap_or_else(|| origin.elapsed().as_secs_f64())
+}
+
+/// Median seconds per step (thread CPU time) over 7 batches of `per_batch`
+/// steps, after a warm-up batch.
 fn time_per_step(m: usize, k: usize) -> Result<f64, BoxError> {
     let (mut slam, scan) = setup(m, k)?;
     let model = model()?;
@@ -101,13 +119,14 @@ fn time_per_step(m: usize, k: usize) -> Result<f64, BoxError> {
     // About 0.3 s per batch whatever M.
     let per_batch = (30_000 / m).clamp(3, 3000);
     let mut batch = |slam: &mut FastSlam| -> Result<f64, BoxError> {
-        let started = Instant::now();
+        let origin = Instant::now();
+        let started = clock(origin);
         for _ in 0..per_batch {
             time += 0.1;
             slam.predict(time, &model, &STILL)?;
             black_box(slam.update(time, &scan, false)?);
         }
-        Ok(started.elapsed().as_secs_f64() / per_batch as f64)
+        Ok((clock(origin) - started) / per_batch as f64)
     };
     batch(&mut slam)?;
     let mut v: Vec<f64> = (0..7).map(|_| batch(&mut slam)).collect::<Result<_, _>>()?;
@@ -139,7 +158,14 @@ fn main() -> Result<(), BoxError> {
     let long_steps: usize = std::env::args().nth(1).map_or(Ok(200_000), |s| s.parse())?;
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build()?;
     pool.install(|| -> Result<(), BoxError> {
-        println!("time per FastSLAM 2.0 step (5 bearings, resampling every step), one thread");
+        println!(
+            "CPU time per FastSLAM 2.0 step (5 bearings, resampling every step), one thread{}",
+            if thread_cpu_s().is_some() {
+                ""
+            } else {
+                " (wall time: no schedstat)"
+            }
+        );
         let mut by_k = Vec::new();
         for k in [10, 100, 1000, 10_000] {
             let t = time_per_step(100, k)?;
