@@ -167,6 +167,8 @@ def _long_run(
         else None,
         "first_half_mean": _finite_mean(mean[: len(mean) // 2]),
         "second_half_mean": _finite_mean(mean[len(mean) // 2 :]),
+        "first_half_median": _finite_median(mean[: len(mean) // 2]),
+        "second_half_median": _finite_median(mean[len(mean) // 2 :]),
         "seconds": time.perf_counter() - started,
     }
 
@@ -221,6 +223,11 @@ def _f(v: float | None, digits: int = 3) -> str:
     return "n/a" if v is None or not math.isfinite(v) else f"{v:.{digits}f}"
 
 
+def _sig(v: float | None) -> str:
+    """Three significant digits (FastSLAM's NEES reaches 1e20)."""
+    return "n/a" if v is None or not math.isfinite(v) else f"{v:.3g}"
+
+
 def _pct(v: float | None) -> str:
     return "n/a" if v is None else f"{100 * v:.0f} %"
 
@@ -232,7 +239,7 @@ def _row_cells(row: dict[str, Any]) -> str:
             f"{_f(row['ate_mean_m'])} / {_f(row['ate_median_m'])}",
             _f(row["final_position_median_m"]),
             _f(row["final_heading_median_deg"], 2),
-            _f(row["mean_nees"], 2),
+            _sig(row["mean_nees"]),
             _pct(row["nees_inside"]),
             f"{row['seconds']:.1f}",
         ]
@@ -242,8 +249,8 @@ def _row_cells(row: dict[str, Any]) -> str:
 def _long_cells(row: dict[str, Any]) -> str:
     return " | ".join(
         [
-            _f(row["first_half_mean"], 2),
-            _f(row["second_half_mean"], 2),
+            f"{_sig(row['first_half_median'])} / {_sig(row['second_half_median'])}",
+            f"{_sig(row['first_half_mean'])} / {_sig(row['second_half_mean'])}",
             _pct(row["fraction_inside"]),
             _pct(row["fraction_above"]),
             f"{row['seconds']:.1f}",
@@ -284,7 +291,8 @@ def _long_lines(study: dict[str, Any]) -> list[str]:
         "Mean pose NEES (3 dof) over the seeds; its 95 % band is "
         f"[{_f(study['long'][0]['lower'], 2)}, {_f(study['long'][0]['upper'], 2)}].",
         "",
-        "| estimator | mean NEES, first half | mean NEES, second half "
+        "| estimator | its median over time, first / second half "
+        "| its mean over time, first / second half "
         "| time in band | time above band | time (s) |",
         "|---|---|---|---|---|---|",
     ]
@@ -300,9 +308,12 @@ def _plot(study: dict[str, Any], path: Path) -> Path:
 
     panels = list(dict.fromkeys(r["scenario"] for r in study["montecarlo"]))
     n = len(panels) + (1 if study["long"] else 0)
-    cols = 2
+    cols = 1 if n == 1 else 2
     fig, axes = plt.subplots(
-        math.ceil(n / cols), cols, figsize=(13, 4.2 * math.ceil(n / cols)), layout="constrained"
+        math.ceil(n / cols),
+        cols,
+        figsize=(6.5 * cols + 2.5, 4.2 * math.ceil(n / cols)),
+        layout="constrained",
     )
     flat = list(np.atleast_1d(axes).ravel())
     colours = plt.get_cmap("tab10")
