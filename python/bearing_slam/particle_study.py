@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bearing_slam._native import Config, chi2_interval, run, simulate
+from bearing_slam.estimators import DEFAULT_PARTICLES
 from bearing_slam.monte_carlo import MonteCarloResult, make_spec, run_spec
 
 __all__ = [
@@ -99,7 +100,7 @@ def _montecarlo_row(
         runs,
         seed0=seed0,
         estimator=estimator,
-        **({} if particles is None else {"particles": particles}),
+        particles=DEFAULT_PARTICLES if particles is None else particles,
     )
     started = time.perf_counter()
     result: MonteCarloResult = run_spec(spec, progress=progress)
