@@ -143,7 +143,7 @@ impl OnlineEstimator for CloudRecorder {
     ) -> Result<ScanCounts> {
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
         let cloud = particle_cloud(&self.filter, time)?;
-        if self.scans % self.every == 0 {
+        if self.scans.is_multiple_of(self.every) {
             self.clouds.push(cloud);
             self.last = None;
         } else {
