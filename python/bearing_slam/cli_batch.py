@@ -80,6 +80,14 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
 
     if args.bearings == "acoustic":
         return _cmd_experiment_acoustic(args)
+    if args.name == "particles":
+        return _cmd_experiment_particles(args)
+    particle_only = [args.estimator, args.particles, args.scenario, args.long_only]
+    if any(particle_only) or args.long_s is not None or args.long_runs is not None:
+        raise UserError(
+            "--estimator, --particles, --scenario, --long-only, --long-s and --long-runs apply "
+            "to experiment particles only"
+        )
     names = list(EXPERIMENTS) if args.name == "all" else [args.name]
     command = "bearing-slam experiment " + " ".join(
         [args.name]
@@ -179,9 +187,9 @@ def add_batch_parsers(sub: Any) -> None:
     )
     ex.add_argument(
         "name",
-        choices=[*EXPERIMENTS, "all"],
-        metavar="|".join([*EXPERIMENTS, "all"]),
-        help="which experiment",
+        choices=[*EXPERIMENTS, "particles", "all"],
+        metavar="|".join([*EXPERIMENTS, "particles", "all"]),
+        help="which experiment (particles: FastSLAM against the EKF, issue 15; not part of all)",
     )
     ex.add_argument(
         "--runs",
@@ -202,7 +210,107 @@ def add_batch_parsers(sub: Any) -> None:
         "Gaussian ones and writes fig10_acoustic.md/.json/.png and acoustics.md (the DOA "
         "error distribution); --runs defaults to 2 there (default: %(default)s)",
     )
+    _add_particle_options(ex)
     ex.set_defaults(func=_cmd_experiment)
+
+
+# --- Issue 15: `bearing-slam experiment particles`, FastSLAM against the EKF.
+
+
+def _add_particle_options(ex: argparse.ArgumentParser) -> None:
+    from bearing_slam.estimators import PARTICLE_ESTIMATORS
+    from bearing_slam.particle_study import (
+        DEFAULT_ESTIMATORS,
+        DEFAULT_LONG_RUNS,
+        DEFAULT_LONG_S,
+        DEFAULT_PARTICLE_COUNTS,
+        DEFAULT_RUNS,
+        LONG_SCENARIO,
+        SCENARIOS,
+    )
+
+    ex.add_argument(
+        "--estimator",
+        action="append",
+        choices=PARTICLE_ESTIMATORS,
+        help="particles only, repeatable: the FastSLAM estimators run beside the EKF on "
+        f"{', '.join(SCENARIOS)} (default: {' and '.join(DEFAULT_ESTIMATORS)}; "
+        f"{DEFAULT_RUNS} runs each unless --runs)",
+    )
+    ex.add_argument(
+        "--particles",
+        action="append",
+        type=_positive_int,
+        help="particles only, repeatable: the particle counts "
+        f"(default: {', '.join(map(str, DEFAULT_PARTICLE_COUNTS))})",
+    )
+    ex.add_argument(
+        "--scenario",
+        action="append",
+        choices=SCENARIOS,
+        help=f"particles only, repeatable: the Monte Carlo scenarios (default: all of "
+        f"{', '.join(SCENARIOS)})",
+    )
+    ex.add_argument(
+        "--long-only",
+        action="store_true",
+        help="particles only: the long run alone, no Monte Carlo",
+    )
+    ex.add_argument(
+        "--long-s",
+        type=positive_float,
+        help=f"particles only: length of the long run on {LONG_SCENARIO}, s "
+        f"(default: {DEFAULT_LONG_S:g})",
+    )
+    ex.add_argument(
+        "--long-runs",
+        type=int,
+        help=f"particles only: seeds of the long run, 0 skips it (default: {DEFAULT_LONG_RUNS})",
+    )
+
+
+def _cmd_experiment_particles(args: argparse.Namespace) -> int:
+    from bearing_slam.particle_study import (
+        DEFAULT_ESTIMATORS,
+        DEFAULT_LONG_RUNS,
+        DEFAULT_LONG_S,
+        DEFAULT_PARTICLE_COUNTS,
+        DEFAULT_RUNS,
+        SCENARIOS,
+        run_particle_study,
+        write_particle_study,
+    )
+
+    if args.long_runs is not None and args.long_runs < 0:
+        raise UserError(f"--long-runs must be 0 or more, got {args.long_runs}")
+    estimators = args.estimator or list(DEFAULT_ESTIMATORS)
+    counts = args.particles or list(DEFAULT_PARTICLE_COUNTS)
+    command = "bearing-slam experiment particles " + " ".join(
+        [f"--estimator {e}" for e in (args.estimator or [])]
+        + [f"--particles {m}" for m in (args.particles or [])]
+        + [f"--scenario {n}" for n in (args.scenario or [])]
+        + (["--long-only"] if args.long_only else [])
+        + ([f"--runs {args.runs}"] if args.runs is not None else [])
+        + ([f"--seed0 {args.seed0}"] if args.seed0 else [])
+        + ([f"--long-s {args.long_s:g}"] if args.long_s is not None else [])
+        + ([f"--long-runs {args.long_runs}"] if args.long_runs is not None else [])
+        + [f"--out {args.out}"]
+    )
+    study = run_particle_study(
+        runs=args.runs if args.runs is not None else DEFAULT_RUNS,
+        seed0=args.seed0,
+        estimators=estimators,
+        particle_counts=counts,
+        scenarios=[] if args.long_only else (args.scenario or list(SCENARIOS)),
+        long_s=args.long_s if args.long_s is not None else DEFAULT_LONG_S,
+        long_runs=args.long_runs if args.long_runs is not None else DEFAULT_LONG_RUNS,
+        progress=not args.quiet,
+        echo=print,
+    )
+    paths = write_particle_study(study, args.out, command)
+    print(study["table"])
+    print(f"wrote {', '.join(p.name for p in paths)} into {args.out}/")
+    return 0
 
 
 def _cmd_experiment_acoustic(args: argparse.Namespace) -> int:

@@ -11,7 +11,7 @@ use crate::log::SensorLog;
 use crate::names::Named;
 use crate::particle::landmark_ekf::SensorNoise;
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
-use crate::runner::{RunConfig, RunOutput, run, run_online};
+use crate::runner::{RunConfig, RunOutput, run};
 use crate::slam::{InitializerConfig, SlamConfig};
 use crate::smoother::{
     FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SmootherReport, SolverConfig,
@@ -214,7 +214,7 @@ pub struct EstimatorRun {
 ///
 /// # Errors
 /// An invalid estimator configuration ([`EstimatorConfig::validate`]), and
-/// the errors of [`run`], [`run_from_log`] or [`run_online`].
+/// the errors of [`run`], [`run_from_log`] or [`run_online`](crate::runner::run_online).
 pub fn run_estimator(
     log: &SensorLog,
     config: &RunConfig,
@@ -254,22 +254,16 @@ pub fn run_estimator(
         }
         EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2 => {
             let filter = estimator.fastslam_config(&config.slam);
-            let online = run_online(
+            let online = crate::particle::run::run_recording(
                 log,
                 &config.odometry,
                 config.use_range,
-                filter.initial_pose,
-                |start| {
-                    FastSlam::new(FastSlamConfig {
-                        initial_pose: start,
-                        ..filter.clone()
-                    })
-                },
+                &filter,
             )?;
             Ok(EstimatorRun {
                 output: online.output,
                 smoother: None,
-                particles: Some(online.estimator),
+                particles: Some(online.estimator.filter),
             })
         }
     }

@@ -119,4 +119,24 @@ pub struct SlamTrace {
     pub snapshots: Vec<EstimateSnapshot>,
     /// Filter decisions over time.
     pub events: Vec<TimedSlamEvent>,
+    /// A particle filter's clouds (FastSLAM only; empty for the EKF and the
+    /// smoothers), thinned to at most
+    /// [`MAX_RECORDED_CLOUDS`](crate::particle::run::MAX_RECORDED_CLOUDS).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub particle_clouds: Vec<ParticleCloud>,
+}
+
+/// A particle filter's cloud after one measurement batch: every particle's
+/// pose with its normalized weight. The best particle's map is the
+/// snapshot's at the same time.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ParticleCloud {
+    /// Seconds, in the log's clock.
+    pub time: f64,
+    /// The particles' poses (FastSLAM 2.0: the pending prediction's mean).
+    pub poses: Vec<Pose2>,
+    /// Their normalized weights, in the same order (sum 1).
+    pub weights: Vec<f64>,
+    /// Index of the best particle, the one whose map the snapshot reports.
+    pub best: usize,
 }

@@ -117,6 +117,39 @@ fn fastslam2_with_per_particle_triangulation_maps_every_landmark() {
     assert!(s.finite);
     assert_eq!(s.n_landmarks_initialized, 4, "{s:?}");
     assert!(output.counts.measurements_used > 400, "{:?}", output.counts);
+    check_recorded_clouds(&output);
+}
+
+/// The run keeps its particle clouds (issue 15's plots and MCAP): at most
+/// `MAX_RECORDED_CLOUDS`, the first and last scan's among them, M poses and
+/// normalized weights each, the best particle's index in range.
+fn check_recorded_clouds(output: &bearing_slam_core::runner::RunOutput) {
+    use bearing_slam_core::particle::run::MAX_RECORDED_CLOUDS;
+    let clouds = &output.trace.particle_clouds;
+    let snaps = &output.trace.snapshots;
+    assert!(
+        (2..=MAX_RECORDED_CLOUDS + 1).contains(&clouds.len()),
+        "{} clouds for {} scans",
+        clouds.len(),
+        snaps.len()
+    );
+    assert_eq!(clouds[0].time, snaps[0].time, "the first scan's cloud");
+    let last = clouds.last().expect("clouds");
+    assert_eq!(
+        last.time,
+        snaps.last().expect("snapshots").time,
+        "and the last's"
+    );
+    for c in clouds {
+        assert_eq!(c.poses.len(), 30);
+        assert_eq!(c.weights.len(), 30);
+        assert!((c.weights.iter().sum::<f64>() - 1.0).abs() < 1e-9);
+        assert!(c.best < 30);
+    }
+    assert!(
+        clouds.windows(2).all(|w| w[0].time < w[1].time),
+        "in time order"
+    );
 }
 
 #[test]

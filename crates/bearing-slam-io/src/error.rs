@@ -117,6 +117,19 @@ pub enum IoError {
         /// The offending value.
         value: f64,
     },
+    /// A particle cloud whose parts do not agree (a weight count other than
+    /// its pose count, a best index out of range): nothing of it is written.
+    #[error("{path}: cannot write the particle cloud at t = {time} s on topic {topic}: {reason}")]
+    BadParticleCloud {
+        /// The file.
+        path: PathBuf,
+        /// The topic.
+        topic: String,
+        /// The cloud's time, s.
+        time: f64,
+        /// What is wrong.
+        reason: String,
+    },
     /// A time stamp that does not fit an MCAP/Foxglove timestamp (beyond year 2106).
     #[error("{path}: time {time} s on topic {topic} does not fit an MCAP timestamp")]
     TimeOutOfRange {

@@ -37,6 +37,7 @@
 //! | `/ground_truth/pose2d` | `bearing_slam.GroundTruthPose` | `{time, pose: {x, y, theta}}` |
 //! | `/slam/estimate` | `bearing_slam.EstimateSnapshot` | [`EstimateSnapshot`] |
 //! | `/slam/event_data` | `bearing_slam.SlamEvent` | [`TimedSlamEvent`] (`{time, event: {kind, ...}}`) |
+//! | `/slam/particle_cloud` | `bearing_slam.ParticleCloud` | a FastSLAM run's cloud: `{time, poses: [{x, y, theta}], weights, best}` (≤ 100 per run) |
 //!
 //! Foxglove views (derived, ignored by the reader; frame `world` is fixed):
 //!
@@ -50,6 +51,7 @@
 //! | `/slam/map` | `foxglove.SceneUpdate` | estimated landmarks (blue Euclidean, orange inverse depth) with 2σ ellipses as line strips, robot 2σ ellipse in red |
 //! | `/bearings/rays` | `foxglove.SceneUpdate` | rays of the last scan (line list in `base_link_truth`; range or 5 m) |
 //! | `/slam/events` | `foxglove.Log` | filter decisions as log lines |
+//! | `/slam/particles` | `foxglove.SceneUpdate` | the particle cloud: a green heading tick per particle, the best particle's in red (its map is `/slam/map`) |
 //!
 //! Exact-data channels carry the metadata `bearing_slam.format_version = "1"`.
 //! View positions are written to the micrometre (the exact values are on the

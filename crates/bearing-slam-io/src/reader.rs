@@ -6,7 +6,7 @@ use std::io::Read;
 use std::path::{Path, PathBuf};
 
 use bearing_slam_core::log::{Event, LandmarkTruth, LogInfo, SensorLog};
-use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
+use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamTrace, TimedSlamEvent};
 use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::de::DeserializeOwned;
@@ -185,6 +185,7 @@ struct Reader {
     events: Vec<Keyed<Event>>,
     snapshots: Vec<Keyed<EstimateSnapshot>>,
     slam_events: Vec<Keyed<TimedSlamEvent>>,
+    particle_clouds: Vec<Keyed<ParticleCloud>>,
     infos: Vec<LogInfo>,
     landmarks: Vec<Vec<LandmarkTruth>>,
     messages: usize,
@@ -201,6 +202,7 @@ impl Reader {
             events: Vec::new(),
             snapshots: Vec::new(),
             slam_events: Vec::new(),
+            particle_clouds: Vec::new(),
             infos: Vec::new(),
             landmarks: Vec::new(),
             messages: 0,
@@ -465,6 +467,11 @@ impl Reader {
                 self.slam_events.push(keyed(&header, e));
                 None
             }
+            Topic::ParticleCloud => {
+                let c = parse::<ParticleCloud>(path, &name, index, data)?;
+                self.particle_clouds.push(keyed(&header, c));
+                None
+            }
             _ => None,
         };
         if let Some(e) = event {
@@ -511,13 +518,16 @@ impl Reader {
                 self.landmarks.pop().unwrap_or_default()
             }
         };
-        let has_trace = self
-            .channels
-            .values()
-            .any(|c| matches!(c.exact, Some(Topic::Estimate | Topic::SlamEvent)));
+        let has_trace = self.channels.values().any(|c| {
+            matches!(
+                c.exact,
+                Some(Topic::Estimate | Topic::SlamEvent | Topic::ParticleCloud)
+            )
+        });
         let trace = has_trace.then(|| SlamTrace {
             snapshots: sort_keyed(std::mem::take(&mut self.snapshots)),
             events: sort_keyed(std::mem::take(&mut self.slam_events)),
+            particle_clouds: sort_keyed(std::mem::take(&mut self.particle_clouds)),
         });
         let log = SensorLog {
             info,

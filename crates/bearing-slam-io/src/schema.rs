@@ -15,7 +15,7 @@ use bearing_slam_core::Pose2;
 use bearing_slam_core::log::{
     BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, VelocityOdometry, WheelOdometry,
 };
-use bearing_slam_core::trace::{EstimateSnapshot, SlamEvent, TimedSlamEvent};
+use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamEvent, TimedSlamEvent};
 use serde::{Deserialize, Serialize};
 use serde_json::{Value, json};
 
@@ -68,11 +68,16 @@ pub enum Topic {
     RaysScene,
     /// `/slam/events`: filter decisions as log lines.
     EventsLog,
+    /// `/slam/particle_cloud`: a particle filter's cloud (poses, weights).
+    ParticleCloud,
+    /// `/slam/particles`: Foxglove view of the cloud, one heading tick per
+    /// particle.
+    ParticlesScene,
 }
 
 impl Topic {
     /// All topics, exact-data ones first.
-    pub const ALL: [Topic; 17] = [
+    pub const ALL: [Topic; 19] = [
         Topic::Info,
         Topic::LandmarkTruth,
         Topic::Wheels,
@@ -90,6 +95,8 @@ impl Topic {
         Topic::MapScene,
         Topic::RaysScene,
         Topic::EventsLog,
+        Topic::ParticleCloud,
+        Topic::ParticlesScene,
     ];
 
     /// The MCAP topic name.
@@ -113,6 +120,8 @@ impl Topic {
             Topic::MapScene => "/slam/map",
             Topic::RaysScene => "/bearings/rays",
             Topic::EventsLog => "/slam/events",
+            Topic::ParticleCloud => "/slam/particle_cloud",
+            Topic::ParticlesScene => "/slam/particles",
         }
     }
 
@@ -128,10 +137,11 @@ impl Topic {
             Topic::GroundTruth => "bearing_slam.GroundTruthPose",
             Topic::Estimate => "bearing_slam.EstimateSnapshot",
             Topic::SlamEvent => "bearing_slam.SlamEvent",
+            Topic::ParticleCloud => "bearing_slam.ParticleCloud",
             Topic::TruthPose | Topic::EstimatePose => crate::foxglove::POSE_IN_FRAME,
             Topic::TruthPath | Topic::EstimatePath => crate::foxglove::POSES_IN_FRAME,
             Topic::Tf => crate::foxglove::FRAME_TRANSFORM,
-            Topic::LandmarksScene | Topic::MapScene | Topic::RaysScene => {
+            Topic::LandmarksScene | Topic::MapScene | Topic::RaysScene | Topic::ParticlesScene => {
                 crate::foxglove::SCENE_UPDATE
             }
             Topic::EventsLog => crate::foxglove::LOG,
@@ -152,6 +162,7 @@ impl Topic {
                 | Topic::GroundTruth
                 | Topic::Estimate
                 | Topic::SlamEvent
+                | Topic::ParticleCloud
         )
     }
 
@@ -175,10 +186,11 @@ impl Topic {
             Topic::GroundTruth => ground_truth_schema(),
             Topic::Estimate => estimate_schema(),
             Topic::SlamEvent => slam_event_schema(),
+            Topic::ParticleCloud => particle_cloud_schema(),
             Topic::TruthPose | Topic::EstimatePose => crate::foxglove::pose_in_frame_schema(),
             Topic::TruthPath | Topic::EstimatePath => crate::foxglove::poses_in_frame_schema(),
             Topic::Tf => crate::foxglove::frame_transform_schema(),
-            Topic::LandmarksScene | Topic::MapScene | Topic::RaysScene => {
+            Topic::LandmarksScene | Topic::MapScene | Topic::RaysScene | Topic::ParticlesScene => {
                 crate::foxglove::scene_update_schema()
             }
             Topic::EventsLog => crate::foxglove::log_schema(),
@@ -400,6 +412,38 @@ pub(crate) fn check_snapshot(s: &EstimateSnapshot) -> Result<(), NonFinite> {
     Ok(())
 }
 
+/// Checks every number of a particle cloud.
+pub(crate) fn check_particle_cloud(c: &ParticleCloud) -> Result<(), NonFinite> {
+    fin("time", c.time)?;
+    for (i, p) in c.poses.iter().enumerate() {
+        fin_pose(&format!("poses[{i}]"), p)?;
+    }
+    for (i, w) in c.weights.iter().enumerate() {
+        fin(&format!("weights[{i}]"), *w)?;
+    }
+    Ok(())
+}
+
+/// What is inconsistent in a particle cloud (one weight per pose, the best
+/// index in range), if anything.
+pub(crate) fn particle_cloud_problem(c: &ParticleCloud) -> Option<String> {
+    if c.weights.len() != c.poses.len() {
+        return Some(format!(
+            "{} weights for {} poses",
+            c.weights.len(),
+            c.poses.len()
+        ));
+    }
+    if !c.poses.is_empty() && c.best >= c.poses.len() {
+        return Some(format!(
+            "best particle {} of {} particles",
+            c.best,
+            c.poses.len()
+        ));
+    }
+    None
+}
+
 /// Checks every number of a filter event.
 pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
     fin("time", e.time)?;
@@ -598,6 +642,28 @@ fn estimate_schema() -> Value {
             },
         }),
         &["time", "pose", "pose_covariance", "landmarks"],
+    )
+}
+
+fn particle_cloud_schema() -> Value {
+    object(
+        "bearing_slam.ParticleCloud",
+        "A particle filter's cloud after one measurement batch",
+        json!({
+            "time": time_field(),
+            "poses": {
+                "type": "array",
+                "description": "Every particle's pose",
+                "items": pose2_schema("A particle's pose"),
+            },
+            "weights": {
+                "type": "array",
+                "description": "Normalized weights, one per pose",
+                "items": number("Weight"),
+            },
+            "best": id("Index of the best particle, whose map the snapshot holds"),
+        }),
+        &["time", "poses", "weights", "best"],
     )
 }
 

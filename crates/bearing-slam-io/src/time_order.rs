@@ -2,7 +2,7 @@
 //! [`crate::write_log`] writes and what the live server streams.
 
 use bearing_slam_core::log::{Event, SensorLog};
-use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
+use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamTrace, TimedSlamEvent};
 
 /// One timed record of a run.
 #[derive(Clone, Copy, Debug)]
@@ -13,6 +13,8 @@ pub(crate) enum Timed<'a> {
     Snapshot(&'a EstimateSnapshot),
     /// A filter decision of the trace.
     SlamEvent(&'a TimedSlamEvent),
+    /// A particle filter's cloud.
+    ParticleCloud(&'a ParticleCloud),
 }
 
 impl Timed<'_> {
@@ -23,25 +25,28 @@ impl Timed<'_> {
             Timed::Event(e) => e.time,
             Timed::Snapshot(s) => s.time,
             Timed::SlamEvent(e) => e.time,
+            Timed::ParticleCloud(c) => c.time,
         }
     }
 }
 
-/// The events, snapshots and filter events merged by time; on equal times
-/// sensor events first, then snapshots (each list is assumed sorted, as the
-/// runner produces them).
+/// The events, snapshots, filter events and particle clouds merged by time;
+/// on equal times sensor events first, then snapshots, filter events, clouds
+/// (each list is assumed sorted, as the runner produces them).
 pub(crate) fn in_time_order<'a>(
     log: &'a SensorLog,
     trace: &'a SlamTrace,
 ) -> impl Iterator<Item = Timed<'a>> + 'a {
-    let (mut i, mut j, mut k) = (0, 0, 0);
+    let (mut i, mut j, mut k, mut c) = (0, 0, 0, 0);
     let (events, snaps, slam) = (&log.events, &trace.snapshots, &trace.events);
+    let clouds = &trace.particle_clouds;
     std::iter::from_fn(move || {
         let te = events.get(i).map(|e| e.time);
         let ts = snaps.get(j).map(|s| s.time);
         let tk = slam.get(k).map(|e| e.time);
+        let tc = clouds.get(c).map(|p| p.time);
         // Pick the earliest; ties go to sensor events, then snapshots.
-        let pick = [te, ts, tk]
+        let pick = [te, ts, tk, tc]
             .into_iter()
             .enumerate()
             .filter_map(|(n, t)| t.map(|t| (n, t)))
@@ -59,9 +64,13 @@ pub(crate) fn in_time_order<'a>(
                 j += 1;
                 snaps.get(j - 1).map(Timed::Snapshot)
             }
-            _ => {
+            (2, _) => {
                 k += 1;
                 slam.get(k - 1).map(Timed::SlamEvent)
+            }
+            _ => {
+                c += 1;
+                clouds.get(c - 1).map(Timed::ParticleCloud)
             }
         }
     })

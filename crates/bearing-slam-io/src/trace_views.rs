@@ -1,8 +1,9 @@
 //! The Foxglove views of the SLAM trace: the `/slam/map` scene of an
-//! estimate snapshot and the `/slam/events` log line of a filter decision
-//! (used by [`crate::writer`]).
+//! estimate snapshot, the `/slam/particles` scene of a particle cloud and
+//! the `/slam/events` log line of a filter decision (used by
+//! [`crate::writer`]).
 
-use bearing_slam_core::trace::{EstimateSnapshot, InitMethod, SlamEvent};
+use bearing_slam_core::trace::{EstimateSnapshot, InitMethod, ParticleCloud, SlamEvent};
 
 use crate::foxglove::{
     self as fx, Color, LinePrimitive, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate,
@@ -67,6 +68,54 @@ pub(crate) fn map_scene(stamp: Time, s: &EstimateSnapshot) -> SceneUpdate {
     SceneUpdate {
         deletions: vec![SceneEntityDeletion::all(stamp)],
         entities,
+    }
+}
+
+/// Length of a particle's heading tick on `/slam/particles`, metres.
+const PARTICLE_TICK_M: f64 = 0.08;
+
+/// The `/slam/particles` scene of a cloud: one heading tick per particle (a
+/// segment from its position along its heading), green; the best particle's
+/// in red and longer. Replaces the previous cloud.
+pub(crate) fn particles_scene(stamp: Time, cloud: &ParticleCloud) -> SceneUpdate {
+    let tick = |p: &bearing_slam_core::Pose2, len: f64| {
+        [
+            Vector3::xy(p.x, p.y),
+            Vector3::xy(p.x + len * p.theta.cos(), p.y + len * p.theta.sin()),
+        ]
+    };
+    let lines = |points: Vec<Vector3>, color: Color, thickness: f64| LinePrimitive {
+        kind: fx::line_type::LINE_LIST,
+        pose: Pose::at(0.0, 0.0, 0.0),
+        thickness,
+        scale_invariant: true,
+        points,
+        color,
+        colors: Vec::new(),
+        indices: Vec::new(),
+    };
+    let mut e = SceneEntity::new(stamp, fx::WORLD_FRAME, "particles".into());
+    let all = cloud
+        .poses
+        .iter()
+        .flat_map(|p| tick(p, PARTICLE_TICK_M))
+        .collect();
+    e.lines
+        .push(lines(all, Color::rgba(0.1, 0.7, 0.3, 0.6), 1.0));
+    if let Some(best) = cloud.poses.get(cloud.best) {
+        e.lines.push(lines(
+            tick(best, 2.5 * PARTICLE_TICK_M).to_vec(),
+            Color::rgba(1.0, 0.2, 0.2, 1.0),
+            2.5,
+        ));
+    }
+    e.metadata.push(fx::KeyValuePair {
+        key: "particles".into(),
+        value: cloud.poses.len().to_string(),
+    });
+    SceneUpdate {
+        deletions: vec![SceneEntityDeletion::all(stamp)],
+        entities: vec![e],
     }
 }
 

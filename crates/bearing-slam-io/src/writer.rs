@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use bearing_slam_core::log::{Event, EventKind, LandmarkTruth, LogInfo, SensorLog};
-use bearing_slam_core::trace::{EstimateSnapshot, SlamTrace, TimedSlamEvent};
+use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamTrace, TimedSlamEvent};
 use mcap::records::MessageHeader;
 use serde::Serialize;
 
@@ -29,7 +29,7 @@ use crate::schema::{
     SCHEMA_ENCODING, Topic,
 };
 use crate::time_order::{Timed, in_time_order};
-use crate::trace_views::{describe, map_scene};
+use crate::trace_views::{describe, map_scene, particles_scene};
 pub use crate::write_options::{McapCompression, McapWriteOptions, RaysFrame};
 
 /// A data message waiting for the first time stamp (see [`McapLogWriter::write_info`]).
@@ -328,7 +328,37 @@ impl McapLogWriter {
             Timed::Event(e) => self.write_event(e),
             Timed::Snapshot(s) => self.write_snapshot(s),
             Timed::SlamEvent(e) => self.write_slam_event(e),
+            Timed::ParticleCloud(c) => self.write_particle_cloud(c),
         }
+    }
+
+    /// Writes a particle filter's cloud on `/slam/particle_cloud`, and as
+    /// heading ticks on `/slam/particles` for Foxglove. Never thinned (the
+    /// run keeps at most
+    /// [`MAX_RECORDED_CLOUDS`](bearing_slam_core::particle::run::MAX_RECORDED_CLOUDS)).
+    pub fn write_particle_cloud(&mut self, cloud: &ParticleCloud) -> Result<()> {
+        self.ensure_open()?;
+        let topic = Topic::ParticleCloud;
+        schema::check_particle_cloud(cloud).map_err(|e| self.non_finite(topic, e))?;
+        if let Some(reason) = schema::particle_cloud_problem(cloud) {
+            return Err(IoError::BadParticleCloud {
+                path: self.path.clone(),
+                topic: topic.name().into(),
+                time: cloud.time,
+                reason,
+            });
+        }
+        let log_time = self.log_time(topic, cloud.time)?;
+        let stamp = self.stamp(topic, log_time)?;
+        let data = self.encode(topic, cloud)?;
+        self.begin_trace()?;
+        self.begin_timed(log_time)?;
+        self.emit_bytes(topic, log_time, &data)?;
+        if self.options.foxglove_views {
+            let update = particles_scene(stamp, cloud);
+            self.emit(Topic::ParticlesScene, log_time, &update)?;
+        }
+        self.maybe_flush()
     }
 
     /// Writes a filter decision on `/slam/event_data`, and as a log line on

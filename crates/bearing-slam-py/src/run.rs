@@ -110,6 +110,23 @@ impl PyTrace {
         events_list(py, &self.inner.events)
     }
 
+    /// A particle filter's recorded clouds (FastSLAM; empty otherwise), as
+    /// dicts `{time, poses (M, 3), weights (M,), best}`; `best` is the index
+    /// of the particle whose map the snapshot at that time holds.
+    fn particle_clouds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        let out = PyList::empty(py);
+        for c in &self.inner.particle_clouds {
+            let d = PyDict::new(py);
+            d.set_item("time", c.time)?;
+            let poses = c.poses.iter().flat_map(|p| [p.x, p.y, p.theta]).collect();
+            d.set_item("poses", arr2(py, poses, 3)?)?;
+            d.set_item("weights", arr1(py, c.weights.clone()))?;
+            d.set_item("best", c.best)?;
+            out.append(d)?;
+        }
+        Ok(out)
+    }
+
     /// Snapshot `index` (negative counts from the end) as a dict.
     fn snapshot<'py>(&self, py: Python<'py>, index: isize) -> PyResult<Bound<'py, PyDict>> {
         let n = self.inner.snapshots.len() as isize;

@@ -336,11 +336,12 @@ def plot_nees(result: RunResult, log: SensorLog | None = None) -> Figure:
 
 
 def save_plots(result: RunResult, log: SensorLog | None, out_dir: str | Path) -> list[Path]:
-    """Writes ``trajectory.png``, ``pose_errors.png`` and ``nees.png`` into
-    ``out_dir`` and returns their paths."""
+    """Writes ``trajectory.png``, ``pose_errors.png`` and ``nees.png`` (and,
+    for a FastSLAM run, ``particles.png``) into ``out_dir`` and returns their
+    paths."""
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    return [
+    written = [
         save_figure(make(result, log), out / name, dpi=110)
         for name, make in (
             ("trajectory.png", plot_trajectory),
@@ -348,6 +349,12 @@ def save_plots(result: RunResult, log: SensorLog | None, out_dir: str | Path) ->
             ("nees.png", plot_nees),
         )
     ]
+    # Issue 15: a FastSLAM run also gets its particle clouds (particles.png).
+    from bearing_slam.plots.particles import has_particle_clouds, plot_particle_cloud
+
+    if has_particle_clouds(result):
+        written.append(save_figure(plot_particle_cloud(result, log), out / "particles.png", 110))
+    return written
 
 
 def save_figure(fig: Figure, path: str | Path, dpi: int) -> Path:

@@ -175,6 +175,12 @@ impl FastSlam {
         &self.particles[self.best.min(self.particles.len() - 1)]
     }
 
+    /// Index of [`FastSlam::best_particle`] in [`FastSlam::particles`].
+    #[must_use]
+    pub fn best_index(&self) -> usize {
+        self.best.min(self.particles.len() - 1)
+    }
+
     fn check_time(&mut self, time: f64) -> Result<()> {
         ensure_finite("time", time)?;
         if let Some(previous) = self.time

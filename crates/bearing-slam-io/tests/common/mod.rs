@@ -174,7 +174,11 @@ pub fn sample_trace(n: usize) -> SlamTrace {
             event: kinds[k % kinds.len()].clone(),
         })
         .collect();
-    SlamTrace { snapshots, events }
+    SlamTrace {
+        snapshots,
+        events,
+        particle_clouds: Vec::new(),
+    }
 }
 
 /// A fresh temporary directory.
