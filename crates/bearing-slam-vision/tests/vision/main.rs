@@ -1,0 +1,9 @@
+//! The image front end's tests, one binary (one link in CI): active search,
+//! the frames loader's errors, the renderer's ground truth, the loop over
+//! the ground-truth oracle.
+
+mod align;
+mod frames_errors;
+mod oracle_loop;
+mod render_truth;
+mod search;
