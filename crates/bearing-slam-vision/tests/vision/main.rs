@@ -2,6 +2,8 @@
 //! the frames loader's errors, the renderer's ground truth, the loop over
 //! the ground-truth oracle.
 
+#![allow(clippy::unwrap_used)]
+
 mod align;
 mod frames_errors;
 mod oracle_loop;
