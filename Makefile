@@ -243,3 +243,11 @@ soak:
 	nice -n 10 target/release/examples/soak steps $(SOAK_STEPS)
 	nice -n 10 target/release/examples/soak ops $(SOAK_OPS)
 	nice -n 10 target/release/examples/soak sim $(SOAK_HOURS)
+
+# Issue 17 (estimator half): Monte Carlo of the 6-DOF monocular filter on the
+# synthetic desk scene, delayed (MTE, MTE-clone) vs undelayed initialization,
+# 50 seeds; writes docs/results/mono-synthetic-table.md. Not in CI.
+.PHONY: mono-montecarlo
+MONO_SEEDS ?= 50
+mono-montecarlo:
+	nice -n 10 $(CARGO) run --release -p bearing-slam-core --example mono_montecarlo -- $(MONO_SEEDS) docs/results/mono-synthetic-table.md

@@ -2,6 +2,7 @@
 //! Jacobian test uses, covariance checks, and a kinematic scenario generator.
 
 pub mod kinematic;
+pub mod mono;
 
 use nalgebra::{DMatrix, DVector};
 

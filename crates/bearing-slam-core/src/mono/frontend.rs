@@ -9,7 +9,7 @@
 //! thin ([`MonoFilter::add_features`]).
 
 use crate::error::Result;
-use nalgebra::{Matrix2, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix3, UnitQuaternion, Vector2, Vector3};
 
 /// Where the filter expects one feature in the next image.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -42,6 +42,20 @@ pub struct CameraPose {
     pub orientation: UnitQuaternion<f64>,
 }
 
+/// A map landmark as a Euclidean point, for drawing (ellipsoids) and scoring.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapPoint {
+    /// The feature's id.
+    pub feature_id: u64,
+    /// World position, metres (map units before the scale is fixed).
+    pub position: Vector3<f64>,
+    /// Covariance of the position (for an inverse-depth landmark, through
+    /// the Jacobian of (28)).
+    pub covariance: Matrix3<f64>,
+    /// Whether the state holds it in inverse depth (27) rather than as XYZ.
+    pub inverse_depth: bool,
+}
+
 /// A monocular filter as an image front end drives it, one frame at a time.
 pub trait MonoFilter {
     /// Propagates the camera by `dt` seconds (constant velocity, (25)(26)).
@@ -62,4 +76,10 @@ pub trait MonoFilter {
 
     /// The camera's current pose estimate.
     fn camera_pose(&self) -> CameraPose;
+
+    /// The map as Euclidean points with covariances (landmarks at or beyond
+    /// infinity left out). Defaults to none, for filters without a map.
+    fn landmarks(&self) -> Vec<MapPoint> {
+        Vec::new()
+    }
 }

@@ -8,7 +8,32 @@
 //! normalized cross-correlation inside the ellipse of `S_i`, (30)) lives
 //! outside the core, in the `bearing-slam-vision` crate; it talks to the
 //! filter through the types of [`frontend`] only.
+//!
+//! By job: [`quaternion`] the quaternion algebra with its Jacobians;
+//! [`motion`] the camera state and the constant-velocity model (25)(26);
+//! [`landmark`] the inverse-depth point (27)(28), its conversion and the
+//! linearity index; [`camera`] the pinhole with radial distortion (29);
+//! [`observation`] the pixel measurement models for the EKF; [`init`] the
+//! undelayed and the delayed (MTE) initializers on 3-D rays; [`config`] the
+//! filter's configuration and start; [`filter`] the filter [`MonoSlam`],
+//! which implements [`MonoFilter`]; [`metrics`] the Sim(3)/SE(3) ATE and the
+//! 6-DOF pose NEES. The synthetic point world with exact ground truth is
+//! `testing::mono` (feature `testing`).
 
+pub mod camera;
+pub mod config;
+pub mod filter;
 pub mod frontend;
+pub mod init;
+pub mod landmark;
+pub mod metrics;
+pub mod motion;
+pub mod observation;
+pub mod quaternion;
 
-pub use frontend::{CameraPose, MonoFilter, PixelObservation, SearchRegion};
+pub use camera::PinholeCamera;
+pub use config::{MonoConfig, MonoStart};
+pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
+pub use frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
+pub use init::MonoInitializer;
+pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
