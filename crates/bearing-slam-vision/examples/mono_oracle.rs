@@ -5,7 +5,7 @@
 //! `cargo run --release -p bearing-slam-vision --example mono_oracle -- DIR`
 
 use bearing_slam_vision::render::read_scene_config;
-use bearing_slam_vision::{FrameSequence, GroundTruthOracle, MonoConfig, run_mono};
+use bearing_slam_vision::{FrameSequence, FrontEndConfig, GroundTruthOracle, run_mono};
 use std::process::ExitCode;
 
 fn main() -> ExitCode {
@@ -19,7 +19,7 @@ fn main() -> ExitCode {
             .ok_or("no scene.json: the oracle needs a rendered sequence")?
             .scene();
         let mut oracle = GroundTruthOracle::new(scene, seq.intrinsics, seq.poses.clone(), 2.0)?;
-        let run = run_mono(&seq, &mut oracle, &MonoConfig::default(), None)?;
+        let run = run_mono(&seq, &mut oracle, &FrontEndConfig::default(), 0, None)?;
         let metrics = run.metrics(&seq.poses)?;
         let residuals = &oracle.residuals_px;
         let mean_residual = residuals.iter().sum::<f64>() / residuals.len().max(1) as f64;

@@ -151,6 +151,16 @@ pub fn ate_first_two_poses(estimate: &[CameraPose], truth: &[CameraPose]) -> Res
     Ok(report(&aligned, &to, scale))
 }
 
+/// ATE without any alignment: for an estimate already in the ground truth's
+/// frame and scale (a filter started from ground-truth poses, as
+/// [`crate::pipeline::run_directory`] does).
+pub fn ate_unaligned(estimate: &[CameraPose], truth: &[CameraPose]) -> Result<AteReport> {
+    check_lengths(estimate.len(), truth.len(), 1)?;
+    let from: Vec<Vector3<f64>> = estimate.iter().map(|p| p.position).collect();
+    let to: Vec<Vector3<f64>> = truth.iter().map(|p| p.position).collect();
+    Ok(report(&from, &to, 1.0))
+}
+
 /// The length of a path, summed over its steps.
 pub fn path_length(poses: &[CameraPose]) -> f64 {
     poses

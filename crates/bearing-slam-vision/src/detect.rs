@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// How new features are detected.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct DetectorConfig {
     /// The FAST-9 intensity threshold, grey levels.
     pub fast_threshold: u8,

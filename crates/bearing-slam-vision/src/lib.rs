@@ -8,7 +8,8 @@
 //! ([`patch`]), active search inside the ellipse of `S_i` (30)
 //! ([`search`]), the frame loop over any
 //! [`bearing_slam_core::mono::MonoFilter`] ([`run`]), and its scores: ATE
-//! after Sim(3) alignment or with the first-two-poses scale ([`align`]).
+//! after Sim(3) alignment or with the first-two-poses scale ([`align`]);
+//! [`pipeline`] puts them together with the core's `MonoSlam`.
 //! [`oracle`] is a ground-truth stand-in for the filter, for tests and for
 //! timing the front end alone.
 
@@ -18,15 +19,17 @@ pub mod error;
 pub mod frames;
 pub mod oracle;
 pub mod patch;
+pub mod pipeline;
 pub mod render;
 pub mod run;
 pub mod scene;
 pub mod search;
 
-pub use align::{AteReport, ate_first_two_poses, ate_sim3, path_length, umeyama};
+pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_length, umeyama};
 pub use error::{Result, VisionError};
 pub use frames::{FrameSequence, Intrinsics};
 pub use oracle::GroundTruthOracle;
+pub use pipeline::{FilterKind, MonoOutput, MonoRunConfig, run_directory};
 pub use render::{SyntheticConfig, render_sequence};
-pub use run::{MonoConfig, MonoMetrics, MonoRun, run_mono};
+pub use run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
 pub use search::{SearchConfig, active_search};

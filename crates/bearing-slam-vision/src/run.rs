@@ -4,7 +4,7 @@
 //! filter (predict, regions, update, add) separately; image decoding is
 //! timed apart from both.
 
-use crate::align::{AteReport, ate_first_two_poses, ate_sim3, path_length};
+use crate::align::{AteReport, ate_sim3, ate_unaligned, path_length};
 use crate::detect::{DetectorConfig, detect_features};
 use crate::error::{Result, VisionError};
 use crate::frames::FrameSequence;
@@ -17,7 +17,8 @@ use std::time::Instant;
 
 /// The front end's settings.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct MonoConfig {
+#[serde(default, deny_unknown_fields)]
+pub struct FrontEndConfig {
     /// Active search and patches.
     pub search: SearchConfig,
     /// Detection of new features.
@@ -28,7 +29,7 @@ pub struct MonoConfig {
     pub max_new_per_frame: usize,
 }
 
-impl Default for MonoConfig {
+impl Default for FrontEndConfig {
     fn default() -> Self {
         Self {
             search: SearchConfig::default(),
@@ -39,7 +40,7 @@ impl Default for MonoConfig {
     }
 }
 
-impl MonoConfig {
+impl FrontEndConfig {
     /// Checks the settings.
     pub fn validate(&self) -> Result<()> {
         crate::search::chi2_quantile_2dof(self.search.confidence)?;
@@ -103,17 +104,26 @@ pub struct MonoRun {
     pub added_px: Vec<Vec<Vector2<f64>>>,
 }
 
-/// Runs the loop over frames `0..frames.len()` (or fewer: `max_frames`).
-/// Frame 0 only adds features; every later frame predicts by the time step
-/// of the sequence, searches, updates and adds.
+/// Runs the loop over frames `first..frames.len()` (at most `max_frames` of
+/// them); the filter must stand at frame `first`. The first frame only adds
+/// features; every later one predicts by the time step of the sequence,
+/// searches, updates and adds.
 pub fn run_mono<F: MonoFilter>(
     frames: &FrameSequence,
     filter: &mut F,
-    config: &MonoConfig,
+    config: &FrontEndConfig,
+    first: usize,
     max_frames: Option<usize>,
 ) -> Result<MonoRun> {
     config.validate()?;
-    let count = max_frames.map_or(frames.len(), |m| m.min(frames.len()));
+    if first >= frames.len() {
+        return Err(VisionError::InvalidParameter {
+            name: "first frame",
+            value: first as f64,
+            reason: "must be a frame of the sequence",
+        });
+    }
+    let count = max_frames.map_or(frames.len() - first, |m| m.min(frames.len() - first));
     let mut store = PatchStore::new();
     let mut run = MonoRun {
         poses: Vec::with_capacity(count),
@@ -122,14 +132,14 @@ pub fn run_mono<F: MonoFilter>(
         added_px: Vec::with_capacity(count),
     };
     let border = config.search.patch_half + 1;
-    for k in 0..count {
+    for k in first..first + count {
         let mut stats = FrameStats::default();
         let clock = Instant::now();
         let image = frames.frame(k)?;
         stats.load_s = clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
-        if k > 0 {
+        if k > first {
             filter.predict(frames.times[k] - frames.times[k - 1])?;
         }
         let regions = filter.search_regions()?;
@@ -207,8 +217,10 @@ pub fn run_mono<F: MonoFilter>(
 pub struct MonoMetrics {
     /// ATE after Sim(3) (Umeyama) alignment.
     pub ate_sim3: AteReport,
-    /// ATE with frame and scale from the first two ground-truth poses.
-    pub ate_first_two_poses: Option<AteReport>,
+    /// ATE without alignment: the filter starts from the first two
+    /// ground-truth poses (frame and metric scale), so its path is compared
+    /// as it is.
+    pub ate_metric: AteReport,
     /// The ground-truth path length over the frames run, metres.
     pub path_length_m: f64,
     /// ATE (Sim(3)) over path length, percent.
@@ -258,7 +270,7 @@ impl MonoRun {
         };
         Ok(MonoMetrics {
             ate_sim3,
-            ate_first_two_poses: ate_first_two_poses(&self.poses, truth).ok(),
+            ate_metric: ate_unaligned(&self.poses, truth)?,
             path_length_m: path,
             ate_sim3_percent_of_path: if path > 0.0 {
                 100.0 * ate_sim3.rmse_m / path

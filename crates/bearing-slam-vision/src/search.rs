@@ -14,6 +14,7 @@ use std::collections::HashMap;
 
 /// How features are searched for and their patches kept up to date.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SearchConfig {
     /// The probability mass of the search ellipse (χ² with 2 degrees of
     /// freedom: `χ² = −2 ln(1 − confidence)`; 0.99 → 9.21).
