@@ -64,6 +64,11 @@ pub struct MonoRunConfig {
     pub baseline_min_m: Option<f64>,
     /// Delayed: the least parallax, degrees (None: the paper's 10°).
     pub alpha_min_deg: Option<f64>,
+    /// Depth at which a candidate's ray is placed to predict its next
+    /// pixel, metres (None: the core's hand-held 3 m; a car needs ~15 m).
+    pub candidate_depth_m: Option<f64>,
+    /// Search σ around a candidate's predicted pixel, pixels (None: the core's).
+    pub candidate_sigma_px: Option<f64>,
     /// Run at most this many frames.
     pub max_frames: Option<usize>,
 }
@@ -82,6 +87,8 @@ impl Default for MonoRunConfig {
             sigma_rho: 0.5,
             baseline_min_m: None,
             alpha_min_deg: None,
+            candidate_depth_m: None,
+            candidate_sigma_px: None,
             max_frames: None,
         }
     }
@@ -137,6 +144,12 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
         if let Some(a) = config.alpha_min_deg {
             t.alpha_min = a.to_radians();
         }
+    }
+    if let Some(d) = config.candidate_depth_m {
+        core.candidate_nominal_depth = d;
+    }
+    if let Some(s) = config.candidate_sigma_px {
+        core.candidate_search_sigma = s;
     }
     core.validate()?;
     Ok(core)
