@@ -16,6 +16,7 @@ use std::path::Path;
 
 /// What to render: image size, field of view, length, rate and texture seed.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct SyntheticConfig {
     /// Image width, pixels (the paper's camera: 424).
     pub width: u32,

@@ -169,6 +169,7 @@ impl Scene {
 /// plus the oscillations' phase (zero at t = 0), so the first pose is the
 /// identity as in KITTI.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
 pub struct CameraPath {
     /// Forward speed, m/s.
     pub forward_speed: f64,
