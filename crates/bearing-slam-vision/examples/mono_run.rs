@@ -29,6 +29,12 @@ fn main() -> ExitCode {
             let found: Vec<usize> = out.run.frames.iter().map(|f| f.found).collect();
             println!("found per frame: {found:?}");
             println!("landmarks at the end: {}", out.landmarks.len());
+            let used: Vec<usize> = out.reports.iter().map(|r| r.used).collect();
+            let rejected: usize = out.reports.iter().map(|r| r.rejected).sum();
+            let initialized: usize = out.reports.iter().map(|r| r.initialized).sum();
+            println!(
+                "landmark matches used per frame: {used:?}; rejected by the gate: {rejected}; landmarks initialized: {initialized}"
+            );
             match serde_json::to_string_pretty(&out.metrics) {
                 Ok(json) => println!("{json}"),
                 Err(e) => eprintln!("mono_run: {e}"),

@@ -16,9 +16,9 @@ use crate::render::read_scene_config;
 use crate::run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
 use bearing_slam_core::mono::{
     CameraPose, ConstantVelocity, MapPoint, MonoConfig, MonoFilter, MonoSlam, MonoStart,
-    PinholeCamera,
+    MonoUpdateReport, PinholeCamera, PixelObservation, SearchRegion,
 };
-use nalgebra::Vector4;
+use nalgebra::{Vector2, Vector4};
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
@@ -107,6 +107,10 @@ pub struct MonoOutput {
     pub metrics: MonoMetrics,
     /// The map at the end (empty for the oracle).
     pub landmarks: Vec<MapPoint>,
+    /// The filter's report of every frame's update (matches used, rejected
+    /// by its gate, landmarks initialized; empty for the oracle), in frame
+    /// order, the first frame (no update) included as a default report.
+    pub reports: Vec<MonoUpdateReport>,
     /// The sequence (paths, intrinsics, sizes).
     pub sequence: FrameSequence,
 }
@@ -174,7 +178,7 @@ pub fn run_directory(
         });
     }
     let first = 1;
-    let (run, landmarks) = match config.filter {
+    let (run, landmarks, reports) = match config.filter {
         FilterKind::Oracle => {
             let scene = read_scene_config(&seq.dir)?
                 .ok_or_else(|| VisionError::Layout {
@@ -192,7 +196,7 @@ pub fn run_directory(
                 first,
                 config.max_frames,
             )?;
-            (run, Vec::new())
+            (run, Vec::new(), Vec::new())
         }
         _ => {
             let core = filter_config(&seq, config)?;
@@ -224,6 +228,45 @@ pub fn run_directory(
         truth,
         metrics,
         landmarks,
+        reports,
         sequence: seq,
     })
+}
+
+/// [`MonoSlam`] behind the trait, keeping each frame's update report.
+struct Reporting {
+    inner: MonoSlam,
+    reports: Vec<MonoUpdateReport>,
+}
+
+impl MonoFilter for Reporting {
+    fn predict(&mut self, dt: f64) -> bearing_slam_core::Result<()> {
+        self.inner.predict(dt)
+    }
+
+    fn search_regions(&self) -> bearing_slam_core::Result<Vec<SearchRegion>> {
+        self.inner.search_regions()
+    }
+
+    fn update(
+        &mut self,
+        found: &[PixelObservation],
+        missed: &[u64],
+    ) -> bearing_slam_core::Result<()> {
+        self.inner.update(found, missed)?;
+        self.reports.push(self.inner.last_report());
+        Ok(())
+    }
+
+    fn add_features(&mut self, px: &[Vector2<f64>]) -> bearing_slam_core::Result<Vec<u64>> {
+        self.inner.add_features(px)
+    }
+
+    fn camera_pose(&self) -> CameraPose {
+        self.inner.camera_pose()
+    }
+
+    fn landmarks(&self) -> Vec<MapPoint> {
+        self.inner.landmarks()
+    }
 }
