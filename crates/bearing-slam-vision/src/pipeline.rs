@@ -208,7 +208,10 @@ pub fn run_directory(
                 config.velocity_sigma,
                 config.angular_velocity_sigma,
             )?;
-            let mut filter = MonoSlam::new(core, &start)?;
+            let mut filter = Reporting {
+                inner: MonoSlam::new(core, &start)?,
+                reports: Vec::new(),
+            };
             let run = run_mono(
                 &seq,
                 &mut filter,
@@ -216,8 +219,8 @@ pub fn run_directory(
                 first,
                 config.max_frames,
             )?;
-            let landmarks = filter.landmarks();
-            (run, landmarks)
+            let landmarks = filter.inner.landmarks();
+            (run, landmarks, filter.reports)
         }
     };
     let truth = seq.poses[first..first + run.poses.len()].to_vec();
