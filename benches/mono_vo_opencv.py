@@ -22,8 +22,12 @@ import time
 from pathlib import Path
 from typing import Any
 
-import cv2
+import cv2 as _cv2
 import numpy as np
+
+# OpenCV's stubs (when installed) are stricter than its runtime (None for an
+# output array); the script uses it untyped, as it does without the stubs.
+cv2: Any = _cv2
 
 
 def read_calib(path: Path) -> np.ndarray:
@@ -35,7 +39,9 @@ def read_calib(path: Path) -> np.ndarray:
 
 def read_poses(path: Path) -> np.ndarray:
     """``(n, 3, 4)`` camera-to-world poses."""
-    rows = [list(map(float, line.split())) for line in path.read_text().splitlines() if line.strip()]
+    rows = [
+        list(map(float, line.split())) for line in path.read_text().splitlines() if line.strip()
+    ]
     return np.array(rows, dtype=float).reshape(-1, 3, 4)
 
 

@@ -21,9 +21,7 @@ if TYPE_CHECKING:
 __all__ = ["plot_search_frames", "plot_trajectory_views"]
 
 
-def _ellipse(
-    center: tuple[float, float], cov: np.ndarray, k: float, **style: object
-) -> Ellipse:
+def _ellipse(center: tuple[float, float], cov: np.ndarray, k: float, **style: object) -> Ellipse:
     """The ellipse ``νᵀ cov⁻¹ ν = k²`` around ``center``."""
     values, vectors = np.linalg.eigh(cov)
     values = np.clip(values, 0.0, None)
@@ -34,7 +32,7 @@ def _ellipse(
         2 * k * math.sqrt(values[0]),
         angle=angle,
         fill=False,
-        **style,  # type: ignore[arg-type]
+        **style,
     )
 
 
@@ -66,7 +64,8 @@ def plot_trajectory_views(result: MonoResult, path: str | os.PathLike[str]) -> N
         ax.set_ylim(lo[j] - margin, hi[j] + margin)
     axes[0].legend(loc="best")
     ate = result.metrics["ate_sim3"]["rmse_m"]
-    fig.suptitle(f"monocular SLAM: ATE after Sim(3) {ate:.3f} m over {result.metrics['path_length_m']:.1f} m")
+    path_m = result.metrics["path_length_m"]
+    fig.suptitle(f"monocular SLAM: ATE after Sim(3) {ate:.3f} m over {path_m:.1f} m")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
