@@ -468,5 +468,6 @@ class LiveServer:
         snapshot_every: float = 0.0,
     ) -> dict[str, Any]: ...
     def stop(self) -> None: ...
+
 # issue 17: monocular SLAM on image sequences (crates/bearing-slam-py/src/mono.rs).
 __all__ += ["mono_render", "mono_run"]

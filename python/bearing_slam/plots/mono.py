@@ -53,7 +53,7 @@ def plot_trajectory_views(result: MonoResult, path: str | os.PathLike[str]) -> N
         ax.set_xlabel("x [m]")
         ax.set_ylabel(f"{'y' if j == 1 else 'z'} [m]")
         ax.set_title(f"{name} view")
-        ax.set_aspect("equal", adjustable="datalim")
+        ax.set_aspect("equal", adjustable="box")
         ax.grid(alpha=0.3)
     # The path's span with a margin: far landmarks do not squash the path.
     span = np.concatenate([result.truth[:, :3], result.estimate[:, :3]])
