@@ -35,6 +35,7 @@ enum Outcome {
 struct RunScore {
     outcome: Outcome,
     ate_raw: f64,
+    ate_late: f64,
     ate_se3: f64,
     ate_sim3: f64,
     scale_error: f64,
@@ -60,6 +61,7 @@ fn score(name: &str, seed: u64, scale: f64, band: (f64, f64)) -> RunScore {
     let failed = RunScore {
         outcome: Outcome::Diverged,
         ate_raw: f64::NAN,
+        ate_late: f64::NAN,
         ate_se3: f64::NAN,
         ate_sim3: f64::NAN,
         scale_error: f64::NAN,
@@ -82,6 +84,14 @@ fn score(name: &str, seed: u64, scale: f64, band: (f64, f64)) -> RunScore {
         .map(|(e, t)| (e - t).norm_squared())
         .sum::<f64>()
         / estimate.len() as f64)
+        .sqrt();
+    let half = estimate.len() / 2;
+    let ate_late = (estimate[half..]
+        .iter()
+        .zip(&truth[half..])
+        .map(|(e, t)| (e - t).norm_squared())
+        .sum::<f64>()
+        / (estimate.len() - half) as f64)
         .sqrt();
     let (Ok((ate_se3, _)), Ok((ate_sim3, sim3))) = (
         ate_3d(&estimate, truth, false),
@@ -111,6 +121,7 @@ fn score(name: &str, seed: u64, scale: f64, band: (f64, f64)) -> RunScore {
     RunScore {
         outcome,
         ate_raw,
+        ate_late,
         ate_se3,
         ate_sim3,
         scale_error,
@@ -147,11 +158,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut report = String::new();
     writeln!(
         report,
-        "| method | runs | converged | drift | diverged | ATE m (metric frame) | ATE m (SE(3)) | ATE m (Sim(3)) | scale error | map RMSE m | mapped points | mean pose NEES | NEES in 95 % band |"
+        "| method | runs | converged | drift | diverged | ATE m (metric frame) | ATE m, 2nd half | ATE m (SE(3)) | ATE m (Sim(3)) | scale error | map RMSE m | mapped points | mean pose NEES | NEES in 95 % band |"
     )?;
     writeln!(
         report,
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
     )?;
     for name in methods {
         let runs: Vec<RunScore> = (0..seeds)
@@ -164,12 +175,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let med = |f: fn(&RunScore) -> f64| median(runs.iter().map(f).collect());
         writeln!(
             report,
-            "| {name} | {} | {:.0} % | {:.0} % | {:.0} % | {:.4} | {:.4} | {:.4} | {:.2} % | {:.3} | {:.0} | {:.2} | {:.0} % |",
+            "| {name} | {} | {:.0} % | {:.0} % | {:.0} % | {:.4} | {:.4} | {:.4} | {:.4} | {:.2} % | {:.3} | {:.0} | {:.2} | {:.0} % |",
             runs.len(),
             share(Outcome::Converged),
             share(Outcome::Drift),
             share(Outcome::Diverged),
             med(|r| r.ate_raw),
+            med(|r| r.ate_late),
             med(|r| r.ate_se3),
             med(|r| r.ate_sim3),
             100.0 * med(|r| r.scale_error),

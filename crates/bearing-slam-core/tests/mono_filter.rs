@@ -17,8 +17,9 @@ use rand::{RngExt, SeedableRng};
 
 /// A 75-frame run of the desk sweep: the camera's ATE in the reference's
 /// metric frame, the number of mapped points (the reference left out) and
-/// their median and worst errors relative to their distance from the camera.
-fn short_run(config: impl Fn(&MonoScenario) -> MonoConfig) -> (f64, usize, f64, f64) {
+/// their median and worst errors relative to their distance from the camera,
+/// and how many were converted to Euclidean points.
+fn short_run(config: impl Fn(&MonoScenario) -> MonoConfig) -> (f64, usize, f64, f64, usize) {
     let scenario = MonoScenario::desk(7, 75, 150);
     let options = SimFrontEnd {
         target_features: 14,
@@ -51,20 +52,23 @@ fn short_run(config: impl Fn(&MonoScenario) -> MonoConfig) -> (f64, usize, f64, 
         relative.len(),
         median,
         relative.last().copied().unwrap_or(f64::INFINITY),
+        result.euclidean.saturating_sub(4),
     )
 }
 
 #[test]
 fn short_synthetic_runs_converge_with_both_initializers() {
     // The path is 0.35 m; the scene 1.5 to 6 m away.
-    let (ate, mapped, median, worst) = short_run(|s| MonoConfig::undelayed(s.camera, 0.3, 0.3));
+    let (ate, mapped, median, worst, converted) =
+        short_run(|s| MonoConfig::undelayed(s.camera, 0.3, 0.3));
+    assert!(converted >= 1, "no landmark passed the linearity test");
     assert!(ate < 0.03, "undelayed ATE {ate} m");
     assert!(
         mapped >= 10 && worst < 0.1,
         "undelayed: {mapped} points, relative errors {median}, {worst}"
     );
     // Delayed: after 0.35 m most points are still far-rule priors.
-    let (ate, mapped, median, worst) = short_run(|s| MonoConfig::delayed_with_clone(s.camera));
+    let (ate, mapped, median, worst, _) = short_run(|s| MonoConfig::delayed_with_clone(s.camera));
     assert!(ate < 0.05, "delayed ATE {ate} m");
     assert!(
         mapped >= 5 && median < 0.15 && worst < 0.5,

@@ -187,7 +187,7 @@ proptest! {
 
     #[test]
     fn initializer_jacobians(x in state(), px in pixel(), rho in 0.05..2.0f64,
-                             x1 in state(), px1 in pixel()) {
+                             depth in 0.5..10.0f64, shift in vec3(1.0), tilt in vec3(0.1)) {
         let cam = camera();
         let init = undelayed(&cam, &x, &px, rho).map_err(|e| TestCaseError::fail(e.to_string()))?;
         let num = numeric_jacobian(|v| undelayed(&cam, &sv::<13>(v), &px, rho).map_or(nan::<6>(), |i| dv(&i.landmark)), &dv(&x), &[3]);
@@ -201,11 +201,23 @@ proptest! {
             px: *px1,
             pose_covariance: SMatrix::zeros(),
         };
-        let pose1 = x1.fixed_rows::<7>(0).into_owned();
-        let Ok(t) = triangulate_3d(&cam, &candidate(&pose1, &px1), &x, &px) else {
-            // Rays that do not meet in front: nothing to differentiate.
-            return Ok(());
+        // A first camera nearby, turned a little, that sees the same point.
+        let point = point_at(&x, &px, depth);
+        let q = x.fixed_rows::<4>(3).into_owned();
+        let (turn, _) = from_rotation_vector(&tilt);
+        let q1 = bearing_slam_core::mono::quaternion::product(&q, &turn);
+        let x1 = camera_state(&(x.fixed_rows::<3>(0) + shift), &q1, &Vector3::zeros(), &Vector3::zeros());
+        let Ok(seen) = XyzPixel { camera: cam }.predict(&x1, &point) else {
+            return Err(TestCaseError::reject("point behind the first camera"));
         };
+        let px1 = seen.value;
+        prop_assume!(cam.contains(&px1));
+        let pose1 = x1.fixed_rows::<7>(0).into_owned();
+        let t = triangulate_3d(&cam, &candidate(&pose1, &px1), &x, &px)
+            .map_err(|e| TestCaseError::fail(e.to_string()))?;
+        // The triangulated landmark is the point.
+        let (p, _) = inverse_depth_to_xyz(&t.landmark).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        prop_assert!((p - point).norm() < 1e-6 * depth.max(1.0), "{p} vs {point}");
         let Parallax { alpha, .. } = t.parallax;
         prop_assume!(alpha > 0.02 && t.parallax.beta > 0.02 && t.parallax.beta < 3.1);
         let tri = |c: Candidate3, x: &CameraState, px: &Vector2<f64>| {

@@ -7,7 +7,8 @@
 use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
-    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SolverConfig, run_from_log,
+    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SolverConfig, batch_problem,
+    optimize, run_from_log,
 };
 use bearing_slam_core::testing::check_covariance;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
@@ -49,6 +50,16 @@ fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
         let report = &out.report;
         assert!(report.solve.unwrap().converged, "{report:?}");
         assert_eq!(report.n_poses, 1 + s.wheel_steps.len());
+        if seed == 0 {
+            // `batch_problem` is the graph `run_from_log` solves (what the
+            // GTSAM comparison exports): same counts, same solve.
+            let smoother = SmootherConfig::default();
+            let mut problem = batch_problem(&log, &config, &smoother).unwrap();
+            assert_eq!(problem.report.n_measurements, report.n_measurements);
+            assert_eq!(problem.initial.poses().len(), report.n_poses);
+            let solve = optimize(&problem.graph, &mut problem.initial, &smoother.solver).unwrap();
+            assert_eq!(Some(solve), report.solve);
+        }
         // The runner's shape: same times, truths, dead reckoning, snapshots.
         assert_eq!(out.output.track.len(), out.filter.track.len());
         for (a, b) in out.output.track.iter().zip(&out.filter.track) {

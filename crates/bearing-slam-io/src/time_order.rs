@@ -16,7 +16,8 @@ pub(crate) enum Timed<'a> {
 }
 
 impl Timed<'_> {
-    /// Its time, seconds.
+    /// Its time, seconds (the live server paces its stream by it).
+    #[cfg_attr(not(feature = "live"), allow(dead_code))]
     pub(crate) fn time(&self) -> f64 {
         match self {
             Timed::Event(e) => e.time,

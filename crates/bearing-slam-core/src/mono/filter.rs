@@ -8,15 +8,17 @@
 //! and removal of features missed too often.
 
 use super::config::{MonoConfig, MonoStart};
+use super::delayed::{Pending, PoseClone};
 use super::frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
-use super::init::{Candidate3, MonoInitializer, decide_3d, triangulate_3d, undelayed, world_ray};
-use super::landmark::{InverseDepth3, Parameterization3, inverse_depth_to_xyz, linearity_index_3d};
+use super::init::{MonoInitializer, undelayed, world_ray};
+use super::landmark::{
+    InverseDepth3, Parameterization3, inverse_depth_to_xyz, linearity_index_3d, ray_angles,
+};
 use super::motion::{CAMERA_DIM, CameraState, POSITION, QUATERNION};
 use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
-use crate::init::CandidateDecision;
 use crate::model::MeasurementModel;
 use crate::stats::chi2_quantile;
 use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, UnitQuaternion, Vector2, Vector3, Vector4};
@@ -36,34 +38,12 @@ pub enum FeatureOrigin {
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Feature {
-    offset: usize,
-    kind: Parameterization3,
-    origin: FeatureOrigin,
-    misses: u32,
+pub(super) struct Feature {
+    pub(super) offset: usize,
+    pub(super) kind: Parameterization3,
+    pub(super) origin: FeatureOrigin,
+    pub(super) misses: u32,
 }
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct Pending {
-    candidate: Candidate3,
-    /// The last sighting: the optical centre and the world ray.
-    last_position: Vector3<f64>,
-    last_ray: Vector3<f64>,
-    misses: u32,
-    /// The clone of the first pose in the state (clone variant only).
-    clone: Option<u64>,
-}
-
-/// A copy of the camera's `[r, q]` in the state, shared by the candidates
-/// created in one frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-struct PoseClone {
-    offset: usize,
-    users: usize,
-}
-
-/// Size of a pose clone `[r, q]`.
-const CLONE_DIM: usize = 7;
 
 /// What the last [`MonoFilter::update`] did.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -83,19 +63,43 @@ pub struct MonoUpdateReport {
 }
 
 /// The 6-DOF monocular SLAM filter (Munguía & Grau §"SLAM monocular").
+///
+/// One frame as a front end drives it: predict, search, update, add.
+///
+/// ```
+/// use bearing_slam_core::mono::{MonoConfig, MonoFilter, MonoSlam, MonoStart, PinholeCamera, PixelObservation};
+/// use bearing_slam_core::nalgebra::{Vector2, Vector3};
+///
+/// let camera = PinholeCamera::new(400.0, 400.0, 320.0, 240.0, 0.0, 0.0, (640.0, 480.0))?;
+/// let mut slam = MonoSlam::new(MonoConfig::delayed(camera), &MonoStart::at_origin(0.1, 0.1))?;
+/// // The metric reference: known points fix the scale.
+/// let known = slam.add_known_points(&[Vector3::new(0.0, 0.0, 2.0)], 0.0)?;
+/// slam.predict(1.0 / 30.0)?;
+/// let regions = slam.search_regions()?;
+/// assert_eq!(regions[0].feature_id, known[0]);
+/// // The front end matches each feature inside the ellipse of its S_i ...
+/// let found = [PixelObservation { feature_id: known[0], px: Vector2::new(320.5, 240.0) }];
+/// slam.update(&found, &[])?;
+/// // ... and proposes new features where the map is thin.
+/// let ids = slam.add_features(&[Vector2::new(100.0, 80.0)])?;
+/// assert_eq!(slam.candidate_ids(), ids); // delayed: a candidate until it shows parallax
+/// let pose = slam.camera_pose();
+/// assert!(pose.position.norm() < 0.1);
+/// # Ok::<(), bearing_slam_core::SlamError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct MonoSlam {
-    config: MonoConfig,
-    ekf: Ekf,
-    landmarks: BTreeMap<u64, Feature>,
-    candidates: BTreeMap<u64, Pending>,
-    next_id: u64,
-    last_report: MonoUpdateReport,
-    clones: BTreeMap<u64, PoseClone>,
-    next_clone: u64,
+    pub(super) config: MonoConfig,
+    pub(super) ekf: Ekf,
+    pub(super) landmarks: BTreeMap<u64, Feature>,
+    pub(super) candidates: BTreeMap<u64, Pending>,
+    pub(super) next_id: u64,
+    pub(super) last_report: MonoUpdateReport,
+    pub(super) clones: BTreeMap<u64, PoseClone>,
+    pub(super) next_clone: u64,
     /// The clone of the current camera pose, if one was taken since the
     /// camera last changed.
-    frame_clone: Option<u64>,
+    pub(super) frame_clone: Option<u64>,
 }
 
 impl MonoSlam {
@@ -179,7 +183,7 @@ impl MonoSlam {
         Ok(ids)
     }
 
-    fn fresh_id(&mut self) -> u64 {
+    pub(super) fn fresh_id(&mut self) -> u64 {
         let id = self.next_id;
         self.next_id += 1;
         id
@@ -231,7 +235,7 @@ impl MonoSlam {
         self.last_report
     }
 
-    fn pixel_noise(&self) -> Matrix2<f64> {
+    pub(super) fn pixel_noise(&self) -> Matrix2<f64> {
         Matrix2::identity() * self.config.pixel_sigma.powi(2)
     }
 
@@ -299,20 +303,6 @@ impl MonoSlam {
         Ok((px, 0.5 * (s + s.transpose()) + self.pixel_noise()))
     }
 
-    /// Where a candidate should appear: its last ray at the nominal depth,
-    /// seen from the current camera, searched with a wide σ.
-    fn candidate_region(&self, pending: &Pending) -> Result<(Vector2<f64>, Matrix2<f64>)> {
-        let x_v = self.camera_state()?;
-        let point = pending.last_position
-            + pending.last_ray.normalize() * self.config.candidate_nominal_depth;
-        let p = XyzPixel {
-            camera: self.config.camera,
-        }
-        .predict(&x_v, &point)?;
-        let wide = Matrix2::identity() * self.config.candidate_search_sigma.powi(2);
-        Ok((p.value, wide + self.pixel_noise()))
-    }
-
     /// Removes a map landmark and shifts the offsets of those after it.
     fn remove_landmark(&mut self, id: u64) -> Result<()> {
         let Some(feature) = self.landmarks.remove(&id) else {
@@ -323,7 +313,7 @@ impl MonoSlam {
 
     /// Removes `len` entries at `offset` from the state and moves the
     /// landmarks and clones after them down.
-    fn remove_state_block(&mut self, offset: usize, len: usize) -> Result<()> {
+    pub(super) fn remove_state_block(&mut self, offset: usize, len: usize) -> Result<()> {
         self.ekf.remove_block(offset, len)?;
         self.shift_after(offset, len);
         Ok(())
@@ -340,52 +330,6 @@ impl MonoSlam {
                 c.offset -= len;
             }
         }
-    }
-
-    /// The clone of the current camera pose, taken at the first request
-    /// since the camera last changed, with one more user.
-    fn acquire_clone(&mut self) -> Result<u64> {
-        let id = match self.frame_clone {
-            Some(id) => id,
-            None => {
-                let offset = self.ekf.clone_block(POSITION, CLONE_DIM)?;
-                let id = self.next_clone;
-                self.next_clone += 1;
-                self.clones.insert(id, PoseClone { offset, users: 0 });
-                self.frame_clone = Some(id);
-                id
-            }
-        };
-        if let Some(c) = self.clones.get_mut(&id) {
-            c.users += 1;
-        }
-        Ok(id)
-    }
-
-    /// One user less for a clone; it leaves the state at zero.
-    fn release_clone(&mut self, id: Option<u64>) -> Result<()> {
-        let Some(id) = id else {
-            return Ok(());
-        };
-        let Some(clone) = self.clones.get_mut(&id) else {
-            return Ok(());
-        };
-        clone.users = clone.users.saturating_sub(1);
-        if clone.users == 0 {
-            let offset = clone.offset;
-            self.clones.remove(&id);
-            if self.frame_clone == Some(id) {
-                self.frame_clone = None;
-            }
-            self.remove_state_block(offset, CLONE_DIM)?;
-        }
-        Ok(())
-    }
-
-    /// Forgets a candidate and releases its clone.
-    fn drop_candidate(&mut self, id: u64) -> Result<()> {
-        let clone = self.candidates.remove(&id).and_then(|c| c.clone);
-        self.release_clone(clone)
     }
 
     /// Renormalizes the quaternion after an update, `q ← q/‖q‖`, with the
@@ -441,7 +385,9 @@ impl MonoSlam {
                 rejected.push(o.feature_id);
                 continue;
             };
-            if gate.is_finite() && self.ekf.nis(&m)? > gate {
+            // A match outside the gate, or whose S is not positive definite,
+            // counts as a miss.
+            if gate.is_finite() && !self.ekf.nis(&m).is_ok_and(|nis| nis <= gate) {
                 rejected.push(o.feature_id);
                 continue;
             }
@@ -462,7 +408,7 @@ impl MonoSlam {
 
     /// Puts an inverse-depth landmark into the state: `y` with `∂y/∂x_v` and
     /// the covariance of the inputs outside the state (15)(23).
-    fn insert(
+    pub(super) fn insert(
         &mut self,
         id: u64,
         landmark: &InverseDepth3,
@@ -478,7 +424,7 @@ impl MonoSlam {
     }
 
     /// [`MonoSlam::insert`] with Jacobians on any state blocks.
-    fn insert_with(
+    pub(super) fn insert_with(
         &mut self,
         id: u64,
         landmark: &InverseDepth3,
@@ -504,7 +450,7 @@ impl MonoSlam {
     }
 
     /// Undelayed initialization of `px` with the prior `(ρ_ini, σ_ρ)`.
-    fn insert_undelayed(
+    pub(super) fn insert_undelayed(
         &mut self,
         id: u64,
         px: &Vector2<f64>,
@@ -517,118 +463,6 @@ impl MonoSlam {
         let mut added = init.j_landmark_px * self.pixel_noise() * init.j_landmark_px.transpose();
         added[(5, 5)] += sigma_rho * sigma_rho;
         self.insert(id, &init.landmark, &init.j_landmark_camera, &added, origin)
-    }
-
-    /// A new candidate from a first sighting (16).
-    fn new_candidate(&mut self, px: &Vector2<f64>) -> Result<Pending> {
-        let state = self.camera_state()?;
-        let q = state.fixed_rows::<4>(QUATERNION).into_owned();
-        let ray = world_ray(&self.config.camera, &q, px)?;
-        let cov = self.camera_covariance()?;
-        let cloning = matches!(self.config.initializer.triangulation(), Some((_, true)));
-        let clone = if cloning {
-            Some(self.acquire_clone()?)
-        } else {
-            None
-        };
-        Ok(Pending {
-            candidate: Candidate3 {
-                position: state.fixed_rows::<3>(POSITION).into_owned(),
-                quaternion: q,
-                px: *px,
-                pose_covariance: cov.fixed_view::<7, 7>(0, 0).into_owned(),
-            },
-            last_position: state.fixed_rows::<3>(POSITION).into_owned(),
-            last_ray: ray.ray,
-            misses: 0,
-            clone,
-        })
-    }
-
-    /// A candidate seen again at `px`: wait, restart, triangulate or place
-    /// far, by the rule of [`decide_3d`]. Returns whether it entered the map.
-    fn candidate_seen(&mut self, id: u64, px: &Vector2<f64>) -> Result<bool> {
-        let Some((config, _)) = self.config.initializer.triangulation() else {
-            return Ok(false);
-        };
-        let Some(mut pending) = self.candidates.get(&id).copied() else {
-            return Ok(false);
-        };
-        if let Some(clone) = pending.clone.and_then(|c| self.clones.get(&c).copied()) {
-            // The first pose as the state now knows it.
-            let pose = self.ekf.block::<CLONE_DIM>(clone.offset)?;
-            pending.candidate.position = pose.fixed_rows::<3>(0).into_owned();
-            pending.candidate.quaternion = pose.fixed_rows::<4>(3).into_owned();
-        }
-        let state = self.camera_state()?;
-        let camera = self.config.camera;
-        let decision = decide_3d(&config, &camera, &pending.candidate, &state, px);
-        match decision {
-            Ok((CandidateDecision::Wait, _)) => {
-                let q = state.fixed_rows::<4>(QUATERNION).into_owned();
-                let ray = world_ray(&camera, &q, px)?;
-                if let Some(c) = self.candidates.get_mut(&id) {
-                    c.last_position = state.fixed_rows::<3>(POSITION).into_owned();
-                    c.last_ray = ray.ray;
-                    c.misses = 0;
-                }
-                Ok(false)
-            }
-            Ok((CandidateDecision::Restart, _)) | Err(_) => {
-                self.drop_candidate(id)?;
-                if let Ok(fresh) = self.new_candidate(px) {
-                    self.candidates.insert(id, fresh);
-                }
-                Ok(false)
-            }
-            Ok((CandidateDecision::Far, parallax)) => {
-                let prior = config.far_prior(&parallax)?;
-                self.drop_candidate(id)?;
-                self.insert_undelayed(id, px, prior.rho_ini, prior.sigma_rho, FeatureOrigin::Far)?;
-                Ok(true)
-            }
-            Ok((CandidateDecision::Triangulate, _)) => {
-                let t = triangulate_3d(&camera, &pending.candidate, &state, px)?;
-                let r = self.pixel_noise();
-                // (22)(23): both pixels add their noise; the first pose is
-                // either a clone in the state (exact correlations) or, as in
-                // the paper, independent noise with its stored covariance R_i.
-                let mut added = t.j_landmark_px * r * t.j_landmark_px.transpose()
-                    + t.j_landmark_first_px * r * t.j_landmark_first_px.transpose();
-                let mut jacobians = vec![BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(
-                        6,
-                        CAMERA_DIM,
-                        t.j_landmark_camera.as_slice(),
-                    ),
-                }];
-                match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
-                    Some(clone) => jacobians.push(BlockJacobian {
-                        offset: clone.offset,
-                        jacobian: DMatrix::from_column_slice(
-                            6,
-                            CLONE_DIM,
-                            t.j_landmark_first_pose.as_slice(),
-                        ),
-                    }),
-                    None => {
-                        added += t.j_landmark_first_pose
-                            * pending.candidate.pose_covariance
-                            * t.j_landmark_first_pose.transpose();
-                    }
-                }
-                self.insert_with(
-                    id,
-                    &t.landmark,
-                    &jacobians,
-                    &added,
-                    FeatureOrigin::Triangulated,
-                )?;
-                self.drop_candidate(id)?;
-                Ok(true)
-            }
-        }
     }
 
     /// Counts a miss; a feature missed `max_consecutive_misses` times in a
@@ -779,15 +613,22 @@ impl MonoFilter for MonoSlam {
             // The camera moved: later candidates need a clone of the new pose.
             self.frame_clone = None;
         }
-        let mut initialized = 0;
+        let (mut initialized, mut dropped) = (0, 0);
         for o in found {
-            if self.candidates.contains_key(&o.feature_id)
-                && self.candidate_seen(o.feature_id, &o.px)?
-            {
-                initialized += 1;
+            if !self.candidates.contains_key(&o.feature_id) {
+                continue;
+            }
+            match self.candidate_seen(o.feature_id, &o.px) {
+                Ok(true) => initialized += 1,
+                Ok(false) => {}
+                // Degenerate geometry for this candidate only (a ray along
+                // the vertical, no far prior): it leaves, the frame goes on.
+                Err(_) => {
+                    self.drop_candidate(o.feature_id)?;
+                    dropped += 1;
+                }
             }
         }
-        let mut dropped = 0;
         for &id in missed.iter().chain(rejected.iter()) {
             if self.missed(id)? {
                 dropped += 1;
@@ -801,9 +642,14 @@ impl MonoFilter for MonoSlam {
     }
 
     fn add_features(&mut self, px: &[Vector2<f64>]) -> Result<Vec<u64>> {
+        // Every pixel checked before any enters: an error leaves the filter
+        // unchanged (no feature without an id returned).
+        let q = self.ekf.block::<4>(QUATERNION)?;
         for p in px {
             ensure_finite("pixel u", p.x)?;
             ensure_finite("pixel v", p.y)?;
+            let ray = world_ray(&self.config.camera, &q, p)?;
+            ray_angles(&ray.ray)?;
         }
         let mut ids = Vec::with_capacity(px.len());
         for p in px {

@@ -16,12 +16,14 @@
 //! [`observation`] the pixel measurement models for the EKF; [`init`] the
 //! undelayed and the delayed (MTE) initializers on 3-D rays; [`config`] the
 //! filter's configuration and start; [`filter`] the filter [`MonoSlam`],
-//! which implements [`MonoFilter`]; [`metrics`] the Sim(3)/SE(3) ATE and the
+//! which implements [`MonoFilter`] (its candidates and pose clones in the
+//! private `delayed`); [`metrics`] the Sim(3)/SE(3) ATE and the
 //! 6-DOF pose NEES. The synthetic point world with exact ground truth is
 //! `testing::mono` (feature `testing`).
 
 pub mod camera;
 pub mod config;
+mod delayed;
 pub mod filter;
 pub mod frontend;
 pub mod init;

@@ -15,6 +15,7 @@ use crate::geometry::{Pose2, wrap_angle};
 use crate::measurement::{BearingToPoint, RangeBearing};
 use crate::model::MeasurementModel;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector1, Vector2, Vector3};
+use serde::Serialize;
 
 /// A factor linearized at the current estimate: whitened residual `e` and,
 /// per key (in [`Factor::keys`] order), `∂e/∂δ` so that
@@ -54,7 +55,7 @@ fn dm<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatr
 }
 
 /// A Gaussian prior on one pose: `e = S (x ⊟ μ)`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PosePriorFactor {
     pose: u64,
     mean: Vector3<f64>,
@@ -78,7 +79,7 @@ impl PosePriorFactor {
 }
 
 /// A Gaussian prior on one landmark: `e = S (p − μ)`.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LandmarkPriorFactor {
     landmark: u64,
     mean: Vector2<f64>,
@@ -104,7 +105,7 @@ impl LandmarkPriorFactor {
 /// `e = S r`, `r = [R_iᵀ(p_j − p_i) − Δp, wrap(θ_j − θ_i − Δθ)]`, the
 /// additive error on the relative pose `T_i⁻¹ T_j` in the frame of pose `i`,
 /// which is the error the preintegrated covariance describes.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct OdometryFactor {
     from: u64,
     to: u64,
@@ -189,7 +190,7 @@ impl OdometryFactor {
 
 /// One bearing to a landmark: `e = wrap(z − h(x_v, p))/σ` with the filter's
 /// [`BearingToPoint`] model, Munguía & Grau (9).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BearingFactor {
     pose: u64,
     landmark: u64,
@@ -214,7 +215,7 @@ impl BearingFactor {
 
 /// One range and bearing to a landmark: `e = S (z − h(x_v, p))` with the
 /// filter's [`RangeBearing`] model, Munguía & Grau (6).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RangeBearingFactor {
     pose: u64,
     landmark: u64,
@@ -249,7 +250,7 @@ impl RangeBearingFactor {
 /// A fixed linear factor `e = R (x ⊟ x₀) + r₀` over several variables: what
 /// marginalization leaves behind. Its Jacobian `R` was evaluated once at the
 /// linearization point `x₀` and never changes (first-estimate Jacobians).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LinearFactor {
     keys: Vec<Key>,
     linearization_point: Vec<DVector<f64>>,
@@ -323,7 +324,8 @@ impl LinearFactor {
 }
 
 /// Any factor of the graph.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", content = "data", rename_all = "snake_case")]
 pub enum Factor {
     /// Prior on a pose.
     PosePrior(PosePriorFactor),

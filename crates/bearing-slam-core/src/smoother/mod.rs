@@ -43,6 +43,9 @@ pub use marginals::{Marginals, marginal_covariances};
 pub use online::{OnlineSmoother, run_online_smoother};
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
-pub use run::{SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, run_from_log};
+pub use run::{
+    BatchProblem, SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, batch_problem,
+    run_from_log,
+};
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
 pub use values::{Key, Values};

@@ -109,7 +109,7 @@ pub struct SmoothedRun {
 }
 
 /// The pose variables and what hangs on them, from one pass over the log.
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 struct Skeleton {
     /// Odometry into each node (`None` for the start node 0).
     odometry: Vec<Option<PreintegratedOdometry>>,
@@ -278,6 +278,75 @@ pub fn run_from_log(
         });
     }
     let started = Instant::now();
+    let mut problem = build_batch_problem(log, run_config, config, &filter)?;
+    let mut report = problem.report.clone();
+    report.filter_time_s = filter_time_s;
+    let values = &mut problem.initial;
+    report.solve = Some(optimize(&problem.graph, values, &config.solver)?);
+    let marginals = marginal_covariances(&problem.graph, values, &config.solver.robust)?;
+    let n_nodes = problem.skeleton.odometry.len();
+    let mut poses = Vec::with_capacity(n_nodes);
+    let mut pose_cov = Vec::with_capacity(n_nodes);
+    for node in 0..n_nodes {
+        poses.push(values.pose(node as u64)?);
+        pose_cov.push(marginals.pose(node as u64)?);
+    }
+    let mut lms = BTreeMap::new();
+    for (id, p) in values.landmarks() {
+        lms.insert(*id, (*p, marginals.landmark(*id)?));
+    }
+    let skeleton = problem.skeleton;
+    let mut output = filter.clone();
+    apply_smoothed(
+        &mut output,
+        &skeleton.scan_node,
+        &skeleton.records,
+        &poses,
+        &pose_cov,
+        &lms,
+    );
+    report.smoother_time_s = started.elapsed().as_secs_f64();
+    Ok(SmoothedRun {
+        output,
+        filter,
+        report,
+    })
+}
+
+/// The batch smoother's problem on a log: the factor graph and the start the
+/// solver is given, exactly as [`run_from_log`] builds them. Exposed so the
+/// same graph can be handed to another solver (the GTSAM comparison in
+/// `benches/`).
+#[derive(Clone, Debug)]
+pub struct BatchProblem {
+    /// The factors: the prior on the first pose, preintegrated odometry,
+    /// bearing (or range-bearing) factors and the weak landmark priors.
+    pub graph: FactorGraph,
+    /// The start: poses from the filter's estimate after each scan,
+    /// landmarks at the filter's final map.
+    pub initial: Values,
+    /// Counters of the graph (the timings are left at zero).
+    pub report: SmootherReport,
+    skeleton: Skeleton,
+}
+
+/// Runs the filter on `log` and builds the batch problem its estimate starts
+/// ([`BatchProblem`]); `run_from_log` in batch mode solves exactly this.
+pub fn batch_problem(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+) -> Result<BatchProblem> {
+    let filter = run(log, run_config)?;
+    build_batch_problem(log, run_config, config, &filter)
+}
+
+fn build_batch_problem(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+    filter: &RunOutput,
+) -> Result<BatchProblem> {
     let skeleton = build_skeleton(log, run_config)?;
     if skeleton.scan_node.len() != filter.trace.snapshots.len()
         || skeleton.records.len() != filter.track.len()
@@ -305,92 +374,51 @@ pub fn run_from_log(
         start.to_vector(),
         Matrix3::from_diagonal(&Vector3::from(sigma.map(|s| s * s))),
     )?;
-    let landmarks = filter_landmarks(&filter);
+    let landmarks = filter_landmarks(filter);
     let mut report = SmootherReport {
         n_poses: skeleton.odometry.len(),
         n_landmarks: landmarks.entry.len(),
-        filter_time_s,
         ..SmootherReport::default()
     };
-    let landmark_prior = |id: u64, p: Vector2<f64>| -> Result<Option<Factor>> {
-        config
-            .landmark_prior_sigma_m
-            .map(|s| {
-                LandmarkPriorFactor::new(id, p, Matrix2::identity() * (s * s))
-                    .map(Factor::LandmarkPrior)
-            })
-            .transpose()
-    };
-    let odometry = |node: usize| -> Result<Option<Factor>> {
-        skeleton.odometry[node]
-            .as_ref()
-            .map(|pre| {
-                OdometryFactor::from_preintegrated(
-                    node as u64 - 1,
-                    node as u64,
-                    pre,
-                    config.odometry_floor_sigma,
-                )
-                .map(Factor::Odometry)
-            })
-            .transpose()
-    };
-    let (poses, pose_cov, lms) = {
-        {
-            let mut values = Values::new();
-            let mut graph = FactorGraph::new();
-            graph.add(Factor::PosePrior(prior))?;
-            for (node, x) in initial.iter().enumerate() {
-                values.insert_pose(node as u64, *x)?;
-                if let Some(f) = odometry(node)? {
-                    graph.add(f)?;
-                }
-            }
-            for (id, p) in &landmarks.last {
-                values.insert_landmark(*id, *p)?;
-                if let Some(f) = landmark_prior(*id, *p)? {
-                    graph.add(f)?;
-                }
-            }
-            for (k, scan) in skeleton.scans.iter().enumerate() {
-                for o in scan {
-                    if landmarks.last.contains_key(&o.landmark_id) {
-                        graph.add(measurement_factor(skeleton.scan_node[k], o, run_config)?)?;
-                        report.n_measurements += 1;
-                    } else {
-                        report.n_dropped += 1;
-                    }
-                }
-            }
-            report.solve = Some(optimize(&graph, &mut values, &config.solver)?);
-            let marginals = marginal_covariances(&graph, &values, &config.solver.robust)?;
-            let mut poses = Vec::with_capacity(initial.len());
-            let mut covs = Vec::with_capacity(initial.len());
-            for node in 0..initial.len() {
-                poses.push(values.pose(node as u64)?);
-                covs.push(marginals.pose(node as u64)?);
-            }
-            let mut lms = BTreeMap::new();
-            for (id, p) in values.landmarks() {
-                lms.insert(*id, (*p, marginals.landmark(*id)?));
-            }
-            (poses, covs, lms)
+    let mut values = Values::new();
+    let mut graph = FactorGraph::new();
+    graph.add(Factor::PosePrior(prior))?;
+    for (node, x) in initial.iter().enumerate() {
+        values.insert_pose(node as u64, *x)?;
+        if let Some(pre) = &skeleton.odometry[node] {
+            graph.add(Factor::Odometry(OdometryFactor::from_preintegrated(
+                node as u64 - 1,
+                node as u64,
+                pre,
+                config.odometry_floor_sigma,
+            )?))?;
         }
-    };
-    let mut output = filter.clone();
-    apply_smoothed(
-        &mut output,
-        &skeleton.scan_node,
-        &skeleton.records,
-        &poses,
-        &pose_cov,
-        &lms,
-    );
-    report.smoother_time_s = started.elapsed().as_secs_f64();
-    Ok(SmoothedRun {
-        output,
-        filter,
+    }
+    for (id, p) in &landmarks.last {
+        values.insert_landmark(*id, *p)?;
+        if let Some(s) = config.landmark_prior_sigma_m {
+            graph.add(Factor::LandmarkPrior(LandmarkPriorFactor::new(
+                *id,
+                *p,
+                Matrix2::identity() * (s * s),
+            )?))?;
+        }
+    }
+    for (k, scan) in skeleton.scans.iter().enumerate() {
+        for o in scan {
+            if landmarks.last.contains_key(&o.landmark_id) {
+                graph.add(measurement_factor(skeleton.scan_node[k], o, run_config)?)?;
+                report.n_measurements += 1;
+            } else {
+                report.n_dropped += 1;
+            }
+        }
+    }
+    Ok(BatchProblem {
+        graph,
+        initial: values,
         report,
+        skeleton,
     })
 }
 

@@ -4,10 +4,11 @@
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::wrap_angle;
 use nalgebra::{DVector, Vector2, Vector3};
+use serde::Serialize;
 use std::collections::BTreeMap;
 
 /// Names one variable of the graph.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
 pub enum Key {
     /// A robot pose `[x, y, θ]` (3 entries), numbered by the caller.
     Pose(u64),
@@ -39,7 +40,7 @@ pub(crate) fn unknown_key(key: Key) -> SlamError {
 }
 
 /// The estimate of every variable: poses by number, landmarks by id.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Values {
     poses: BTreeMap<u64, Vector3<f64>>,
     landmarks: BTreeMap<u64, Vector2<f64>>,

@@ -205,6 +205,9 @@ pub struct MonoRunResult {
     pub map: Vec<(usize, Vector3<f64>, Matrix3<f64>)>,
     /// Map landmarks per frame.
     pub map_sizes: Vec<usize>,
+    /// Landmarks of the final map held as Euclidean points (the reference
+    /// and those converted from inverse depth by the linearity test).
+    pub euclidean: usize,
 }
 
 impl MonoRunResult {
@@ -344,6 +347,7 @@ impl<'a> MonoSimulation<'a> {
             pose_nees: Vec::with_capacity(n),
             map: Vec::new(),
             map_sizes: Vec::with_capacity(n),
+            euclidean: 0,
         };
         for k in 0..n {
             if k > 0 {
@@ -365,6 +369,7 @@ impl<'a> MonoSimulation<'a> {
             result.map_sizes.push(filter.landmark_ids().len());
         }
         for p in filter.landmarks() {
+            result.euclidean += usize::from(!p.inverse_depth);
             if let Some(i) = self.truth_of(p.feature_id) {
                 result.map.push((i, p.position, p.covariance));
             }

@@ -69,6 +69,7 @@ mod method;
 mod parameters;
 pub mod report;
 mod run;
+mod same_graph;
 pub mod tables;
 
 pub use export::export_logs;
@@ -78,6 +79,7 @@ pub use run::{
     EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run,
     evaluate_run_observed, evaluate_run_with, filter_log,
 };
+pub use same_graph::export_same_graph;
 
 use bearing_slam_core::SlamError;
 use bearing_slam_io::mrclam::MrclamError;

@@ -4,6 +4,7 @@
 //! bearing-slam-eval tables                       # docs/results/mrclam/{results,dataset6,1,2,4}.md, results.json
 //! bearing-slam-eval calibrate                    # the tuning rule on Dataset 6
 //! bearing-slam-eval export /tmp/mrclam_export    # logs for benches/gtsam_mrclam.py
+//! bearing-slam-eval same-graph /tmp/same_graph   # smoother graphs for benches/gtsam_same_graph.py
 //! bearing-slam-eval residuals                    # noise statistics per robot and pooled
 //! ```
 //!
@@ -13,9 +14,9 @@
 mod residuals;
 
 use bearing_slam_eval::calibration::{calibrate_parameters, comparison_table};
-use bearing_slam_eval::real_data::export_logs;
 use bearing_slam_eval::real_data::report::{evaluate_tables, read_gtsam};
 use bearing_slam_eval::real_data::tables::markdown_files;
+use bearing_slam_eval::real_data::{export_logs, export_same_graph};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -91,6 +92,20 @@ enum Command {
         #[command(flatten)]
         data: Data,
     },
+    /// The batch smoother's factor graph of every Dataset 6 robot (whole
+    /// runs and their first 1/2, 1/4, 1/8), with our solve of it (solution,
+    /// cost, median time), one JSON file each, for
+    /// `benches/gtsam_same_graph.py`.
+    SameGraph {
+        /// Output directory.
+        #[arg(value_name = "OUT_DIR")]
+        out: PathBuf,
+        /// Timed solves per graph (the median is reported).
+        #[arg(long, default_value_t = 5, value_name = "N")]
+        repeats: usize,
+        #[command(flatten)]
+        data: Data,
+    },
     /// Bearing, range and velocity-model residual statistics per robot and
     /// pooled, a table of the motion noise against the window length, and
     /// the calibration as JSON (no filter is run).
@@ -136,6 +151,15 @@ fn export(data: &Path, out: &Path) -> Result<(), BoxError> {
     Ok(())
 }
 
+fn same_graph(data: &Path, out: &Path, repeats: usize) -> Result<(), BoxError> {
+    let dataset = data.join("MRCLAM_Dataset6");
+    let written = export_same_graph(&dataset, out, &[8, 4, 2, 1], repeats, &mut |line| {
+        eprintln!("{line}")
+    })?;
+    println!("wrote {} graphs into {}", written.len(), out.display());
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let result = match Cli::parse().command {
         Command::Tables {
@@ -149,6 +173,7 @@ fn main() -> ExitCode {
         }
         Command::Calibrate { data } => calibrate(&data.dir()),
         Command::Export { out, data } => export(&data.dir(), &out),
+        Command::SameGraph { out, repeats, data } => same_graph(&data.dir(), &out, repeats),
         Command::Residuals {
             dataset,
             window,
