@@ -17,7 +17,7 @@ recordings, live: :func:`run_with_rerun`, of a finished run: :func:`log_rerun`
 :mod:`bearing_slam.acoustics`.
 """
 
-from bearing_slam import metrics, models
+from bearing_slam import metrics, models, mono
 from bearing_slam._native import (
     BearingSlamError,
     Config,
@@ -117,6 +117,8 @@ from bearing_slam.tum import write_tum
 
 __all__ += ["MonteCarloResult", "montecarlo"]
 __all__ += ["write_tum"]
+# issue 17: monocular SLAM on image sequences (bs.mono.run, bs.mono.render).
+__all__ += ["mono"]
 
 # A run as a Rerun recording (the `rerun` extra): `bs.run_with_rerun` (live),
 # `bs.log_rerun` (a finished run); its module is

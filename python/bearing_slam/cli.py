@@ -562,6 +562,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     figs.add_argument("--quiet", action="store_true", help="no progress bar and no JSON")
     figs.set_defaults(func=_cmd_mrclam_figures)
+
+    # issue 17: monocular SLAM on a frames directory (KITTI clip layout).
+    from bearing_slam.cli_mono import add_mono_parser
+
+    add_mono_parser(sub)
     return p
 
 

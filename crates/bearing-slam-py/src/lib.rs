@@ -15,6 +15,7 @@ mod live;
 mod log;
 mod metrics;
 mod models;
+mod mono;
 mod montecarlo;
 mod observe;
 mod pickle;
@@ -71,5 +72,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     montecarlo::register(m)?;
     m.add_function(wrap_pyfunction!(real_data::py_evaluate_mrclam, m)?)?;
     m.add_function(wrap_pyfunction!(vocabulary::py_vocabulary, m)?)?;
+    m.add_function(wrap_pyfunction!(mono::mono_run, m)?)?;
+    m.add_function(wrap_pyfunction!(mono::mono_render, m)?)?;
     Ok(())
 }

@@ -1,0 +1,275 @@
+//! One call from a frames directory to a scored run: opens the sequence,
+//! builds the filter (the core's [`MonoSlam`], or the ground-truth oracle
+//! on a rendered sequence), runs the loop and scores it. This is what the
+//! Python `bs.mono.run` and the CLI `bearing-slam mono` call.
+//!
+//! Scale: the KITTI clips and the rendered room have no metric reference
+//! in view, so the filter starts at frame 1 from the first two
+//! ground-truth poses ([`MonoStart::from_two_poses`]: the pose of frame 1
+//! and the velocity between frames 0 and 1); the run and its scores cover
+//! frames 1 … N−1.
+
+use crate::error::{Result, VisionError};
+use crate::frames::FrameSequence;
+use crate::oracle::GroundTruthOracle;
+use crate::render::read_scene_config;
+use crate::run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
+use bearing_slam_core::mono::{
+    CameraPose, ConstantVelocity, MapPoint, MonoConfig, MonoFilter, MonoSlam, MonoStart,
+    MonoUpdateReport, PinholeCamera, PixelObservation, SearchRegion,
+};
+use nalgebra::{Vector2, Vector4};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Which filter runs behind the front end.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FilterKind {
+    /// [`MonoSlam`] with the delayed stochastic triangulation (MTE).
+    Delayed,
+    /// The same with each candidate's first pose cloned into the state.
+    DelayedClone,
+    /// [`MonoSlam`] with the undelayed inverse-depth initialization.
+    Undelayed,
+    /// The ground-truth oracle (rendered sequences only): the front end alone.
+    Oracle,
+}
+
+/// Everything a run needs besides the frames: the front end, the filter and
+/// its noise, how many frames.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct MonoRunConfig {
+    /// Detection and active search.
+    pub front_end: FrontEndConfig,
+    /// The filter.
+    pub filter: FilterKind,
+    /// Pixel noise σ of a match, pixels.
+    pub pixel_sigma: f64,
+    /// Linear acceleration noise σ of the constant-velocity model, m/s².
+    pub linear_accel_sigma: f64,
+    /// Angular acceleration noise σ, rad/s².
+    pub angular_accel_sigma: f64,
+    /// σ of the start velocity (around the one of the first two poses), m/s.
+    pub velocity_sigma: f64,
+    /// σ of the start angular velocity, rad/s.
+    pub angular_velocity_sigma: f64,
+    /// Undelayed prior inverse depth, 1/m.
+    pub rho_ini: f64,
+    /// Undelayed prior σ of the inverse depth, 1/m.
+    pub sigma_rho: f64,
+    /// Delayed: the least baseline before triangulating, metres (None: the
+    /// core's default).
+    pub baseline_min_m: Option<f64>,
+    /// Delayed: the least parallax, degrees (None: the paper's 10°).
+    pub alpha_min_deg: Option<f64>,
+    /// Depth at which a candidate's ray is placed to predict its next
+    /// pixel, metres (None: the core's hand-held 3 m; a car needs ~15 m).
+    pub candidate_depth_m: Option<f64>,
+    /// Search σ around a candidate's predicted pixel, pixels (None: the core's).
+    pub candidate_sigma_px: Option<f64>,
+    /// Run at most this many frames.
+    pub max_frames: Option<usize>,
+}
+
+impl Default for MonoRunConfig {
+    fn default() -> Self {
+        Self {
+            front_end: FrontEndConfig::default(),
+            filter: FilterKind::Delayed,
+            pixel_sigma: 1.0,
+            linear_accel_sigma: 2.0,
+            angular_accel_sigma: 3.0,
+            velocity_sigma: 0.1,
+            angular_velocity_sigma: 0.1,
+            rho_ini: 0.1,
+            sigma_rho: 0.5,
+            baseline_min_m: None,
+            alpha_min_deg: None,
+            candidate_depth_m: None,
+            candidate_sigma_px: None,
+            max_frames: None,
+        }
+    }
+}
+
+/// A scored run.
+#[derive(Clone, Debug)]
+pub struct MonoOutput {
+    /// The loop's record.
+    pub run: MonoRun,
+    /// The index of the run's first frame in the sequence.
+    pub first_frame: usize,
+    /// The ground-truth poses of the frames run.
+    pub truth: Vec<CameraPose>,
+    /// The scores.
+    pub metrics: MonoMetrics,
+    /// The map at the end (empty for the oracle).
+    pub landmarks: Vec<MapPoint>,
+    /// The filter's report of every frame's update (matches used, rejected
+    /// by its gate, landmarks initialized; empty for the oracle), in frame
+    /// order, the first frame (no update) included as a default report.
+    pub reports: Vec<MonoUpdateReport>,
+    /// The sequence (paths, intrinsics, sizes).
+    pub sequence: FrameSequence,
+}
+
+fn quaternion_vector(pose: &CameraPose) -> Vector4<f64> {
+    let q = pose.orientation.quaternion();
+    Vector4::new(q.w, q.i, q.j, q.k)
+}
+
+/// The core filter's configuration for this sequence.
+fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConfig> {
+    let i = seq.intrinsics;
+    let camera = PinholeCamera::new(
+        i.fx,
+        i.fy,
+        i.cx,
+        i.cy,
+        0.0,
+        0.0,
+        (f64::from(seq.width), f64::from(seq.height)),
+    )?;
+    let mut core = match config.filter {
+        FilterKind::Delayed | FilterKind::Oracle => MonoConfig::delayed(camera),
+        FilterKind::DelayedClone => MonoConfig::delayed_with_clone(camera),
+        FilterKind::Undelayed => MonoConfig::undelayed(camera, config.rho_ini, config.sigma_rho),
+    };
+    core.pixel_sigma = config.pixel_sigma;
+    core.motion = ConstantVelocity::new(config.linear_accel_sigma, config.angular_accel_sigma)?;
+    if let bearing_slam_core::mono::MonoInitializer::Delayed(ref mut t)
+    | bearing_slam_core::mono::MonoInitializer::DelayedWithClone(ref mut t) = core.initializer
+    {
+        if let Some(b) = config.baseline_min_m {
+            t.baseline_min = b;
+        }
+        if let Some(a) = config.alpha_min_deg {
+            t.alpha_min = a.to_radians();
+        }
+    }
+    if let Some(d) = config.candidate_depth_m {
+        core.candidate_nominal_depth = d;
+    }
+    if let Some(s) = config.candidate_sigma_px {
+        core.candidate_search_sigma = s;
+    }
+    core.validate()?;
+    Ok(core)
+}
+
+/// Opens `dir` (calibration from `calib`, or `dir/calib.txt`), runs the
+/// filter chosen in `config` behind the front end from frame 1 (started
+/// from the first two ground-truth poses) and scores the run.
+pub fn run_directory(
+    dir: &Path,
+    calib: Option<&Path>,
+    config: &MonoRunConfig,
+) -> Result<MonoOutput> {
+    let seq = FrameSequence::open(dir, calib)?;
+    if seq.len() < 4 {
+        return Err(VisionError::Layout {
+            dir: seq.dir.clone(),
+            reason: format!(
+                "{} frames: at least 4 needed (two start the filter)",
+                seq.len()
+            ),
+        });
+    }
+    let first = 1;
+    let (run, landmarks, reports) = match config.filter {
+        FilterKind::Oracle => {
+            let scene = read_scene_config(&seq.dir)?
+                .ok_or_else(|| VisionError::Layout {
+                    dir: seq.dir.clone(),
+                    reason: "the oracle needs a rendered sequence (scene.json)".into(),
+                })?
+                .scene();
+            let poses = seq.poses[first..].to_vec();
+            let mut oracle =
+                GroundTruthOracle::new(scene, seq.intrinsics, poses, config.pixel_sigma)?;
+            let run = run_mono(
+                &seq,
+                &mut oracle,
+                &config.front_end,
+                first,
+                config.max_frames,
+            )?;
+            (run, Vec::new(), Vec::new())
+        }
+        _ => {
+            let core = filter_config(&seq, config)?;
+            let (p0, p1) = (&seq.poses[0], &seq.poses[1]);
+            let start = MonoStart::from_two_poses(
+                (&p0.position, &quaternion_vector(p0)),
+                (&p1.position, &quaternion_vector(p1)),
+                seq.times[1] - seq.times[0],
+                config.velocity_sigma,
+                config.angular_velocity_sigma,
+            )?;
+            let mut filter = Reporting {
+                inner: MonoSlam::new(core, &start)?,
+                reports: Vec::new(),
+            };
+            let run = run_mono(
+                &seq,
+                &mut filter,
+                &config.front_end,
+                first,
+                config.max_frames,
+            )?;
+            let landmarks = filter.inner.landmarks();
+            (run, landmarks, filter.reports)
+        }
+    };
+    let truth = seq.poses[first..first + run.poses.len()].to_vec();
+    let metrics = run.metrics(&truth)?;
+    Ok(MonoOutput {
+        run,
+        first_frame: first,
+        truth,
+        metrics,
+        landmarks,
+        reports,
+        sequence: seq,
+    })
+}
+
+/// [`MonoSlam`] behind the trait, keeping each frame's update report.
+struct Reporting {
+    inner: MonoSlam,
+    reports: Vec<MonoUpdateReport>,
+}
+
+impl MonoFilter for Reporting {
+    fn predict(&mut self, dt: f64) -> bearing_slam_core::Result<()> {
+        self.inner.predict(dt)
+    }
+
+    fn search_regions(&self) -> bearing_slam_core::Result<Vec<SearchRegion>> {
+        self.inner.search_regions()
+    }
+
+    fn update(
+        &mut self,
+        found: &[PixelObservation],
+        missed: &[u64],
+    ) -> bearing_slam_core::Result<()> {
+        self.inner.update(found, missed)?;
+        self.reports.push(self.inner.last_report());
+        Ok(())
+    }
+
+    fn add_features(&mut self, px: &[Vector2<f64>]) -> bearing_slam_core::Result<Vec<u64>> {
+        self.inner.add_features(px)
+    }
+
+    fn camera_pose(&self) -> CameraPose {
+        self.inner.camera_pose()
+    }
+
+    fn landmarks(&self) -> Vec<MapPoint> {
+        self.inner.landmarks()
+    }
+}

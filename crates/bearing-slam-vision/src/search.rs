@@ -1,0 +1,267 @@
+//! Active search (Munguía & Grau (30)): each tracked feature is looked for
+//! only inside the ellipse `νᵀ S⁻¹ ν ≤ χ²` around its predicted pixel,
+//! `S = H P Hᵀ + R` its innovation covariance, by normalized
+//! cross-correlation of its patch; the best score above a threshold is the
+//! measurement (refined to sub-pixel by a parabola through the neighbours).
+
+use crate::error::{Result, VisionError};
+use crate::patch::Patch;
+use bearing_slam_core::mono::{PixelObservation, SearchRegion};
+use image::GrayImage;
+use nalgebra::{Matrix2, Vector2};
+use serde::{Deserialize, Serialize};
+use std::collections::HashMap;
+
+/// How features are searched for and their patches kept up to date.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SearchConfig {
+    /// The probability mass of the search ellipse (χ² with 2 degrees of
+    /// freedom: `χ² = −2 ln(1 − confidence)`; 0.99 → 9.21).
+    pub confidence: f64,
+    /// The least NCC score accepted as a match.
+    pub min_ncc: f64,
+    /// A match scoring at least this refreshes the feature's patch …
+    pub refresh_ncc: f64,
+    /// … once the feature has moved this many pixels from where its patch was
+    /// taken (the view has changed).
+    pub refresh_shift_px: f64,
+    /// The ellipse's bounding box is clipped to this half side, pixels (a
+    /// filter that has lost track must not make the search scan the image).
+    pub max_half_axis_px: f64,
+    /// The patch's half side: patches are `2·half + 1` pixels square (5 → 11×11).
+    pub patch_half: u32,
+    /// Refine the best match to sub-pixel precision.
+    pub subpixel: bool,
+}
+
+impl Default for SearchConfig {
+    fn default() -> Self {
+        Self {
+            confidence: 0.99,
+            min_ncc: 0.8,
+            refresh_ncc: 0.9,
+            refresh_shift_px: 10.0,
+            max_half_axis_px: 60.0,
+            patch_half: 5,
+            subpixel: true,
+        }
+    }
+}
+
+/// The χ² quantile with 2 degrees of freedom, exact: `−2 ln(1 − p)`.
+pub fn chi2_quantile_2dof(confidence: f64) -> Result<f64> {
+    if !(confidence > 0.0 && confidence < 1.0) {
+        return Err(VisionError::InvalidParameter {
+            name: "confidence",
+            value: confidence,
+            reason: "must be in (0, 1)",
+        });
+    }
+    Ok(-2.0 * (1.0 - confidence).ln())
+}
+
+/// What the search of one feature gave.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SearchOutcome {
+    /// Matched at `px` with NCC `score`.
+    Found {
+        /// The measured pixel.
+        px: Vector2<f64>,
+        /// The NCC score of the match.
+        score: f64,
+    },
+    /// Searched, no score reached the threshold (`best` is the best seen,
+    /// −1 if no position fitted).
+    Missed {
+        /// The best NCC score inside the ellipse.
+        best: f64,
+    },
+    /// The ellipse lies outside the image: the feature is not visible and
+    /// is neither found nor missed.
+    OutOfView,
+}
+
+/// Searches one patch inside the ellipse of `region` (30).
+pub fn search_region(
+    image: &GrayImage,
+    patch: &Patch,
+    region: &SearchRegion,
+    chi2: f64,
+    config: &SearchConfig,
+) -> Result<SearchOutcome> {
+    let s = region.innovation_cov;
+    let det = s.determinant();
+    let p = region.predicted_px;
+    if !(s.iter().all(|v| v.is_finite())
+        && s[(0, 0)] > 0.0
+        && det > 0.0
+        && p.x.is_finite()
+        && p.y.is_finite())
+    {
+        return Err(VisionError::InvalidParameter {
+            name: "innovation_cov",
+            value: det,
+            reason: "S must be finite and positive definite, the prediction finite",
+        });
+    }
+    let s_inv: Matrix2<f64> = Matrix2::new(s[(1, 1)], -s[(0, 1)], -s[(1, 0)], s[(0, 0)]) / det;
+    let half_u = (chi2 * s[(0, 0)]).sqrt().min(config.max_half_axis_px);
+    let half_v = (chi2 * s[(1, 1)]).sqrt().min(config.max_half_axis_px);
+    let margin = i64::from(patch.half());
+    let (w, h) = (i64::from(image.width()), i64::from(image.height()));
+    let u0 = ((p.x - half_u).ceil() as i64).max(margin);
+    let u1 = ((p.x + half_u).floor() as i64).min(w - 1 - margin);
+    let v0 = ((p.y - half_v).ceil() as i64).max(margin);
+    let v1 = ((p.y + half_v).floor() as i64).min(h - 1 - margin);
+    if u0 > u1 || v0 > v1 {
+        return Ok(SearchOutcome::OutOfView);
+    }
+    let mut best = (-1.0f64, 0i64, 0i64);
+    for v in v0..=v1 {
+        for u in u0..=u1 {
+            let nu = Vector2::new(u as f64 - p.x, v as f64 - p.y);
+            if nu.dot(&(s_inv * nu)) > chi2 {
+                continue;
+            }
+            if let Some(score) = patch.ncc_at(image, u, v)
+                && score > best.0
+            {
+                best = (score, u, v);
+            }
+        }
+    }
+    let (score, u, v) = best;
+    if score < config.min_ncc {
+        return Ok(SearchOutcome::Missed { best: score });
+    }
+    let mut px = Vector2::new(u as f64, v as f64);
+    if config.subpixel {
+        let offset = |minus: Option<f64>, plus: Option<f64>| -> f64 {
+            match (minus, plus) {
+                (Some(a), Some(b)) => {
+                    let curvature = a - 2.0 * score + b;
+                    if curvature < -1e-9 {
+                        (0.5 * (a - b) / curvature).clamp(-0.5, 0.5)
+                    } else {
+                        0.0
+                    }
+                }
+                _ => 0.0,
+            }
+        };
+        px.x += offset(patch.ncc_at(image, u - 1, v), patch.ncc_at(image, u + 1, v));
+        px.y += offset(patch.ncc_at(image, u, v - 1), patch.ncc_at(image, u, v + 1));
+    }
+    Ok(SearchOutcome::Found { px, score })
+}
+
+/// One feature's search, as recorded for plots (Fig. 12).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchRecord {
+    /// The region the filter predicted.
+    pub region: SearchRegion,
+    /// What the search gave.
+    pub outcome: SearchOutcome,
+}
+
+/// The result of searching a whole frame.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct FrameSearch {
+    /// The features found, for [`bearing_slam_core::mono::MonoFilter::update`].
+    pub found: Vec<PixelObservation>,
+    /// The ids searched for and not found.
+    pub missed: Vec<u64>,
+    /// Every region with its outcome, in the filter's order.
+    pub records: Vec<SearchRecord>,
+    /// Patches refreshed this frame.
+    pub refreshed: usize,
+}
+
+/// The patches of the tracked features, by feature id.
+#[derive(Clone, Debug, Default)]
+pub struct PatchStore {
+    patches: HashMap<u64, Patch>,
+}
+
+impl PatchStore {
+    /// An empty store.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Stores (or replaces) a feature's patch.
+    pub fn insert(&mut self, feature_id: u64, patch: Patch) {
+        self.patches.insert(feature_id, patch);
+    }
+
+    /// A feature's patch.
+    pub fn get(&self, feature_id: u64) -> Option<&Patch> {
+        self.patches.get(&feature_id)
+    }
+
+    /// The number of stored patches.
+    pub fn len(&self) -> usize {
+        self.patches.len()
+    }
+
+    /// Whether no patch is stored.
+    pub fn is_empty(&self) -> bool {
+        self.patches.is_empty()
+    }
+
+    /// Forgets every feature not in `alive` (features the filter dropped).
+    pub fn retain_ids(&mut self, alive: &[u64]) {
+        let alive: std::collections::HashSet<u64> = alive.iter().copied().collect();
+        self.patches.retain(|id, _| alive.contains(id));
+    }
+}
+
+/// Active search of every region in one image. A region whose feature has
+/// no patch is reported missed; an ellipse outside the image is neither
+/// found nor missed. A good match (score ≥ `refresh_ncc`) far enough from
+/// where the patch was taken refreshes the patch.
+pub fn active_search(
+    image: &GrayImage,
+    regions: &[SearchRegion],
+    store: &mut PatchStore,
+    config: &SearchConfig,
+) -> Result<FrameSearch> {
+    let chi2 = chi2_quantile_2dof(config.confidence)?;
+    let mut out = FrameSearch::default();
+    for region in regions {
+        let id = region.feature_id;
+        let Some(patch) = store.get(id) else {
+            out.missed.push(id);
+            out.records.push(SearchRecord {
+                region: *region,
+                outcome: SearchOutcome::Missed { best: -1.0 },
+            });
+            continue;
+        };
+        let outcome = search_region(image, patch, region, chi2, config)?;
+        match outcome {
+            SearchOutcome::Found { px, score } => {
+                out.found.push(PixelObservation { feature_id: id, px });
+                if score >= config.refresh_ncc
+                    && (px - patch.taken_at).norm() >= config.refresh_shift_px
+                {
+                    let (x, y) = (px.x.round(), px.y.round());
+                    if let Some(fresh) =
+                        Patch::extract(image, x as u32, y as u32, config.patch_half)
+                    {
+                        store.insert(id, fresh);
+                        out.refreshed += 1;
+                    }
+                }
+            }
+            SearchOutcome::Missed { .. } => out.missed.push(id),
+            SearchOutcome::OutOfView => {}
+        }
+        out.records.push(SearchRecord {
+            region: *region,
+            outcome,
+        });
+    }
+    Ok(out)
+}
