@@ -39,6 +39,7 @@ help:
 	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
 	@echo "make mutants     - cargo-mutants on the estimator's core modules (hours; MUTANTS_ARGS='--shard 0/20')"
 	@echo "make soak        - long runs: 1e6 filter steps (RSS), 1e6 random operations (PSD), 6 h simulated"
+	@echo "make mono-montecarlo - the 6-DOF monocular filter, delayed vs undelayed, 50 synthetic seeds (docs/results/mono-synthetic-table.md)"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true

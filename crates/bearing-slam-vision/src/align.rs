@@ -1,12 +1,13 @@
 //! Scoring a monocular camera path: the absolute trajectory error (ATE)
-//! after a Sim(3) alignment (Umeyama 1991, least squares over rotation,
-//! translation and scale), and after fixing the scale and frame from the
-//! first two ground-truth poses (the metric reference a monocular camera
-//! lacks; what the KITTI clips offer).
+//! after a Sim(3) alignment (the core's Umeyama,
+//! [`bearing_slam_core::mono::metrics::align_3d`]), and after fixing the
+//! scale and frame from the first two ground-truth poses (the metric
+//! reference a monocular camera lacks; what the KITTI clips offer).
 
 use crate::error::{Result, VisionError};
 use bearing_slam_core::mono::CameraPose;
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use bearing_slam_core::mono::metrics::{Sim3, align_3d};
+use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
 
 /// The ATE of one alignment.
@@ -24,24 +25,6 @@ pub struct AteReport {
     pub poses: usize,
 }
 
-/// A similarity transform `y = s R x + t`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Similarity {
-    /// Scale.
-    pub scale: f64,
-    /// Rotation.
-    pub rotation: Rotation3<f64>,
-    /// Translation.
-    pub translation: Vector3<f64>,
-}
-
-impl Similarity {
-    /// Applies the transform to a point.
-    pub fn apply(&self, x: &Vector3<f64>) -> Vector3<f64> {
-        self.scale * (self.rotation * x) + self.translation
-    }
-}
-
 fn check_lengths(estimate: usize, truth: usize, least: usize) -> Result<()> {
     if estimate != truth {
         return Err(VisionError::Alignment(format!(
@@ -54,49 +37,6 @@ fn check_lengths(estimate: usize, truth: usize, least: usize) -> Result<()> {
         )));
     }
     Ok(())
-}
-
-/// Umeyama's least-squares similarity taking `from` onto `to`
-/// (`with_scale = false`: a rigid motion, scale 1).
-pub fn umeyama(from: &[Vector3<f64>], to: &[Vector3<f64>], with_scale: bool) -> Result<Similarity> {
-    check_lengths(from.len(), to.len(), 3)?;
-    let n = from.len() as f64;
-    let mean_from = from.iter().sum::<Vector3<f64>>() / n;
-    let mean_to = to.iter().sum::<Vector3<f64>>() / n;
-    let mut cov = Matrix3::zeros();
-    let mut var_from = 0.0;
-    for (x, y) in from.iter().zip(to) {
-        let (dx, dy) = (x - mean_from, y - mean_to);
-        cov += dy * dx.transpose();
-        var_from += dx.norm_squared();
-    }
-    cov /= n;
-    var_from /= n;
-    if var_from < 1e-18 {
-        return Err(VisionError::Alignment(
-            "the estimated path is a single point: no alignment".into(),
-        ));
-    }
-    let svd = cov.svd(true, true);
-    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else {
-        return Err(VisionError::Alignment("SVD failed".into()));
-    };
-    let mut d = Matrix3::identity();
-    if (u.determinant() * v_t.determinant()) < 0.0 {
-        d[(2, 2)] = -1.0;
-    }
-    let rotation = Rotation3::from_matrix_unchecked(u * d * v_t);
-    let scale = if with_scale {
-        (Matrix3::from_diagonal(&svd.singular_values) * d).trace() / var_from
-    } else {
-        1.0
-    };
-    let translation = mean_to - scale * (rotation * mean_from);
-    Ok(Similarity {
-        scale,
-        rotation,
-        translation,
-    })
 }
 
 fn report(aligned: &[Vector3<f64>], truth: &[Vector3<f64>], scale: f64) -> AteReport {
@@ -120,7 +60,8 @@ fn report(aligned: &[Vector3<f64>], truth: &[Vector3<f64>], scale: f64) -> AteRe
 pub fn ate_sim3(estimate: &[CameraPose], truth: &[CameraPose]) -> Result<AteReport> {
     let from: Vec<Vector3<f64>> = estimate.iter().map(|p| p.position).collect();
     let to: Vec<Vector3<f64>> = truth.iter().map(|p| p.position).collect();
-    let sim = umeyama(&from, &to, true)?;
+    check_lengths(from.len(), to.len(), 3)?;
+    let sim = align_3d(&from, &to, true).map_err(|e| VisionError::Alignment(e.to_string()))?;
     let aligned: Vec<Vector3<f64>> = from.iter().map(|x| sim.apply(x)).collect();
     Ok(report(&aligned, &to, sim.scale))
 }
@@ -140,8 +81,10 @@ pub fn ate_first_two_poses(estimate: &[CameraPose], truth: &[CameraPose]) -> Res
         ));
     }
     let scale = step_truth / step_estimate;
-    let rotation = (truth[0].orientation * estimate[0].orientation.inverse()).to_rotation_matrix();
-    let sim = Similarity {
+    let rotation = (truth[0].orientation * estimate[0].orientation.inverse())
+        .to_rotation_matrix()
+        .into_inner();
+    let sim = Sim3 {
         scale,
         rotation,
         translation: truth[0].position - scale * (rotation * estimate[0].position),

@@ -25,7 +25,7 @@ pub mod run;
 pub mod scene;
 pub mod search;
 
-pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_length, umeyama};
+pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_length};
 pub use error::{Result, VisionError};
 pub use frames::{FrameSequence, Intrinsics};
 pub use oracle::GroundTruthOracle;

@@ -60,7 +60,7 @@ fn mismatched_or_degenerate_paths_are_errors() {
         ate_sim3(&still, &truth)
             .unwrap_err()
             .to_string()
-            .contains("single point")
+            .contains("does not move")
     );
     assert!(ate_first_two_poses(&still, &truth).is_err());
 }
