@@ -105,7 +105,7 @@ impl Default for AssociationConfig {
             gate_probability: 0.999,
             jcbb_node_budget: 10_000,
             track_gate_probability: 0.999,
-            min_sightings: 8,
+            min_sightings: 15,
             min_hit_ratio: 0.7,
             max_misses: 3,
             max_tracks: 200,

@@ -71,8 +71,13 @@ pub struct AssociationScore {
     pub mapped: usize,
     /// Mapped landmarks owned by a true id that owns another one already.
     pub duplicates: usize,
-    /// Mapped landmarks owned by clutter or a moving distractor.
+    /// Landmarks ever mapped that were owned by clutter or a moving distractor.
     pub spurious: usize,
+    /// Of those, the ones still in the map at the end (the others were
+    /// removed when their bearings stopped fitting them).
+    pub spurious_at_end: usize,
+    /// Landmarks removed from the map again.
+    pub removed: usize,
     /// Static landmarks seen at least `min_sightings` times that own no mapped landmark.
     pub missed: usize,
     /// Scans whose pairing stopped at the JCBB node budget.
@@ -84,12 +89,14 @@ pub struct AssociationScore {
 }
 
 /// Scores `records`, with `births[id]` the time mapped landmark `id` entered
-/// the map and `costs` the scans' pairing costs; a static landmark seen at
+/// the map, `deaths[id]` the time it left it again (if it did) and `costs`
+/// the scans' pairing costs; a static landmark seen at
 /// least `min_sightings` times and never mapped counts as missed.
 #[must_use]
 pub fn score(
     records: &[AssociationRecord],
     births: &BTreeMap<u64, f64>,
+    deaths: &BTreeMap<u64, f64>,
     costs: &[ScanCost],
     min_sightings: usize,
 ) -> AssociationScore {
@@ -124,6 +131,13 @@ pub fn score(
     let mut out = AssociationScore {
         bearings: records.len(),
         mapped: births.len(),
+        removed: deaths.len(),
+        spurious_at_end: owner
+            .iter()
+            .filter(|&(id, &truth)| {
+                truth_kind(truth) != TruthKind::Landmark && !deaths.contains_key(id)
+            })
+            .count(),
         ..AssociationScore::default()
     };
     let mut reachable = 0usize;
@@ -200,10 +214,11 @@ mod tests {
             rec(7.0, 2, Assignment::Tracks(vec![13])),
         ];
         let births = BTreeMap::from([(10, 1.5), (11, 4.5), (12, 5.5)]);
-        let s = score(&records, &births, &[], 2);
+        let s = score(&records, &births, &BTreeMap::from([(12, 7.0)]), &[], 2);
         assert_eq!(s.paired, 5);
         assert_eq!(s.correct, 3);
         assert_eq!((s.mapped, s.duplicates, s.spurious, s.missed), (3, 1, 1, 1));
+        assert_eq!((s.removed, s.spurious_at_end), (1, 0));
         assert!((s.precision - 0.6).abs() < 1e-12);
         // Landmark 1's bearings after t = 1.5: 2, 3, 4, 5 → 3 correct of 4.
         assert!((s.recall - 0.75).abs() < 1e-12, "{}", s.recall);

@@ -158,8 +158,12 @@ impl TrackSet {
     fn distance(&self, track: &Track, sighting: &Sighting) -> Option<f64> {
         let p = sighting.position();
         let phi = sighting.world_bearing();
-        let own = self.bearing_variance + sighting.pose_variances.z;
-        let position_variance = sighting.pose_variances.x + sighting.pose_variances.y;
+        // Only the pose uncertainty gained since the track began matters:
+        // the part common to all its sightings moves the point, not the fit.
+        let first = track.first();
+        let grown = relative_variances(first, sighting);
+        let own = self.bearing_variance + grown.z;
+        let position_variance = grown.x + grown.y;
         if let Some((x, cov)) = &track.point {
             let d = x - p;
             let range = d.norm();
@@ -172,7 +176,6 @@ impl TrackSet {
             let d2 = wrap_angle(phi - d.y.atan2(d.x)).powi(2) / var;
             return (d2 <= self.gate).then_some(d2);
         }
-        let first = track.first();
         let p1 = first.position();
         let u1 = unit_direction(first.world_bearing());
         let near = p1 + self.min_depth * u1 - p;
@@ -180,12 +183,8 @@ impl TrackSet {
         let a = near.y.atan2(near.x);
         let span = wrap_angle(far.y.atan2(far.x) - a);
         let offset = wrap_angle(phi - a);
-        let baseline_var = position_variance + first.pose_variances.x + first.pose_variances.y;
         let closest = near.norm().min(far.norm()).max(self.min_depth);
-        let var = own
-            + self.bearing_variance
-            + first.pose_variances.z
-            + baseline_var / (closest * closest);
+        let var = own + self.bearing_variance + position_variance / (closest * closest);
         let (lo, hi) = if span >= 0.0 {
             (0.0, span)
         } else {
@@ -322,7 +321,7 @@ impl TrackSet {
             .iter()
             .enumerate()
             .skip(1)
-            .map(|(i, s)| (i, self.residual2(s, &x)))
+            .map(|(i, s)| (i, self.residual2(&self.tracks[t].sightings[0], s, &x)))
             .max_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _)| i);
         if let Some(worst) = worst.filter(|_| self.tracks[t].dropped == 0) {
@@ -347,12 +346,11 @@ impl TrackSet {
     }
 
     /// `(residual / σ)²` of a sighting at point `x`.
-    fn residual2(&self, s: &Sighting, x: &Vector2<f64>) -> f64 {
+    fn residual2(&self, first: &Sighting, s: &Sighting, x: &Vector2<f64>) -> f64 {
         let d = x - s.position();
         let range2 = d.norm_squared().max(1e-18);
-        let var = self.bearing_variance
-            + s.pose_variances.z
-            + 0.5 * (s.pose_variances.x + s.pose_variances.y) / range2;
+        let grown = relative_variances(first, s);
+        let var = self.bearing_variance + grown.z + 0.5 * (grown.x + grown.y) / range2;
         wrap_angle(d.y.atan2(d.x) - s.world_bearing()).powi(2) / var
     }
 
@@ -380,9 +378,8 @@ impl TrackSet {
                 if range2 < 1e-12 {
                     return (None, 0.0);
                 }
-                let var = self.bearing_variance
-                    + s.pose_variances.z
-                    + 0.5 * (s.pose_variances.x + s.pose_variances.y) / range2;
+                let grown = relative_variances(first, s);
+                let var = self.bearing_variance + grown.z + 0.5 * (grown.x + grown.y) / range2;
                 // ∂atan2(d)/∂x = [−d_y, d_x] / |d|².
                 let j = Vector2::new(-d.y, d.x) / range2;
                 let r = wrap_angle(d.y.atan2(d.x) - s.world_bearing());
@@ -407,7 +404,7 @@ impl TrackSet {
         if !in_front || !x.iter().all(|v| v.is_finite()) || depth_sigma > 0.5 * depth {
             return (None, 0.0);
         }
-        let chi2 = sightings.iter().map(|s| self.residual2(s, &x)).sum();
+        let chi2 = sightings.iter().map(|s| self.residual2(first, s, &x)).sum();
         (Some((x, cov)), chi2)
     }
 
@@ -450,6 +447,11 @@ impl TrackSet {
         });
         Some(track)
     }
+}
+
+/// The pose variances gained from `first` to `later` (never negative).
+fn relative_variances(first: &Sighting, later: &Sighting) -> Vector3<f64> {
+    (later.pose_variances - first.pose_variances).map(|v| v.max(0.0))
 }
 
 /// Whether two tracks' points are within the gate of each other.

@@ -16,8 +16,8 @@ use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide};
 use crate::log::{BearingObservation, ensure_bearing};
-use nalgebra::{DMatrix, Matrix1, Vector3};
-use std::collections::BTreeMap;
+use nalgebra::{DMatrix, Matrix1, Matrix2, Vector2, Vector3};
+use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
 /// What one scan of anonymous bearings did.
@@ -51,6 +51,11 @@ pub(super) struct Anonymous {
     costs: Vec<ScanCost>,
     /// When each landmark entered the map.
     births: BTreeMap<u64, f64>,
+    /// When a landmark left the map again (its bearings stopped fitting a
+    /// static point: a moving object).
+    deaths: BTreeMap<u64, f64>,
+    /// The individual NIS of each landmark's latest pairings.
+    recent_nis: BTreeMap<u64, VecDeque<f64>>,
 }
 
 impl Anonymous {
@@ -75,9 +80,18 @@ impl Anonymous {
             records: Vec::new(),
             costs: Vec::new(),
             births: BTreeMap::new(),
+            deaths: BTreeMap::new(),
+            recent_nis: BTreeMap::new(),
         }))
     }
 }
+
+/// Pairings in the window of a landmark's NIS test.
+const NIS_WINDOW: usize = 10;
+
+/// Probability of the windowed NIS test that removes a mapped landmark
+/// whose bearings stopped fitting it.
+const NIS_WINDOW_PROBABILITY: f64 = 0.999;
 
 /// The nearest depth along a track's first ray its wedge starts at, metres.
 const WEDGE_MIN_DEPTH_M: f64 = 0.5;
@@ -139,7 +153,14 @@ impl BearingSlam {
             seconds: started.elapsed().as_secs_f64(),
         };
         let paired = paired_ids(&pairing, &kept, &predictions, bearings);
+        let nis: Vec<(u64, f64)> = pairing
+            .landmark_of
+            .iter()
+            .enumerate()
+            .filter_map(|(i, j)| j.map(|j| (predictions[kept[j]].id, problem.distance(i, j))))
+            .collect();
         let mut batch = self.update_bearings(time, &paired)?;
+        self.remove_inconsistent_landmarks(time, &nis)?;
         let mut assigned: Vec<Assignment> = pairing
             .landmark_of
             .iter()
@@ -263,6 +284,14 @@ impl BearingSlam {
                 continue;
             };
             let (first, last) = (*track.first(), *track.last());
+            if self.explained_by_map(track.point.as_ref()) {
+                // A mapped landmark already stands there: its bearings
+                // missed the gate for a while; it is not mapped twice.
+                if let Some(a) = self.anonymous.as_mut() {
+                    a.tracks.remove_with_competitors(id);
+                }
+                continue;
+            }
             let decision = match &self.config.initializer {
                 InitializerConfig::PiSr { .. } => CandidateDecision::Triangulate,
                 InitializerConfig::Triangulation(c)
@@ -337,6 +366,7 @@ impl BearingSlam {
         Some(score(
             &a.records,
             &a.births,
+            &a.deaths,
             &a.costs,
             self.config.association.min_sightings,
         ))
@@ -346,6 +376,51 @@ impl BearingSlam {
     #[must_use]
     pub fn association_costs(&self) -> &[ScanCost] {
         self.anonymous.as_ref().map_or(&[], |a| &a.costs)
+    }
+
+    /// Adds this scan's individual NIS of each paired landmark to its window
+    /// and removes from the map a landmark whose last [`NIS_WINDOW`]
+    /// pairings sum beyond `χ²_W(p)`: bearings that keep pulling away from
+    /// it are a moving object's (a static landmark's NIS averages 1).
+    fn remove_inconsistent_landmarks(&mut self, time: f64, nis: &[(u64, f64)]) -> Result<()> {
+        let limit = crate::stats::chi2_quantile(NIS_WINDOW as f64, NIS_WINDOW_PROBABILITY)?;
+        let mut doomed = Vec::new();
+        if let Some(a) = self.anonymous.as_mut() {
+            for &(id, d2) in nis {
+                let window = a.recent_nis.entry(id).or_default();
+                window.push_back(d2);
+                if window.len() > NIS_WINDOW {
+                    window.pop_front();
+                }
+                if window.len() == NIS_WINDOW && window.iter().sum::<f64>() > limit {
+                    doomed.push(id);
+                }
+            }
+            for id in &doomed {
+                a.recent_nis.remove(id);
+                a.deaths.insert(*id, time);
+            }
+        }
+        for id in doomed {
+            self.remove_landmark(id)?;
+        }
+        Ok(())
+    }
+
+    /// Whether a track's point lies within the χ²₂ gate of a mapped
+    /// landmark (covariances of both summed).
+    fn explained_by_map(&self, point: Option<&(Vector2<f64>, Matrix2<f64>)>) -> bool {
+        let Some((x, cov)) = point else {
+            return false;
+        };
+        let gate = crate::stats::chi2_quantile(2.0, self.config.association.gate_probability)
+            .unwrap_or(f64::INFINITY);
+        self.landmarks().iter().any(|l| {
+            let d = x - l.position;
+            (cov + l.covariance)
+                .try_inverse()
+                .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
+        })
     }
 
     /// When each landmark of the unknown-identity mode entered the map.
