@@ -61,6 +61,7 @@ from bearing_slam.outputs import (
 )
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
+    ASSOCIATIONS,
     DEFAULT_PRIOR,
     FAR_PRIOR,
     MRCLAM_METHODS,
@@ -268,7 +269,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
     if problem := estimator_problem(args):
         raise UserError(problem)
-    config = with_estimator(_config(log, args), args)
+    config = with_estimator(_config(log, args), args).replace(association=args.association)
     live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
@@ -478,6 +479,15 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
     add_estimator_options(runp)
+    # Data association (issue 16): the log's ids, or hidden and associated by the filter.
+    runp.add_argument(
+        "--association",
+        choices=ASSOCIATIONS,
+        default="known",
+        help="data association (default: %(default)s, the log's ids; nn/jcbb: the ids are "
+        "hidden from the filter, which pairs bearings with landmarks itself, and score it "
+        "in metrics.json; filter estimator only)",
+    )
     add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)
 

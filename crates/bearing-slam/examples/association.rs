@@ -1,0 +1,206 @@
+//! Data association measurements of issue #16 (docs/results/association.md):
+//! the EKF with the log's ids (`known`) against nearest neighbour and JCBB
+//! with the ids hidden, on `paper_fig8` and `slip_patch` with clutter 0, 1
+//! and 5 false bearings per scan (and a pacing distractor), and on MRCLAM
+//! Dataset 6 with the barcodes hidden; plus JCBB's cost per scan.
+//!
+//! ```text
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- sim 5
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
+//! ```
+
+use bearing_slam::core::association::score::AssociationScore;
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
+use bearing_slam::core::score::summarize;
+use bearing_slam::core::{Pose2, log::SensorLog};
+use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::io::mrclam::load_mrclam_with;
+use bearing_slam::sim::clutter::Distractor;
+use bearing_slam::sim::scenario::Scenario;
+use bearing_slam::sim::sim::simulate;
+use std::collections::BTreeMap;
+use std::error::Error;
+use std::path::Path;
+
+type Res<T> = Result<T, Box<dyn Error>>;
+
+const METHODS: [AssociationMethod; 3] = [
+    AssociationMethod::Known,
+    AssociationMethod::NearestNeighbour,
+    AssociationMethod::Jcbb,
+];
+
+/// One run's numbers.
+struct Row {
+    ate: f64,
+    score: Option<AssociationScore>,
+    /// (candidate landmarks, nodes, seconds) per scan.
+    costs: Vec<(usize, usize, f64)>,
+}
+
+fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<Row> {
+    let mut config = base.clone();
+    config.slam.association = AssociationConfig {
+        method,
+        ..config.slam.association
+    };
+    let output: RunOutput = run(log, &config)?;
+    let summary = summarize(log, &output)?;
+    Ok(Row {
+        ate: summary.ate_rmse_m,
+        score: output.association,
+        costs: Vec::new(),
+    })
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.1}", 100.0 * x)
+}
+
+fn sim(seeds: u64) -> Res<()> {
+    println!(
+        "| scenario | clutter/scan | distractor | method | precision % | recall % | duplicates | spurious (at end) | missed | ATE m | ATE / known |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    for name in ["paper_fig8", "slip_patch"] {
+        for (clutter, distractor) in [(0.0, false), (1.0, false), (5.0, false), (0.0, true)] {
+            // method -> sums over seeds
+            let mut sums: BTreeMap<&str, [f64; 7]> = BTreeMap::new();
+            for seed in 0..seeds {
+                let mut scenario = Scenario::named(name, seed)?;
+                scenario.clutter.per_scan = clutter;
+                if distractor {
+                    scenario.clutter.distractors = vec![Distractor {
+                        center: [1.0, 1.0],
+                        heading_rad: 0.5,
+                        amplitude_m: 1.0,
+                        period_s: 6.0,
+                    }];
+                }
+                let log = simulate(&scenario)?;
+                let config = default_run_config(&log)?;
+                let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+                for method in METHODS {
+                    let row = if method == AssociationMethod::Known {
+                        Row {
+                            ate: known,
+                            score: None,
+                            costs: Vec::new(),
+                        }
+                    } else {
+                        run_one(&log, &config, method)?
+                    };
+                    let s = row.score.unwrap_or_default();
+                    let e = sums.entry(method_name(method)).or_default();
+                    let (p, r) = if row.score.is_some() {
+                        (s.precision, s.recall)
+                    } else {
+                        (1.0, 1.0)
+                    };
+                    for (k, v) in [
+                        p,
+                        r,
+                        s.duplicates as f64,
+                        s.spurious as f64,
+                        s.spurious_at_end as f64,
+                        s.missed as f64,
+                        row.ate,
+                    ]
+                    .into_iter()
+                    .enumerate()
+                    {
+                        e[k] += v;
+                    }
+                    let _ = row.costs;
+                }
+            }
+            let n = seeds as f64;
+            let known_ate = sums.get("known").map_or(f64::NAN, |s| s[6] / n);
+            for method in METHODS {
+                let s = sums.get(method_name(method)).copied().unwrap_or_default();
+                let known = method == AssociationMethod::Known;
+                println!(
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {} ({}) | {} | {:.3} | {:.2} |",
+                    if distractor { "yes" } else { "no" },
+                    method_name(method),
+                    if known { "—".into() } else { pct(s[0] / n) },
+                    if known { "—".into() } else { pct(s[1] / n) },
+                    s[2] / n,
+                    s[3] / n,
+                    s[4] / n,
+                    s[5] / n,
+                    s[6] / n,
+                    s[6] / n / known_ate,
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn method_name(m: AssociationMethod) -> &'static str {
+    match m {
+        AssociationMethod::Known => "known",
+        AssociationMethod::NearestNeighbour => "nn",
+        AssociationMethod::Jcbb => "jcbb",
+    }
+}
+
+fn mrclam(dir: &Path) -> Res<()> {
+    println!(
+        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | ATE m | ATE / known | mean JCBB nodes | mean pairing ms |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let options = EvalOptions::default();
+    for robot in 1..=5u8 {
+        let loaded = load_mrclam_with(dir, robot, &options.load)?;
+        let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
+        let config = CALIBRATED_PARAMETERS.run_config(Method::Mte, Pose2::default())?;
+        let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+        for method in METHODS {
+            let row = if method == AssociationMethod::Known {
+                Row {
+                    ate: known,
+                    score: None,
+                    costs: Vec::new(),
+                }
+            } else {
+                run_one(&log, &config, method)?
+            };
+            match row.score {
+                Some(s) => println!(
+                    "| {robot} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.2} | {:.1} | {:.3} |",
+                    method_name(method),
+                    pct(s.precision),
+                    pct(s.recall),
+                    s.mapped,
+                    s.duplicates,
+                    s.spurious,
+                    s.missed,
+                    row.ate,
+                    row.ate / known,
+                    s.mean_nodes,
+                    1e3 * s.mean_scan_seconds,
+                ),
+                None => println!(
+                    "| {robot} | known | — | — | — | — | — | — | {:.3} | 1.00 | — | — |",
+                    row.ate
+                ),
+            }
+        }
+    }
+    Ok(())
+}
+
+fn main() -> Res<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("sim") => sim(args.get(1).map_or(Ok(3), |s| s.parse())?),
+        Some("mrclam") => mrclam(Path::new(
+            args.get(1)
+                .map_or("/work/shared/datasets/mrclam/MRCLAM_Dataset6", String::as_str),
+        )),
+        _ => Err("usage: association sim [SEEDS] | mrclam [DATASET_DIR]".into()),
+    }
+}
