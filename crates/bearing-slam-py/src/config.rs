@@ -4,8 +4,8 @@
 
 use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
-use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::Pose2;
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};

@@ -10,11 +10,11 @@
 //! stop one period before the end, so both tile `[0, T]` exactly. A scan that
 //! sees nothing still produces an (empty) `Bearings` event.
 
+use crate::clutter::ClutterSpec;
 use crate::controller::{Command, CommandLimiter, Controller};
 use crate::encoders::Encoders;
 use crate::error::{Result, SimError};
 use crate::robot::DriveTrain;
-use crate::clutter::ClutterSpec;
 use crate::scenario::{STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario, stream_rng};
 use crate::sensor::BearingSensor;
 use crate::world::PhysicsScene;

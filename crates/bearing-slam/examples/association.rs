@@ -9,11 +9,12 @@
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! ```
 
+use bearing_slam::core::Pose2;
 use bearing_slam::core::association::score::AssociationScore;
 use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam::core::log::{LandmarkTruth, SensorLog};
 use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
 use bearing_slam::core::score::summarize;
-use bearing_slam::core::{Pose2, log::SensorLog};
 use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
 use bearing_slam::io::mrclam::load_mrclam_with;
 use bearing_slam::sim::clutter::Distractor;
@@ -24,6 +25,9 @@ use std::error::Error;
 use std::path::Path;
 
 type Res<T> = Result<T, Box<dyn Error>>;
+
+/// Ids of the dense variant's twin landmarks: the original's plus this.
+const DENSE_TWIN_ID_OFFSET: u64 = 500;
 
 const METHODS: [AssociationMethod; 3] = [
     AssociationMethod::Known,
@@ -60,13 +64,23 @@ fn pct(x: f64) -> String {
 
 fn sim(seeds: u64) -> Res<()> {
     println!(
-        "| scenario | clutter/scan | distractor | method | precision % | recall % | duplicates | spurious (at end) | missed | ATE m | ATE / known |"
+        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates | spurious (at end) | removed | missed | ATE m | ATE / known |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let only = std::env::var("ASSOCIATION_SCENARIO").ok();
     for name in ["paper_fig8", "slip_patch"] {
-        for (clutter, distractor) in [(0.0, false), (1.0, false), (5.0, false), (0.0, true)] {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        for (clutter, distractor, dense) in [
+            (0.0, false, false),
+            (1.0, false, false),
+            (5.0, false, false),
+            (0.0, true, false),
+            (0.0, false, true),
+        ] {
             // method -> sums over seeds
-            let mut sums: BTreeMap<&str, [f64; 7]> = BTreeMap::new();
+            let mut sums: BTreeMap<&str, [f64; 8]> = BTreeMap::new();
             for seed in 0..seeds {
                 let mut scenario = Scenario::named(name, seed)?;
                 scenario.clutter.per_scan = clutter;
@@ -77,6 +91,23 @@ fn sim(seeds: u64) -> Res<()> {
                         amplitude_m: 1.0,
                         period_s: 6.0,
                     }];
+                }
+                if dense {
+                    // Each landmark gets a twin 0.3 m away: closer than the
+                    // bearing noise at the typical range on paper_fig8
+                    // (5° × 5 m ≈ 0.44 m), about 2σ on slip_patch (2° × 4 m).
+                    let mut landmarks = scenario.landmark_truth()?;
+                    let twins: Vec<_> = landmarks
+                        .iter()
+                        .map(|l| LandmarkTruth {
+                            id: l.id + DENSE_TWIN_ID_OFFSET,
+                            x: l.x + 0.3,
+                            y: l.y,
+                        })
+                        .collect();
+                    landmarks.extend(twins);
+                    scenario.landmarks = landmarks;
+                    scenario.random_landmarks = None;
                 }
                 let log = simulate(&scenario)?;
                 let config = default_run_config(&log)?;
@@ -91,7 +122,7 @@ fn sim(seeds: u64) -> Res<()> {
                     } else {
                         run_one(&log, &config, method)?
                     };
-                    let s = row.score.unwrap_or_default();
+                    let s = row.score.clone().unwrap_or_default();
                     let e = sums.entry(method_name(method)).or_default();
                     let (p, r) = if row.score.is_some() {
                         (s.precision, s.recall)
@@ -106,6 +137,7 @@ fn sim(seeds: u64) -> Res<()> {
                         s.spurious_at_end as f64,
                         s.missed as f64,
                         row.ate,
+                        s.removed as f64,
                     ]
                     .into_iter()
                     .enumerate()
@@ -121,14 +153,16 @@ fn sim(seeds: u64) -> Res<()> {
                 let s = sums.get(method_name(method)).copied().unwrap_or_default();
                 let known = method == AssociationMethod::Known;
                 println!(
-                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {} ({}) | {} | {:.3} | {:.2} |",
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {:.3} | {:.2} |",
                     if distractor { "yes" } else { "no" },
+                    if dense { "yes" } else { "no" },
                     method_name(method),
                     if known { "—".into() } else { pct(s[0] / n) },
                     if known { "—".into() } else { pct(s[1] / n) },
                     s[2] / n,
                     s[3] / n,
                     s[4] / n,
+                    s[7] / n,
                     s[5] / n,
                     s[6] / n,
                     s[6] / n / known_ate,
@@ -197,10 +231,10 @@ fn main() -> Res<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
         Some("sim") => sim(args.get(1).map_or(Ok(3), |s| s.parse())?),
-        Some("mrclam") => mrclam(Path::new(
-            args.get(1)
-                .map_or("/work/shared/datasets/mrclam/MRCLAM_Dataset6", String::as_str),
-        )),
+        Some("mrclam") => mrclam(Path::new(args.get(1).map_or(
+            "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
+            String::as_str,
+        ))),
         _ => Err("usage: association sim [SEEDS] | mrclam [DATASET_DIR]".into()),
     }
 }

@@ -92,13 +92,21 @@ pub struct AssociationConfig {
     pub min_hit_ratio: f64,
     /// Consecutive scans without a sighting after which a track is dropped (≥ 1).
     pub max_misses: usize,
-    /// Most tracks kept at once (≥ 1); past it the oldest unconfirmed ones go.
+    /// Most tracks kept at once (≥ 1); past it the least seen ones go.
     pub max_tracks: usize,
+    /// Removes a mapped landmark as a moving object when the NIS of its
+    /// last 10 pairings sums beyond χ²₁₀(0.999) and beyond this factor (> 1)
+    /// times the median of the other landmarks' sums; `None` (the default)
+    /// keeps every landmark. It catches the moving objects that looked
+    /// static long enough to be mapped, at the price of evicting static
+    /// landmarks when the robot slips (docs/results/association.md).
+    pub moving_object_nis_factor: Option<f64>,
 }
 
 impl Default for AssociationConfig {
     /// Known association; gates at 0.999; 10 000 JCBB nodes; tracks confirmed
-    /// after 8 sightings seen in 70 % of their scans, dropped after 3 misses.
+    /// after 15 sightings seen in 70 % of their scans, dropped after 3
+    /// misses; no removal of mapped landmarks.
     fn default() -> Self {
         Self {
             method: AssociationMethod::Known,
@@ -109,6 +117,7 @@ impl Default for AssociationConfig {
             min_hit_ratio: 0.7,
             max_misses: 3,
             max_tracks: 200,
+            moving_object_nis_factor: None,
         }
     }
 }
@@ -143,6 +152,15 @@ impl AssociationConfig {
                 self.min_hit_ratio > 0.0 && self.min_hit_ratio <= 1.0,
             ),
         ])?;
+        if let Some(f) = self.moving_object_nis_factor
+            && !(f.is_finite() && f > 1.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "association.moving_object_nis_factor",
+                value: f,
+                reason: "must be a finite factor above 1",
+            });
+        }
         for (name, value, min) in [
             ("association.jcbb_node_budget", self.jcbb_node_budget, 1),
             ("association.min_sightings", self.min_sightings, 2),

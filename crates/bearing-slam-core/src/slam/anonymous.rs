@@ -380,9 +380,14 @@ impl BearingSlam {
 
     /// Adds this scan's individual NIS of each paired landmark to its window
     /// and removes from the map a landmark whose last [`NIS_WINDOW`]
-    /// pairings sum beyond `χ²_W(p)`: bearings that keep pulling away from
-    /// it are a moving object's (a static landmark's NIS averages 1).
+    /// pairings sum beyond `χ²_W(p)` and beyond
+    /// [`AssociationConfig::moving_object_nis_factor`] times the median of the other landmarks' windows: bearings that keep
+    /// pulling away from it alone are a moving object's (a static
+    /// landmark's NIS averages 1).
     fn remove_inconsistent_landmarks(&mut self, time: f64, nis: &[(u64, f64)]) -> Result<()> {
+        let Some(factor) = self.config.association.moving_object_nis_factor else {
+            return Ok(());
+        };
         let limit = crate::stats::chi2_quantile(NIS_WINDOW as f64, NIS_WINDOW_PROBABILITY)?;
         let mut doomed = Vec::new();
         if let Some(a) = self.anonymous.as_mut() {
@@ -392,7 +397,32 @@ impl BearingSlam {
                 if window.len() > NIS_WINDOW {
                     window.pop_front();
                 }
-                if window.len() == NIS_WINDOW && window.iter().sum::<f64>() > limit {
+            }
+            // A landmark stands out when its window sums beyond the χ² bound
+            // and well beyond the other landmarks' (a slip or a bad
+            // prediction raises every landmark's NIS; a moving object only
+            // its own). Without two other full windows there is no judging.
+            let sums: Vec<(u64, f64)> = a
+                .recent_nis
+                .iter()
+                .filter(|(_, w)| w.len() == NIS_WINDOW)
+                .map(|(&id, w)| (id, w.iter().sum()))
+                .collect();
+            for &(id, sum) in &sums {
+                if sum <= limit || !nis.iter().any(|&(paired, _)| paired == id) {
+                    continue;
+                }
+                let mut others: Vec<f64> = sums
+                    .iter()
+                    .filter(|&&(other, _)| other != id)
+                    .map(|&(_, s)| s)
+                    .collect();
+                if others.len() < 2 {
+                    continue;
+                }
+                others.sort_by(f64::total_cmp);
+                let median = others[others.len() / 2];
+                if sum > factor * median {
                     doomed.push(id);
                 }
             }
