@@ -33,6 +33,9 @@ const FAR_DEPTH_M: f64 = 1e5;
 /// Gauss–Newton iterations of the least-squares point.
 const POINT_ITERATIONS: usize = 5;
 
+/// A track's least-squares point and its covariance.
+pub type TrackPoint = (Vector2<f64>, Matrix2<f64>);
+
 /// One bearing of a track with the pose it was taken from.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sighting {
@@ -75,7 +78,7 @@ pub struct Track {
     pub misses: usize,
     /// The least-squares point of its sightings and its covariance, once
     /// the rays cross well enough.
-    pub point: Option<(Vector2<f64>, Matrix2<f64>)>,
+    pub point: Option<TrackPoint>,
     /// χ² of all sightings' residuals at `point` (0 without a point).
     pub chi2: f64,
     /// Sightings dropped as outliers of its point (at most one is allowed).
@@ -358,7 +361,7 @@ impl TrackSet {
     /// crossing of the first and last rays) with its covariance, when the
     /// rays cross in front of every pose and the depth is known to within
     /// half of itself; and the χ² of the residuals there.
-    fn fit(&self, sightings: &[Sighting]) -> (Option<(Vector2<f64>, Matrix2<f64>)>, f64) {
+    fn fit(&self, sightings: &[Sighting]) -> (Option<TrackPoint>, f64) {
         let (Some(first), Some(last)) = (sightings.first(), sightings.last()) else {
             return (None, 0.0);
         };

@@ -9,14 +9,14 @@ use super::delayed::PendingCandidate;
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
-use crate::association::tracks::TrackSet;
+use crate::association::tracks::{TrackPoint, TrackSet};
 use crate::association::{AssociationConfig, AssociationMethod};
 use crate::ekf::BlockJacobian;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide};
 use crate::log::{BearingObservation, ensure_bearing};
-use nalgebra::{DMatrix, Matrix1, Matrix2, Vector2, Vector3};
+use nalgebra::{DMatrix, Matrix1, Vector3};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
@@ -439,7 +439,7 @@ impl BearingSlam {
 
     /// Whether a track's point lies within the χ²₂ gate of a mapped
     /// landmark (covariances of both summed).
-    fn explained_by_map(&self, point: Option<&(Vector2<f64>, Matrix2<f64>)>) -> bool {
+    fn explained_by_map(&self, point: Option<&TrackPoint>) -> bool {
         let Some((x, cov)) = point else {
             return false;
         };
