@@ -154,7 +154,7 @@ fn sim(seeds: u64) -> Res<()> {
                 let s = sums.get(method_name(method)).copied().unwrap_or_default();
                 let known = method == AssociationMethod::Known;
                 println!(
-                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {:.3} | {:.2} |",
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} |",
                     if distractor { "yes" } else { "no" },
                     if dense { "yes" } else { "no" },
                     method_name(method),
