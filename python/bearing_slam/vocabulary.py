@@ -17,12 +17,12 @@ from typing import Any
 from bearing_slam import _native
 
 __all__ = [
+    "ASSOCIATIONS",
     "CLASSES",
     "CONFIG_INITS",
     "COVARIANCE_UPDATES",
     "DEFAULT_PRIOR",
     "DEFAULT_THRESHOLDS",
-    "ASSOCIATIONS",
     "ESTIMATORS",
     "EXPERIMENTS",
     "EXPERIMENT_DEFAULT_RUNS",

@@ -48,6 +48,9 @@ fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<
     let mut config = base.clone();
     config.slam.association = AssociationConfig {
         method,
+        track_max_gap_s: std::env::var("ASSOCIATION_TRACK_GAP_S")
+            .ok()
+            .and_then(|s| s.parse().ok()),
         ..config.slam.association
     };
     let output: RunOutput = run(log, &config)?;

@@ -101,6 +101,12 @@ pub struct AssociationConfig {
     /// static long enough to be mapped, at the price of evicting static
     /// landmarks when the robot slips (docs/results/association.md).
     pub moving_object_nis_factor: Option<f64>,
+    /// Counts a track's evidence in time instead of scans, for sensors
+    /// whose scans are single detections at irregular times (MRCLAM): a
+    /// track is dropped when it has not been seen for this many seconds,
+    /// and the hit ratio and scan misses are not used. `None` (the
+    /// default): scans.
+    pub track_max_gap_s: Option<f64>,
 }
 
 impl Default for AssociationConfig {
@@ -118,6 +124,7 @@ impl Default for AssociationConfig {
             max_misses: 3,
             max_tracks: 200,
             moving_object_nis_factor: None,
+            track_max_gap_s: None,
         }
     }
 }
@@ -152,6 +159,15 @@ impl AssociationConfig {
                 self.min_hit_ratio > 0.0 && self.min_hit_ratio <= 1.0,
             ),
         ])?;
+        if let Some(g) = self.track_max_gap_s
+            && !(g.is_finite() && g > 0.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "association.track_max_gap_s",
+                value: g,
+                reason: "must be a positive number of seconds",
+            });
+        }
         if let Some(f) = self.moving_object_nis_factor
             && !(f.is_finite() && f > 1.0)
         {

@@ -272,15 +272,19 @@ impl TrackSet {
                 joined[i].push(id);
             }
         }
-        self.prune();
+        self.prune(time);
         joined
     }
 
-    /// Drops tracks that missed too many scans, were seen in too few, or
-    /// whose sightings no static point explains; caps their number.
-    fn prune(&mut self) {
+    /// Drops tracks that missed too many scans (or, counting in time, were
+    /// not seen for `track_max_gap_s`), were seen in too few, or whose
+    /// sightings no static point explains; caps their number.
+    fn prune(&mut self, time: f64) {
         let (scan, config) = (self.scan, self.config);
         self.tracks.retain(|t| {
+            if let Some(gap) = config.track_max_gap_s {
+                return time - t.last().time <= gap && t.chi2.is_finite();
+            }
             let lived = scan - t.first_scan + 1;
             let ratio_ok = lived < HIT_RATIO_GRACE_SCANS
                 || t.hits as f64 >= config.min_hit_ratio * lived as f64;
@@ -421,10 +425,11 @@ impl TrackSet {
         self.tracks
             .iter()
             .filter(|t| {
+                let timed = self.config.track_max_gap_s.is_some();
                 t.hits >= self.config.min_sightings
-                    && t.hits as f64 >= self.config.min_hit_ratio * lived(t) as f64
+                    && (timed || t.hits as f64 >= self.config.min_hit_ratio * lived(t) as f64)
                     && t.point.is_some()
-                    && t.misses == 0
+                    && t.last().key.0 == self.scan
             })
             .filter(|t| {
                 !self.tracks.iter().any(|o| {
