@@ -61,6 +61,7 @@ from bearing_slam.outputs import (
 )
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
+    ASSOCIATIONS,
     DEFAULT_PRIOR,
     FAR_PRIOR,
     MRCLAM_METHODS,
@@ -252,6 +253,19 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_association_option(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--association`` (issue 16): the log's ids, or hidden from the
+    filter, which then pairs bearings with landmarks itself."""
+    parser.add_argument(
+        "--association",
+        choices=ASSOCIATIONS,
+        default="known",
+        help="data association (default: %(default)s, the log's ids; nn/jcbb: the ids are "
+        "hidden from the filter, which pairs bearings with landmarks itself; they then only "
+        "score it, in metrics.json; filter estimator only)",
+    )
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
     if args.init not in PRIOR_INITS and (args.rho_ini is not None or args.sigma_rho is not None):
         raise UserError(
@@ -268,7 +282,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         print(f"bearing-slam: warning: {w}", file=sys.stderr)
     if problem := estimator_problem(args):
         raise UserError(problem)
-    config = with_estimator(_config(log, args), args)
+    config = with_estimator(_config(log, args), args).replace(association=args.association)
     live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
         t0 = time.perf_counter()
@@ -319,6 +333,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
             args.estimator,
             args.particles,
             on_scan=live,
+            association=args.association,
         )
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
@@ -478,6 +493,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
     add_estimator_options(runp)
+    _add_association_option(runp)
     add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)
 
@@ -536,6 +552,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
     add_estimator_options(mr)
+    _add_association_option(mr)
     add_live_arguments(mr)  # --live
     mr.set_defaults(func=_cmd_mrclam)
 

@@ -108,6 +108,7 @@ def evaluate(
     estimator: str = "filter",
     particles: int | None = None,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
+    association: str = "known",
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
@@ -115,7 +116,9 @@ def evaluate(
     :data:`~bearing_slam.vocabulary.ESTIMATORS`; ``particles`` for FastSLAM).
     ``on_scan`` (the filter only): called with each scan's step as the filter
     goes (as in :func:`bearing_slam.run`, e.g. a
-    :class:`bearing_slam.rerun.RerunLogger`)."""
+    :class:`bearing_slam.rerun.RerunLogger`). ``association``: ``"known"``
+    (the barcodes' ids), or ``"nn"``/``"jcbb"`` with the barcodes hidden from
+    the filter (they then only score it: ``result.association``)."""
     t0 = time.perf_counter()
     result, metrics, log = evaluate_mrclam(
         dataset_dir,
@@ -126,6 +129,7 @@ def evaluate(
         estimator=estimator,
         particles=particles,
         on_scan=on_scan,
+        association=association,
     )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 

@@ -217,6 +217,8 @@ def metrics_record(result: RunResult, log: SensorLog, seconds: float) -> dict[st
     record["source"] = log.info.get("source")
     record["seed"] = log.info.get("seed")
     record["counts"] = result.counts
+    # Data association scores against the log's ids (issue 16); None with known ids.
+    record["association"] = result.association
     record["run_seconds"] = seconds
     record["config"] = {k: finite_or_none(v) for k, v in result.config.to_dict().items()}
     record["config"]["per_landmark_priors"] = {

@@ -17,6 +17,7 @@ from typing import Any
 from bearing_slam import _native
 
 __all__ = [
+    "ASSOCIATIONS",
     "CLASSES",
     "CONFIG_INITS",
     "COVARIANCE_UPDATES",
@@ -73,6 +74,10 @@ ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])
 #: The estimators, the EKF first (Rust: ``estimator::EstimatorKind::ALL``):
 #: ``Config(estimator=...)``, ``--estimator``.
 ESTIMATORS: tuple[str, ...] = tuple(_RUST["estimators"])
+
+#: Data association (Rust: ``association::AssociationMethod::ALL``):
+#: ``Config(association=...)``, ``--association``.
+ASSOCIATIONS: tuple[str, ...] = tuple(_RUST["associations"])
 
 #: Waiting bearings kept per candidate by ``mte-history`` (Rust: ``init::MTE_HISTORY``).
 MTE_HISTORY: int = int(_RUST["mte_history"])

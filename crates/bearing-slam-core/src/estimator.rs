@@ -221,6 +221,12 @@ pub fn run_estimator(
     estimator: &EstimatorConfig,
 ) -> Result<EstimatorRun> {
     estimator.validate()?;
+    if config.slam.association.ignores_ids() && estimator.kind != EstimatorKind::Filter {
+        return Err(SlamError::Mismatch(
+            "association nn/jcbb (ids unknown) is implemented for the `filter` estimator only; \
+             the smoothers and FastSLAM need `known`",
+        ));
+    }
     let only = |output| EstimatorRun {
         output,
         smoother: None,

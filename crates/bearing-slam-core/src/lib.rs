@@ -10,6 +10,7 @@
 //! as digested in the repository's `docs/method.md`; the crates and the
 //! data flow are drawn in `docs/architecture.md`.
 
+pub mod association;
 pub mod divergence;
 pub mod ekf;
 pub mod error;

@@ -27,6 +27,40 @@ pub fn ensure_bearing(bearing: f64) -> Result<f64> {
     Ok(bearing)
 }
 
+/// First id of the range that marks **clutter** in a log's ground truth: a
+/// false bearing a simulator added (each gets its own id from here on). An
+/// estimator that associates bearings itself never sees ids; with known
+/// association these bearings are dropped.
+pub const CLUTTER_ID_START: u64 = 1 << 60;
+
+/// First id of the range that marks **moving distractors** in a log's
+/// ground truth (a simulated moving object, or another robot's barcode in
+/// MRCLAM): something real that must never enter the map.
+pub const DISTRACTOR_ID_START: u64 = 1 << 61;
+
+/// What a log's landmark id stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TruthKind {
+    /// A static landmark (ids below [`CLUTTER_ID_START`]).
+    Landmark,
+    /// A false bearing ([`CLUTTER_ID_START`] up to [`DISTRACTOR_ID_START`]).
+    Clutter,
+    /// A moving object ([`DISTRACTOR_ID_START`] on).
+    Distractor,
+}
+
+/// The kind of landmark id `id` is, by its range.
+#[must_use]
+pub fn truth_kind(id: u64) -> TruthKind {
+    if id >= DISTRACTOR_ID_START {
+        TruthKind::Distractor
+    } else if id >= CLUTTER_ID_START {
+        TruthKind::Clutter
+    } else {
+        TruthKind::Landmark
+    }
+}
+
 /// Distances rolled by each wheel since the previous reading, from the wheel
 /// encoders (input of the differential-drive model, Munguía & Grau (2)(3)).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -8,7 +8,7 @@
 
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
-use crate::log::BearingObservation;
+use crate::log::{BearingObservation, TruthKind, truth_kind};
 use crate::model::MotionModel;
 use crate::runner::RunOutput;
 use crate::slam::BearingSlam;
@@ -102,22 +102,35 @@ impl OnlineEstimator for BearingSlam {
         scan: &[BearingObservation],
         use_range: bool,
     ) -> Result<ScanCounts> {
-        let report = if use_range {
-            let obs: Vec<(u64, f64, f64)> = scan
-                .iter()
-                .map(|o| {
-                    o.range
-                        .map(|r| (o.landmark_id, r, o.bearing))
-                        .ok_or(SlamError::Mismatch(
-                            "range-bearing run on a scan without ranges",
-                        ))
-                })
-                .collect::<Result<_>>()?;
-            self.update_range_bearings(time, &obs)?
-        } else {
-            let obs: Vec<(u64, f64)> = scan.iter().map(|o| (o.landmark_id, o.bearing)).collect();
-            self.update_bearings(time, &obs)?
-        };
+        if use_range && self.config().association.ignores_ids() {
+            return Err(SlamError::Mismatch(
+                "range-bearing runs use the log's ids: association must be `known`",
+            ));
+        }
+        let report =
+            if use_range {
+                let obs: Vec<(u64, f64, f64)> =
+                    scan.iter()
+                        .map(|o| {
+                            o.range.map(|r| (o.landmark_id, r, o.bearing)).ok_or(
+                                SlamError::Mismatch("range-bearing run on a scan without ranges"),
+                            )
+                        })
+                        .collect::<Result<_>>()?;
+                self.update_range_bearings(time, &obs)?
+            } else if self.config().association.ignores_ids() {
+                // Unknown identities: the ids are kept for scoring only.
+                self.update_scored(time, scan)?.batch
+            } else {
+                // Known association; bearings the log marks as clutter or a
+                // moving distractor are what a sensor that knew ids would drop.
+                let obs: Vec<(u64, f64)> = scan
+                    .iter()
+                    .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
+                    .map(|o| (o.landmark_id, o.bearing))
+                    .collect();
+                self.update_bearings(time, &obs)?
+            };
         Ok(ScanCounts {
             used: report.used,
             rejected: report.rejected,
@@ -139,6 +152,7 @@ impl OnlineEstimator for BearingSlam {
 
     fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
         output.trace.events = self.take_events();
+        output.association = self.association_score();
         Ok(())
     }
 }

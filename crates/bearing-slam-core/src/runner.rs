@@ -150,6 +150,10 @@ pub struct RunOutput {
     pub track: Vec<TrackPoint>,
     /// Counters.
     pub counts: RunCounts,
+    /// The association scores against the log's ids, when the estimator
+    /// associated the bearings itself (unknown-identity mode).
+    #[serde(default)]
+    pub association: Option<crate::association::score::AssociationScore>,
 }
 
 /// Advances a pose-only dead-reckoning integration by a motion model's mean.

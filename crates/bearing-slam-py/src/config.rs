@@ -5,6 +5,7 @@
 use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
@@ -125,10 +126,15 @@ pub(crate) struct PyConfig {
     /// Particles of FastSLAM (≥ 1).
     #[pyo3(get, set)]
     pub particles: usize,
+    /// Data association (`AssociationMethod`): `"known"` (the log's ids,
+    /// the default), `"nn"` or `"jcbb"` (ids hidden from the filter and
+    /// used only to score it; the EKF `filter` only).
+    #[pyo3(get, set)]
+    pub association: String,
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 30] = [
+const FIELDS: [&str; 31] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -159,6 +165,7 @@ const FIELDS: [&str; 30] = [
     "use_range",
     "estimator",
     "particles",
+    "association",
 ];
 
 impl Default for PyConfig {
@@ -197,6 +204,7 @@ impl Default for PyConfig {
             use_range: false,
             estimator: EstimatorKind::default().to_string(),
             particles: EstimatorConfig::default().particles,
+            association: slam.association.method.to_string(),
         }
     }
 }
@@ -217,6 +225,7 @@ impl PyConfig {
         c.update = s.update.to_string();
         c.consistency = s.consistency.to_string();
         c.update_iterations = s.update_iterations;
+        c.association = s.association.method.to_string();
         c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
@@ -326,6 +335,7 @@ impl PyConfig {
             update,
             consistency,
             update_iterations: self.update_iterations,
+            association: AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?),
         };
         cfg.validate().py()?;
         Ok(cfg)

@@ -10,12 +10,13 @@ use crate::log::PySensorLog;
 use crate::observe::call_python;
 use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
-    evaluate_run_observed, evaluate_run_with, filter_log,
+    evaluate_run_associated, evaluate_run_observed, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::prelude::*;
@@ -44,12 +45,14 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// EKF on the same log and parameters (`metrics["estimator"]` says which;
 /// `particles`: FastSLAM's particle count). `on_scan` (the filter only): as
 /// in `run`, a callable given each scan's step as the filter goes (the
-/// result is the same without it).
+/// result is the same without it). `association` (`"known"`, `"nn"`,
+/// `"jcbb"`): with the last two the barcodes' ids are hidden from the
+/// filter and only score it (`result.association`).
 // The Python signature: the dataset, the robot, the window, the estimator
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None))]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known"))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -60,8 +63,10 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     estimator: &str,
     particles: Option<usize>,
     on_scan: Option<Py<PyAny>>,
+    association: &str,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
+    let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
     let estimator = EstimatorConfig {
         particles: particles.unwrap_or(default.particles),
@@ -86,6 +91,11 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         ..defaults.load
     };
     let parameters = defaults.parameters;
+    if on_scan.is_some() && association.ignores_ids() {
+        return Err(pyo3::exceptions::PyValueError::new_err(
+            "on_scan shows the known-association run as it goes; association must be \"known\"",
+        ));
+    }
     if on_scan.is_some() && estimator.kind != EstimatorKind::Filter {
         return Err(pyo3::exceptions::PyValueError::new_err(format!(
             "on_scan shows the filter's run as it goes; estimator {:?} has no live view",
@@ -97,7 +107,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         let run = load_mrclam_with(&dataset_dir, robot, &load)?;
         let log = filter_log(&run, method, &parameters)?;
         let mut scores = match &on_scan {
-            None => evaluate_run_with(&run, method, &parameters, &estimator)?,
+            None => evaluate_run_associated(&run, method, &parameters, &estimator, association)?,
             Some(callback) => evaluate_run_observed(
                 &run,
                 method,
@@ -148,6 +158,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     }
     config.estimator = estimator.kind.to_string();
     config.particles = estimator.particles;
+    config.association = association.method.to_string();
     metrics.set_item("estimator", estimator.kind.name())?;
     if estimator.kind.is_particle_filter() {
         metrics.set_item("particles", estimator.particles)?;

@@ -312,6 +312,15 @@ impl PyRunResult {
         to_py(py, &self.output.counts)
     }
 
+    /// The association scores against the log's ids when the filter
+    /// associated the bearings itself (`Config(association="nn"|"jcbb")`):
+    /// `precision, recall, duplicates, spurious, missed, …`; None with
+    /// known association.
+    #[getter]
+    fn association<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        to_py(py, &self.output.association)
+    }
+
     /// Pickling: rebuilt by `RunResult._from_pickle` from CBOR bytes of the
     /// output, the summary and the digest of the log it was run on (exact floats, NaN kept) and the `Config` (which
     /// pickles itself).

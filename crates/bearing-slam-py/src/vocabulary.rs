@@ -4,6 +4,7 @@
 
 use crate::convert::to_py;
 use crate::errors::SlamResultExt;
+use bearing_slam::core::association::AssociationMethod;
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::EstimatorKind;
 use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY};
@@ -23,7 +24,8 @@ fn names<T: Named>() -> Vec<&'static str> {
 }
 
 /// The vocabulary as a dict: `initializers`, `prior_initializers`,
-/// `covariance_updates`, `update_modes`, `consistencies`, `odometries`, `estimators`, `mrclam_methods` (with
+/// `covariance_updates`, `update_modes`, `consistencies`, `odometries`, `estimators`,
+/// `associations`, `mrclam_methods` (with
 /// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
 /// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`,
 /// `pose_nees` (the NEES scoring rule: `dof`, `probability`, `bound`,
@@ -46,6 +48,7 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("consistencies", names::<Consistency>())?;
     d.set_item("odometries", names::<OdometryKind>())?;
     d.set_item("estimators", names::<EstimatorKind>())?;
+    d.set_item("associations", names::<AssociationMethod>())?;
     d.set_item("mrclam_methods", names::<Method>())?;
     let labels = PyDict::new(py);
     for m in Method::ALL {

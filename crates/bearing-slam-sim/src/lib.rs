@@ -128,6 +128,7 @@
 
 #![cfg_attr(test, allow(clippy::unwrap_used))]
 
+pub mod clutter;
 pub mod controller;
 pub mod encoders;
 pub mod error;

@@ -3,6 +3,7 @@
 //! knobs, and loading from TOML/JSON (the format is documented in the crate
 //! docs).
 
+use crate::clutter::ClutterSpec;
 use crate::controller::{ControllerSpec, Segment};
 use crate::encoders::EncoderParams;
 use crate::error::{Result, SimError, check_finite, check_non_negative, check_positive, invalid};
@@ -44,6 +45,8 @@ pub(crate) const STREAM_ENCODERS: u64 = 2;
 pub(crate) const STREAM_SENSOR: u64 = 3;
 /// The stream of the per-run [`RunVariation`] (start pose, slip friction).
 pub(crate) const STREAM_VARIATION: u64 = 4;
+/// The clutter's stream ([`ClutterSpec`]).
+pub(crate) const STREAM_CLUTTER: u64 = 5;
 
 /// A seeded generator for stream `stream` of run `seed`.
 pub(crate) fn stream_rng(seed: u64, stream: u64) -> StdRng {
@@ -172,6 +175,9 @@ pub struct Scenario {
     /// Ids of the "far" landmarks that [`Scenario::without_far_landmark`] removes.
     #[serde(default)]
     pub far_landmark_ids: Vec<u64>,
+    /// False bearings and moving distractors (none by default).
+    #[serde(default)]
+    pub clutter: ClutterSpec,
     /// What drives the robot.
     pub controller: ControllerSpec,
     /// An error recorded by a builder method, reported by [`Scenario::validate`].
@@ -199,6 +205,7 @@ impl Scenario {
             landmarks: Vec::new(),
             random_landmarks: None,
             far_landmark_ids: Vec::new(),
+            clutter: ClutterSpec::default(),
             controller,
             builder_error: None,
         }
@@ -306,6 +313,7 @@ impl Scenario {
         self.sensor.validate()?;
         self.world.validate()?;
         self.variation.validate()?;
+        self.clutter.validate()?;
         self.controller.validate()?;
         if let Some(r) = &self.random_landmarks {
             check_finite("random_landmarks.center.x", r.center[0])?;

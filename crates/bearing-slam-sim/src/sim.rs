@@ -10,11 +10,12 @@
 //! stop one period before the end, so both tile `[0, T]` exactly. A scan that
 //! sees nothing still produces an (empty) `Bearings` event.
 
+use crate::clutter::ClutterSpec;
 use crate::controller::{Command, CommandLimiter, Controller};
 use crate::encoders::Encoders;
 use crate::error::{Result, SimError};
 use crate::robot::DriveTrain;
-use crate::scenario::{STREAM_ENCODERS, STREAM_SENSOR, Scenario, stream_rng};
+use crate::scenario::{STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario, stream_rng};
 use crate::sensor::BearingSensor;
 use crate::world::PhysicsScene;
 use bearing_slam_core::Pose2;
@@ -49,6 +50,10 @@ pub struct Simulation {
     landmarks: Vec<LandmarkTruth>,
     rng_encoders: StdRng,
     rng_sensor: StdRng,
+    /// Clutter and distractors, with their own stream and the next clutter id.
+    clutter: ClutterSpec,
+    rng_clutter: StdRng,
+    next_clutter: u64,
     events: Vec<Event>,
     info: LogInfo,
     finished: bool,
@@ -97,6 +102,9 @@ impl Simulation {
             landmarks,
             rng_encoders: stream_rng(scenario.seed, STREAM_ENCODERS),
             rng_sensor: stream_rng(scenario.seed, STREAM_SENSOR),
+            clutter: scenario.clutter.clone(),
+            rng_clutter: stream_rng(scenario.seed, STREAM_CLUTTER),
+            next_clutter: 0,
             events: Vec::new(),
             info,
             finished: false,
@@ -234,12 +242,25 @@ impl Simulation {
         }
         if k.is_multiple_of(self.bearing_every) {
             let scene = &self.scene;
-            let obs = self.sensor.scan(
+            let mut obs = self.sensor.scan(
                 &pose,
                 &self.landmarks,
                 |p, lm, range| scene.line_blocked([p.x, p.y], [lm.x, lm.y], range),
                 &mut self.rng_sensor,
             );
+            if !self.clutter.is_empty() {
+                obs.extend(self.sensor.scan(
+                    &pose,
+                    &self.clutter.distractors_at(t),
+                    |p, lm, range| scene.line_blocked([p.x, p.y], [lm.x, lm.y], range),
+                    &mut self.rng_clutter,
+                ));
+                obs.extend(self.clutter.clutter(
+                    self.sensor.params().fov_rad,
+                    &mut self.next_clutter,
+                    &mut self.rng_clutter,
+                ));
+            }
             self.events.push(Event {
                 time: t,
                 kind: EventKind::Bearings(obs),

@@ -2,6 +2,7 @@
 //! of every parameter's range.
 
 use super::Consistency;
+use crate::association::AssociationConfig;
 use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
@@ -142,6 +143,12 @@ pub struct SlamConfig {
     /// the iterated EKF, relinearized at each iterate).
     #[serde(default = "one")]
     pub update_iterations: usize,
+    /// How bearings are associated with landmarks: the log's ids (known,
+    /// the default) or, ignoring them, nearest neighbour or JCBB with the
+    /// tracks of new landmarks (see [`crate::association`] and
+    /// [`super::BearingSlam::update_anonymous`]).
+    #[serde(default)]
+    pub association: AssociationConfig,
 }
 
 fn one() -> usize {
@@ -166,6 +173,7 @@ impl Default for SlamConfig {
             update: UpdateMode::Full,
             consistency: Consistency::Standard,
             update_iterations: 1,
+            association: AssociationConfig::default(),
         }
     }
 }
@@ -197,6 +205,7 @@ impl SlamConfig {
             });
         }
         ensure_positive_noise("range sigma", self.range_sigma)?;
+        self.association.validate()?;
         if let Some(p) = self.gate_probability
             && !(p > 0.0 && p < 1.0)
         {

@@ -33,6 +33,20 @@ pub(super) struct PendingCandidate {
     skipped: usize,
 }
 
+impl PendingCandidate {
+    /// A candidate without pose clones from a first sighting (16): the
+    /// unknown-identity mode's confirmed tracks enter the map through it.
+    pub(super) fn from_first_sighting(candidate: Candidate) -> Self {
+        Self {
+            candidate,
+            clone: None,
+            history: Vec::new(),
+            stride: 1,
+            skipped: 0,
+        }
+    }
+}
+
 /// A pose copied into the state, shared by the candidates that refer to it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(super) struct PoseClone {

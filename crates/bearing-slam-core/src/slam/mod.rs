@@ -10,6 +10,7 @@
 //! initialization (waiting candidates, pose clones, replay of the bearings
 //! seen while waiting).
 
+mod anonymous;
 mod config;
 mod consistency;
 #[cfg(test)]
@@ -17,6 +18,8 @@ mod consistency_tests;
 mod delayed;
 mod iterated;
 
+use anonymous::Anonymous;
+pub use anonymous::AnonymousReport;
 pub use config::{InitializerConfig, InitializerKind, SlamConfig};
 pub use consistency::Consistency;
 use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
@@ -105,6 +108,9 @@ pub struct BearingSlam {
     /// The vehicle's first estimate: the pose predicted at the last
     /// prediction, `x̂_{k|k−1}` (see `consistency`).
     fej_pose: Vector3<f64>,
+    /// The tracks and records of the unknown-identity mode (`None` with
+    /// known association).
+    anonymous: Option<Anonymous>,
 }
 
 impl BearingSlam {
@@ -119,6 +125,11 @@ impl BearingSlam {
             None => None,
         };
         let fej_pose = config.initial_pose.to_vector();
+        let anonymous = Anonymous::new(
+            &config.association,
+            config.bearing_sigma,
+            &config.initializer,
+        )?;
         Ok(Self {
             ekf: Ekf::new(mean, cov)?
                 .with_covariance_update(config.covariance_update)
@@ -134,6 +145,7 @@ impl BearingSlam {
             events: Vec::new(),
             divergence: DivergenceMonitor::new(),
             fej_pose,
+            anonymous,
         })
     }
 

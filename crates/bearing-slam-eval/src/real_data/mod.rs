@@ -77,7 +77,7 @@ pub use method::{CommandModel, Method};
 pub use parameters::{CALIBRATED_PARAMETERS, FilterParameters, NAIVE_PARAMETERS};
 pub use run::{
     EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run,
-    evaluate_run_observed, evaluate_run_with, filter_log,
+    evaluate_run_associated, evaluate_run_observed, evaluate_run_with, filter_log,
 };
 pub use same_graph::export_same_graph;
 

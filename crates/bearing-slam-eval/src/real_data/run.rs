@@ -4,6 +4,7 @@ use super::{
     CALIBRATED_PARAMETERS, FilterParameters, GROUND_TRUTH_INTERVAL_S, Method, RealDataError,
 };
 use bearing_slam_core::SlamError;
+use bearing_slam_core::association::AssociationConfig;
 use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{EventKind, SensorLog};
@@ -218,6 +219,28 @@ pub fn evaluate_run_with(
 ) -> Result<RealDataResult, RealDataError> {
     evaluate_by(run, method, parameters, |log, config| {
         Ok(run_estimator(log, config, estimator)?.output)
+    })
+}
+
+/// [`evaluate_run_with`] with the data association `association` instead
+/// of the log's ids (issue #16): with `nn` or `jcbb` the estimator ignores
+/// the barcodes' landmark ids, which then only score it
+/// ([`RunOutput::association`]).
+///
+/// # Errors
+/// As [`evaluate_run_with`]; an association other than `known` with an
+/// estimator other than the EKF.
+pub fn evaluate_run_associated(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    estimator: &EstimatorConfig,
+    association: AssociationConfig,
+) -> Result<RealDataResult, RealDataError> {
+    evaluate_by(run, method, parameters, |log, config| {
+        let mut config = config.clone();
+        config.slam.association = association;
+        Ok(run_estimator(log, &config, estimator)?.output)
     })
 }
 

@@ -1,0 +1,233 @@
+//! Data association for bearings without identities (issue #16).
+//!
+//! A scan of anonymous bearings is split three ways before the filter's
+//! known-id update runs:
+//!
+//! * bearings of **mapped landmarks**: each bearing is paired with a landmark
+//!   by nearest neighbour with a Mahalanobis gate, or by joint compatibility
+//!   branch and bound (JCBB, Neira & Tardós 2001) over the joint innovation
+//!   covariance of the scan ([`jcbb`]);
+//! * bearings of **new landmarks**: a bearing no mapped landmark explains
+//!   goes to the tracks of [`tracks`], which group the sightings of a
+//!   landmark before it exists (a bearing joins a track when it is
+//!   consistent with some depth along the track's first ray — the epipolar
+//!   wedge — and, once the track's rays cross, with their least-squares
+//!   point); a track enters the map only when it has been seen in most scans
+//!   since it began, its sightings fit one static point, and the parallax
+//!   the initializer needs (MTE, (16)–(24)) is there;
+//! * **clutter**: everything else. Clutter and moving objects start tracks
+//!   that never confirm (too few consistent sightings, or sightings that no
+//!   static point explains), so they never enter the map.
+//!
+//! [`score`] scores a run's associations against the log's ids
+//! (precision, recall, duplicate, spurious and missed landmarks): in the
+//! unknown-identity mode the estimator ignores the ids and they serve as
+//! ground truth only.
+
+pub mod jcbb;
+pub mod score;
+pub mod tracks;
+
+use crate::error::{Result, SlamError, ensure_in_range};
+use crate::names::Named;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+/// How bearings are associated with landmarks.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum AssociationMethod {
+    /// The log's landmark ids are the truth (the default; ids in the
+    /// reserved clutter and distractor ranges of [`crate::log`] are dropped,
+    /// as a sensor that knew them would).
+    #[default]
+    Known,
+    /// Ids ignored; each bearing goes to the mapped landmark with the
+    /// smallest Mahalanobis distance within the gate (one bearing per
+    /// landmark, closest pairs first).
+    NearestNeighbour,
+    /// Ids ignored; the largest set of jointly compatible pairings, ties
+    /// broken by the smallest joint NIS (Neira & Tardós 2001).
+    Jcbb,
+}
+
+crate::named_enum!(AssociationMethod, "association", [
+    Known => "known",
+    NearestNeighbour => "nn",
+    Jcbb => "jcbb",
+]);
+
+impl Serialize for AssociationMethod {
+    /// As its name (`"jcbb"`).
+    fn serialize<S: Serializer>(&self, serializer: S) -> std::result::Result<S::Ok, S::Error> {
+        serializer.serialize_str(self.name())
+    }
+}
+
+impl<'de> Deserialize<'de> for AssociationMethod {
+    /// From its name; an unknown name lists the known ones.
+    fn deserialize<D: Deserializer<'de>>(deserializer: D) -> std::result::Result<Self, D::Error> {
+        let name = String::deserialize(deserializer)?;
+        Self::from_name(&name).map_err(serde::de::Error::custom)
+    }
+}
+
+/// The association method and its parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct AssociationConfig {
+    /// Which method pairs bearings with mapped landmarks.
+    pub method: AssociationMethod,
+    /// Probability of the individual (1-dof) and joint (k-dof) χ² gates of
+    /// the pairing, in (0, 1).
+    pub gate_probability: f64,
+    /// Most search nodes JCBB explores per scan (≥ 1); past it the best
+    /// hypothesis found so far is used.
+    pub jcbb_node_budget: usize,
+    /// Probability of the χ² tests that add a bearing to a track and check
+    /// a track's sightings against its point, in (0, 1).
+    pub track_gate_probability: f64,
+    /// Sightings a track needs before it may enter the map (≥ 2).
+    pub min_sightings: usize,
+    /// Fraction of the scans since a track began in which it must have been
+    /// seen, in (0, 1].
+    pub min_hit_ratio: f64,
+    /// Consecutive scans without a sighting after which a track is dropped (≥ 1).
+    pub max_misses: usize,
+    /// Most tracks kept at once (≥ 1); past it the least seen ones go.
+    pub max_tracks: usize,
+    /// Removes a mapped landmark as a moving object when the NIS of its
+    /// last 10 pairings sums beyond χ²₁₀(0.999) and beyond this factor (> 1)
+    /// times the median of the other landmarks' sums; `None` (the default)
+    /// keeps every landmark. It catches the moving objects that looked
+    /// static long enough to be mapped, at the price of evicting static
+    /// landmarks when the robot slips (docs/results/association.md).
+    pub moving_object_nis_factor: Option<f64>,
+    /// Counts a track's evidence in time instead of scans, for sensors
+    /// whose scans are single detections at irregular times (MRCLAM): a
+    /// track is dropped when it has not been seen for this many seconds,
+    /// and the hit ratio and scan misses are not used. `None` (the
+    /// default): scans.
+    pub track_max_gap_s: Option<f64>,
+}
+
+impl Default for AssociationConfig {
+    /// Known association; gates at 0.999; 10 000 JCBB nodes; tracks confirmed
+    /// after 15 sightings seen in 70 % of their scans, dropped after 3
+    /// misses; no removal of mapped landmarks.
+    fn default() -> Self {
+        Self {
+            method: AssociationMethod::Known,
+            gate_probability: 0.999,
+            jcbb_node_budget: 10_000,
+            track_gate_probability: 0.999,
+            min_sightings: 15,
+            min_hit_ratio: 0.7,
+            max_misses: 3,
+            max_tracks: 200,
+            moving_object_nis_factor: None,
+            track_max_gap_s: None,
+        }
+    }
+}
+
+impl AssociationConfig {
+    /// The default parameters with method `method`.
+    #[must_use]
+    pub fn of(method: AssociationMethod) -> Self {
+        Self {
+            method,
+            ..Self::default()
+        }
+    }
+
+    /// Checks every parameter's range; the error names the first one out of it.
+    pub fn validate(&self) -> Result<()> {
+        let probability = |p: f64| p > 0.0 && p < 1.0;
+        ensure_in_range(&[
+            (
+                "association.gate_probability",
+                self.gate_probability,
+                probability(self.gate_probability),
+            ),
+            (
+                "association.track_gate_probability",
+                self.track_gate_probability,
+                probability(self.track_gate_probability),
+            ),
+            (
+                "association.min_hit_ratio",
+                self.min_hit_ratio,
+                self.min_hit_ratio > 0.0 && self.min_hit_ratio <= 1.0,
+            ),
+        ])?;
+        if let Some(g) = self.track_max_gap_s
+            && !(g.is_finite() && g > 0.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "association.track_max_gap_s",
+                value: g,
+                reason: "must be a positive number of seconds",
+            });
+        }
+        if let Some(f) = self.moving_object_nis_factor
+            && !(f.is_finite() && f > 1.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "association.moving_object_nis_factor",
+                value: f,
+                reason: "must be a finite factor above 1",
+            });
+        }
+        for (name, value, min) in [
+            ("association.jcbb_node_budget", self.jcbb_node_budget, 1),
+            ("association.min_sightings", self.min_sightings, 2),
+            ("association.max_misses", self.max_misses, 1),
+            ("association.max_tracks", self.max_tracks, 1),
+        ] {
+            if value < min {
+                return Err(SlamError::InvalidParameter {
+                    name,
+                    value: value as f64,
+                    reason: "too small (see AssociationConfig for the minimum)",
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the log's ids are ignored (every method but `known`).
+    #[must_use]
+    pub fn ignores_ids(&self) -> bool {
+        self.method != AssociationMethod::Known
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_parse_and_bad_parameters_are_named() {
+        assert_eq!("nn".parse(), Ok(AssociationMethod::NearestNeighbour));
+        assert_eq!("jcbb".parse(), Ok(AssociationMethod::Jcbb));
+        assert!("nearest".parse::<AssociationMethod>().is_err());
+        assert_eq!(AssociationMethod::Jcbb.to_string(), "jcbb");
+        AssociationConfig::default()
+            .validate()
+            .expect("defaults are valid");
+        let bad = AssociationConfig {
+            gate_probability: 1.0,
+            ..AssociationConfig::default()
+        };
+        let err = bad.validate().expect_err("p = 1 is refused").to_string();
+        assert!(err.contains("association.gate_probability"), "{err}");
+        let bad = AssociationConfig {
+            min_sightings: 1,
+            ..AssociationConfig::default()
+        };
+        let err = bad
+            .validate()
+            .expect_err("1 sighting is refused")
+            .to_string();
+        assert!(err.contains("association.min_sightings"), "{err}");
+    }
+}

@@ -1,0 +1,495 @@
+//! The unknown-identity update of [`BearingSlam`]: a scan of bearings
+//! without ids is paired with the mapped landmarks (nearest neighbour or
+//! JCBB, [`crate::association::jcbb`]), the paired bearings go through the
+//! known-id update ([`BearingSlam::update_bearings`]), and the rest go to the
+//! tracks of landmarks not mapped yet ([`crate::association::tracks`]),
+//! whose confirmed tracks the configured initializer brings into the map.
+
+use super::delayed::PendingCandidate;
+use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
+use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
+use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
+use crate::association::tracks::{TrackPoint, TrackSet};
+use crate::association::{AssociationConfig, AssociationMethod};
+use crate::ekf::BlockJacobian;
+use crate::error::{Result, SlamError};
+use crate::geometry::wrap_angle;
+use crate::init::{Candidate, CandidateDecision, decide};
+use crate::log::{BearingObservation, ensure_bearing};
+use nalgebra::{DMatrix, Matrix1, Vector3};
+use std::collections::{BTreeMap, VecDeque};
+use std::time::Instant;
+
+/// What one scan of anonymous bearings did.
+#[derive(Clone, Debug, PartialEq)]
+pub struct AnonymousReport {
+    /// The known-id update of the paired bearings, plus the landmarks the
+    /// tracks brought into the map.
+    pub batch: BatchReport,
+    /// Where each bearing went, in the scan's order.
+    pub assigned: Vec<Assignment>,
+    /// The pairing's cost.
+    pub cost: ScanCost,
+}
+
+/// A mapped landmark's predicted bearing and the non-zero blocks of its `H`.
+struct Prediction {
+    id: u64,
+    bearing: f64,
+    blocks: Vec<BlockJacobian>,
+}
+
+/// The tracks of the unknown-identity mode and the ids they hand out.
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Anonymous {
+    pub(super) tracks: TrackSet,
+    /// The next id a new track gets (ids are the filter's own from 1 on).
+    next_id: u64,
+    /// Every bearing's decision with the log's id, for scoring.
+    records: Vec<AssociationRecord>,
+    /// Every scan's pairing cost.
+    costs: Vec<ScanCost>,
+    /// When each landmark entered the map.
+    births: BTreeMap<u64, f64>,
+    /// When a landmark left the map again (its bearings stopped fitting a
+    /// static point: a moving object).
+    deaths: BTreeMap<u64, f64>,
+    /// The individual NIS of each landmark's latest pairings.
+    recent_nis: BTreeMap<u64, VecDeque<f64>>,
+}
+
+impl Anonymous {
+    /// The state of the unknown-identity mode, when `config` ignores ids.
+    pub(super) fn new(
+        config: &AssociationConfig,
+        bearing_sigma: f64,
+        initializer: &InitializerConfig,
+    ) -> Result<Option<Self>> {
+        if !config.ignores_ids() {
+            return Ok(None);
+        }
+        let min_depth = match initializer {
+            InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) => {
+                t.min_depth.max(WEDGE_MIN_DEPTH_M)
+            }
+            InitializerConfig::PiSr { .. } => WEDGE_MIN_DEPTH_M,
+        };
+        Ok(Some(Self {
+            tracks: TrackSet::new(config, bearing_sigma, min_depth)?,
+            next_id: 1,
+            records: Vec::new(),
+            costs: Vec::new(),
+            births: BTreeMap::new(),
+            deaths: BTreeMap::new(),
+            recent_nis: BTreeMap::new(),
+        }))
+    }
+}
+
+/// Pairings in the window of a landmark's NIS test.
+const NIS_WINDOW: usize = 10;
+
+/// Probability of the windowed NIS test that removes a mapped landmark
+/// whose bearings stopped fitting it.
+const NIS_WINDOW_PROBABILITY: f64 = 0.999;
+
+/// The nearest depth along a track's first ray its wedge starts at, metres.
+const WEDGE_MIN_DEPTH_M: f64 = 0.5;
+
+/// `Σ_a Σ_b H_a P_ab H_bᵀ` for two single-row measurements.
+fn cross_covariance(slam: &BearingSlam, a: &[BlockJacobian], b: &[BlockJacobian]) -> Result<f64> {
+    let mut sum = 0.0;
+    for ba in a {
+        for bb in b {
+            let p = slam.ekf.covariance_cross_block(
+                ba.offset,
+                ba.jacobian.ncols(),
+                bb.offset,
+                bb.jacobian.ncols(),
+            )?;
+            sum += (&ba.jacobian * p * bb.jacobian.transpose())[(0, 0)];
+        }
+    }
+    Ok(sum)
+}
+
+impl BearingSlam {
+    /// Updates with one scan of bearings (radians) whose landmarks are not
+    /// known, all taken at `time`, associating them by the configured
+    /// [`AssociationMethod`]: bearings paired with mapped landmarks update
+    /// the filter as [`Self::update_bearings`] does; the others go to the
+    /// tracks of new landmarks (bearings no static landmark explains end
+    /// there and never enter the map). Errors when the filter was
+    /// configured for known association, on NaN bearings or bearings beyond
+    /// ±2π, or a time before the last one, leaving the filter as it was.
+    pub fn update_anonymous(&mut self, time: f64, bearings: &[f64]) -> Result<AnonymousReport> {
+        for &z in bearings {
+            ensure_bearing(z)?;
+        }
+        self.check_time(time)?;
+        let method = self.config.association.method;
+        if self.anonymous.is_none() {
+            return Err(SlamError::Mismatch(
+                "update_anonymous on a filter configured for known association",
+            ));
+        }
+        let started = Instant::now();
+        let predictions = self.predictions()?;
+        let (problem, kept) = self.pairing_problem(bearings, &predictions)?;
+        let gates = Gates::new(self.config.association.gate_probability, bearings.len())?;
+        let pairing = match method {
+            AssociationMethod::Jcbb => {
+                jcbb(&problem, &gates, self.config.association.jcbb_node_budget)?
+            }
+            AssociationMethod::NearestNeighbour | AssociationMethod::Known => {
+                nearest_neighbour(&problem, &gates)?
+            }
+        };
+        let cost = ScanCost {
+            bearings: bearings.len(),
+            candidates: kept.len(),
+            nodes: pairing.nodes,
+            budget_exhausted: pairing.budget_exhausted,
+            seconds: started.elapsed().as_secs_f64(),
+        };
+        let paired = paired_ids(&pairing, &kept, &predictions, bearings);
+        let nis: Vec<(u64, f64)> = pairing
+            .landmark_of
+            .iter()
+            .enumerate()
+            .filter_map(|(i, j)| j.map(|j| (predictions[kept[j]].id, problem.distance(i, j))))
+            .collect();
+        let mut batch = self.update_bearings(time, &paired)?;
+        self.remove_inconsistent_landmarks(time, &nis)?;
+        let mut assigned: Vec<Assignment> = pairing
+            .landmark_of
+            .iter()
+            .map(|j| match j {
+                Some(j) => Assignment::Landmark(predictions[kept[*j]].id),
+                None => Assignment::Tracks(Vec::new()),
+            })
+            .collect();
+        let unpaired: Vec<usize> = (0..bearings.len())
+            .filter(|&i| pairing.landmark_of[i].is_none())
+            .collect();
+        let pose = self.ekf.block::<3>(0)?;
+        let variances = self.pose_covariance().diagonal();
+        let joined = match self.anonymous.as_mut() {
+            Some(anonymous) => {
+                let next_id = &mut anonymous.next_id;
+                anonymous.tracks.observe(
+                    time,
+                    &pose,
+                    &variances,
+                    &unpaired.iter().map(|&i| bearings[i]).collect::<Vec<_>>(),
+                    || {
+                        let id = *next_id;
+                        *next_id += 1;
+                        id
+                    },
+                )
+            }
+            None => Vec::new(),
+        };
+        for (&i, ids) in unpaired.iter().zip(joined) {
+            assigned[i] = Assignment::Tracks(ids);
+        }
+        batch.initialized += self.promote_confirmed_tracks(time, &pose)?;
+        Ok(AnonymousReport {
+            batch,
+            assigned,
+            cost,
+        })
+    }
+
+    /// Every mapped landmark's predicted bearing and Jacobian blocks (a
+    /// landmark predicted at the sensor is left out).
+    fn predictions(&self) -> Result<Vec<Prediction>> {
+        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
+        let pose = self.vehicle_at();
+        let mut out = Vec::with_capacity(self.landmarks.len());
+        for (&id, &slot) in &self.landmarks {
+            match linearize_bearing(&self.ekf, self.config.consistency, pose, slot, 0.0, &noise) {
+                Ok(l) => out.push(Prediction {
+                    id,
+                    bearing: wrap_angle(-l.innovation[0]),
+                    blocks: l.blocks,
+                }),
+                Err(SlamError::Degenerate(_)) => {}
+                Err(e) => return Err(e),
+            }
+        }
+        Ok(out)
+    }
+
+    /// The pairing problem over the predictions individually compatible with
+    /// some bearing (their indices in `predictions` are returned too).
+    fn pairing_problem(
+        &self,
+        bearings: &[f64],
+        predictions: &[Prediction],
+    ) -> Result<(PairingProblem, Vec<usize>)> {
+        let noise_variance = self.config.bearing_sigma.powi(2);
+        let gate = Gates::new(self.config.association.gate_probability, 1)?.individual;
+        let mut kept = Vec::new();
+        for (j, p) in predictions.iter().enumerate() {
+            let variance = cross_covariance(self, &p.blocks, &p.blocks)? + noise_variance;
+            let compatible = bearings
+                .iter()
+                .any(|&z| wrap_angle(z - p.bearing).powi(2) / variance <= gate);
+            if compatible {
+                kept.push(j);
+            }
+        }
+        let m = kept.len();
+        let mut c = DMatrix::zeros(m, m);
+        for a in 0..m {
+            for b in 0..=a {
+                let v = cross_covariance(
+                    self,
+                    &predictions[kept[a]].blocks,
+                    &predictions[kept[b]].blocks,
+                )?;
+                c[(a, b)] = v;
+                c[(b, a)] = v;
+            }
+        }
+        Ok((
+            PairingProblem {
+                bearings: bearings.to_vec(),
+                predicted: kept.iter().map(|&j| predictions[j].bearing).collect(),
+                prediction_covariance: c,
+                noise_variance,
+            },
+            kept,
+        ))
+    }
+
+    /// Brings the confirmed tracks into the map through the configured
+    /// initializer, from their first sighting and the current bearing;
+    /// returns how many entered.
+    fn promote_confirmed_tracks(&mut self, time: f64, pose: &Vector3<f64>) -> Result<usize> {
+        let confirmed = match &self.anonymous {
+            Some(a) => a.tracks.confirmed(),
+            None => return Ok(0),
+        };
+        let mut entered = 0;
+        for id in confirmed {
+            let Some(track) = self
+                .anonymous
+                .as_ref()
+                .and_then(|a| a.tracks.get(id))
+                .cloned()
+            else {
+                continue;
+            };
+            let (first, last) = (*track.first(), *track.last());
+            if self.explained_by_map(track.point.as_ref()) {
+                // A mapped landmark already stands there: its bearings
+                // missed the gate for a while; it is not mapped twice.
+                if let Some(a) = self.anonymous.as_mut() {
+                    a.tracks.remove_with_competitors(id);
+                }
+                continue;
+            }
+            let decision = match &self.config.initializer {
+                InitializerConfig::PiSr { .. } => CandidateDecision::Triangulate,
+                InitializerConfig::Triangulation(c)
+                | InitializerConfig::TriangulationWithClone(c) => {
+                    let candidate = candidate_of(&first, time);
+                    decide(c, &candidate, pose, last.bearing).0
+                }
+            };
+            match decision {
+                CandidateDecision::Wait => continue,
+                CandidateDecision::Restart => {
+                    if let Some(a) = self.anonymous.as_mut() {
+                        a.tracks.remove_with_competitors(id);
+                    }
+                    continue;
+                }
+                CandidateDecision::Triangulate | CandidateDecision::Far => {}
+            }
+            if !matches!(self.config.initializer, InitializerConfig::PiSr { .. }) {
+                self.candidates.insert(
+                    id,
+                    PendingCandidate::from_first_sighting(candidate_of(&first, time)),
+                );
+            }
+            let inserted = self.initialize_from_bearing(id, last.bearing)?;
+            // A candidate the initializer did not take is not kept waiting.
+            self.candidates.remove(&id);
+            if let Some(a) = self.anonymous.as_mut() {
+                a.tracks.remove_with_competitors(id);
+            }
+            if inserted {
+                if let Some(a) = self.anonymous.as_mut() {
+                    a.births.insert(id, time);
+                }
+                entered += 1;
+            }
+        }
+        Ok(entered)
+    }
+
+    /// [`Self::update_anonymous`] on a scan of the log, whose ids the
+    /// filter does not use but keeps next to its decisions to score them
+    /// ([`Self::association_score`]).
+    pub fn update_scored(
+        &mut self,
+        time: f64,
+        scan: &[BearingObservation],
+    ) -> Result<AnonymousReport> {
+        let bearings: Vec<f64> = scan.iter().map(|o| o.bearing).collect();
+        let report = self.update_anonymous(time, &bearings)?;
+        if let Some(a) = self.anonymous.as_mut() {
+            a.costs.push(report.cost);
+            a.records
+                .extend(
+                    scan.iter()
+                        .zip(&report.assigned)
+                        .map(|(o, assigned)| AssociationRecord {
+                            time,
+                            truth: o.landmark_id,
+                            assigned: assigned.clone(),
+                        }),
+                );
+        }
+        Ok(report)
+    }
+
+    /// The association scores of the scans given to [`Self::update_scored`]
+    /// (unknown-identity mode only).
+    #[must_use]
+    pub fn association_score(&self) -> Option<AssociationScore> {
+        let a = self.anonymous.as_ref()?;
+        Some(score(
+            &a.records,
+            &a.births,
+            &a.deaths,
+            &a.costs,
+            self.config.association.min_sightings,
+        ))
+    }
+
+    /// Every scan's pairing cost so far (unknown-identity mode; empty otherwise).
+    #[must_use]
+    pub fn association_costs(&self) -> &[ScanCost] {
+        self.anonymous.as_ref().map_or(&[], |a| &a.costs)
+    }
+
+    /// Adds this scan's individual NIS of each paired landmark to its window
+    /// and removes from the map a landmark whose last [`NIS_WINDOW`]
+    /// pairings sum beyond `χ²_W(p)` and beyond
+    /// [`AssociationConfig::moving_object_nis_factor`] times the median of the other landmarks' windows: bearings that keep
+    /// pulling away from it alone are a moving object's (a static
+    /// landmark's NIS averages 1).
+    fn remove_inconsistent_landmarks(&mut self, time: f64, nis: &[(u64, f64)]) -> Result<()> {
+        let Some(factor) = self.config.association.moving_object_nis_factor else {
+            return Ok(());
+        };
+        let limit = crate::stats::chi2_quantile(NIS_WINDOW as f64, NIS_WINDOW_PROBABILITY)?;
+        let mut doomed = Vec::new();
+        if let Some(a) = self.anonymous.as_mut() {
+            for &(id, d2) in nis {
+                let window = a.recent_nis.entry(id).or_default();
+                window.push_back(d2);
+                if window.len() > NIS_WINDOW {
+                    window.pop_front();
+                }
+            }
+            // A landmark stands out when its window sums beyond the χ² bound
+            // and well beyond the other landmarks' (a slip or a bad
+            // prediction raises every landmark's NIS; a moving object only
+            // its own). Without two other full windows there is no judging.
+            let sums: Vec<(u64, f64)> = a
+                .recent_nis
+                .iter()
+                .filter(|(_, w)| w.len() == NIS_WINDOW)
+                .map(|(&id, w)| (id, w.iter().sum()))
+                .collect();
+            for &(id, sum) in &sums {
+                if sum <= limit || !nis.iter().any(|&(paired, _)| paired == id) {
+                    continue;
+                }
+                let mut others: Vec<f64> = sums
+                    .iter()
+                    .filter(|&&(other, _)| other != id)
+                    .map(|&(_, s)| s)
+                    .collect();
+                if others.len() < 2 {
+                    continue;
+                }
+                others.sort_by(f64::total_cmp);
+                let median = others[others.len() / 2];
+                if sum > factor * median {
+                    doomed.push(id);
+                }
+            }
+            for id in &doomed {
+                a.recent_nis.remove(id);
+                a.deaths.insert(*id, time);
+            }
+        }
+        for id in doomed {
+            self.remove_landmark(id)?;
+        }
+        Ok(())
+    }
+
+    /// Whether a track's point lies within the χ²₂ gate of a mapped
+    /// landmark (covariances of both summed).
+    fn explained_by_map(&self, point: Option<&TrackPoint>) -> bool {
+        let Some((x, cov)) = point else {
+            return false;
+        };
+        let gate = crate::stats::chi2_quantile(2.0, self.config.association.gate_probability)
+            .unwrap_or(f64::INFINITY);
+        self.landmarks().iter().any(|l| {
+            let d = x - l.position;
+            (cov + l.covariance)
+                .try_inverse()
+                .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
+        })
+    }
+
+    /// When each landmark of the unknown-identity mode entered the map.
+    #[must_use]
+    pub fn landmark_births(&self) -> Option<&BTreeMap<u64, f64>> {
+        self.anonymous.as_ref().map(|a| &a.births)
+    }
+
+    /// Tracks of landmarks not mapped yet (unknown-identity mode; 0 otherwise).
+    #[must_use]
+    pub fn track_count(&self) -> usize {
+        self.anonymous
+            .as_ref()
+            .map_or(0, |a| a.tracks.tracks().len())
+    }
+}
+
+/// The candidate of the delayed initializer (16) a track's first sighting makes.
+fn candidate_of(first: &crate::association::tracks::Sighting, time: f64) -> Candidate {
+    Candidate {
+        pose: first.pose,
+        bearing: first.bearing,
+        pose_variances: first.pose_variances,
+        created: first.time,
+        last_seen: time,
+    }
+}
+
+/// The `(landmark id, bearing)` pairs of a pairing.
+fn paired_ids(
+    pairing: &Pairing,
+    kept: &[usize],
+    predictions: &[Prediction],
+    bearings: &[f64],
+) -> Vec<(u64, f64)> {
+    pairing
+        .landmark_of
+        .iter()
+        .enumerate()
+        .filter_map(|(i, j)| j.map(|j| (predictions[kept[j]].id, bearings[i])))
+        .collect()
+}

@@ -1,0 +1,100 @@
+//! The unknown-identity mode on whole seeded runs (issue #16): clutter
+//! bearings and a moving distractor never enter the map, and the static
+//! landmarks are associated correctly.
+
+use bearing_slam_core::association::score::AssociationScore;
+use bearing_slam_core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam_core::log::{
+    BearingObservation, CLUTTER_ID_START, DISTRACTOR_ID_START, EventKind, SensorLog,
+};
+use bearing_slam_core::runner::run;
+use bearing_slam_core::testing::kinematic::KinematicScenario;
+use bearing_slam_core::wrap_angle;
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
+
+/// The straight run past four landmarks, with `clutter` uniform false
+/// bearings per scan and, when `distractor`, a person pacing 1 m back and
+/// forth across the line of sight 3 m off the path.
+fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
+    let mut log = KinematicScenario::paper_fig4(false).simulate(seed);
+    let mut rng = StdRng::seed_from_u64(seed + 1000);
+    let mut next_clutter = CLUTTER_ID_START;
+    let mut pose = log.info.initial_pose.unwrap_or_default();
+    for event in &mut log.events {
+        match &mut event.kind {
+            EventKind::GroundTruth(p) => pose = *p,
+            EventKind::Bearings(scan) => {
+                for _ in 0..clutter {
+                    scan.push(BearingObservation {
+                        landmark_id: next_clutter,
+                        bearing: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+                        range: None,
+                    });
+                    next_clutter += 1;
+                }
+                if distractor {
+                    let (x, y) = (5.0, 3.0 + 0.5 * (2.0 * event.time).sin());
+                    scan.push(BearingObservation {
+                        landmark_id: DISTRACTOR_ID_START,
+                        bearing: wrap_angle((y - pose.y).atan2(x - pose.x) - pose.theta),
+                        range: None,
+                    });
+                }
+            }
+            _ => {}
+        }
+    }
+    log
+}
+
+fn run_with(log: &SensorLog, association: AssociationConfig) -> AssociationScore {
+    let mut config = KinematicScenario::paper_fig4(false)
+        .run_config()
+        .expect("valid scenario");
+    config.slam.association = association;
+    let output = run(log, &config).expect("the run completes");
+    output
+        .association
+        .expect("unknown-identity runs are scored")
+}
+
+#[test]
+fn clutter_bearings_never_become_landmarks() {
+    for method in [AssociationMethod::Jcbb, AssociationMethod::NearestNeighbour] {
+        let score = run_with(&log(7, 2, false), AssociationConfig::of(method));
+        assert_eq!(score.spurious, 0, "{method}: {score:?}");
+        assert_eq!(score.duplicates, 0, "{method}: {score:?}");
+        assert!(score.mapped >= 3, "{method}: {score:?}");
+        assert!(score.precision >= 0.95, "{method}: {score:?}");
+    }
+}
+
+#[test]
+fn a_moving_distractor_is_rejected() {
+    let association = AssociationConfig {
+        moving_object_nis_factor: Some(3.0),
+        ..AssociationConfig::of(AssociationMethod::Jcbb)
+    };
+    let score = run_with(&log(3, 0, true), association);
+    // The pacing person looks static now and then long enough to be
+    // mapped, and is removed again each time it stops fitting.
+    assert_eq!(score.spurious_at_end, 0, "{score:?}");
+    assert!(score.removed >= score.spurious, "{score:?}");
+    assert!(score.mapped >= 3, "{score:?}");
+}
+
+#[test]
+fn known_association_drops_marked_clutter_and_is_not_scored() {
+    let config = KinematicScenario::paper_fig4(false)
+        .run_config()
+        .expect("valid scenario");
+    let output = run(&log(7, 2, true), &config).expect("the run completes");
+    assert!(output.association.is_none());
+    let last = output.trace.snapshots.last().expect("snapshots");
+    assert!(
+        last.landmarks.iter().all(|l| l.id < CLUTTER_ID_START),
+        "{:?}",
+        last.landmarks.iter().map(|l| l.id).collect::<Vec<_>>()
+    );
+}

@@ -1,0 +1,331 @@
+//! Data association measurements of issue #16 (docs/results/association.md):
+//! the EKF with the log's ids (`known`) against nearest neighbour and JCBB
+//! with the ids hidden, on `paper_fig8` and `slip_patch` with clutter 0, 1
+//! and 5 false bearings per scan (and a pacing distractor), and on MRCLAM
+//! Dataset 6 with the barcodes hidden; plus JCBB's cost per scan.
+//!
+//! ```text
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- sim 5
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- cost
+//! ```
+
+use bearing_slam::core::Pose2;
+use bearing_slam::core::association::score::AssociationScore;
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam::core::log::{LandmarkTruth, SensorLog};
+use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
+use bearing_slam::core::score::summarize;
+use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::io::mrclam::load_mrclam_with;
+use bearing_slam::sim::clutter::Distractor;
+use bearing_slam::sim::scenario::Scenario;
+use bearing_slam::sim::sim::simulate;
+use std::collections::BTreeMap;
+use std::error::Error;
+use std::path::Path;
+
+type Res<T> = Result<T, Box<dyn Error>>;
+
+/// Ids of the dense variant's twin landmarks: the original's plus this.
+const DENSE_TWIN_ID_OFFSET: u64 = 500;
+
+const METHODS: [AssociationMethod; 3] = [
+    AssociationMethod::Known,
+    AssociationMethod::NearestNeighbour,
+    AssociationMethod::Jcbb,
+];
+
+/// One run's numbers.
+struct Row {
+    ate: f64,
+    score: Option<AssociationScore>,
+    /// (candidate landmarks, nodes, seconds) per scan.
+    costs: Vec<(usize, usize, f64)>,
+}
+
+fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<Row> {
+    let mut config = base.clone();
+    config.slam.association = AssociationConfig {
+        method,
+        track_max_gap_s: std::env::var("ASSOCIATION_TRACK_GAP_S")
+            .ok()
+            .and_then(|s| s.parse().ok()),
+        ..config.slam.association
+    };
+    let output: RunOutput = run(log, &config)?;
+    let summary = summarize(log, &output)?;
+    Ok(Row {
+        ate: summary.ate_rmse_m,
+        score: output.association,
+        costs: Vec::new(),
+    })
+}
+
+fn pct(x: f64) -> String {
+    format!("{:.1}", 100.0 * x)
+}
+
+fn sim(seeds: u64) -> Res<()> {
+    println!(
+        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates | spurious (at end) | removed | missed | ATE m | ATE / known |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let only = std::env::var("ASSOCIATION_SCENARIO").ok();
+    for name in ["paper_fig8", "slip_patch"] {
+        if only.as_deref().is_some_and(|o| o != name) {
+            continue;
+        }
+        for (clutter, distractor, dense) in [
+            (0.0, false, false),
+            (1.0, false, false),
+            (5.0, false, false),
+            (0.0, true, false),
+            (0.0, false, true),
+        ] {
+            // method -> sums over seeds
+            let mut sums: BTreeMap<&str, [f64; 8]> = BTreeMap::new();
+            for seed in 0..seeds {
+                let mut scenario = Scenario::named(name, seed)?;
+                scenario.clutter.per_scan = clutter;
+                if distractor {
+                    scenario.clutter.distractors = vec![Distractor {
+                        center: [1.0, 1.0],
+                        heading_rad: 0.5,
+                        amplitude_m: 1.0,
+                        period_s: 6.0,
+                    }];
+                }
+                if dense {
+                    // Each landmark gets a twin 0.3 m away: closer than the
+                    // bearing noise at the typical range on paper_fig8
+                    // (5° × 5 m ≈ 0.44 m), about 2σ on slip_patch (2° × 4 m).
+                    let mut landmarks = scenario.landmark_truth()?;
+                    let twins: Vec<_> = landmarks
+                        .iter()
+                        .map(|l| LandmarkTruth {
+                            id: l.id + DENSE_TWIN_ID_OFFSET,
+                            x: l.x + 0.3,
+                            y: l.y,
+                        })
+                        .collect();
+                    landmarks.extend(twins);
+                    scenario.landmarks = landmarks;
+                    scenario.random_landmarks = None;
+                }
+                let log = simulate(&scenario)?;
+                let config = default_run_config(&log)?;
+                let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+                for method in METHODS {
+                    let row = if method == AssociationMethod::Known {
+                        Row {
+                            ate: known,
+                            score: None,
+                            costs: Vec::new(),
+                        }
+                    } else {
+                        run_one(&log, &config, method)?
+                    };
+                    let s = row.score.clone().unwrap_or_default();
+                    let e = sums.entry(method_name(method)).or_default();
+                    let (p, r) = if row.score.is_some() {
+                        (s.precision, s.recall)
+                    } else {
+                        (1.0, 1.0)
+                    };
+                    for (k, v) in [
+                        p,
+                        r,
+                        s.duplicates as f64,
+                        s.spurious as f64,
+                        s.spurious_at_end as f64,
+                        s.missed as f64,
+                        row.ate,
+                        s.removed as f64,
+                    ]
+                    .into_iter()
+                    .enumerate()
+                    {
+                        e[k] += v;
+                    }
+                    let _ = row.costs;
+                }
+            }
+            let n = seeds as f64;
+            let known_ate = sums.get("known").map_or(f64::NAN, |s| s[6] / n);
+            for method in METHODS {
+                let s = sums.get(method_name(method)).copied().unwrap_or_default();
+                let known = method == AssociationMethod::Known;
+                println!(
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} |",
+                    if distractor { "yes" } else { "no" },
+                    if dense { "yes" } else { "no" },
+                    method_name(method),
+                    if known { "—".into() } else { pct(s[0] / n) },
+                    if known { "—".into() } else { pct(s[1] / n) },
+                    s[2] / n,
+                    s[3] / n,
+                    s[4] / n,
+                    s[7] / n,
+                    s[5] / n,
+                    s[6] / n,
+                    s[6] / n / known_ate,
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn method_name(m: AssociationMethod) -> &'static str {
+    match m {
+        AssociationMethod::Known => "known",
+        AssociationMethod::NearestNeighbour => "nn",
+        AssociationMethod::Jcbb => "jcbb",
+    }
+}
+
+fn mrclam(dir: &Path) -> Res<()> {
+    println!(
+        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | ATE m | ATE / known | mean JCBB nodes | mean pairing ms |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let options = EvalOptions::default();
+    for robot in 1..=5u8 {
+        let loaded = load_mrclam_with(dir, robot, &options.load)?;
+        let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
+        let config = CALIBRATED_PARAMETERS.run_config(Method::Mte, Pose2::default())?;
+        let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+        for method in METHODS {
+            let row = if method == AssociationMethod::Known {
+                Row {
+                    ate: known,
+                    score: None,
+                    costs: Vec::new(),
+                }
+            } else {
+                run_one(&log, &config, method)?
+            };
+            match row.score {
+                Some(s) => println!(
+                    "| {robot} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.2} | {:.1} | {:.3} |",
+                    method_name(method),
+                    pct(s.precision),
+                    pct(s.recall),
+                    s.mapped,
+                    s.duplicates,
+                    s.spurious,
+                    s.missed,
+                    row.ate,
+                    row.ate / known,
+                    s.mean_nodes,
+                    1e3 * s.mean_scan_seconds,
+                ),
+                None => println!(
+                    "| {robot} | known | — | — | — | — | — | — | {:.3} | 1.00 | — | — |",
+                    row.ate
+                ),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// JCBB's and nearest neighbour's time per scan against the number of
+/// visible landmarks, on synthetic scans: `m` landmarks spread round the
+/// robot whose predictions share a heading uncertainty (σ_θ = 3°, each
+/// landmark 1° of its own), seen with σ_z = 1° and the heading 2° off, plus
+/// two clutter bearings; with node budgets of 100, 1 000 and 10 000.
+fn cost() -> Res<()> {
+    use bearing_slam::core::association::jcbb::{Gates, PairingProblem, jcbb, nearest_neighbour};
+    use bearing_slam::core::nalgebra::DMatrix;
+    use std::time::Instant;
+    println!(
+        "| visible landmarks | method | budget | mean nodes | budget hit % | correct % | µs per scan |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    let deg = std::f64::consts::PI / 180.0;
+    for m in [2usize, 5, 10, 20, 40] {
+        let scans = 200;
+        let mut problems = Vec::new();
+        for k in 0..scans {
+            // Deterministic jitter per scan.
+            let jitter = |i: usize| (((i * 7919 + k * 104_729) % 1000) as f64 / 1000.0 - 0.5) * deg;
+            let predicted: Vec<f64> = (0..m)
+                .map(|j| {
+                    -std::f64::consts::PI + (j as f64 + 0.5) * std::f64::consts::TAU / m as f64
+                })
+                .collect();
+            let mut bearings: Vec<f64> = predicted
+                .iter()
+                .enumerate()
+                .map(|(j, h)| h + 2.0 * deg + jitter(j))
+                .collect();
+            bearings.push(0.123 + k as f64);
+            bearings.push(-1.234 + 0.5 * k as f64);
+            let bearings = bearings
+                .into_iter()
+                .map(bearing_slam::core::wrap_angle)
+                .collect();
+            let common = (3.0 * deg).powi(2);
+            let own = (1.0 * deg).powi(2);
+            problems.push(PairingProblem {
+                bearings,
+                predicted,
+                prediction_covariance: DMatrix::from_fn(m, m, |a, b| {
+                    if a == b { common + own } else { common }
+                }),
+                noise_variance: deg * deg,
+            });
+        }
+        let gates = Gates::new(0.999, m + 2)?;
+        let score = |landmark_of: &[Option<usize>]| {
+            (0..m).filter(|&j| landmark_of[j] == Some(j)).count() as f64 / m as f64
+        };
+        let started = Instant::now();
+        let mut nodes = 0usize;
+        let mut correct = 0.0;
+        for p in &problems {
+            let r = nearest_neighbour(p, &gates)?;
+            nodes += r.nodes;
+            correct += score(&r.landmark_of);
+        }
+        let us = started.elapsed().as_secs_f64() * 1e6 / scans as f64;
+        println!(
+            "| {m} | nn | — | {:.0} | — | {:.1} | {us:.1} |",
+            nodes as f64 / scans as f64,
+            100.0 * correct / scans as f64
+        );
+        for budget in [100usize, 1_000, 10_000] {
+            let started = Instant::now();
+            let (mut nodes, mut hit, mut correct) = (0usize, 0usize, 0.0);
+            for p in &problems {
+                let r = jcbb(p, &gates, budget)?;
+                nodes += r.nodes;
+                hit += usize::from(r.budget_exhausted);
+                correct += score(&r.landmark_of);
+            }
+            let us = started.elapsed().as_secs_f64() * 1e6 / scans as f64;
+            println!(
+                "| {m} | jcbb | {budget} | {:.0} | {:.0} | {:.1} | {us:.1} |",
+                nodes as f64 / scans as f64,
+                100.0 * hit as f64 / scans as f64,
+                100.0 * correct / scans as f64
+            );
+        }
+    }
+    Ok(())
+}
+
+fn main() -> Res<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    match args.first().map(String::as_str) {
+        Some("sim") => sim(args.get(1).map_or(Ok(3), |s| s.parse())?),
+        Some("cost") => cost(),
+        Some("mrclam") => mrclam(Path::new(args.get(1).map_or(
+            "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
+            String::as_str,
+        ))),
+        _ => Err("usage: association sim [SEEDS] | mrclam [DATASET_DIR] | cost".into()),
+    }
+}
