@@ -13,65 +13,14 @@
 //! At the end the binary prints the log-log slope of time against K and the
 //! slope of time against log₂ K from criterion's medians.
 
-use bearing_slam::core::log::{BearingObservation, WheelOdometry};
+use bearing_slam::core::log::WheelOdometry;
 use bearing_slam::core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam::core::nalgebra::{Matrix2, Vector2};
-use bearing_slam::core::particle::existence::ExistenceCounter;
-use bearing_slam::core::particle::landmark_ekf::LandmarkEkf;
-use bearing_slam::core::particle::map::{MappedLandmark, ParticleMap};
-use bearing_slam::core::particle::{FastSlam, FastSlamConfig, FastSlamVariant};
+use bearing_slam_core::testing::particle_grid::grid_problem;
 use criterion::{BenchmarkId, Criterion};
 use std::hint::black_box;
 
 const M: usize = 100;
 const SIZES: [usize; 4] = [10, 100, 1000, 10_000];
-
-fn grid_position(id: usize) -> Vector2<f64> {
-    let side = 100;
-    Vector2::new(
-        3.0 + (id % side) as f64 * 0.7,
-        -20.0 + (id / side) as f64 * 0.9,
-    )
-}
-
-fn setup(k: usize) -> (FastSlam, Vec<BearingObservation>) {
-    let mut map = ParticleMap::new();
-    for id in 0..k {
-        map.insert(
-            id as u64,
-            MappedLandmark {
-                filter: LandmarkEkf::Euclidean {
-                    mean: grid_position(id),
-                    cov: Matrix2::identity() * 0.01,
-                },
-                existence: ExistenceCounter {
-                    seen: 1,
-                    missed: 0,
-                    evidence: 1.0,
-                },
-            },
-        );
-    }
-    let config = FastSlamConfig {
-        variant: FastSlamVariant::FastSlam2,
-        particles: M,
-        resample_threshold: 1.0,
-        initial_pose_sigma: [0.01, 0.01, 0.005],
-        ..FastSlamConfig::default()
-    };
-    let scan = (0..5)
-        .map(|i| {
-            let id = (i * k) / 5 + (k / 10).min(3);
-            let p = grid_position(id);
-            BearingObservation {
-                landmark_id: id as u64,
-                bearing: p.y.atan2(p.x),
-                range: None,
-            }
-        })
-        .collect();
-    (FastSlam::with_map(config, map).expect("valid"), scan)
-}
 
 fn bench(c: &mut Criterion) {
     let pool = rayon::ThreadPoolBuilder::new()
@@ -92,7 +41,7 @@ fn bench(c: &mut Criterion) {
     };
     let mut group = c.benchmark_group("fastslam2_step_m100");
     for k in SIZES {
-        let (mut slam, scan) = setup(k);
+        let (mut slam, scan) = grid_problem(M, k).expect("valid");
         let mut time = 0.0;
         group.bench_with_input(BenchmarkId::from_parameter(k), &k, |b, _| {
             b.iter(|| {

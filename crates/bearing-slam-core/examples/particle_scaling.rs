@@ -21,64 +21,14 @@
 //! resident set size over `STEPS_LONG` steps (default 200 000) at M = 100,
 //! K = 1000 (flat: resampling frees the unshared tree nodes).
 
-use bearing_slam_core::log::{BearingObservation, WheelOdometry};
+use bearing_slam_core::log::WheelOdometry;
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam_core::nalgebra::{Matrix2, Vector2};
-use bearing_slam_core::particle::existence::ExistenceCounter;
-use bearing_slam_core::particle::landmark_ekf::LandmarkEkf;
-use bearing_slam_core::particle::map::{MappedLandmark, ParticleMap};
-use bearing_slam_core::particle::{FastSlam, FastSlamConfig, FastSlamVariant};
+use bearing_slam_core::particle::FastSlam;
+use bearing_slam_core::testing::particle_grid::grid_problem;
 use std::hint::black_box;
 use std::time::Instant;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
-
-fn grid_position(id: usize) -> Vector2<f64> {
-    let side = 100;
-    Vector2::new(
-        3.0 + (id % side) as f64 * 0.7,
-        -20.0 + (id / side) as f64 * 0.9,
-    )
-}
-
-fn setup(m: usize, k: usize) -> Result<(FastSlam, Vec<BearingObservation>), BoxError> {
-    let mut map = ParticleMap::new();
-    for id in 0..k {
-        map.insert(
-            id as u64,
-            MappedLandmark {
-                filter: LandmarkEkf::Euclidean {
-                    mean: grid_position(id),
-                    cov: Matrix2::identity() * 0.01,
-                },
-                existence: ExistenceCounter {
-                    seen: 1,
-                    missed: 0,
-                    evidence: 1.0,
-                },
-            },
-        );
-    }
-    let config = FastSlamConfig {
-        variant: FastSlamVariant::FastSlam2,
-        particles: m,
-        resample_threshold: 1.0,
-        initial_pose_sigma: [0.01, 0.01, 0.005],
-        ..FastSlamConfig::default()
-    };
-    let scan = (0..5)
-        .map(|i| {
-            let id = (i * k) / 5 + (k / 10).min(3);
-            let p = grid_position(id);
-            BearingObservation {
-                landmark_id: id as u64,
-                bearing: p.y.atan2(p.x),
-                range: None,
-            }
-        })
-        .collect();
-    Ok((FastSlam::with_map(config, map)?, scan))
-}
 
 fn model() -> Result<DiffDriveModel, BoxError> {
     Ok(DiffDriveModel::new(
@@ -113,7 +63,7 @@ fn clock(origin: Instant) -> f64 {
 /// Median seconds per step (thread CPU time) over 7 batches of `per_batch`
 /// steps, after a warm-up batch.
 fn time_per_step(m: usize, k: usize) -> Result<f64, BoxError> {
-    let (mut slam, scan) = setup(m, k)?;
+    let (mut slam, scan) = grid_problem(m, k)?;
     let model = model()?;
     let mut time = 0.0;
     // About 0.3 s per batch whatever M.
@@ -188,7 +138,7 @@ fn main() -> Result<(), BoxError> {
         println!("  against M: log-log slope {:.3} (O(M) is 1)", slope(&by_m));
 
         println!("memory over {long_steps} steps at M = 100, K = 1000");
-        let (mut slam, scan) = setup(100, 1000)?;
+        let (mut slam, scan) = grid_problem(100, 1000)?;
         let model = model()?;
         let every = (long_steps / 10).max(1);
         let started = Instant::now();

@@ -3,6 +3,7 @@
 
 pub mod kinematic;
 pub mod mono;
+pub mod particle_grid;
 
 use nalgebra::{DMatrix, DVector};
 
