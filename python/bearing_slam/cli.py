@@ -172,6 +172,11 @@ _TUM_HELP = (
 )
 
 
+def _wrote(out: Path) -> str:
+    """What a run wrote into ``out`` (``particles.png`` too for FastSLAM)."""
+    return f"wrote {out}/" + ", ".join(sorted(p.name for p in out.iterdir()))
+
+
 def _cmd_demo(args: argparse.Namespace) -> int:
     out = Path(args.out)
     entries = _demo_entries()
@@ -294,7 +299,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     write_outputs(out, rec, result, log, snapshot_every=args.snapshot_every)
     _log_rerun(args, live, result)
     print(_format_table([(str(log.info.get("source") or path.name), args.init, rec)]))
-    print(f"\nwrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
+    print("\n" + _wrote(out))
     _write_tum(args.tum, result)
     stream_if_asked(args, log, result)  # --live
     return 0
@@ -367,7 +372,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
         f"(other robots, unknown barcodes, outside the log, duplicates), "
         f"{rec['n_outside_window']} outside the --start/--end window"
     )
-    print(f"wrote {out}/metrics.json, trajectory.png, pose_errors.png, nees.png, estimate.mcap")
+    print(_wrote(out))
     return 0
 
 
