@@ -44,6 +44,22 @@ struct ProjectedRay {
     j_h_q: SMatrix<f64, 3, 4>,
 }
 
+/// `∂h^C/∂x_v` of a camera-frame ray `h^C = R^{CW}(s (p − r) + …)`: `−s R^{CW}`
+/// on the position `r`, `∂h^C/∂q` on the quaternion, zero on the velocities
+/// (28)(29); `s` is the inverse depth `ρ` for an inverse-depth landmark, 1 for
+/// a point.
+fn ray_jacobian_vehicle(
+    scale: f64,
+    r_cw: &Matrix3<f64>,
+    j_h_q: &SMatrix<f64, 3, 4>,
+) -> SMatrix<f64, 3, CAMERA_DIM> {
+    let mut j = SMatrix::<f64, 3, CAMERA_DIM>::zeros();
+    j.fixed_view_mut::<3, 3>(0, POSITION)
+        .copy_from(&(-scale * r_cw));
+    j.fixed_view_mut::<3, 4>(0, QUATERNION).copy_from(j_h_q);
+    j
+}
+
 /// Projects the world-frame ray `h_w` (already scaled) seen by a camera at
 /// orientation `q`.
 fn project_world_ray(
@@ -78,13 +94,7 @@ impl MeasurementModel<CAMERA_DIM, 6, 2> for InverseDepthPixel {
             r_cw,
             j_h_q,
         } = project_world_ray(&self.camera, &q, &h_w)?;
-        let mut j_h_vehicle = SMatrix::<f64, 3, CAMERA_DIM>::zeros();
-        j_h_vehicle
-            .fixed_view_mut::<3, 3>(0, POSITION)
-            .copy_from(&(-rho * r_cw));
-        j_h_vehicle
-            .fixed_view_mut::<3, 4>(0, QUATERNION)
-            .copy_from(&j_h_q);
+        let j_h_vehicle = ray_jacobian_vehicle(rho, &r_cw, &j_h_q);
         let (dm_dtheta, dm_dphi) = direction_derivatives(theta, phi);
         let mut j_h_landmark = SMatrix::<f64, 3, 6>::zeros();
         j_h_landmark
@@ -119,13 +129,7 @@ impl MeasurementModel<CAMERA_DIM, 3, 2> for XyzPixel {
             r_cw,
             j_h_q,
         } = project_world_ray(&self.camera, &q, &h_w)?;
-        let mut j_h_vehicle = SMatrix::<f64, 3, CAMERA_DIM>::zeros();
-        j_h_vehicle
-            .fixed_view_mut::<3, 3>(0, POSITION)
-            .copy_from(&(-r_cw));
-        j_h_vehicle
-            .fixed_view_mut::<3, 4>(0, QUATERNION)
-            .copy_from(&j_h_q);
+        let j_h_vehicle = ray_jacobian_vehicle(1.0, &r_cw, &j_h_q);
         Ok(MeasurementPrediction {
             value: px,
             j_z_vehicle: j_px_h * j_h_vehicle,
