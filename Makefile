@@ -206,11 +206,8 @@ FUZZ_SMOKE_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 fuzz-smoke: fuzz-setup
 	cd fuzz && $(CARGO) +nightly fuzz build
 	cd fuzz && smoke=$$(mktemp -d) && trap 'rm -rf "$$smoke"' EXIT && \
-	printf '%s\n' $(FUZZ_TARGETS) | xargs -P $(FUZZ_SMOKE_JOBS) -I{} bash -c ' \
-		set -o pipefail; mkdir -p "'"$$smoke"'/{}" && \
-		$(CARGO) +nightly fuzz run {} "'"$$smoke"'/{}" seeds/{} -- \
-			-max_total_time=$(FUZZ_SMOKE_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
-			-print_final_stats=1 2>&1 | tail -n 12 || { echo "fuzz smoke: {} FAILED"; exit 1; }'
+	printf '%s\n' $(FUZZ_TARGETS) | xargs -P $(FUZZ_SMOKE_JOBS) -I{} \
+		env CARGO=$(CARGO) ./smoke-one.sh {} "$$smoke" $(FUZZ_SMOKE_SECONDS) $(FUZZ_TIMEOUT)
 
 # --- Mutation testing (cargo-mutants) of the estimator's core modules: the
 # EKF, landmark initialization, measurement and motion models, landmark

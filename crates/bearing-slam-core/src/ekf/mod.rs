@@ -655,6 +655,11 @@ impl Ekf {
     /// `j_new_old` (e.g. inverse depth → Euclidean point). Covariances become
     /// `J P_yy Jᵀ` and `J P_y·`; the block then shrinks and later blocks move
     /// down by `old_len − new_len`.
+    ///
+    /// # Errors
+    /// A range or Jacobian of the wrong size, or a non-finite new mean,
+    /// Jacobian or covariance ([`SlamError::NonFinite`]); the filter is then
+    /// left unchanged.
     pub fn reparameterize(
         &mut self,
         offset: usize,
@@ -678,6 +683,11 @@ impl Ekf {
         let n = self.dim();
         let rows = j_new_old * self.sym_block(offset, old_len, 0, n); // new_len × n
         let diag = rows.columns(offset, old_len) * j_new_old.transpose();
+        // A block that overflows (a point 1/ρ ≈ 1e116 m away has a variance
+        // beyond f64) is refused before anything is written.
+        for &v in rows.iter().chain(diag.iter()) {
+            ensure_finite("reparameterized covariance", v)?;
+        }
         // Rows and columns both: their lower parts make up the lower
         // triangle's new entries (the upper parts are unspecified storage).
         self.cov

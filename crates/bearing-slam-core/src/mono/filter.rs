@@ -514,12 +514,18 @@ impl MonoSlam {
                 continue;
             }
             let (point, j) = inverse_depth_to_xyz(&y)?;
-            self.ekf.reparameterize(
+            match self.ekf.reparameterize(
                 feature.offset,
                 6,
                 &DVector::from_column_slice(point.as_slice()),
                 &DMatrix::from_column_slice(3, 6, j.as_slice()),
-            )?;
+            ) {
+                Ok(()) => {}
+                // A point too far for f64 (ρ near zero) stays in inverse
+                // depth; the filter is unchanged.
+                Err(SlamError::NonFinite { .. }) => continue,
+                Err(e) => return Err(e),
+            }
             self.shift_after(feature.offset, 3);
             if let Some(f) = self.landmarks.get_mut(&id) {
                 f.kind = Parameterization3::Xyz;

@@ -701,12 +701,18 @@ impl BearingSlam {
             let converted = inverse_depth_to_point(&y)?;
             let j_point_landmark =
                 DMatrix::from_column_slice(2, 4, converted.j_point_landmark.as_slice());
-            self.ekf.reparameterize(
+            match self.ekf.reparameterize(
                 slot.offset,
                 4,
                 &DVector::from_column_slice(converted.point.as_slice()),
                 &j_point_landmark,
-            )?;
+            ) {
+                Ok(()) => {}
+                // A point too far for f64 (ρ near zero) stays in inverse
+                // depth, the parameterization made for it; nothing changed.
+                Err(SlamError::NonFinite { .. }) => continue,
+                Err(e) => return Err(e),
+            }
             self.shift_offsets_after(slot.offset, 2);
             if let Some(s) = self.landmarks.get_mut(&id) {
                 s.parameterization = Parameterization::Euclidean;

@@ -1,0 +1,48 @@
+//! Inputs the coverage-guided fuzzer (`fuzz/fuzz_targets/slam_ops.rs`) found
+//! to break the filter's invariants, kept as regression tests (issue 20).
+//! After every call that succeeds the state must stay finite and the
+//! covariance symmetric with a non-negative diagonal; a call that cannot keep
+//! that must fail with a clear error and leave the filter unchanged.
+
+// Tests may unwrap: a panic is a test failure with a message.
+#![allow(clippy::unwrap_used)]
+
+use bearing_slam_core::ekf::CovarianceUpdate;
+use bearing_slam_core::init::InverseDepthPrior;
+use bearing_slam_core::slam::{BearingSlam, InitializerConfig, SlamConfig};
+
+fn assert_finite_state(slam: &BearingSlam) {
+    let ekf = slam.ekf();
+    assert!(ekf.mean().iter().all(|x| x.is_finite()), "non-finite mean");
+    assert!(
+        ekf.covariance().iter().all(|x| x.is_finite()),
+        "non-finite covariance:\n{}",
+        ekf.covariance()
+    );
+}
+
+/// `crash-88b59f46…` (slam_ops, found in the CI smoke): PI-SR with an
+/// inverse-depth prior of 1.7e-117 and a conversion threshold of 2.8e207, so
+/// the landmark is converted to a point at once, 1/ρ ≈ 6e116 m away.
+#[test]
+fn a_landmark_at_a_vanishing_inverse_depth_is_not_converted_into_an_infinite_point() {
+    let config = SlamConfig {
+        initializer: InitializerConfig::pi_sr(InverseDepthPrior {
+            rho_ini: 1.693_595_631_453_283e-117,
+            sigma_rho: 107.0 * 0.05,
+        }),
+        bearing_sigma: 107.0 * 0.005,
+        range_sigma: 107.0 * 0.05,
+        gate_probability: Some(107.0 * 0.0079),
+        conversion_threshold: Some(2.817_009_055_122_276_2e209 * 0.01),
+        covariance_update: CovarianceUpdate::Symmetric,
+        ..SlamConfig::default()
+    };
+    let mut slam = BearingSlam::new(config).unwrap();
+    slam.update_bearings(107.0 * 0.05, &[(107 % 32, 4.967_455_437_225e-312)])
+        .unwrap();
+    assert_finite_state(&slam);
+    // The landmark entered and stays in inverse depth (3 pose + 4 entries).
+    assert_eq!(slam.landmark_ids(), vec![11]);
+    assert_eq!(slam.ekf().mean().len(), 3 + 4);
+}
