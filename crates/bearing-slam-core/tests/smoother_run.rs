@@ -133,3 +133,69 @@ fn fixed_lag_smoother_runs_online_close_to_the_batch() {
     assert!(o.ate_rmse_m <= f.ate_rmse_m, "{o:?} vs filter {f:?}");
     assert!(o.ate_rmse_m <= 1.3 * b.ate_rmse_m, "{o:?} vs batch {b:?}");
 }
+
+/// A filter that never triangulates (it waits for 170° of parallax and has
+/// no far rule) maps none of Fig. 4's landmarks;
+/// the batch smoother triangulates the others from its smoothed poses (at the
+/// filter's usual 10°), adds them with their bearings, and places them as
+/// well as the ones the filter gave it. Without the option they stay out.
+#[test]
+fn batch_smoother_maps_the_landmarks_the_filter_never_initialized() {
+    use bearing_slam_core::init::TriangulationConfig;
+    use bearing_slam_core::slam::InitializerConfig;
+    use bearing_slam_core::smoother::UnmappedTriangulation;
+
+    let s = KinematicScenario::paper_fig4(false);
+    let mut config = run_config(&s);
+    config.slam.initializer = InitializerConfig::Triangulation(TriangulationConfig {
+        alpha_min: 170f64.to_radians(),
+        baseline_min: 1e6,
+        ..TriangulationConfig::default()
+    });
+    let log = s.simulate(3);
+    let off = SmootherConfig {
+        triangulate_unmapped: None,
+        ..SmootherConfig::default()
+    };
+    let on = SmootherConfig {
+        triangulate_unmapped: Some(UnmappedTriangulation::default()),
+        ..SmootherConfig::default()
+    };
+    let without = run_from_log(&log, &config, &off).unwrap();
+    let with = run_from_log(&log, &config, &on).unwrap();
+    let final_map = |out: &bearing_slam_core::smoother::SmoothedRun| {
+        out.output.trace.snapshots.last().unwrap().landmarks.clone()
+    };
+    let (before, after) = (final_map(&without), final_map(&with));
+    assert_eq!(without.report.n_triangulated, 0);
+    assert!(without.report.n_dropped > 0, "{:?}", without.report);
+    assert!(
+        with.report.n_triangulated >= 1 && after.len() == before.len() + with.report.n_triangulated,
+        "{:?}",
+        with.report
+    );
+    assert!(with.report.n_dropped < without.report.n_dropped);
+    assert!(with.report.solve.unwrap().converged);
+    // Every landmark the smoother maps is within 0.3 m of the truth (the
+    // scenario's bearings have σ = 1°, ranges under 10 m).
+    for l in &after {
+        let truth = log.landmarks.iter().find(|t| t.id == l.id).unwrap();
+        let err = ((l.x - truth.x).powi(2) + (l.y - truth.y).powi(2)).sqrt();
+        assert!(err < 0.3, "landmark {}: {err:.3} m off", l.id);
+        let c = DMatrix::from_fn(2, 2, |r, k| l.covariance[r][k]);
+        check_covariance(&c).unwrap();
+    }
+    // The added landmarks appear from the scan of their first bearing on.
+    let added: Vec<u64> = after
+        .iter()
+        .map(|l| l.id)
+        .filter(|id| !before.iter().any(|b| b.id == *id))
+        .collect();
+    let first = with
+        .output
+        .trace
+        .snapshots
+        .iter()
+        .position(|snap| snap.landmarks.iter().any(|l| l.id == added[0]));
+    assert!(first.is_some_and(|k| k < with.output.trace.snapshots.len() - 1));
+}

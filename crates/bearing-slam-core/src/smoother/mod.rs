@@ -18,6 +18,8 @@
 //!   Jacobians);
 //! * [`online`]: [`OnlineSmoother`], the filter and the fixed-lag smoother
 //!   run together event by event (an [`crate::online::OnlineEstimator`]);
+//! * [`triangulate`]: multi-view triangulation of a point from rays at
+//!   solved poses (the landmarks the filter never initialized);
 //! * [`run`]: [`run_from_log`], the filter's run followed by the batch
 //!   smoother (or the online one), returning the runner's output shape.
 
@@ -31,6 +33,7 @@ pub mod robust;
 pub mod run;
 pub mod solver;
 mod system;
+pub mod triangulate;
 pub mod values;
 
 pub use factors::{
@@ -44,8 +47,9 @@ pub use online::{OnlineSmoother, run_online_smoother};
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
 pub use run::{
-    BatchProblem, SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, batch_problem,
-    run_from_log,
+    BatchProblem, SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, UnmappedTriangulation,
+    batch_problem, run_from_log,
 };
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
+pub use triangulate::{RayPoint, RayTriangulationRule, triangulate_rays};
 pub use values::{Key, Values};

@@ -19,6 +19,7 @@ use super::online::run_online_smoother;
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
+use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::values::Values;
 use crate::error::{Result, SlamError};
 use crate::geometry::{Pose2, wrap_angle};
@@ -56,6 +57,33 @@ pub struct SmootherConfig {
     /// Floor of the first pose's prior standard deviations (the filter may
     /// start from an exactly known pose).
     pub min_initial_sigma: f64,
+    /// Batch mode: after the first solve, landmarks the filter never
+    /// initialized are triangulated from the smoothed poses by this rule
+    /// ([`triangulate_rays`]; the bearing σ is the run's), added with the
+    /// bearings they explain, and the graph is solved again (`None`: they stay out,
+    /// as their bearings did before).
+    pub triangulate_unmapped: Option<UnmappedTriangulation>,
+}
+
+/// How the batch smoother triangulates the landmarks the filter never
+/// initialized ([`SmootherConfig::triangulate_unmapped`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UnmappedTriangulation {
+    /// Smallest spread of the rays' directions, radians.
+    pub min_parallax: f64,
+    /// Fewest rays that must agree with the point.
+    pub min_inliers: usize,
+}
+
+impl Default for UnmappedTriangulation {
+    /// The filter's own parallax test, `α_min` = 10° (Munguía & Grau (21),
+    /// [`crate::init::TriangulationConfig`]'s default), and 3 rays.
+    fn default() -> Self {
+        Self {
+            min_parallax: crate::init::TriangulationConfig::default().alpha_min,
+            min_inliers: 3,
+        }
+    }
 }
 
 impl Default for SmootherConfig {
@@ -71,6 +99,7 @@ impl Default for SmootherConfig {
             odometry_floor_sigma: [1e-4; 3],
             landmark_prior_sigma_m: Some(100.0),
             min_initial_sigma: 1e-4,
+            triangulate_unmapped: Some(UnmappedTriangulation::default()),
         }
     }
 }
@@ -84,9 +113,13 @@ pub struct SmootherReport {
     pub n_landmarks: usize,
     /// Bearing (or range-bearing) factors used.
     pub n_measurements: usize,
-    /// Observations left out: of landmarks the filter never initialized, or
-    /// (online) of poses that had left the window when their landmark entered.
+    /// Observations left out: of landmarks the filter never initialized (and
+    /// the batch could not triangulate), or (online) of poses that had left
+    /// the window when their landmark entered.
     pub n_dropped: usize,
+    /// Landmarks the filter never initialized that the batch triangulated
+    /// from its smoothed poses and added ([`SmootherConfig::triangulate_unmapped`]).
+    pub n_triangulated: usize,
     /// The batch solve (batch mode).
     pub solve: Option<SolveReport>,
     /// Seconds spent running the filter that starts the smoother.
@@ -283,6 +316,22 @@ pub fn run_from_log(
     report.filter_time_s = filter_time_s;
     let values = &mut problem.initial;
     report.solve = Some(optimize(&problem.graph, values, &config.solver)?);
+    let mut first_scan = BTreeMap::new();
+    if let Some(rule) = config.triangulate_unmapped {
+        first_scan = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
+        report.n_triangulated = first_scan.len();
+        report.n_landmarks += first_scan.len();
+        report.n_measurements = problem.report.n_measurements;
+        report.n_dropped = problem.report.n_dropped;
+        if !first_scan.is_empty() {
+            report.solve = Some(optimize(
+                &problem.graph,
+                &mut problem.initial,
+                &config.solver,
+            )?);
+        }
+    }
+    let values = &problem.initial;
     let marginals = marginal_covariances(&problem.graph, values, &config.solver.robust)?;
     let n_nodes = problem.skeleton.odometry.len();
     let mut poses = Vec::with_capacity(n_nodes);
@@ -305,6 +354,7 @@ pub fn run_from_log(
         &pose_cov,
         &lms,
     );
+    add_to_snapshots(&mut output, &first_scan, &lms);
     report.smoother_time_s = started.elapsed().as_secs_f64();
     Ok(SmoothedRun {
         output,
@@ -331,7 +381,9 @@ pub struct BatchProblem {
 }
 
 /// Runs the filter on `log` and builds the batch problem its estimate starts
-/// ([`BatchProblem`]); `run_from_log` in batch mode solves exactly this.
+/// ([`BatchProblem`]); `run_from_log` in batch mode solves exactly this
+/// first, then (with [`SmootherConfig::triangulate_unmapped`]) adds the
+/// landmarks it triangulates from the solution and solves again.
 pub fn batch_problem(
     log: &SensorLog,
     run_config: &RunConfig,
@@ -420,6 +472,96 @@ fn build_batch_problem(
         report,
         skeleton,
     })
+}
+
+/// Triangulates, from the solved poses in `problem.initial`, every landmark
+/// whose bearings were dropped because the filter never initialized it;
+/// each one that `rule` accepts enters the values (and the weak prior, if
+/// configured) with the bearings it explains (its inliers). Returns the added landmarks with the
+/// scan of their first bearing.
+fn add_unmapped_landmarks(
+    problem: &mut BatchProblem,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+    rule: UnmappedTriangulation,
+) -> Result<BTreeMap<u64, usize>> {
+    let mut unmapped: BTreeMap<u64, Vec<(usize, &BearingObservation)>> = BTreeMap::new();
+    for (k, scan) in problem.skeleton.scans.iter().enumerate() {
+        for o in scan {
+            if !problem.initial.landmarks().contains_key(&o.landmark_id) {
+                unmapped.entry(o.landmark_id).or_default().push((k, o));
+            }
+        }
+    }
+    let ray_rule = RayTriangulationRule {
+        min_inliers: rule.min_inliers,
+        ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
+    };
+    let mut added = BTreeMap::new();
+    let mut factors = Vec::new();
+    for (id, sightings) in &unmapped {
+        let rays = sightings
+            .iter()
+            .map(|(k, o)| {
+                let node = problem.skeleton.scan_node[*k] as u64;
+                Ok((problem.initial.pose(node)?, o.bearing))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        let Some(found) = triangulate_rays(&rays, &ray_rule)? else {
+            continue;
+        };
+        problem.initial.insert_landmark(*id, found.point)?;
+        if let Some(s) = config.landmark_prior_sigma_m {
+            factors.push(Factor::LandmarkPrior(LandmarkPriorFactor::new(
+                *id,
+                found.point,
+                Matrix2::identity() * (s * s),
+            )?));
+        }
+        // The bearings the point explains; the others (a misread barcode,
+        // a reflection) stay dropped.
+        for ((k, o), _) in sightings.iter().zip(&found.is_inlier).filter(|(_, i)| **i) {
+            factors.push(measurement_factor(
+                problem.skeleton.scan_node[*k],
+                o,
+                run_config,
+            )?);
+        }
+        problem.report.n_measurements += found.inliers;
+        problem.report.n_dropped -= found.inliers;
+        added.insert(*id, sightings[0].0);
+    }
+    for f in factors {
+        problem.graph.add(f)?;
+    }
+    Ok(added)
+}
+
+/// The landmarks the batch added (`first_scan`: id → scan of its first
+/// bearing) written into every snapshot from that scan on, at their smoothed
+/// estimate (the smoother knows them in hindsight from their first bearing).
+fn add_to_snapshots(
+    output: &mut RunOutput,
+    first_scan: &BTreeMap<u64, usize>,
+    lms: &BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)>,
+) {
+    if first_scan.is_empty() {
+        return;
+    }
+    for (k, snap) in output.trace.snapshots.iter_mut().enumerate() {
+        for (id, first) in first_scan {
+            if let (true, Some((p, c))) = (k >= *first, lms.get(id)) {
+                snap.landmarks.push(LandmarkSnapshot {
+                    id: *id,
+                    x: p.x,
+                    y: p.y,
+                    covariance: c.transpose().into(),
+                    inverse_depth: false,
+                });
+            }
+        }
+        snap.landmarks.sort_by_key(|l| l.id);
+    }
 }
 
 /// The smoothed poses (by node) and landmarks written into a run's output

@@ -1,0 +1,316 @@
+//! Multi-view triangulation of a 2-D point from bearings taken at known
+//! poses, for the landmarks the filter never initialized: once the smoother
+//! has solved the trajectory, every bearing of such a landmark is a ray from
+//! a well-known place, and all of them together fix the point where the
+//! filter's two-view test (Munguía & Grau (21)–(24), one parallax at a time,
+//! with the filter's drifting poses) never passed.
+//!
+//! A ray from the sensor at `c = (x, y)` with world direction
+//! `φ = θ + z` (the bearing model (9) inverted) constrains the point `p` to
+//! `nᵀ (p − c) = 0` with the normal `n = (−sin φ, cos φ)`; its residual
+//! `nᵀ (p − c) = r sin(e)` is the angular error `e` scaled by the range `r`.
+//! The point is the weighted least-squares intersection of all rays,
+//! reweighted (iteratively) by `1 / r²` so that each ray counts by its
+//! angular error as the bearing factor does, and by a Cauchy kernel so that a
+//! misread bearing cannot pull it; a last intersection uses the inliers only. It is accepted only when enough rays
+//! agree with it within `k σ`, lie in front of their sensors, and span the
+//! parallax the filter's triangulation asks for (`α_min`).
+
+use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
+use crate::geometry::wrap_angle;
+use nalgebra::{Matrix2, Vector2, Vector3};
+
+/// When a set of rays is believed to fix a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RayTriangulationRule {
+    /// Fewest rays that must agree with the point (inliers).
+    pub min_inliers: usize,
+    /// Smallest fraction of all the landmark's rays that must be inliers.
+    pub min_inlier_fraction: f64,
+    /// Smallest spread of the inlier rays' directions, radians (the
+    /// filter's `α_min`, Munguía & Grau (21): 10°).
+    pub min_parallax: f64,
+    /// Nearest a point may be to a sensor along an inlier ray, metres.
+    pub min_depth: f64,
+    /// A ray is an inlier when its angular error is within this many σ.
+    pub inlier_sigmas: f64,
+    /// The bearing noise σ, radians.
+    pub bearing_sigma: f64,
+}
+
+impl RayTriangulationRule {
+    /// The rule for bearings of noise `bearing_sigma` with the filter's
+    /// parallax `min_parallax`: at least 3 inliers, half of the rays, 3σ,
+    /// 0.1 m in front of the sensor.
+    #[must_use]
+    pub fn new(bearing_sigma: f64, min_parallax: f64) -> Self {
+        Self {
+            min_inliers: 3,
+            min_inlier_fraction: 0.5,
+            min_parallax,
+            min_depth: 0.1,
+            inlier_sigmas: 3.0,
+            bearing_sigma,
+        }
+    }
+
+    /// Checks every field.
+    ///
+    /// # Errors
+    /// [`SlamError::InvalidParameter`] or [`SlamError::InvalidNoise`] naming
+    /// the field.
+    pub fn validate(&self) -> Result<()> {
+        ensure_positive_noise("triangulation bearing_sigma", self.bearing_sigma)?;
+        let positive = |name: &'static str, v: f64| {
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(SlamError::InvalidParameter {
+                    name,
+                    value: v,
+                    reason: "must be finite and positive",
+                })
+            }
+        };
+        positive("triangulation min_parallax", self.min_parallax)?;
+        positive("triangulation min_depth", self.min_depth)?;
+        positive("triangulation inlier_sigmas", self.inlier_sigmas)?;
+        if !(self.min_inlier_fraction > 0.0 && self.min_inlier_fraction <= 1.0) {
+            return Err(SlamError::InvalidParameter {
+                name: "triangulation min_inlier_fraction",
+                value: self.min_inlier_fraction,
+                reason: "must be in (0, 1]",
+            });
+        }
+        if self.min_inliers < 2 {
+            return Err(SlamError::InvalidParameter {
+                name: "triangulation min_inliers",
+                value: self.min_inliers as f64,
+                reason: "two rays at least fix a point",
+            });
+        }
+        Ok(())
+    }
+}
+
+/// A point triangulated from rays.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RayPoint {
+    /// The point, metres.
+    pub point: Vector2<f64>,
+    /// Rays within `inlier_sigmas · σ` of it and in front of their sensors.
+    pub inliers: usize,
+    /// Which rays (in the order given) are inliers.
+    pub is_inlier: Vec<bool>,
+    /// Spread of the inlier rays' directions, radians.
+    pub parallax: f64,
+}
+
+/// Reweighting passes of the least-squares intersection.
+const PASSES: usize = 8;
+
+/// The angular error of the ray `(pose, bearing)` at `p` and the distance
+/// along it (negative behind the sensor).
+fn ray_error(pose: &Vector3<f64>, bearing: f64, p: &Vector2<f64>) -> (f64, f64) {
+    let phi = pose.z + bearing;
+    let d = p - Vector2::new(pose.x, pose.y);
+    let along = d.x * phi.cos() + d.y * phi.sin();
+    (wrap_angle(d.y.atan2(d.x) - phi), along)
+}
+
+/// The weighted intersection of the rays; `None` when the normal matrix is
+/// singular (all rays parallel).
+fn intersect(rays: &[(Vector3<f64>, f64)], weights: &[f64]) -> Option<Vector2<f64>> {
+    let mut a = Matrix2::zeros();
+    let mut b = Vector2::zeros();
+    for ((pose, bearing), w) in rays.iter().zip(weights) {
+        let phi = pose.z + bearing;
+        let n = Vector2::new(-phi.sin(), phi.cos());
+        let nn = n * n.transpose() * *w;
+        a += nn;
+        b += nn * Vector2::new(pose.x, pose.y);
+    }
+    let scale = a.trace();
+    if scale.is_nan() || scale <= 0.0 || a.determinant() <= 1e-12 * scale * scale {
+        return None;
+    }
+    a.lu().solve(&b).filter(|p| p.iter().all(|v| v.is_finite()))
+}
+
+/// Triangulates a point from `rays` (`(pose [x, y, θ], bearing)` pairs, the
+/// bearing in the sensor frame as in (9)). `Ok(None)` when the rays do not
+/// fix a point by `rule`.
+///
+/// # Errors
+/// An invalid `rule`, or a non-finite pose or bearing.
+pub fn triangulate_rays(
+    rays: &[(Vector3<f64>, f64)],
+    rule: &RayTriangulationRule,
+) -> Result<Option<RayPoint>> {
+    rule.validate()?;
+    for (pose, bearing) in rays {
+        for &v in pose.iter() {
+            ensure_finite("triangulation pose", v)?;
+        }
+        ensure_finite("triangulation bearing", *bearing)?;
+    }
+    if rays.len() < rule.min_inliers {
+        return Ok(None);
+    }
+    let mut weights = vec![1.0; rays.len()];
+    let Some(mut p) = intersect(rays, &weights) else {
+        return Ok(None);
+    };
+    let cauchy = rule.inlier_sigmas * rule.bearing_sigma;
+    for _ in 0..PASSES {
+        for ((pose, bearing), w) in rays.iter().zip(weights.iter_mut()) {
+            let (e, along) = ray_error(pose, *bearing, &p);
+            let range = along.abs().max(rule.min_depth);
+            *w = 1.0 / (range * range * (1.0 + (e / cauchy).powi(2)));
+        }
+        match intersect(rays, &weights) {
+            Some(next) => p = next,
+            None => return Ok(None),
+        }
+    }
+    // A last intersection of the inliers alone: the Cauchy weight of a
+    // misread ray is small but not zero.
+    for ((pose, bearing), w) in rays.iter().zip(weights.iter_mut()) {
+        let (e, along) = ray_error(pose, *bearing, &p);
+        let inlier = e.abs() <= cauchy && along >= rule.min_depth;
+        *w = if inlier { 1.0 / (along * along) } else { 0.0 };
+    }
+    match intersect(rays, &weights) {
+        Some(next) => p = next,
+        None => return Ok(None),
+    }
+    let is_inlier: Vec<bool> = rays
+        .iter()
+        .map(|(pose, bearing)| {
+            let (e, along) = ray_error(pose, *bearing, &p);
+            e.abs() <= cauchy && along >= rule.min_depth
+        })
+        .collect();
+    let inlier_directions: Vec<f64> = rays
+        .iter()
+        .zip(&is_inlier)
+        .filter(|(_, inlier)| **inlier)
+        .map(|((pose, bearing), _)| pose.z + bearing)
+        .collect();
+    let inliers = inlier_directions.len();
+    if inliers < rule.min_inliers || (inliers as f64) < rule.min_inlier_fraction * rays.len() as f64
+    {
+        return Ok(None);
+    }
+    // The spread of directions, measured from the first (all lie within a
+    // half-turn of it, since every inlier ray points at the same point).
+    let first = inlier_directions[0];
+    let (lo, hi) = inlier_directions
+        .iter()
+        .map(|phi| wrap_angle(phi - first))
+        .fold((0.0_f64, 0.0_f64), |(lo, hi), d| (lo.min(d), hi.max(d)));
+    let parallax = hi - lo;
+    if parallax < rule.min_parallax {
+        return Ok(None);
+    }
+    Ok(Some(RayPoint {
+        point: p,
+        inliers,
+        is_inlier,
+        parallax,
+    }))
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used)]
+mod tests {
+    use super::*;
+
+    fn rays_at(
+        target: Vector2<f64>,
+        sensors: &[(f64, f64, f64)],
+        noise: &[f64],
+    ) -> Vec<(Vector3<f64>, f64)> {
+        sensors
+            .iter()
+            .zip(noise.iter().cycle())
+            .map(|(&(x, y, th), n)| {
+                let z = wrap_angle((target.y - y).atan2(target.x - x) - th + n);
+                (Vector3::new(x, y, th), z)
+            })
+            .collect()
+    }
+
+    fn rule() -> RayTriangulationRule {
+        RayTriangulationRule::new(0.01, 10f64.to_radians())
+    }
+
+    #[test]
+    fn noiseless_rays_meet_at_the_point() {
+        let target = Vector2::new(3.0, 4.0);
+        let sensors = [
+            (0.0, 0.0, 0.3),
+            (1.0, 0.0, -1.0),
+            (2.0, 0.5, 2.0),
+            (0.0, 1.0, 0.0),
+        ];
+        let got = triangulate_rays(&rays_at(target, &sensors, &[0.0]), &rule())
+            .unwrap()
+            .unwrap();
+        assert!((got.point - target).norm() < 1e-9, "{got:?}");
+        assert_eq!(got.inliers, 4);
+        assert!(got.parallax > 10f64.to_radians());
+    }
+
+    #[test]
+    fn one_misread_bearing_does_not_move_the_point() {
+        let target = Vector2::new(3.0, 4.0);
+        let sensors: Vec<(f64, f64, f64)> =
+            (0..8).map(|k| (f64::from(k) * 0.4, 0.0, 0.1)).collect();
+        let mut noise = vec![0.0; 8];
+        noise[3] = 0.5; // a different landmark's barcode
+        let got = triangulate_rays(&rays_at(target, &sensors, &noise), &rule())
+            .unwrap()
+            .unwrap();
+        assert!((got.point - target).norm() < 1e-3, "{got:?}");
+        assert_eq!(got.inliers, 7);
+        assert!(!got.is_inlier[3] && got.is_inlier.iter().filter(|i| **i).count() == 7);
+    }
+
+    #[test]
+    fn rays_without_parallax_or_behind_the_sensor_fix_nothing() {
+        let target = Vector2::new(30.0, 0.0);
+        // 0.2 m of baseline at 30 m: about 0.4° of parallax.
+        let sensors = [(0.0, 0.0, 0.0), (0.0, 0.1, 0.0), (0.0, 0.2, 0.0)];
+        assert!(
+            triangulate_rays(&rays_at(target, &sensors, &[0.0]), &rule())
+                .unwrap()
+                .is_none()
+        );
+        // Rays pointing away from where they would meet.
+        let away: Vec<(Vector3<f64>, f64)> = rays_at(
+            Vector2::new(1.0, 1.0),
+            &[(0.0, 0.0, 0.0), (2.0, 0.0, 0.0), (1.0, -1.0, 0.0)],
+            &[0.0],
+        )
+        .into_iter()
+        .map(|(p, z)| (p, wrap_angle(z + std::f64::consts::PI)))
+        .collect();
+        assert!(triangulate_rays(&away, &rule()).unwrap().is_none());
+        // Too few rays.
+        assert!(
+            triangulate_rays(&rays_at(target, &sensors[..2], &[0.0]), &rule())
+                .unwrap()
+                .is_none()
+        );
+    }
+
+    #[test]
+    fn bad_input_is_an_error() {
+        let bad = [(Vector3::new(f64::NAN, 0.0, 0.0), 0.1); 3];
+        assert!(triangulate_rays(&bad, &rule()).is_err());
+        let mut r = rule();
+        r.min_inliers = 1;
+        assert!(triangulate_rays(&[], &r).is_err());
+    }
+}

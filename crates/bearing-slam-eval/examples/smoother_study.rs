@@ -1,0 +1,95 @@
+//! The batch smoother on every MRCLAM dataset we have (issue 14): for each
+//! robot of Datasets 6, 2, 4 and 1 (1 scored as distributed), MTE with the
+//! calibrated parameters, the filter and the batch smoother with and without
+//! the triangulation of the landmarks the filter never initialized
+//! (`SmootherConfig::triangulate_unmapped`). Prints one markdown row per run:
+//! ATE (Dataset 6 only: the others have no robot ground truth), landmarks
+//! mapped, raw and SE(2)-aligned landmark RMSE, pose NEES under the χ²(3)
+//! 95 % bound.
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example smoother_study [DATA_DIR] [DATASETS]
+//! ```
+//! `PARALLAX_DEG` and `MIN_INLIERS` override the triangulation rule
+//! (default: the filter's α_min = 10° and 3 rays).
+//! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
+//! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
+
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam_core::smoother::UnmappedTriangulation;
+use bearing_slam_eval::real_data::{
+    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, evaluate_run_with,
+};
+use bearing_slam_io::mrclam::load_mrclam_with;
+use std::path::PathBuf;
+
+type BoxError = Box<dyn std::error::Error>;
+
+/// A number from the environment (the triangulation rule's overrides).
+fn env_f64(name: &str) -> Option<f64> {
+    std::env::var(name).ok().and_then(|v| v.parse().ok())
+}
+
+fn cell(v: Option<f64>, digits: usize) -> String {
+    v.map_or_else(|| "n/a".into(), |x| format!("{x:.digits$}"))
+}
+
+fn main() -> Result<(), BoxError> {
+    let mut args = std::env::args().skip(1);
+    let data = args.next().map_or_else(
+        || {
+            PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../../shared/datasets/mrclam"
+            ))
+        },
+        PathBuf::from,
+    );
+    let datasets = args.next().unwrap_or_else(|| "6,2,4,1".into());
+    let options = EvalOptions::default();
+    let params = CALIBRATED_PARAMETERS;
+    let smoother = |triangulate: bool| {
+        let mut e = EstimatorConfig {
+            kind: EstimatorKind::Smoother,
+            ..EstimatorConfig::default()
+        };
+        e.smoother.triangulate_unmapped = triangulate.then(|| {
+            let mut t = UnmappedTriangulation::default();
+            if let Some(deg) = env_f64("PARALLAX_DEG") {
+                t.min_parallax = deg.to_radians();
+            }
+            if let Some(n) = env_f64("MIN_INLIERS") {
+                t.min_inliers = n as usize;
+            }
+            t
+        });
+        e
+    };
+    let estimators = [
+        ("filter", EstimatorConfig::default()),
+        ("smoother, filter's landmarks", smoother(false)),
+        ("smoother + triangulated", smoother(true)),
+    ];
+    println!(
+        "| dataset | robot | estimator | ATE m | landmarks | raw / aligned landmark RMSE m | NEES in 95 % |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for d in datasets.split(',') {
+        let dir = data.join(format!("MRCLAM_Dataset{d}"));
+        for robot in 1..=5u8 {
+            let run = load_mrclam_with(&dir, robot, &options.load)?;
+            for (name, estimator) in &estimators {
+                let r: RealDataResult = evaluate_run_with(&run, Method::Mte, &params, estimator)?;
+                println!(
+                    "| {d} | {robot} | {name} | {} | {} | {} / {} | {} |",
+                    cell(r.ate_rmse_m, 3),
+                    r.n_landmarks_mapped,
+                    cell(r.landmark_rmse_m, 3),
+                    cell(r.landmark_rmse_aligned_m, 3),
+                    cell(r.nees_within_95.map(|f| 100.0 * f), 1),
+                );
+            }
+        }
+    }
+    Ok(())
+}
