@@ -46,3 +46,31 @@ fn a_landmark_at_a_vanishing_inverse_depth_is_not_converted_into_an_infinite_poi
     assert_eq!(slam.landmark_ids(), vec![11]);
     assert_eq!(slam.ekf().mean().len(), 3 + 4);
 }
+
+/// `crash-…` (slam_ops, a 10-minute run after the fix above): a bearing σ of
+/// 1.7e-117 rad made every update a hard constraint and the covariance lost
+/// its positive semi-definiteness (a variance of −1.6e190). Such noise is now
+/// refused by name; a nanoradian is still accepted.
+#[test]
+fn a_measurement_noise_below_a_nanoradian_or_nanometre_is_refused_by_name() {
+    use bearing_slam_core::slam::MIN_MEASUREMENT_SIGMA;
+    for (bearing_sigma, range_sigma, name) in [
+        (1.693_583_529_603_549_2e-117, 0.1, "bearing_sigma"),
+        (1e-10, 0.1, "bearing_sigma"),
+        (0.01, 1e-12, "range_sigma"),
+    ] {
+        let config = SlamConfig {
+            bearing_sigma,
+            range_sigma,
+            ..SlamConfig::default()
+        };
+        let err = BearingSlam::new(config).err().unwrap();
+        assert!(err.to_string().contains(name), "{err}");
+    }
+    BearingSlam::new(SlamConfig {
+        bearing_sigma: MIN_MEASUREMENT_SIGMA,
+        range_sigma: MIN_MEASUREMENT_SIGMA,
+        ..SlamConfig::default()
+    })
+    .unwrap();
+}

@@ -103,6 +103,12 @@ impl InitializerKind {
     }
 }
 
+/// Smallest bearing (rad) and range (m) noise σ a [`SlamConfig`] accepts:
+/// below it the update is a hard constraint, and the covariance of an
+/// update whose innovation variance is ~1e-234 loses its positive
+/// semi-definiteness to rounding (found by the `slam_ops` fuzz target).
+pub const MIN_MEASUREMENT_SIGMA: f64 = 1e-9;
+
 /// Everything the filter needs to start.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SlamConfig {
@@ -197,6 +203,15 @@ impl SlamConfig {
             }
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        if self.bearing_sigma < MIN_MEASUREMENT_SIGMA {
+            return Err(SlamError::InvalidParameter {
+                name: "bearing_sigma",
+                value: self.bearing_sigma,
+                reason: "must be at least 1e-9 rad (a nanoradian): a bearing known better \
+                         makes each update a hard constraint whose covariance f64 cannot \
+                         keep positive semi-definite",
+            });
+        }
         if self.update_iterations == 0 {
             return Err(SlamError::InvalidParameter {
                 name: "update_iterations",
@@ -205,6 +220,13 @@ impl SlamConfig {
             });
         }
         ensure_positive_noise("range sigma", self.range_sigma)?;
+        if self.range_sigma < MIN_MEASUREMENT_SIGMA {
+            return Err(SlamError::InvalidParameter {
+                name: "range_sigma",
+                value: self.range_sigma,
+                reason: "must be at least 1e-9 m (a nanometre), for the same reason",
+            });
+        }
         self.association.validate()?;
         if let Some(p) = self.gate_probability
             && !(p > 0.0 && p < 1.0)

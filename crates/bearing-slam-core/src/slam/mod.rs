@@ -20,7 +20,7 @@ mod iterated;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;
-pub use config::{InitializerConfig, InitializerKind, SlamConfig};
+pub use config::{InitializerConfig, InitializerKind, MIN_MEASUREMENT_SIGMA, SlamConfig};
 pub use consistency::Consistency;
 use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};
