@@ -21,6 +21,7 @@ mod compressed_tests;
 pub mod kernel;
 #[cfg(test)]
 mod tests;
+mod shear;
 mod update;
 
 use compressed::LocalPhase;
