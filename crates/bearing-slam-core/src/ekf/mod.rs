@@ -19,9 +19,9 @@ mod compressed;
 mod compressed_tests;
 #[doc(hidden)]
 pub mod kernel;
+mod shear;
 #[cfg(test)]
 mod tests;
-mod shear;
 mod update;
 
 use compressed::LocalPhase;
