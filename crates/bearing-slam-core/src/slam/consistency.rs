@@ -28,7 +28,11 @@
 //! - **observability-constrained EKF** (OC): the same motion Jacobian, and
 //!   each measurement Jacobian evaluated at the latest estimate then
 //!   projected onto the nearest one (in Frobenius norm) that annihilates the
-//!   nullspace `N` at the first estimates: `H* = H (I − N (NᵀN)⁻¹ Nᵀ)`.
+//!   nullspace `N` at the first estimates: `H* = H (I − N (NᵀN)⁻¹ Nᵀ)`;
+//! - **right-invariant EKF** ([`Consistency::Invariant`], Barrau &
+//!   Bonnabel 2015): Jacobians at the latest estimate, the covariance that
+//!   of the invariant error, whose nullspace is constant (derived in
+//!   `slam/invariant.rs`); no first estimates.
 //!
 //! The nullspace of a block with position `p` is `[I₂, J p]` in its position
 //! entries, `[0, 1]` in a heading or ray azimuth, `[0, 0]` in an inverse
