@@ -64,8 +64,8 @@ COVARIANCE_UPDATES: tuple[str, ...] = tuple(_RUST["covariance_updates"])
 UPDATE_MODES: tuple[str, ...] = tuple(_RUST["update_modes"])
 
 #: Where the filter's Jacobians are evaluated, ``Config(consistency=...)``:
-#: standard, first estimates (FEJ) or observability-constrained (OC)
-#: (Rust: ``Consistency::ALL``).
+#: standard, first estimates (FEJ), observability-constrained (OC) or the
+#: right-invariant EKF (Rust: ``Consistency::ALL``).
 CONSISTENCIES: tuple[str, ...] = tuple(_RUST["consistencies"])
 
 #: The odometry models (Rust: ``OdometryKind::ALL``).

@@ -1,4 +1,5 @@
-//! The consistency methods (`SlamConfig::consistency`: standard, FEJ, OC)
+//! The consistency methods (`SlamConfig::consistency`: standard, FEJ, OC,
+//! invariant)
 //! measured side by side, for docs/results/consistency_methods.md:
 //!
 //! ```text
@@ -40,7 +41,12 @@ use std::path::PathBuf;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
-const METHODS: [Consistency; 3] = [Consistency::Standard, Consistency::Fej, Consistency::Oc];
+const METHODS: [Consistency; 4] = [
+    Consistency::Standard,
+    Consistency::Fej,
+    Consistency::Oc,
+    Consistency::Invariant,
+];
 
 fn methods() -> Vec<Consistency> {
     match std::env::var("CONSISTENCY") {

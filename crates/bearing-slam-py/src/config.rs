@@ -59,8 +59,9 @@ pub(crate) struct PyConfig {
     #[pyo3(get, set)]
     pub update: String,
     /// Where the filter's Jacobians are evaluated (`Consistency`):
-    /// `"standard"` (the latest estimate), `"fej"` (first estimates) or
-    /// `"oc"` (observability-constrained).
+    /// `"standard"` (the latest estimate), `"fej"` (first estimates),
+    /// `"oc"` (observability-constrained) or `"invariant"` (the
+    /// right-invariant EKF).
     #[pyo3(get, set)]
     pub consistency: String,
     /// Linearizations per scan update: 1 (default) is the EKF, more the

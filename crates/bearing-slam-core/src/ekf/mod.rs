@@ -19,6 +19,7 @@ mod compressed;
 mod compressed_tests;
 #[doc(hidden)]
 pub mod kernel;
+mod shear;
 #[cfg(test)]
 mod tests;
 mod update;

@@ -142,7 +142,8 @@ pub struct SlamConfig {
     pub update: UpdateMode,
     /// Where the Jacobians are evaluated: at the latest estimate (the
     /// standard EKF), at the first estimates (FEJ), or projected to keep the
-    /// unobservable directions (OC). See [`Consistency`].
+    /// unobservable directions (OC); or the right-invariant EKF. See
+    /// [`Consistency`].
     #[serde(default)]
     pub consistency: Consistency,
     /// Linearizations of each scan's update (≥ 1; 1 is the plain EKF, more

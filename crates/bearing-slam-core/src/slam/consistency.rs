@@ -28,7 +28,11 @@
 //! - **observability-constrained EKF** (OC): the same motion Jacobian, and
 //!   each measurement Jacobian evaluated at the latest estimate then
 //!   projected onto the nearest one (in Frobenius norm) that annihilates the
-//!   nullspace `N` at the first estimates: `H* = H (I − N (NᵀN)⁻¹ Nᵀ)`.
+//!   nullspace `N` at the first estimates: `H* = H (I − N (NᵀN)⁻¹ Nᵀ)`;
+//! - **right-invariant EKF** ([`Consistency::Invariant`], Barrau &
+//!   Bonnabel 2015): Jacobians at the latest estimate, the covariance that
+//!   of the invariant error, whose nullspace is constant (derived in
+//!   `slam/invariant.rs`); no first estimates.
 //!
 //! The nullspace of a block with position `p` is `[I₂, J p]` in its position
 //! entries, `[0, 1]` in a heading or ray azimuth, `[0, 0]` in an inverse
@@ -68,12 +72,19 @@ pub enum Consistency {
     /// 2010): Jacobians at the latest estimate projected so that they
     /// annihilate the nullspace at the first estimates.
     Oc,
+    /// The right-invariant EKF (Barrau & Bonnabel, "An EKF-SLAM algorithm
+    /// with consistency properties", arXiv:1510.06263, 2015): the
+    /// covariance is that of the error in the robot-centred group
+    /// SE_{K+1}(2), whose unobservable directions do not depend on the
+    /// estimate (see `slam/invariant.rs`).
+    Invariant,
 }
 
 crate::named_enum!(Consistency, "consistency", [
     Standard => "standard",
     Fej => "fej",
     Oc => "oc",
+    Invariant => "invariant",
 ]);
 
 /// A pose block of the state (the vehicle at 0, or a pose clone) with the
@@ -166,12 +177,22 @@ impl BearingSlam {
     /// one predicted pose onto the one at the next. Every motion model here
     /// has that structure; only its heading column changes. (Once applied,
     /// the new predicted pose becomes the vehicle's first estimate.)
+    ///
+    /// [`Consistency::Invariant`] sets the same column from the *current*
+    /// estimate, `J(p̂_{k+1|k} − p̂_{k|k})`, which makes the invariant error's
+    /// motion Jacobian the identity (`slam/invariant.rs`).
     pub(super) fn constrain_prediction(&self, prediction: &mut MotionPrediction<3>) {
-        if self.config.consistency != Consistency::Standard {
-            let f = &mut prediction.j_state_state;
-            f[(0, 2)] = -(prediction.state.y - self.fej_pose.y);
-            f[(1, 2)] = prediction.state.x - self.fej_pose.x;
-        }
+        let from = match self.config.consistency {
+            Consistency::Standard => return,
+            Consistency::Fej | Consistency::Oc => self.fej_pose,
+            Consistency::Invariant => {
+                let m = self.ekf.mean();
+                Vector3::new(m[0], m[1], m[2])
+            }
+        };
+        let f = &mut prediction.j_state_state;
+        f[(0, 2)] = -(prediction.state.y - from.y);
+        f[(1, 2)] = prediction.state.x - from.x;
     }
 
     /// The vehicle block as linearized now.
@@ -251,7 +272,9 @@ where
 {
     ekf.linearize_from_into(model, pose.offset, landmark_offset, measured, noise, out)?;
     match consistency {
-        Consistency::Standard => {}
+        // The invariant filter's measurement Jacobian is the standard one
+        // read in invariant coordinates (`slam/invariant.rs`).
+        Consistency::Standard | Consistency::Invariant => {}
         Consistency::Fej => {
             // Positions at their first estimates; a ray's azimuth and
             // inverse depth (entries 2, 3) at the current estimate: they do

@@ -16,11 +16,11 @@ use crate::testing::kinematic::KinematicScenario;
 use nalgebra::{DMatrix, Matrix1, Matrix3};
 
 /// Initial pose σ: small, so that spurious information shows against it.
-const SIGMA0: [f64; 3] = [0.01, 0.01, 0.05];
+pub(super) const SIGMA0: [f64; 3] = [0.01, 0.01, 0.05];
 
 /// Three loops of a 1 m circle among six landmarks (revisits are where the
 /// standard EKF gains spurious heading information).
-fn scenario() -> KinematicScenario {
+pub(super) fn scenario() -> KinematicScenario {
     let mut s = KinematicScenario::paper_fig4(false);
     s.wheel_steps = vec![(0.045, 0.055); 400];
     s.bearing_sigma = 3f64.to_radians();
@@ -39,11 +39,11 @@ fn scenario() -> KinematicScenario {
     s
 }
 
-fn model(s: &KinematicScenario) -> DiffDriveModel {
+pub(super) fn model(s: &KinematicScenario) -> DiffDriveModel {
     s.wheel_model().expect("valid model")
 }
 
-fn config(consistency: Consistency, initializer: InitializerConfig) -> SlamConfig {
+pub(super) fn config(consistency: Consistency, initializer: InitializerConfig) -> SlamConfig {
     SlamConfig {
         initial_pose_sigma: SIGMA0,
         initializer,
@@ -53,13 +53,13 @@ fn config(consistency: Consistency, initializer: InitializerConfig) -> SlamConfi
     }
 }
 
-fn pi_sr() -> InitializerConfig {
+pub(super) fn pi_sr() -> InitializerConfig {
     InitializerConfig::pi_sr(InverseDepthPrior::new(0.5, 0.25).expect("valid prior"))
 }
 
 /// Runs the log's first `events` events through `slam`, calling `check`
 /// after each.
-fn run(
+pub(super) fn run(
     slam: &mut BearingSlam,
     log: &SensorLog,
     model: &DiffDriveModel,
@@ -82,7 +82,7 @@ fn run(
 
 /// The nullspace `N` (state × 3: x, y translation, rotation) at the first
 /// estimates (`first = true`) or at the current estimate.
-fn state_nullspace(slam: &BearingSlam, first: bool) -> DMatrix<f64> {
+pub(super) fn state_nullspace(slam: &BearingSlam, first: bool) -> DMatrix<f64> {
     let mean = slam.ekf().mean();
     let mut n = DMatrix::zeros(slam.ekf().dim(), 3);
     let mut put = |offset: usize, x: f64, y: f64, angle: Option<usize>| {
@@ -121,7 +121,7 @@ fn state_nullspace(slam: &BearingSlam, first: bool) -> DMatrix<f64> {
 }
 
 /// `Nᵀ P⁻¹ N`: the information along the unobservable directions.
-fn nullspace_information(slam: &BearingSlam, first: bool) -> Matrix3<f64> {
+pub(super) fn nullspace_information(slam: &BearingSlam, first: bool) -> Matrix3<f64> {
     let n = state_nullspace(slam, first);
     let chol = slam
         .ekf()
@@ -135,13 +135,13 @@ fn nullspace_information(slam: &BearingSlam, first: bool) -> Matrix3<f64> {
 /// The largest relative gain of information along the nullspace: the
 /// largest eigenvalue of `Λ₀^{-1/2} info Λ₀^{-1/2} − I` for the diagonal
 /// prior information `Λ₀` (0: none gained).
-fn gained(info: &Matrix3<f64>, prior: &Matrix3<f64>) -> f64 {
+pub(super) fn gained(info: &Matrix3<f64>, prior: &Matrix3<f64>) -> f64 {
     let w = Matrix3::from_diagonal(&prior.diagonal().map(|v| 1.0 / v.sqrt()));
     let d = w * info * w - Matrix3::identity();
     (0.5 * (d + d.transpose())).symmetric_eigenvalues().max()
 }
 
-fn prior_information() -> Matrix3<f64> {
+pub(super) fn prior_information() -> Matrix3<f64> {
     Matrix3::from_diagonal(&nalgebra::Vector3::from(SIGMA0.map(|s| 1.0 / (s * s))))
 }
 
@@ -302,7 +302,7 @@ fn fej_and_oc_covariances_stay_symmetric_psd_for_every_initializer() {
 }
 
 /// The last ground-truth position of the log.
-fn log_final_truth(log: &SensorLog) -> nalgebra::Vector2<f64> {
+pub(super) fn log_final_truth(log: &SensorLog) -> nalgebra::Vector2<f64> {
     log.events
         .iter()
         .rev()

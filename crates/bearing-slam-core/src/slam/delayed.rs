@@ -295,7 +295,9 @@ impl BearingSlam {
             return Ok(());
         }
         let prior = self.ekf.clone();
+        let anchor = self.invariant_anchor();
         self.ekf.update(&batch)?;
+        self.carry_invariant_from(anchor)?;
         let accepted: Vec<_> = accepted
             .into_iter()
             .map(|(pose, z)| (pose, slot, z))

@@ -39,10 +39,18 @@ impl BearingSlam {
             else {
                 break;
             };
+            // Invariant: the prior carried to the iterate it is relinearized
+            // at, the result on to its own estimate (`invariant.rs`).
             let mut next = prior.clone();
+            let at = self.ekf.mean().clone();
+            self.carry_invariant(&mut next, prior.mean(), &at)?;
+            // `next` now holds the prior's covariance at `at`, its mean still
+            // the prior's: the update below is the pass at `at`.
             if next.update(&relinearized).is_err() {
                 break;
             }
+            let updated = next.mean().clone();
+            self.carry_invariant(&mut next, &at, &updated)?;
             self.ekf = next;
         }
         self.wrap_heading()?;

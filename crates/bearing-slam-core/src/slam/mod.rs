@@ -16,6 +16,9 @@ mod consistency;
 #[cfg(test)]
 mod consistency_tests;
 mod delayed;
+mod invariant;
+#[cfg(test)]
+mod invariant_tests;
 mod iterated;
 
 use anonymous::Anonymous;
@@ -548,7 +551,9 @@ impl BearingSlam {
         pending_events: Vec<SlamEvent>,
         rows_per_measurement: usize,
     ) -> Result<()> {
+        let anchor = self.invariant_anchor();
         let stats = self.ekf.update(batch)?;
+        self.carry_invariant_from(anchor)?;
         self.advance_time(time)?;
         report.used = batch.len();
         report.nis = stats.nis;
