@@ -17,6 +17,9 @@ mod consistency;
 mod consistency_tests;
 mod delayed;
 mod iterated;
+mod replay;
+#[cfg(test)]
+mod replay_tests;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;
