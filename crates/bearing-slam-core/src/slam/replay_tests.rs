@@ -180,6 +180,17 @@ fn whitened_and_averaged_replays_are_chi2_consistent_and_none_is_over_confident(
 /// Runs paper_fig4 (seed 3) with MTE-history under `treatment`, checking
 /// the covariance after every scan; returns the filter's events.
 fn run_fig4(treatment: HistoryTreatment) -> Vec<SlamEvent> {
+    let initializer = InitializerConfig::TriangulationWithClone(TriangulationConfig {
+        history: 8,
+        correlation: HistoryCorrelation::with(treatment),
+        ..TriangulationConfig::default()
+    });
+    run_fig4_with(initializer, &treatment.to_string())
+}
+
+/// paper_fig4 (seed 3) with `initializer`, the covariance checked after
+/// every scan; the filter's events.
+fn run_fig4_with(initializer: InitializerConfig, treatment: &str) -> Vec<SlamEvent> {
     let scenario = KinematicScenario::paper_fig4(true);
     let log = scenario.simulate(3);
     let model = DiffDriveModel::new(
@@ -191,11 +202,7 @@ fn run_fig4(treatment: HistoryTreatment) -> Vec<SlamEvent> {
     )
     .expect("valid model");
     let config = SlamConfig {
-        initializer: InitializerConfig::TriangulationWithClone(TriangulationConfig {
-            history: 8,
-            correlation: HistoryCorrelation::with(treatment),
-            ..TriangulationConfig::default()
-        }),
+        initializer,
         ..SlamConfig::default()
     };
     let mut slam = BearingSlam::new(config).expect("valid config");
@@ -251,4 +258,24 @@ fn the_replay_covariance_stays_symmetric_psd_and_discards_are_reported() {
             );
         }
     }
+}
+
+#[test]
+fn the_papers_mte_reports_the_waiting_bearings_it_does_not_use() {
+    let events = run_fig4_with(
+        InitializerConfig::Triangulation(TriangulationConfig::default()),
+        "mte",
+    );
+    let unused: usize = events
+        .iter()
+        .filter_map(|e| match e {
+            SlamEvent::BearingsDiscarded {
+                reason: DiscardReason::NoHistory,
+                count,
+                ..
+            } => Some(*count),
+            _ => None,
+        })
+        .sum();
+    assert!(unused > 0, "MTE waited without saying so");
 }
