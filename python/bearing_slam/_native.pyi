@@ -111,6 +111,12 @@ class Config:
     candidate_timeout: float
     min_depth: float
     history: int
+    # The waiting bearings' correlation (issue 13 item 2): "none", "whiten",
+    # "decimate", "visit-mean"; AR(1) φ, σ (None: bearing_sigma), decimation.
+    history_correlation: str
+    history_phi: float
+    history_sigma: float | None
+    history_decimate_every: int
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

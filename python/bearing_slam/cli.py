@@ -64,6 +64,7 @@ from bearing_slam.vocabulary import (
     ASSOCIATIONS,
     DEFAULT_PRIOR,
     FAR_PRIOR,
+    HISTORY_CORRELATIONS,
     MRCLAM_METHODS,
     MTE_HISTORY,
     PRIOR_INITS,
@@ -136,6 +137,8 @@ def _config(log: SensorLog, args: argparse.Namespace) -> Config:
         overrides["bearing_sigma"] = math.radians(args.bearing_sigma_deg)
     if args.use_range:
         overrides["use_range"] = True
+    if args.history_correlation is not None:
+        overrides["history_correlation"] = args.history_correlation
     return _run_config(log, args.init, **overrides)
 
 
@@ -279,6 +282,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         )
     if args.init in PRIOR_INITS and args.alpha_min_deg is not None:
         raise UserError("--alpha-min-deg applies to the MTE initializers only, not to PI-SR")
+    if args.init != "mte-history" and args.history_correlation is not None:
+        raise UserError("--history-correlation applies to --init mte-history only")
     path = Path(args.log)
     if not path.is_file():
         raise UserError(f"no such file: {path}")
@@ -493,6 +498,13 @@ def _parser() -> argparse.ArgumentParser:
     )
     runp.add_argument("--bearing-sigma-deg", type=positive_float, help="bearing noise σ, degrees")
     runp.add_argument("--use-range", action="store_true", help="use ranges too (reference)")
+    runp.add_argument(
+        "--history-correlation",
+        choices=HISTORY_CORRELATIONS,
+        help="mte-history: how the replay treats the correlated errors of a landmark's "
+        "consecutive bearings (default none; whiten: AR(1) whitening, decimate: one per "
+        "visit, visit-mean: each visit's mean with its AR(1) variance; phi 0.64)",
+    )
     runp.add_argument("--out", required=True, help="output folder")
     runp.add_argument("--tum", metavar="FILE", help=_TUM_HELP)
     runp.add_argument("--quiet", action="store_true", help="no progress bar")

@@ -27,6 +27,7 @@ __all__ = [
     "EXPERIMENTS",
     "EXPERIMENT_DEFAULT_RUNS",
     "FAR_PRIOR",
+    "HISTORY_CORRELATIONS",
     "INIT_NAMES",
     "METRICS",
     "MRCLAM_METHODS",
@@ -81,6 +82,11 @@ ASSOCIATIONS: tuple[str, ...] = tuple(_RUST["associations"])
 
 #: Waiting bearings kept per candidate by ``mte-history`` (Rust: ``init::MTE_HISTORY``).
 MTE_HISTORY: int = int(_RUST["mte_history"])
+
+#: How ``mte-history`` replays correlated waiting bearings (Rust:
+#: ``init::HistoryTreatment::ALL``): ``Config(history_correlation=...)``,
+#: ``--history-correlation``.
+HISTORY_CORRELATIONS: tuple[str, ...] = tuple(_RUST["history_correlations"])
 
 #: The PI-SR inverse-depth prior of the Monte Carlo runs and the MRCLAM
 #: evaluation, 1/m (Rust: ``InverseDepthPrior::PAPER_NEAR``).

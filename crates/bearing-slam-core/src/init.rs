@@ -262,6 +262,10 @@ pub struct TriangulationConfig {
     /// the kept sightings are thinned to every other one.
     #[serde(default)]
     pub history: usize,
+    /// How the replay of the waiting bearings treats the correlated errors
+    /// of consecutive scans of one landmark (`history` > 0 only).
+    #[serde(default)]
+    pub correlation: HistoryCorrelation,
 }
 
 impl Default for TriangulationConfig {
@@ -275,6 +279,7 @@ impl Default for TriangulationConfig {
             candidate_timeout: 5.0,
             min_depth: 0.1,
             history: 0,
+            correlation: HistoryCorrelation::DEFAULT,
         }
     }
 }
@@ -301,7 +306,8 @@ impl TriangulationConfig {
             ),
             ("min_depth", self.min_depth, self.min_depth > 0.0),
         ];
-        crate::error::ensure_in_range(&checks)
+        crate::error::ensure_in_range(&checks)?;
+        self.correlation.validate()
     }
 
     /// The far-landmark prior of (24) for the triangle actually observed.
@@ -325,6 +331,129 @@ impl TriangulationConfig {
         InverseDepthPrior::new(rho_far / 2.0, rho_far / 4.0)
     }
 }
+
+// --- Correlated waiting bearings (issue 13 item 2) --------------------------
+
+/// Lag-one correlation of consecutive bearing errors of one landmark on
+/// MRCLAM Dataset 6 (0.639, `bearing_lag1_correlation` of
+/// `bearing-slam-eval calibrate`, docs/results/mrclam/calibration.txt):
+/// the default `φ` of [`HistoryCorrelation`].
+pub const DATASET6_BEARING_LAG1: f64 = 0.64;
+
+/// Scans of one landmark more than this far apart start a new visit (their
+/// errors are taken as independent), seconds: the calibration's pairing
+/// window (`CORRELATION_PAIR_MAX_S`).
+pub const DEFAULT_VISIT_GAP_S: f64 = 0.5;
+
+/// What the `mte-history` replay does about the correlated errors of the
+/// waiting bearings (see [`HistoryCorrelation`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum HistoryTreatment {
+    /// Every kept bearing replayed as an independent measurement with the
+    /// filter's σ (the behaviour before the option existed).
+    #[default]
+    None,
+    /// AR(1) whitening: the differences `z_k − φ^Δ z_j` of consecutive kept
+    /// bearings of one visit, which are independent.
+    Whiten,
+    /// One bearing per visit (its middle one), or every n-th kept bearing of
+    /// a visit ([`HistoryCorrelation::decimate_every`]), each as independent.
+    Decimate,
+    /// The mean bearing of each visit with its true variance under AR(1).
+    VisitMean,
+}
+
+crate::named_enum!(HistoryTreatment, "history correlation treatment", [
+    None => "none",
+    Whiten => "whiten",
+    Decimate => "decimate",
+    VisitMean => "visit-mean",
+]);
+
+/// The AR(1) error model of the waiting bearings and what the replay does
+/// with it.
+///
+/// The bearing errors of one landmark's consecutive scans are modelled as
+/// AR(1), `e_k = φ e_{k−1} + w_k`, with stationary standard deviation `σ`
+/// (`Var w_k = σ²(1 − φ²)`), counted in the landmark's own scans (a scan in
+/// which it is not seen does not count), and independent across visits
+/// (scans more than `visit_gap` apart). Two kept bearings `Δ` scans apart in
+/// one visit then have correlation `φ^Δ` (the history keeps one sighting out
+/// of a stride once it is full, so `Δ` can exceed 1). The derivations are in
+/// the doc comments of the replay (`slam/replay.rs`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct HistoryCorrelation {
+    /// The treatment (default [`HistoryTreatment::None`]).
+    pub treatment: HistoryTreatment,
+    /// Lag-one correlation `φ` of consecutive bearings of one landmark, in
+    /// `[0, 1)` (default [`DATASET6_BEARING_LAG1`], Dataset 6's calibration).
+    pub phi: f64,
+    /// Stationary standard deviation `σ` of one bearing's error, radians;
+    /// `None` uses the filter's `bearing_sigma`. A filter whose σ was
+    /// inflated to absorb the correlation (as the MRCLAM rule does) should
+    /// give the raw σ here, so the correlation is not counted twice. The
+    /// `None` treatment always uses the filter's σ.
+    pub sigma: Option<f64>,
+    /// Scans of one landmark more than this far apart are separate visits,
+    /// seconds (default [`DEFAULT_VISIT_GAP_S`]).
+    pub visit_gap: f64,
+    /// [`HistoryTreatment::Decimate`]: keep every n-th kept bearing of a
+    /// visit (its first, (n+1)-th, …); 0 keeps one per visit.
+    pub decimate_every: usize,
+}
+
+impl HistoryCorrelation {
+    /// Today's behaviour with the documented defaults of the model.
+    pub const DEFAULT: Self = Self {
+        treatment: HistoryTreatment::None,
+        phi: DATASET6_BEARING_LAG1,
+        sigma: None,
+        visit_gap: DEFAULT_VISIT_GAP_S,
+        decimate_every: 0,
+    };
+
+    /// The defaults with `treatment`.
+    #[must_use]
+    pub fn with(treatment: HistoryTreatment) -> Self {
+        Self {
+            treatment,
+            ..Self::DEFAULT
+        }
+    }
+
+    /// Checks every parameter's range.
+    pub fn validate(&self) -> Result<()> {
+        let sigma = self.sigma.unwrap_or(1.0);
+        let checks = [
+            (
+                "history correlation phi",
+                self.phi,
+                (0.0..1.0).contains(&self.phi),
+            ),
+            (
+                "history correlation sigma",
+                sigma,
+                sigma.is_finite() && sigma > 0.0,
+            ),
+            (
+                "history visit_gap",
+                self.visit_gap,
+                self.visit_gap.is_finite() && self.visit_gap > 0.0,
+            ),
+        ];
+        crate::error::ensure_in_range(&checks)
+    }
+}
+
+impl Default for HistoryCorrelation {
+    fn default() -> Self {
+        Self::DEFAULT
+    }
+}
+
+// --- end of the correlated waiting bearings' block ---------------------------
 
 /// What the delayed initializer does with a new bearing of a candidate.
 #[derive(Clone, Copy, Debug, PartialEq)]

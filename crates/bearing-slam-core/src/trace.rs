@@ -71,6 +71,40 @@ pub enum SlamEvent {
         /// The χ² bound (before the factor).
         bound: f64,
     },
+    /// Bearings of a landmark not yet in the map that the delayed
+    /// initializer did not use, with the reason; one event per candidate and
+    /// reason, when the candidate is resolved (initialized, restarted or
+    /// expired).
+    BearingsDiscarded {
+        /// Landmark id.
+        id: u64,
+        /// How many bearings.
+        count: usize,
+        /// Why.
+        reason: DiscardReason,
+    },
+}
+
+/// Why the delayed initializer did not use a bearing of a waiting landmark.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DiscardReason {
+    /// Seen while waiting for parallax by an initializer that keeps no
+    /// history (MTE, MTE-clone: the paper's method).
+    NoHistory,
+    /// Seen while waiting, not kept because the history was full (one
+    /// sighting out of a stride is kept, and a full history is thinned).
+    HistoryFull,
+    /// Left out by the replay's decimation of a visit.
+    Decimated,
+    /// The candidate restarted (its rays diverged or met too near): its
+    /// first bearing and the kept ones.
+    Restarted,
+    /// The candidate expired: its first bearing and the kept ones.
+    Expired,
+    /// The far rule placed the landmark from the current bearing; the
+    /// candidate's first bearing was not used.
+    FarFirstBearing,
 }
 
 /// A [`SlamEvent`] with the time it happened.

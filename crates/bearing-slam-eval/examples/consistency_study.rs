@@ -17,13 +17,27 @@
 //! scenarios, seeds, scoring and classification); only the filter's
 //! consistency option differs. `CONSISTENCY=oc,fej` restricts the methods,
 //! `ITERATIONS=3` makes every scan update an iterated EKF update.
+//!
+//! `HISTORY_CORRELATION=none,whiten,decimate,visit-mean` (issue 13 item 2)
+//! runs MTE-history only, once per treatment of the waiting bearings'
+//! correlation (`HistoryCorrelation`; φ = 0.64 and, on MRCLAM, the raw
+//! bearing σ = 0.0124 rad of Dataset 6's calibration, since the filter's
+//! σ_z = 0.021 is already inflated for the correlation; in simulation the
+//! filter's σ). `AR1=φ` replaces the simulated bearings' white errors by
+//! AR(1) errors of the same σ (per landmark, a new visit after 0.5 s
+//! without a scan), so that the treatments meet the error they model.
 
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
+use bearing_slam_core::init::{
+    DEFAULT_VISIT_GAP_S, HistoryCorrelation, HistoryTreatment, MTE_HISTORY,
+};
+use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::pose_nees;
 use bearing_slam_core::nalgebra::Matrix3;
 use bearing_slam_core::runner::run;
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::slam::Consistency;
+use bearing_slam_core::slam::InitializerConfig;
 use bearing_slam_eval::experiments::{
     Fig8Result, Fig8Row, consistency_table, fig4_initializers, fig8_table,
 };
@@ -63,6 +77,80 @@ fn iterations() -> usize {
         .unwrap_or(1)
 }
 
+/// The raw bearing σ of Dataset 6's calibration (`bearing_std_rad`,
+/// docs/results/mrclam/calibration.txt), before the AR(1) inflation.
+const DATASET6_RAW_BEARING_SIGMA: f64 = 0.0124;
+
+/// `HISTORY_CORRELATION=list`: the treatments to compare (MTE-history only).
+fn treatments() -> Option<Vec<HistoryTreatment>> {
+    std::env::var("HISTORY_CORRELATION")
+        .ok()
+        .map(|list| list.split(',').filter_map(|s| s.parse().ok()).collect())
+}
+
+/// `config`'s initializer as MTE-history with `treatment` (and `sigma`).
+fn with_history(
+    config: &mut bearing_slam_core::runner::RunConfig,
+    treatment: HistoryTreatment,
+    sigma: Option<f64>,
+) {
+    if let InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) =
+        &config.slam.initializer
+    {
+        let mut t = *t;
+        t.history = MTE_HISTORY;
+        t.correlation = HistoryCorrelation {
+            sigma,
+            ..HistoryCorrelation::with(treatment)
+        };
+        config.slam.initializer = InitializerConfig::TriangulationWithClone(t);
+    }
+}
+
+/// `AR1=φ`: the simulated bearings' errors made AR(1) with lag-one
+/// correlation φ and the same σ: `e_k = φ e_{k−1} + √(1 − φ²) r_k` with
+/// `r_k` the simulator's own white error of scan k (a new visit, scans more
+/// than 0.5 s apart, starts from `r_k`).
+fn ar1_bearings(log: &mut SensorLog) {
+    let Some(phi) = std::env::var("AR1")
+        .ok()
+        .and_then(|s| s.parse::<f64>().ok())
+    else {
+        return;
+    };
+    let truth = log.ground_truth();
+    let landmarks = log.landmarks.clone();
+    let mut state: std::collections::BTreeMap<u64, (f64, f64)> = Default::default();
+    for event in &mut log.events {
+        let EventKind::Bearings(obs) = &mut event.kind else {
+            continue;
+        };
+        let t = event.time;
+        let k = truth.partition_point(|(time, _)| *time < t);
+        let pose = match (truth.get(k), k.checked_sub(1).and_then(|i| truth.get(i))) {
+            (Some(a), Some(b)) if (a.0 - t).abs() > (b.0 - t).abs() => b.1,
+            (Some(a), _) => a.1,
+            (None, Some(b)) => b.1,
+            (None, None) => continue,
+        };
+        for o in obs.iter_mut() {
+            let Some(l) = landmarks.iter().find(|l| l.id == o.landmark_id) else {
+                continue;
+            };
+            let expected = wrap_angle((l.y - pose.y).atan2(l.x - pose.x) - pose.theta);
+            let white = wrap_angle(o.bearing - expected);
+            let e = match state.get(&o.landmark_id) {
+                Some(&(last, e)) if t - last <= DEFAULT_VISIT_GAP_S => {
+                    phi * e + (1.0 - phi * phi).sqrt() * white
+                }
+                _ => white,
+            };
+            state.insert(o.landmark_id, (t, e));
+            o.bearing = wrap_angle(expected + e);
+        }
+    }
+}
+
 fn main() -> Result<(), BoxError> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -92,6 +180,9 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
         "| method | consistency | robot | ATE m | mean NEES | NEES ≤ χ²₀.₉₅(3) | landmarks | raw / aligned landmark RMSE m | used | gated |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|");
+    if let Some(list) = treatments() {
+        return mrclam_history(&dir, &options, &list);
+    }
     for method in [Method::Mte, Method::MteClone, Method::PiSr] {
         for consistency in methods() {
             let mut ates = Vec::new();
@@ -143,12 +234,93 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
     Ok(())
 }
 
+/// MTE-history on Dataset 6, robots 1–5, once per treatment (and per
+/// `CONSISTENCY` method), with the rows of [`mrclam`] plus the bearings the
+/// initializer reported unused.
+fn mrclam_history(
+    dir: &std::path::Path,
+    options: &EvalOptions,
+    list: &[HistoryTreatment],
+) -> Result<(), BoxError> {
+    use bearing_slam_core::trace::SlamEvent;
+    let params = CALIBRATED_PARAMETERS;
+    for &treatment in list {
+        for consistency in methods() {
+            let (mut ates, mut fractions) = (Vec::new(), Vec::new());
+            for robot in 1..=5u8 {
+                let loaded = load_mrclam_with(dir, robot, &options.load)?;
+                let log = filter_log(&loaded, Method::MteClone, &params)?;
+                let mut config = params.run_config(Method::MteClone, Pose2::default())?;
+                with_history(&mut config, treatment, Some(DATASET6_RAW_BEARING_SIGMA));
+                config.slam.consistency = consistency;
+                config.slam.update_iterations = iterations();
+                let output = run(&log, &config)?;
+                let s = summarize(&log, &output)?;
+                let (mut inside, mut total) = (0, 0);
+                for p in &output.track {
+                    let Some(t) = p.truth else { continue };
+                    let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
+                    if let Ok(nees) = pose_nees(&p.estimate, &cov, &t) {
+                        total += 1;
+                        inside += usize::from(nees <= 7.814_727_903_251_178);
+                    }
+                }
+                let mut by_reason: std::collections::BTreeMap<String, usize> = Default::default();
+                for e in &output.trace.events {
+                    if let SlamEvent::BearingsDiscarded { count, reason, .. } = &e.event {
+                        *by_reason.entry(format!("{reason:?}")).or_default() += count;
+                    }
+                }
+                let unused = by_reason
+                    .iter()
+                    .map(|(r, n)| format!("{r} {n}"))
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let last = output.trace.snapshots.last();
+                let est: Vec<(u64, f64, f64)> = last
+                    .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+                    .unwrap_or_default();
+                let truth: Vec<(u64, f64, f64)> =
+                    log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+                let aligned = align_landmarks_se2(&est, &truth).map(|(_, r)| r);
+                let raw = last.and_then(|snap| landmark_rmse(&log, snap));
+                let fraction = inside as f64 / total.max(1) as f64;
+                ates.push(s.ate_rmse_m);
+                fractions.push(fraction);
+                println!(
+                    "| mte-history {treatment} | {consistency} | R{robot} | {:.2} | {:.2} | {:.2} | {} | {:.2} / {:.2} | {} | {} (unused {unused}) |",
+                    s.ate_rmse_m,
+                    s.mean_nees_pose,
+                    fraction,
+                    est.len(),
+                    raw.unwrap_or(f64::NAN),
+                    aligned.unwrap_or(f64::NAN),
+                    output.counts.measurements_used,
+                    output.counts.measurements_rejected,
+                );
+            }
+            let mean = ates.iter().sum::<f64>() / ates.len() as f64;
+            let worst = ates.iter().copied().fold(0.0, f64::max);
+            let min_in = fractions.iter().copied().fold(1.0, f64::min);
+            println!(
+                "| mte-history {treatment} | {consistency} | mean | {mean:.2} (worst {worst:.2}) | | min {min_in:.2} | | | | |"
+            );
+        }
+    }
+    Ok(())
+}
+
 // ------------------------------------------------------------- simulation
 
 /// `run_one` of the Monte Carlo module with the consistency option set.
-fn run_one(spec: &MonteCarloSpec, index: usize, consistency: Consistency) -> RunRecord {
+fn run_one(
+    spec: &MonteCarloSpec,
+    index: usize,
+    consistency: Consistency,
+    treatment: Option<HistoryTreatment>,
+) -> RunRecord {
     let seed = spec.scenario.seed0.wrapping_add(index as u64);
-    match try_run_one(spec, index, seed, consistency) {
+    match try_run_one(spec, index, seed, consistency, treatment) {
         Ok(r) => r,
         Err(e) => failed(index, seed, e.to_string()),
     }
@@ -187,11 +359,16 @@ fn try_run_one(
     index: usize,
     seed: u64,
     consistency: Consistency,
+    treatment: Option<HistoryTreatment>,
 ) -> Result<RunRecord, BoxError> {
     let scenario = spec.scenario.build(index)?;
-    let log = simulate(&scenario)?;
+    let mut log = simulate(&scenario)?;
+    ar1_bearings(&mut log);
     let far_ids = scenario.far_landmark_ids.clone();
     let mut config = run_config(spec, &log, &far_ids)?;
+    if let Some(t) = treatment {
+        with_history(&mut config, t, None);
+    }
     config.slam.consistency = consistency;
     config.slam.update_iterations = iterations();
     let output = run(&log, &config)?;
@@ -270,33 +447,49 @@ fn try_run_one(
     })
 }
 
-fn report(spec: &MonteCarloSpec, consistency: Consistency) -> Result<MonteCarloReport, BoxError> {
+fn report(
+    spec: &MonteCarloSpec,
+    consistency: Consistency,
+    treatment: Option<HistoryTreatment>,
+) -> Result<MonteCarloReport, BoxError> {
     let records: Vec<RunRecord> = (0..spec.runs)
         .into_par_iter()
-        .map(|i| run_one(spec, i, consistency))
+        .map(|i| run_one(spec, i, consistency, treatment))
         .collect();
     let mut r = MonteCarloReport::from_records(spec, records)?;
-    r.label = format!("{} [{consistency}]", r.label);
+    r.label = match treatment {
+        Some(t) => format!("{} {t} [{consistency}]", r.label),
+        None => format!("{} [{consistency}]", r.label),
+    };
     Ok(r)
 }
 
 fn consistency(runs: usize) -> Result<(), BoxError> {
+    let history = treatments();
     let initializers: Vec<InitializerSpec> = fig4_initializers()
         .into_iter()
         .filter(|i| {
             !matches!(i, InitializerSpec::PiSr { rho_ini, .. } if *rho_ini < 0.1)
                 && !matches!(i, InitializerSpec::PiSrMixed { .. })
+                && (history.is_none() || matches!(i, InitializerSpec::MteHistory))
         })
         .collect();
+    let variants: Vec<Option<HistoryTreatment>> = match &history {
+        Some(list) => list.iter().copied().map(Some).collect(),
+        None => vec![None],
+    };
     let mut reports = Vec::new();
     println!("| scenario | method | converged | drift | diverged | mean ATE m |");
     println!("|---|---|---|---|---|---|");
     for far in [true, false] {
-        for init in &initializers {
+        for (init, treatment) in initializers
+            .iter()
+            .flat_map(|i| variants.iter().map(move |t| (i, *t)))
+        {
             for c in methods() {
                 let mut spec = MonteCarloSpec::new("paper_fig4", init.clone(), runs);
                 spec.scenario.far_landmark = far;
-                let r = report(&spec, c)?;
+                let r = report(&spec, c, treatment)?;
                 println!(
                     "| paper_fig4{} | {} | {:.1} % | {:.1} % | {:.1} % | {:.3} |",
                     if far { "" } else { " (no far)" },
@@ -323,7 +516,7 @@ fn fig8(runs: usize) -> Result<(), BoxError> {
             spec.scenario.landmark_count = Some(n);
             rows.push(Fig8Row {
                 landmarks: n,
-                report: report(&spec, c)?,
+                report: report(&spec, c, None)?,
             });
         }
         println!("consistency = {c}");

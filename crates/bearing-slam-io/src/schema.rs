@@ -448,7 +448,9 @@ pub(crate) fn particle_cloud_problem(c: &ParticleCloud) -> Option<String> {
 pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
     fin("time", e.time)?;
     match &e.event {
-        SlamEvent::CandidateCreated { .. } | SlamEvent::CandidateExpired { .. } => Ok(()),
+        SlamEvent::CandidateCreated { .. }
+        | SlamEvent::CandidateExpired { .. }
+        | SlamEvent::BearingsDiscarded { .. } => Ok(()),
         SlamEvent::LandmarkInitialized { parallax_rad, .. } => {
             fin("event.parallax_rad", *parallax_rad)
         }

@@ -3,7 +3,9 @@
 //! the `/slam/events` log line of a filter decision (used by
 //! [`crate::writer`]).
 
-use bearing_slam_core::trace::{EstimateSnapshot, InitMethod, ParticleCloud, SlamEvent};
+use bearing_slam_core::trace::{
+    DiscardReason, EstimateSnapshot, InitMethod, ParticleCloud, SlamEvent,
+};
 
 use crate::foxglove::{
     self as fx, Color, LinePrimitive, Pose, SceneEntity, SceneEntityDeletion, SceneUpdate,
@@ -155,6 +157,27 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
         SlamEvent::MeasurementRejected { id, nis } => (
             WARNING,
             format!("measurement of landmark {id} rejected by the gate (NIS {nis:.2})"),
+        ),
+        SlamEvent::BearingsDiscarded { id, count, reason } => (
+            if matches!(
+                reason,
+                DiscardReason::NoHistory | DiscardReason::HistoryFull
+            ) {
+                DEBUG
+            } else {
+                WARNING
+            },
+            format!(
+                "{count} bearing(s) of candidate landmark {id} not used: {}",
+                match reason {
+                    DiscardReason::NoHistory => "seen while waiting (no history kept)",
+                    DiscardReason::HistoryFull => "seen while waiting (history full)",
+                    DiscardReason::Decimated => "left out by the replay's decimation",
+                    DiscardReason::Restarted => "the candidate restarted",
+                    DiscardReason::Expired => "the candidate expired",
+                    DiscardReason::FarFirstBearing => "first bearing of a far landmark",
+                }
+            ),
         ),
         SlamEvent::Diverging {
             window_nis,

@@ -8,7 +8,9 @@ use bearing_slam::core::Pose2;
 use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
-use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
+use bearing_slam::core::init::{
+    HistoryCorrelation, HistoryTreatment, InverseDepthPrior, MTE_HISTORY, TriangulationConfig,
+};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
@@ -120,6 +122,26 @@ pub(crate) struct PyConfig {
     /// Use the ranges too (range-bearing reference filter).
     #[pyo3(get, set)]
     pub use_range: bool,
+    // --- The waiting bearings' correlation (issue 13 item 2) ---
+    /// MTE-history: how the replay treats the correlated errors of
+    /// consecutive scans of one landmark (`HistoryTreatment`): `"none"`
+    /// (default), `"whiten"` (AR(1) whitening), `"decimate"` (one bearing per
+    /// visit, or every `history_decimate_every`-th), `"visit-mean"`.
+    #[pyo3(get, set)]
+    pub history_correlation: String,
+    /// MTE-history: lag-one correlation φ of consecutive bearings of one
+    /// landmark (default 0.64, MRCLAM Dataset 6's calibration).
+    #[pyo3(get, set)]
+    pub history_phi: f64,
+    /// MTE-history: stationary σ of one bearing's error for the treatments,
+    /// rad; None uses `bearing_sigma`.
+    #[pyo3(get, set)]
+    pub history_sigma: Option<f64>,
+    /// MTE-history with `"decimate"`: keep every n-th kept bearing of a
+    /// visit; 0 (default) keeps one per visit.
+    #[pyo3(get, set)]
+    pub history_decimate_every: usize,
+    // --- end of the waiting bearings' correlation ---
     /// The estimator (`EstimatorKind`: `"filter"`, the EKF, the default;
     /// `"smoother"`, `"filter+smoother"`, `"fastslam1"`, `"fastslam2"`).
     #[pyo3(get, set)]
@@ -135,7 +157,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 31] = [
+const FIELDS: [&str; 35] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -153,6 +175,10 @@ const FIELDS: [&str; 31] = [
     "candidate_timeout",
     "min_depth",
     "history",
+    "history_correlation",
+    "history_phi",
+    "history_sigma",
+    "history_decimate_every",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -192,6 +218,10 @@ impl Default for PyConfig {
             candidate_timeout: tri.candidate_timeout,
             min_depth: tri.min_depth,
             history: tri.history,
+            history_correlation: tri.correlation.treatment.to_string(),
+            history_phi: tri.correlation.phi,
+            history_sigma: tri.correlation.sigma,
+            history_decimate_every: tri.correlation.decimate_every,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -252,6 +282,10 @@ impl PyConfig {
             c.candidate_timeout = t.candidate_timeout;
             c.min_depth = t.min_depth;
             c.history = t.history;
+            c.history_correlation = t.correlation.treatment.to_string();
+            c.history_phi = t.correlation.phi;
+            c.history_sigma = t.correlation.sigma;
+            c.history_decimate_every = t.correlation.decimate_every;
         }
         match &rc.odometry {
             OdometryConfig::Wheels(m) => {
@@ -273,23 +307,30 @@ impl PyConfig {
     }
 
     /// The triangulation parameters.
-    fn triangulation(&self) -> TriangulationConfig {
-        TriangulationConfig {
+    fn triangulation(&self) -> PyResult<TriangulationConfig> {
+        Ok(TriangulationConfig {
             alpha_min: self.alpha_min,
             baseline_min: self.baseline_min,
             beta_min: self.beta_min,
             candidate_timeout: self.candidate_timeout,
             min_depth: self.min_depth,
             history: self.history,
-        }
+            correlation: HistoryCorrelation {
+                treatment: parse_name::<HistoryTreatment>(&self.history_correlation)?,
+                phi: self.history_phi,
+                sigma: self.history_sigma,
+                decimate_every: self.history_decimate_every,
+                ..HistoryCorrelation::DEFAULT
+            },
+        })
     }
 
     /// The filter's configuration, validated.
     pub(crate) fn slam_config(&self) -> PyResult<SlamConfig> {
         let initializer = match parse_name::<InitializerKind>(&self.init)? {
-            InitializerKind::Mte => InitializerConfig::Triangulation(self.triangulation()),
+            InitializerKind::Mte => InitializerConfig::Triangulation(self.triangulation()?),
             InitializerKind::MteClone => {
-                InitializerConfig::TriangulationWithClone(self.triangulation())
+                InitializerConfig::TriangulationWithClone(self.triangulation()?)
             }
             InitializerKind::MteHistory => {
                 InitializerConfig::TriangulationWithClone(TriangulationConfig {
@@ -298,7 +339,7 @@ impl PyConfig {
                     } else {
                         self.history
                     },
-                    ..self.triangulation()
+                    ..self.triangulation()?
                 })
             }
             kind @ (InitializerKind::PiSr | InitializerKind::PiSrMixed) => {
@@ -463,6 +504,14 @@ impl PyConfig {
             "rho_ini" | "sigma_rho" | "per_landmark_priors" if !pi_sr => Some(format!(
                 "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
             )),
+            "history_correlation" | "history_phi" | "history_sigma" | "history_decimate_every"
+                if init != "mte-history" && !(init == "mte-clone" && self.history > 0) =>
+            {
+                Some(format!(
+                    "it is a parameter of the waiting bearings' replay (init \"mte-history\"), \
+                     and init is {init:?}"
+                ))
+            }
             "alpha_min" | "baseline_min" | "beta_min" | "candidate_timeout" | "min_depth"
                 if pi_sr =>
             {

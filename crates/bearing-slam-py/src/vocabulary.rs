@@ -7,7 +7,7 @@ use crate::errors::SlamResultExt;
 use bearing_slam::core::association::AssociationMethod;
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::EstimatorKind;
-use bearing_slam::core::init::{InverseDepthPrior, MTE_HISTORY};
+use bearing_slam::core::init::{HistoryTreatment, InverseDepthPrior, MTE_HISTORY};
 use bearing_slam::core::metrics;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::OdometryKind;
@@ -28,6 +28,7 @@ fn names<T: Named>() -> Vec<&'static str> {
 /// `associations`, `mrclam_methods` (with
 /// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
 /// `thresholds`, `paper_near_prior`, `paper_far_prior`, `mte_history`,
+/// `history_correlations`,
 /// `pose_nees` (the NEES scoring rule: `dof`, `probability`, `bound`,
 /// `min_position_sigma_m`, `min_heading_sigma_rad`).
 #[pyfunction]
@@ -65,6 +66,8 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     )?;
     d.set_item("paper_far_prior", to_py(py, &InverseDepthPrior::PAPER_FAR)?)?;
     d.set_item("mte_history", MTE_HISTORY)?;
+    // The replay treatments of the waiting bearings (issue 13 item 2).
+    d.set_item("history_correlations", names::<HistoryTreatment>())?;
     // The NEES scoring rule and bound (issue 13): one definition in Rust.
     let nees = PyDict::new(py);
     nees.set_item("dof", metrics::POSE_NEES_DOF)?;

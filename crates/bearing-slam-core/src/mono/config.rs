@@ -59,6 +59,7 @@ impl MonoConfig {
                 candidate_timeout: f64::INFINITY,
                 min_depth: 0.1,
                 history: 0,
+                correlation: crate::init::HistoryCorrelation::DEFAULT,
             }),
             linearity_threshold: 0.1,
             max_consecutive_misses: 5,

@@ -8,16 +8,13 @@
 //!
 //! [`TriangulationConfig::history`]: crate::init::TriangulationConfig::history
 
-use super::consistency::PoseAt;
-use super::{BatchReport, BearingSlam, InitializerConfig, VEHICLE_DIM, linearize_bearing};
+use super::replay::WaitingBearing;
+use super::{BearingSlam, InitializerConfig, VEHICLE_DIM};
 use crate::ekf::BlockJacobian;
 use crate::error::Result;
 use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
-use crate::trace::{InitMethod, SlamEvent};
-use nalgebra::{DMatrix, Matrix1, Matrix3, Vector3};
-
-/// Linearizations of the replayed waiting bearings (1 = a plain EKF update).
-const REPLAY_ITERATIONS: usize = 3;
+use crate::trace::{DiscardReason, InitMethod, SlamEvent};
+use nalgebra::{DMatrix, Matrix3, Vector3};
 
 /// A landmark waiting for parallax, with its pose clones.
 #[derive(Clone, Debug, PartialEq)]
@@ -26,11 +23,18 @@ pub(super) struct PendingCandidate {
     /// The pose clone holding the first pose (clone variant only).
     clone: Option<u64>,
     /// Bearings seen while waiting, each with the clone of its pose.
-    history: Vec<(u64, f64)>,
+    history: Vec<WaitingBearing>,
     /// Keep one waiting sighting out of `stride` (doubles at each thinning).
     stride: usize,
     /// Sightings skipped since the last one kept.
     skipped: usize,
+    /// Sightings so far, the first included.
+    sightings: usize,
+    /// The current visit (a gap over the correlation's `visit_gap` starts
+    /// the next).
+    visit: usize,
+    /// Waiting bearings not kept, by reason (reported when it is resolved).
+    unused: Vec<(DiscardReason, usize)>,
 }
 
 impl PendingCandidate {
@@ -43,6 +47,17 @@ impl PendingCandidate {
             history: Vec::new(),
             stride: 1,
             skipped: 0,
+            sightings: 1,
+            visit: 0,
+            unused: Vec::new(),
+        }
+    }
+
+    /// Counts `count` waiting bearings not used, for `reason`.
+    fn discard(&mut self, reason: DiscardReason, count: usize) {
+        match self.unused.iter_mut().find(|(r, _)| *r == reason) {
+            Some((_, n)) => *n += count,
+            None => self.unused.push((reason, count)),
         }
     }
 }
@@ -82,16 +97,24 @@ impl BearingSlam {
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         match decision {
             CandidateDecision::Wait => {
+                let keeping = cloning && config.history > 0;
                 if let Some(c) = self.candidates.get_mut(&id) {
+                    if time - c.candidate.last_seen > config.correlation.visit_gap {
+                        c.visit += 1;
+                    }
+                    c.sightings += 1;
                     c.candidate.last_seen = time;
+                    if !keeping {
+                        c.discard(DiscardReason::NoHistory, 1);
+                    }
                 }
-                if cloning && config.history > 0 {
+                if keeping {
                     self.remember_sighting(id, z, config.history)?;
                 }
                 Ok(false)
             }
             CandidateDecision::Restart => {
-                self.drop_candidate(id)?;
+                self.drop_candidate_lost(id, DiscardReason::Restarted)?;
                 self.create_candidate(id, z, cloning)?;
                 Ok(false)
             }
@@ -102,7 +125,12 @@ impl BearingSlam {
                     config.far_prior(&parallax)?,
                     InitMethod::Far,
                 )?;
-                self.replay_history(id, &pending.history)?;
+                self.replay_history(id, &pending.history, &config.correlation)?;
+                self.record(SlamEvent::BearingsDiscarded {
+                    id,
+                    count: 1,
+                    reason: DiscardReason::FarFirstBearing,
+                });
                 self.drop_candidate(id)?;
                 Ok(inserted)
             }
@@ -150,7 +178,7 @@ impl BearingSlam {
                     method,
                     parallax.alpha,
                 )?;
-                self.replay_history(id, &pending.history)?;
+                self.replay_history(id, &pending.history, &config.correlation)?;
                 self.drop_candidate(id)?;
                 Ok(inserted)
             }
@@ -182,6 +210,9 @@ impl BearingSlam {
                 history: Vec::new(),
                 stride: 1,
                 skipped: 0,
+                sightings: 1,
+                visit: 0,
+                unused: Vec::new(),
             },
         );
         self.record(SlamEvent::CandidateCreated { id });
@@ -225,7 +256,11 @@ impl BearingSlam {
         let keep = match self.candidates.get_mut(&id) {
             Some(c) => {
                 c.skipped += 1;
-                c.skipped >= c.stride
+                let keep = c.skipped >= c.stride;
+                if !keep {
+                    c.discard(DiscardReason::HistoryFull, 1);
+                }
+                keep
             }
             None => false,
         };
@@ -236,18 +271,24 @@ impl BearingSlam {
         let mut released = Vec::new();
         if let Some(c) = self.candidates.get_mut(&id) {
             c.skipped = 0;
-            c.history.push((clone, z));
+            c.history.push(WaitingBearing {
+                clone,
+                z,
+                sighting: c.sightings - 1,
+                visit: c.visit,
+            });
             if c.history.len() > limit {
                 let mut index = 0;
-                c.history.retain(|&(clone, _)| {
+                c.history.retain(|b| {
                     index += 1;
                     let keep = index % 2 == 0;
                     if !keep {
-                        released.push(clone);
+                        released.push(b.clone);
                     }
                     keep
                 });
                 c.stride *= 2;
+                c.discard(DiscardReason::HistoryFull, released.len());
             }
         }
         for clone in released {
@@ -256,65 +297,30 @@ impl BearingSlam {
         Ok(())
     }
 
-    /// Applies the bearings a candidate saw while waiting, from the clones of
-    /// their poses, to its landmark just added to the state, so the delayed
-    /// initializer discards no measurement. The gated bearings form one
-    /// batch, relinearized [`REPLAY_ITERATIONS`] times at the latest estimate
-    /// (iterated EKF: every pass updates the same prior with
-    /// `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`), because the landmark was triangulated
-    /// a moment ago and the replay may move it by a good part of its depth.
-    fn replay_history(&mut self, id: u64, history: &[(u64, f64)]) -> Result<()> {
-        let Some(slot) = self.landmarks.get(&id).copied() else {
-            return Ok(());
-        };
-        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
-        let mut batch = Vec::new();
-        let mut report = BatchReport::default();
-        let mut events = Vec::new();
-        let mut accepted = Vec::new();
-        for &(clone_id, z) in history {
-            let Some(clone) = self.clones.get(&clone_id).copied() else {
-                continue;
-            };
-            let pose = PoseAt {
-                offset: clone.offset,
-                first: clone.first,
-            };
-            let linearized =
-                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
-            let before = batch.len();
-            self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
-            if batch.len() > before {
-                accepted.push((pose, z));
-            }
+    /// [`Self::drop_candidate`] for a candidate whose first and kept bearings
+    /// are lost for `reason` (restart, expiry), with the event saying so.
+    fn drop_candidate_lost(&mut self, id: u64, reason: DiscardReason) -> Result<()> {
+        if let Some(c) = self.candidates.get_mut(&id) {
+            let kept = c.history.len();
+            c.discard(reason, 1 + kept);
         }
-        for e in events {
-            self.record(e);
-        }
-        if batch.is_empty() {
-            return Ok(());
-        }
-        let prior = self.ekf.clone();
-        let anchor = self.invariant_anchor();
-        self.ekf.update(&batch)?;
-        self.carry_invariant_from(anchor)?;
-        let accepted: Vec<_> = accepted
-            .into_iter()
-            .map(|(pose, z)| (pose, slot, z))
-            .collect();
-        self.iterate_update(&prior, &accepted, REPLAY_ITERATIONS)
+        self.drop_candidate(id)
     }
 
     /// Forgets a candidate and releases its pose clones (each removed from the
-    /// state when no candidate uses it any more).
+    /// state when no candidate uses it any more), with one
+    /// [`SlamEvent::BearingsDiscarded`] per reason it left bearings unused.
     fn drop_candidate(&mut self, id: u64) -> Result<()> {
         let Some(pending) = self.candidates.remove(&id) else {
             return Ok(());
         };
+        for &(reason, count) in &pending.unused {
+            self.record(SlamEvent::BearingsDiscarded { id, count, reason });
+        }
         let clones = pending
             .clone
             .into_iter()
-            .chain(pending.history.iter().map(|&(c, _)| c));
+            .chain(pending.history.iter().map(|b| b.clone));
         for clone_id in clones.collect::<Vec<_>>() {
             self.release_clone(clone_id)?;
         }
@@ -353,7 +359,7 @@ impl BearingSlam {
             .collect();
         for id in stale {
             // Only fails on an internal offset error, which would be a bug.
-            if self.drop_candidate(id).is_ok() {
+            if self.drop_candidate_lost(id, DiscardReason::Expired).is_ok() {
                 self.record(SlamEvent::CandidateExpired { id });
             }
         }

@@ -20,6 +20,9 @@ mod invariant;
 #[cfg(test)]
 mod invariant_tests;
 mod iterated;
+mod replay;
+#[cfg(test)]
+mod replay_tests;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;

@@ -4,7 +4,7 @@
 use super::{CommandModel, Method};
 use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::Pose2;
-use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig};
+use bearing_slam_core::init::{HistoryCorrelation, InverseDepthPrior, TriangulationConfig};
 use bearing_slam_core::motion::{VelocityModel, VelocityNoise};
 use bearing_slam_core::runner::{OdometryConfig, RunConfig};
 use bearing_slam_core::slam::{InitializerConfig, SlamConfig};
@@ -62,6 +62,7 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
         candidate_timeout: 5.0,
         min_depth: 0.1,
         history: 0,
+        correlation: HistoryCorrelation::DEFAULT,
     },
     pi_sr_prior: InverseDepthPrior {
         rho_ini: 0.5,
