@@ -61,7 +61,11 @@ pub(super) struct PoseClone {
 impl BearingSlam {
     /// Routes a first or repeated sighting of an unmapped landmark to the
     /// configured initializer. Returns whether the landmark entered the state.
-    pub(super) fn initialize_from_bearing(&mut self, id: u64, z: f64) -> Result<bool> {
+    pub(super) fn initialize_from_bearing(&mut self, id: u64, raw_z: f64) -> Result<bool> {
+        // Landmarks are placed from the bearing without the estimated offset
+        // (`offset`); the waiting history keeps the raw one, replayed
+        // through the measurement model that adds the offset back.
+        let z = self.offset_corrected(raw_z);
         let (config, cloning) = match &self.config.initializer {
             InitializerConfig::PiSr {
                 prior,
@@ -86,7 +90,7 @@ impl BearingSlam {
                     c.candidate.last_seen = time;
                 }
                 if cloning && config.history > 0 {
-                    self.remember_sighting(id, z, config.history)?;
+                    self.remember_sighting(id, raw_z, config.history)?;
                 }
                 Ok(false)
             }
@@ -119,6 +123,9 @@ impl BearingSlam {
                     offset: 0,
                     jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
                 }];
+                // Both bearings were corrected with the current offset.
+                let j_bearings = init.j_landmark_z + init.j_landmark_first_bearing;
+                self.push_offset_jacobian(&mut jacobians, j_bearings.as_slice());
                 let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
                     Some(clone) => {
                         // Exact: the first pose is a state block correlated with everything.
@@ -279,6 +286,7 @@ impl BearingSlam {
             let pose = PoseAt {
                 offset: clone.offset,
                 first: clone.first,
+                bearing_offset: self.offset_index(),
             };
             let linearized =
                 linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);

@@ -24,15 +24,29 @@ impl BearingSlam {
         accepted: &[(PoseAt, LandmarkSlot, f64)],
         iterations: usize,
     ) -> Result<()> {
+        let variances = vec![self.config.bearing_sigma.powi(2); accepted.len()];
+        self.iterate_update_weighted(prior, accepted, &variances, iterations)
+    }
+
+    /// [`Self::iterate_update`] with each bearing's own noise variance (the
+    /// nominal one, or the inflated one robust gating gave it).
+    pub(super) fn iterate_update_weighted(
+        &mut self,
+        prior: &Ekf,
+        accepted: &[(PoseAt, LandmarkSlot, f64)],
+        variances: &[f64],
+        iterations: usize,
+    ) -> Result<()> {
         if accepted.is_empty() {
             return Ok(());
         }
-        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
         let consistency = self.config.consistency;
         for _ in 1..iterations {
             let Ok(relinearized) = accepted
                 .iter()
-                .map(|&(pose, slot, z)| {
+                .zip(variances)
+                .map(|(&(pose, slot, z), &variance)| {
+                    let noise = Matrix1::new(variance);
                     relinearize_about(prior, &self.ekf, consistency, pose, slot, z, &noise)
                 })
                 .collect::<Result<Vec<_>>>()

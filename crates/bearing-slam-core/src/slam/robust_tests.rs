@@ -1,0 +1,1 @@
+//! Tests of robust gating and the bearing-offset state.
