@@ -127,7 +127,7 @@ impl SensorParams {
                 ));
             }
             check_non_negative("sensor.bias.start_s", b.start_s)?;
-            if !(b.end_s > b.start_s) {
+            if b.end_s.is_nan() || b.end_s <= b.start_s {
                 return Err(invalid(
                     "sensor.bias.end_s",
                     b.end_s,
