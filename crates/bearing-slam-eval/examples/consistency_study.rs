@@ -16,6 +16,12 @@
 //! scenarios, seeds, scoring and classification); only the filter's
 //! consistency option differs. `CONSISTENCY=oc,fej` restricts the methods,
 //! `ITERATIONS=3` makes every scan update an iterated EKF update.
+//!
+//! Robustness options (issue 13 item 3; see the `robust_calibration`
+//! example for where the numbers come from): `ROBUST=K,k` turns on robust
+//! gating (re-admission after `K` gated bearings in a row, Huber threshold
+//! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
+//! prior σ rad).
 
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::metrics::pose_nees;
@@ -23,6 +29,7 @@ use bearing_slam_core::nalgebra::Matrix3;
 use bearing_slam_core::runner::run;
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::slam::Consistency;
+use bearing_slam_core::slam::{BearingOffset, RobustGate, SlamConfig};
 use bearing_slam_eval::experiments::{
     Fig8Result, Fig8Row, consistency_table, fig4_initializers, fig8_table,
 };
@@ -55,6 +62,30 @@ fn iterations() -> usize {
         .ok()
         .and_then(|s| s.parse().ok())
         .unwrap_or(1)
+}
+
+/// `ROBUST=K,k` and `OFFSET=σ_rw,σ₀` (module documentation).
+fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
+    let pair = |name: &str| -> Result<Option<(f64, f64)>, BoxError> {
+        let Ok(v) = std::env::var(name) else {
+            return Ok(None);
+        };
+        let (a, b) = v.split_once(',').ok_or(format!("{name}=A,B"))?;
+        Ok(Some((a.trim().parse()?, b.trim().parse()?)))
+    };
+    if let Some((after, k)) = pair("ROBUST")? {
+        slam.robust_gate = Some(RobustGate {
+            readmit_after: Some(after as usize),
+            huber_threshold: Some(k),
+        });
+    }
+    if let Some((walk, initial)) = pair("OFFSET")? {
+        slam.bearing_offset = Some(BearingOffset {
+            initial_sigma: initial,
+            sigma_per_sqrt_s: walk,
+        });
+    }
+    Ok(())
 }
 
 fn main() -> Result<(), BoxError> {
@@ -95,6 +126,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
                 let mut config = params.run_config(method, Pose2::default())?;
                 config.slam.consistency = consistency;
                 config.slam.update_iterations = iterations();
+                robustness(&mut config.slam)?;
                 let output = run(&log, &config)?;
                 let s = summarize(&log, &output)?;
                 let (mut inside, mut total) = (0, 0);
@@ -188,6 +220,7 @@ fn try_run_one(
     let mut config = run_config(spec, &log, &far_ids)?;
     config.slam.consistency = consistency;
     config.slam.update_iterations = iterations();
+    robustness(&mut config.slam)?;
     let output = run(&log, &config)?;
     let summary = summarize(&log, &output)?;
     let mut series = RunSeries::default();
