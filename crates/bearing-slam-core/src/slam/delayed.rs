@@ -63,8 +63,9 @@ impl BearingSlam {
     /// configured initializer. Returns whether the landmark entered the state.
     pub(super) fn initialize_from_bearing(&mut self, id: u64, raw_z: f64) -> Result<bool> {
         // Landmarks are placed from the bearing without the estimated offset
-        // (`offset`); the waiting history keeps the raw one, replayed
-        // through the measurement model that adds the offset back.
+        // (`offset`); candidates and their waiting history keep the raw one
+        // (the history is replayed through the measurement model, which
+        // adds the offset back).
         let z = self.offset_corrected(raw_z);
         let (config, cloning) = match &self.config.initializer {
             InitializerConfig::PiSr {
@@ -79,10 +80,13 @@ impl BearingSlam {
         };
         let time = self.time.unwrap_or(0.0);
         let pose = self.ekf.block::<3>(0)?;
-        let Some(pending) = self.candidates.get(&id).cloned() else {
-            self.create_candidate(id, z, cloning)?;
+        let Some(mut pending) = self.candidates.get(&id).cloned() else {
+            self.create_candidate(id, raw_z, cloning)?;
             return Ok(false);
         };
+        // The candidate keeps its raw first bearing: corrected here with
+        // the offset estimated now, like the current one.
+        pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         match decision {
             CandidateDecision::Wait => {
@@ -96,7 +100,7 @@ impl BearingSlam {
             }
             CandidateDecision::Restart => {
                 self.drop_candidate(id)?;
-                self.create_candidate(id, z, cloning)?;
+                self.create_candidate(id, raw_z, cloning)?;
                 Ok(false)
             }
             CandidateDecision::Far => {

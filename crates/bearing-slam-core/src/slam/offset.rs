@@ -12,7 +12,8 @@
 //!
 //! **Initialization.** A new landmark is placed from the corrected bearing
 //! `z − b̂` (PI-SR (13), the far rule (24), the triangulation (17)–(23) whose
-//! first bearing was stored corrected, the range-bearing inverse (7)), and
+//! stored first bearing is corrected with the same `b̂`, the range-bearing
+//! inverse (7)), and
 //! its cross-covariance with `b` comes from `∂y/∂b = −∂y/∂z` (for a
 //! triangulation, `−(∂y/∂z + ∂y/∂z₁)`: the two bearings' offsets are taken
 //! as the current one, which is exact for a constant offset and off by the
