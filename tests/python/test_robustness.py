@@ -31,6 +31,7 @@ def test_robust_options_change_the_run() -> None:
     base = bs.Config.for_log(log, init="mte")
     plain = bs.run(log, base).summary
     offset = bs.run(log, base.replace(bearing_offset_sigma=0.001)).summary
-    assert plain is not None and offset is not None
+    assert plain is not None
+    assert offset is not None
     assert math.isfinite(offset["ate_rmse_m"])
     assert offset["mean_nees_pose"] != plain["mean_nees_pose"]
