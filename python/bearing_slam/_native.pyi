@@ -134,6 +134,12 @@ class Config:
     particles: int
     # Data association (issue 16): "known", "nn", "jcbb".
     association: str
+    # Robustness on a real camera (issue 13 item 3): robust gating and the
+    # bearing-offset state, all off (None) by default.
+    readmit_after: int | None
+    huber_threshold: float | None
+    bearing_offset_sigma: float | None
+    bearing_offset_initial_sigma: float
     def __new__(cls, init: str = "mte", **kwargs: Any) -> Config: ...
     @staticmethod
     def for_log(log: SensorLog, init: str = "mte", **kwargs: Any) -> Config: ...

@@ -200,7 +200,11 @@ def _event_text(event: dict[str, Any]) -> tuple[str, str]:
     text = f"{kind.replace('_', ' ')}: landmark {event.get('id')}" + (
         f" ({extra})" if extra else ""
     )
-    level = "WARN" if kind in ("measurement_rejected", "candidate_expired") else "INFO"
+    level = (
+        "WARN"
+        if kind in ("measurement_rejected", "measurement_readmitted", "candidate_expired")
+        else "INFO"
+    )
     return text, level
 
 

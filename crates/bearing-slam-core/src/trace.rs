@@ -83,6 +83,31 @@ pub enum SlamEvent {
         /// Why.
         reason: DiscardReason,
     },
+    // --- robust gating (SlamConfig::robust_gate) ---
+    /// A measurement inside the gate but with a large innovation was used
+    /// with its noise inflated (Huber weight `weight` < 1 on its
+    /// information, see [`crate::slam::RobustGate::huber_threshold`]).
+    MeasurementDownWeighted {
+        /// Landmark id.
+        id: u64,
+        /// Its normalized innovation squared before the inflation.
+        nis: f64,
+        /// The Huber weight `k / √NIS` applied to its information (in (0, 1)).
+        weight: f64,
+    },
+    /// A measurement outside the gate was used anyway, with its noise
+    /// inflated so that its NIS equals the gate's bound, because its
+    /// landmark's measurements had failed the gate
+    /// [`crate::slam::RobustGate::readmit_after`] times in a row (the filter,
+    /// not the measurement, is then the likely culprit).
+    MeasurementReadmitted {
+        /// Landmark id.
+        id: u64,
+        /// Its normalized innovation squared before the inflation.
+        nis: f64,
+        /// The landmark's measurements gated out in a row before this one.
+        gated_in_row: usize,
+    },
 }
 
 /// Why the delayed initializer did not use a bearing of a waiting landmark.

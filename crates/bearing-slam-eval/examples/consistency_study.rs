@@ -26,6 +26,12 @@
 //! filter's σ). `AR1=φ` replaces the simulated bearings' white errors by
 //! AR(1) errors of the same σ (per landmark, a new visit after 0.5 s
 //! without a scan), so that the treatments meet the error they model.
+//!
+//! Robustness options (issue 13 item 3; see the `robust_calibration`
+//! example for where the numbers come from): `ROBUST=K,k` turns on robust
+//! gating (re-admission after `K` gated bearings in a row, Huber threshold
+//! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
+//! prior σ rad).
 
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::init::{
@@ -37,7 +43,7 @@ use bearing_slam_core::nalgebra::Matrix3;
 use bearing_slam_core::runner::run;
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::slam::Consistency;
-use bearing_slam_core::slam::InitializerConfig;
+use bearing_slam_core::slam::{BearingOffset, InitializerConfig, RobustGate, SlamConfig};
 use bearing_slam_eval::experiments::{
     Fig8Result, Fig8Row, consistency_table, fig4_initializers, fig8_table,
 };
@@ -151,6 +157,30 @@ fn ar1_bearings(log: &mut SensorLog) {
     }
 }
 
+/// `ROBUST=K,k` and `OFFSET=σ_rw,σ₀` (module documentation).
+fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
+    let pair = |name: &str| -> Result<Option<(f64, f64)>, BoxError> {
+        let Ok(v) = std::env::var(name) else {
+            return Ok(None);
+        };
+        let (a, b) = v.split_once(',').ok_or(format!("{name}=A,B"))?;
+        Ok(Some((a.trim().parse()?, b.trim().parse()?)))
+    };
+    if let Some((after, k)) = pair("ROBUST")? {
+        slam.robust_gate = Some(RobustGate {
+            readmit_after: Some(after as usize),
+            huber_threshold: Some(k),
+        });
+    }
+    if let Some((walk, initial)) = pair("OFFSET")? {
+        slam.bearing_offset = Some(BearingOffset {
+            initial_sigma: initial,
+            sigma_per_sqrt_s: walk,
+        });
+    }
+    Ok(())
+}
+
 fn main() -> Result<(), BoxError> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
@@ -192,6 +222,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
                 let mut config = params.run_config(method, Pose2::default())?;
                 config.slam.consistency = consistency;
                 config.slam.update_iterations = iterations();
+                robustness(&mut config.slam)?;
                 let output = run(&log, &config)?;
                 let s = summarize(&log, &output)?;
                 let (mut inside, mut total) = (0, 0);
@@ -371,6 +402,7 @@ fn try_run_one(
     }
     config.slam.consistency = consistency;
     config.slam.update_iterations = iterations();
+    robustness(&mut config.slam)?;
     let output = run(&log, &config)?;
     let summary = summarize(&log, &output)?;
     let mut series = RunSeries::default();

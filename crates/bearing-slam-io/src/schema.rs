@@ -464,6 +464,11 @@ pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
             fin("event.window_nis", *window_nis)?;
             fin("event.bound", *bound)
         }
+        SlamEvent::MeasurementDownWeighted { nis, weight, .. } => {
+            fin("event.nis", *nis)?;
+            fin("event.weight", *weight)
+        }
+        SlamEvent::MeasurementReadmitted { nis, .. } => fin("event.nis", *nis),
     }
 }
 
@@ -687,7 +692,9 @@ fn slam_event_schema() -> Value {
                             "landmark_initialized",
                             "landmark_converted",
                             "measurement_rejected",
-                            "diverging"
+                            "diverging",
+                            "measurement_down_weighted",
+                            "measurement_readmitted"
                         ]
                     },
                     "id": id("Landmark id"),
@@ -701,6 +708,8 @@ fn slam_event_schema() -> Value {
                     "window_nis": number("Windowed NIS sum when the filter began diverging"),
                     "dof": id("Degrees of freedom of the window (measurement rows)"),
                     "bound": number("Chi-square bound of the windowed NIS (before the factor)"),
+                    "weight": number("Huber weight on a down-weighted measurement's information"),
+                    "gated_in_row": id("Measurements of the landmark gated out in a row before a re-admitted one"),
                 },
                 "required": ["kind"],
             },

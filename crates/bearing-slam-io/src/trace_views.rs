@@ -154,6 +154,12 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
             INFO,
             format!("landmark {id} converted to Euclidean (linearity index {linearity_index:.4})"),
         ),
+        SlamEvent::MeasurementRejected { id, nis } if *nis == f64::MAX => (
+            WARNING,
+            format!(
+                "measurement of landmark {id} rejected: degenerate prediction (landmark at the sensor)"
+            ),
+        ),
         SlamEvent::MeasurementRejected { id, nis } => (
             WARNING,
             format!("measurement of landmark {id} rejected by the gate (NIS {nis:.2})"),
@@ -189,6 +195,23 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
                 "filter diverging: windowed NIS {window_nis:.1} over {dof} dof, \
                  {:.1} times its chi-square bound {bound:.1}",
                 window_nis / bound
+            ),
+        ),
+        SlamEvent::MeasurementDownWeighted { id, nis, weight } => (
+            INFO,
+            format!(
+                "measurement of landmark {id} down-weighted (NIS {nis:.2}, Huber weight {weight:.3})"
+            ),
+        ),
+        SlamEvent::MeasurementReadmitted {
+            id,
+            nis,
+            gated_in_row,
+        } => (
+            WARNING,
+            format!(
+                "measurement of landmark {id} re-admitted with inflated noise (NIS {nis:.2}) \
+                 after {gated_in_row} gated in a row"
             ),
         ),
     }

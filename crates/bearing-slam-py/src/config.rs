@@ -14,6 +14,7 @@ use bearing_slam::core::init::{
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
+use bearing_slam::core::slam::{BearingOffset, RobustGate};
 use bearing_slam::core::slam::{Consistency, InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
 use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
@@ -154,10 +155,27 @@ pub(crate) struct PyConfig {
     /// used only to score it; the EKF `filter` only).
     #[pyo3(get, set)]
     pub association: String,
+    // --- robustness on a real camera (issue #13 item 3) ---
+    /// Robust gating (`RobustGate::readmit_after`): a landmark's bearings
+    /// gated out this many times in a row are re-admitted with inflated
+    /// noise; None (default) never re-admits.
+    #[pyo3(get, set)]
+    pub readmit_after: Option<usize>,
+    /// Robust gating (`RobustGate::huber_threshold`): Huber down-weighting
+    /// of bearings whose √NIS passes this; None (default) is off.
+    #[pyo3(get, set)]
+    pub huber_threshold: Option<f64>,
+    /// Bearing-offset state (camera yaw mount): its random walk σ, rad/√s;
+    /// None (default) has no offset state.
+    #[pyo3(get, set)]
+    pub bearing_offset_sigma: Option<f64>,
+    /// Bearing-offset state: σ of its zero-mean prior, rad.
+    #[pyo3(get, set)]
+    pub bearing_offset_initial_sigma: f64,
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 35] = [
+const FIELDS: [&str; 39] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -193,6 +211,11 @@ const FIELDS: [&str; 35] = [
     "estimator",
     "particles",
     "association",
+    // robustness on a real camera (issue #13 item 3)
+    "readmit_after",
+    "huber_threshold",
+    "bearing_offset_sigma",
+    "bearing_offset_initial_sigma",
 ];
 
 impl Default for PyConfig {
@@ -236,6 +259,10 @@ impl Default for PyConfig {
             estimator: EstimatorKind::default().to_string(),
             particles: EstimatorConfig::default().particles,
             association: slam.association.method.to_string(),
+            readmit_after: None,
+            huber_threshold: None,
+            bearing_offset_sigma: None,
+            bearing_offset_initial_sigma: BearingOffset::default().initial_sigma,
         }
     }
 }
@@ -257,6 +284,12 @@ impl PyConfig {
         c.consistency = s.consistency.to_string();
         c.update_iterations = s.update_iterations;
         c.association = s.association.method.to_string();
+        c.readmit_after = s.robust_gate.and_then(|r| r.readmit_after);
+        c.huber_threshold = s.robust_gate.and_then(|r| r.huber_threshold);
+        c.bearing_offset_sigma = s.bearing_offset.map(|b| b.sigma_per_sqrt_s);
+        if let Some(b) = s.bearing_offset {
+            c.bearing_offset_initial_sigma = b.initial_sigma;
+        }
         c.init = s.initializer.kind().to_string();
         let tri = match &s.initializer {
             InitializerConfig::PiSr {
@@ -378,6 +411,15 @@ impl PyConfig {
             consistency,
             update_iterations: self.update_iterations,
             association: AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?),
+            robust_gate: (self.readmit_after.is_some() || self.huber_threshold.is_some())
+                .then_some(RobustGate {
+                    readmit_after: self.readmit_after,
+                    huber_threshold: self.huber_threshold,
+                }),
+            bearing_offset: self.bearing_offset_sigma.map(|sigma| BearingOffset {
+                initial_sigma: self.bearing_offset_initial_sigma,
+                sigma_per_sqrt_s: sigma,
+            }),
         };
         cfg.validate().py()?;
         Ok(cfg)

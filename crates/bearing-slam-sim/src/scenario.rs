@@ -464,6 +464,18 @@ impl Scenario {
         self
     }
 
+    /// Adds `offset_rad` to every bearing from `start_s` to `end_s` (a
+    /// camera whose mount shifts for a while; see [`crate::sensor::BearingBias`]).
+    #[must_use]
+    pub fn with_bearing_bias(mut self, offset_rad: f64, start_s: f64, end_s: f64) -> Self {
+        self.sensor.bias = Some(crate::sensor::BearingBias {
+            offset_rad,
+            start_s,
+            end_s,
+        });
+        self
+    }
+
     /// Sets the run length, seconds.
     #[must_use]
     pub fn with_duration(mut self, seconds: f64) -> Self {

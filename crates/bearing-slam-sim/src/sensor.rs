@@ -44,6 +44,36 @@ pub struct SensorParams {
     pub dropout_probability: f64,
     /// Whether walls and obstacles block the line of sight.
     pub occlusion: bool,
+    /// A stretch of biased bearings (a camera knocked off its mount, or
+    /// warming up): none by default.
+    pub bias: Option<BearingBias>,
+}
+
+/// A constant offset added to every true bearing between two times, as a
+/// camera whose yaw mount shifts for a while (issue 13's "one camera's
+/// errors shift by a few hundredths of a radian for minutes"). The noise
+/// on top still follows the seed.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BearingBias {
+    /// The offset added to the bearing, radians (e.g. 0.03).
+    pub offset_rad: f64,
+    /// When it starts, seconds since the run's start.
+    pub start_s: f64,
+    /// When it ends, seconds (exclusive).
+    pub end_s: f64,
+}
+
+impl BearingBias {
+    /// The offset at time `t`: `offset_rad` in `[start_s, end_s)`, else 0.
+    #[must_use]
+    pub fn at(&self, t: f64) -> f64 {
+        if t >= self.start_s && t < self.end_s {
+            self.offset_rad
+        } else {
+            0.0
+        }
+    }
 }
 
 impl Default for SensorParams {
@@ -58,6 +88,7 @@ impl Default for SensorParams {
             outlier_probability: 0.0,
             dropout_probability: 0.0,
             occlusion: true,
+            bias: None,
         }
     }
 }
@@ -87,6 +118,23 @@ impl SensorParams {
         check_non_negative("sensor.range_sigma_rel", self.range_sigma_rel)?;
         check_probability("sensor.outlier_probability", self.outlier_probability)?;
         check_probability("sensor.dropout_probability", self.dropout_probability)?;
+        if let Some(b) = &self.bias {
+            if !(b.offset_rad.is_finite() && b.offset_rad.abs() < PI) {
+                return Err(invalid(
+                    "sensor.bias.offset_rad",
+                    b.offset_rad,
+                    "must be finite and below π in magnitude",
+                ));
+            }
+            check_non_negative("sensor.bias.start_s", b.start_s)?;
+            if b.end_s.is_nan() || b.end_s <= b.start_s {
+                return Err(invalid(
+                    "sensor.bias.end_s",
+                    b.end_s,
+                    "must be after start_s",
+                ));
+            }
+        }
         Ok(())
     }
 

@@ -248,6 +248,12 @@ impl Simulation {
                 |p, lm, range| scene.line_blocked([p.x, p.y], [lm.x, lm.y], range),
                 &mut self.rng_sensor,
             );
+            if let Some(bias) = self.sensor.params().bias {
+                let offset = bias.at(t);
+                for o in &mut obs {
+                    o.bearing = bearing_slam_core::wrap_angle(o.bearing + offset);
+                }
+            }
             if !self.clutter.is_empty() {
                 obs.extend(self.sensor.scan(
                     &pose,

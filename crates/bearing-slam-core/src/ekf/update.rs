@@ -60,12 +60,21 @@ impl Ekf {
         Ok(())
     }
 
+    /// The innovation covariance `S = H P Hᵀ + R` of one measurement
+    /// (Munguía & Grau (30)), touching only its blocks' covariances.
+    pub fn innovation_covariance(
+        &self,
+        measurement: &LinearizedMeasurement,
+    ) -> Result<DMatrix<f64>> {
+        self.check_measurement(measurement)?;
+        let rows = measurement.innovation.len();
+        Ok(self.project_covariance(&measurement.blocks, rows) + &measurement.noise)
+    }
+
     /// The normalized innovation squared `νᵀ S⁻¹ ν` of one measurement, with
     /// `S = H P Hᵀ + R` (Munguía & Grau (30)), for gating before an update.
     pub fn nis(&self, measurement: &LinearizedMeasurement) -> Result<f64> {
-        self.check_measurement(measurement)?;
-        let rows = measurement.innovation.len();
-        let s = self.project_covariance(&measurement.blocks, rows) + &measurement.noise;
+        let s = self.innovation_covariance(measurement)?;
         let chol = s.cholesky().ok_or(SlamError::NotPositiveDefinite {
             what: "innovation covariance S",
         })?;

@@ -2,6 +2,8 @@
 //! of every parameter's range.
 
 use super::Consistency;
+use super::offset::BearingOffset;
+use super::robust::RobustGate;
 use crate::association::AssociationConfig;
 use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
@@ -156,6 +158,16 @@ pub struct SlamConfig {
     /// [`super::BearingSlam::update_anonymous`]).
     #[serde(default)]
     pub association: AssociationConfig,
+    // --- robustness on a real camera (issue #13 item 3) ---
+    /// Robust gating: re-admission of a landmark's bearings after a run of
+    /// gated ones, Huber down-weighting of large innovations (see
+    /// [`RobustGate`]); `None` (default) is the plain χ² gate.
+    #[serde(default)]
+    pub robust_gate: Option<RobustGate>,
+    /// The bearing-offset state `b` (camera yaw mount, a random walk; see
+    /// [`BearingOffset`]); `None` (default) assumes no offset.
+    #[serde(default)]
+    pub bearing_offset: Option<BearingOffset>,
 }
 
 fn one() -> usize {
@@ -181,6 +193,8 @@ impl Default for SlamConfig {
             consistency: Consistency::Standard,
             update_iterations: 1,
             association: AssociationConfig::default(),
+            robust_gate: None,
+            bearing_offset: None,
         }
     }
 }
@@ -229,6 +243,19 @@ impl SlamConfig {
             });
         }
         self.association.validate()?;
+        if let Some(r) = &self.robust_gate {
+            r.validate()?;
+            if self.gate_probability.is_none() {
+                return Err(SlamError::InvalidParameter {
+                    name: "robust_gate",
+                    value: 1.0,
+                    reason: "acts on the chi-square gate: set gate_probability too",
+                });
+            }
+        }
+        if let Some(b) = &self.bearing_offset {
+            b.validate()?;
+        }
         if let Some(p) = self.gate_probability
             && !(p > 0.0 && p < 1.0)
         {

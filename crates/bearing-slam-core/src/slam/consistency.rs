@@ -96,6 +96,9 @@ pub(super) struct PoseAt {
     pub(super) offset: usize,
     /// Its first estimate.
     pub(super) first: Vector3<f64>,
+    /// Where the bearing-offset state is, if the filter has one (see
+    /// `offset`): its bearings then depend on it too.
+    pub(super) bearing_offset: Option<usize>,
 }
 
 /// The nullspace column of a global rotation about the origin for a block of
@@ -200,6 +203,7 @@ impl BearingSlam {
         PoseAt {
             offset: 0,
             first: self.fej_pose,
+            bearing_offset: self.offset_index(),
         }
     }
 }
@@ -312,6 +316,19 @@ where
             out.blocks[0].jacobian.copy_from(&projected.columns(0, 3));
             out.blocks[1].jacobian.copy_from(&projected.columns(3, L));
         }
+    }
+    // The bearing offset (`offset`): `h += b` in the bearing row (the last
+    // one of every model here), `∂h/∂b = 1`. Its nullspace rows are zero,
+    // so FEJ and OC leave this column as it is.
+    if let Some(b) = pose.bearing_offset {
+        let row = M - 1;
+        out.innovation[row] = crate::geometry::wrap_angle(out.innovation[row] - ekf.mean()[b]);
+        let mut jacobian = DMatrix::zeros(M, 1);
+        jacobian[(row, 0)] = 1.0;
+        out.blocks.push(BlockJacobian {
+            offset: b,
+            jacobian,
+        });
     }
     Ok(())
 }

@@ -76,7 +76,12 @@ pub(super) struct PoseClone {
 impl BearingSlam {
     /// Routes a first or repeated sighting of an unmapped landmark to the
     /// configured initializer. Returns whether the landmark entered the state.
-    pub(super) fn initialize_from_bearing(&mut self, id: u64, z: f64) -> Result<bool> {
+    pub(super) fn initialize_from_bearing(&mut self, id: u64, raw_z: f64) -> Result<bool> {
+        // Landmarks are placed from the bearing without the estimated offset
+        // (`offset`); candidates and their waiting history keep the raw one
+        // (the history is replayed through the measurement model, which
+        // adds the offset back).
+        let z = self.offset_corrected(raw_z);
         let (config, cloning) = match &self.config.initializer {
             InitializerConfig::PiSr {
                 prior,
@@ -90,10 +95,13 @@ impl BearingSlam {
         };
         let time = self.time.unwrap_or(0.0);
         let pose = self.ekf.block::<3>(0)?;
-        let Some(pending) = self.candidates.get(&id).cloned() else {
-            self.create_candidate(id, z, cloning)?;
+        let Some(mut pending) = self.candidates.get(&id).cloned() else {
+            self.create_candidate(id, raw_z, cloning)?;
             return Ok(false);
         };
+        // The candidate keeps its raw first bearing: corrected here with
+        // the offset estimated now, like the current one.
+        pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         match decision {
             CandidateDecision::Wait => {
@@ -109,13 +117,13 @@ impl BearingSlam {
                     }
                 }
                 if keeping {
-                    self.remember_sighting(id, z, config.history)?;
+                    self.remember_sighting(id, raw_z, config.history)?;
                 }
                 Ok(false)
             }
             CandidateDecision::Restart => {
                 self.drop_candidate_lost(id, DiscardReason::Restarted)?;
-                self.create_candidate(id, z, cloning)?;
+                self.create_candidate(id, raw_z, cloning)?;
                 Ok(false)
             }
             CandidateDecision::Far => {
@@ -147,6 +155,9 @@ impl BearingSlam {
                     offset: 0,
                     jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
                 }];
+                // Both bearings were corrected with the current offset.
+                let j_bearings = init.j_landmark_z + init.j_landmark_first_bearing;
+                self.push_offset_jacobian(&mut jacobians, j_bearings.as_slice());
                 let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
                     Some(clone) => {
                         // Exact: the first pose is a state block correlated with everything.

@@ -162,6 +162,7 @@ fn poses(slam: &BearingSlam) -> Vec<PoseAt> {
     out.extend(slam.clones.values().map(|c| PoseAt {
         offset: c.offset,
         first: c.first,
+        bearing_offset: slam.offset_index(),
     }));
     out
 }

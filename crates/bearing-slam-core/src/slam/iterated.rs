@@ -1,9 +1,10 @@
 //! The iterated EKF update (Bell & Cathey 1993): the same prior updated
 //! again with every measurement relinearized at the latest iterate,
 //! `ν = z − h(x̂ᵢ) − H(x̂₀ − x̂ᵢ)`, a Gauss–Newton step on the MAP problem of
-//! one scan. Used for the replay of waiting bearings and, with
+//! one scan. Used for every scan when
 //! [`SlamConfig::update_iterations`](super::SlamConfig::update_iterations)
-//! > 1, for every scan.
+//! is above 1; the replay of waiting bearings has its own loop
+//! (`replay.rs`).
 
 use super::consistency::{Consistency, PoseAt};
 use super::{BearingSlam, LandmarkSlot, linearize_bearing};
@@ -15,24 +16,27 @@ use nalgebra::Matrix1;
 impl BearingSlam {
     /// Repeats the update of `prior` (the filter before this scan's update)
     /// with the `accepted` bearings relinearized at the current estimate,
-    /// `iterations − 1` times. A relinearization or update that fails (a
-    /// degenerate geometry at the new estimate) keeps the last iterate,
-    /// which is a valid update.
-    pub(super) fn iterate_update(
+    /// `iterations − 1` times, each bearing with its own noise variance (the
+    /// nominal one, or the inflated one robust gating gave it). A
+    /// relinearization or update that fails (a degenerate geometry at the new
+    /// estimate) keeps the last iterate, which is a valid update.
+    pub(super) fn iterate_update_weighted(
         &mut self,
         prior: &Ekf,
         accepted: &[(PoseAt, LandmarkSlot, f64)],
+        variances: &[f64],
         iterations: usize,
     ) -> Result<()> {
         if accepted.is_empty() {
             return Ok(());
         }
-        let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
         let consistency = self.config.consistency;
         for _ in 1..iterations {
             let Ok(relinearized) = accepted
                 .iter()
-                .map(|&(pose, slot, z)| {
+                .zip(variances)
+                .map(|(&(pose, slot, z), &variance)| {
+                    let noise = Matrix1::new(variance);
                     relinearize_about(prior, &self.ekf, consistency, pose, slot, z, &noise)
                 })
                 .collect::<Result<Vec<_>>>()

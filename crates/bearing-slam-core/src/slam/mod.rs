@@ -20,9 +20,13 @@ mod invariant;
 #[cfg(test)]
 mod invariant_tests;
 mod iterated;
+mod offset;
 mod replay;
 #[cfg(test)]
 mod replay_tests;
+mod robust;
+#[cfg(test)]
+mod robust_tests;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;
@@ -30,6 +34,8 @@ pub use config::{InitializerConfig, InitializerKind, MIN_MEASUREMENT_SIGMA, Slam
 pub use consistency::Consistency;
 use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};
+pub use offset::BearingOffset;
+pub use robust::RobustGate;
 
 use crate::divergence::DivergenceMonitor;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
@@ -117,15 +123,24 @@ pub struct BearingSlam {
     /// The tracks and records of the unknown-identity mode (`None` with
     /// known association).
     anonymous: Option<Anonymous>,
+    /// Robust gating: each landmark's bearings gated out in a row.
+    gated_in_row: BTreeMap<u64, usize>,
 }
 
 impl BearingSlam {
     /// A filter at `config.initial_pose` with no landmarks.
     pub fn new(config: SlamConfig) -> Result<Self> {
         config.validate()?;
-        let mean = DVector::from_column_slice(config.initial_pose.to_vector().as_slice());
+        let mut mean = DVector::from_column_slice(config.initial_pose.to_vector().as_slice());
         let sigma = Vector3::from(config.initial_pose_sigma);
-        let cov = DMatrix::from_diagonal(&DVector::from_iterator(3, sigma.iter().map(|s| s * s)));
+        let mut cov =
+            DMatrix::from_diagonal(&DVector::from_iterator(3, sigma.iter().map(|s| s * s)));
+        if let Some(b) = config.bearing_offset {
+            // The offset state `b` right after the vehicle (see `offset`).
+            mean = mean.push(0.0);
+            cov = cov.resize(4, 4, 0.0);
+            cov[(3, 3)] = b.initial_sigma.powi(2);
+        }
         let gate_thresholds = match config.gate_probability {
             Some(p) => Some([chi2_quantile(1.0, p)?, chi2_quantile(2.0, p)?]),
             None => None,
@@ -152,6 +167,7 @@ impl BearingSlam {
             divergence: DivergenceMonitor::new(),
             fej_pose,
             anonymous,
+            gated_in_row: BTreeMap::new(),
         })
     }
 
@@ -327,7 +343,19 @@ impl BearingSlam {
                 value: reach,
             });
         }
-        self.ekf.apply_prediction(&prediction)?;
+        match (self.config.bearing_offset, self.offset_index()) {
+            (Some(b), Some(i)) => {
+                let dt = self.time.map_or(0.0, |t| (time - t).max(0.0));
+                let offset = self.ekf.mean()[i];
+                let added = b.sigma_per_sqrt_s.powi(2) * dt;
+                self.ekf.apply_prediction(&offset::with_offset_random_walk(
+                    &prediction,
+                    offset,
+                    added,
+                ))?;
+            }
+            _ => self.ekf.apply_prediction(&prediction)?,
+        }
         self.fej_pose = prediction.state;
         self.wrap_heading()?;
         self.time = Some(time);
@@ -376,15 +404,16 @@ impl BearingSlam {
                 linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
-            if batch.len() > before {
-                accepted.push((pose, slot, z));
+            if let Some(used) = batch.get(before) {
+                accepted.push(((pose, slot, z), used.noise[(0, 0)]));
             }
         }
         let iterations = self.config.update_iterations;
         let prior = (iterations > 1 && !batch.is_empty()).then(|| self.ekf.clone());
         self.commit_batch(time, &batch, &mut report, pending_events, 1)?;
         if let Some(prior) = prior {
-            self.iterate_update(&prior, &accepted, iterations)?;
+            let (accepted, variances): (Vec<_>, Vec<_>) = accepted.into_iter().unzip();
+            self.iterate_update_weighted(&prior, &accepted, &variances, iterations)?;
         }
         for (id, z) in new_sightings {
             if self.initialize_from_bearing(id, wrap_angle(z))? {
@@ -462,12 +491,14 @@ impl BearingSlam {
         self.commit_batch(time, &batch, &mut report, pending_events, 2)?;
         for (id, r, z) in new_points {
             let pose = self.ekf.block::<3>(0)?;
-            let inv = inverse_range_bearing(&pose, r, wrap_angle(z))?;
+            let z = self.offset_corrected(wrap_angle(z));
+            let inv = inverse_range_bearing(&pose, r, z)?;
             let added = inv.j_point_measurement * noise * inv.j_point_measurement.transpose();
-            let jacobians = [BlockJacobian {
+            let mut jacobians = vec![BlockJacobian {
                 offset: 0,
                 jacobian: DMatrix::from_column_slice(2, 3, inv.j_point_pose.as_slice()),
             }];
+            self.push_offset_jacobian(&mut jacobians, inv.j_point_measurement.column(1).as_slice());
             let first = self.first_estimate_of_new(inv.point.as_slice(), &jacobians);
             let offset = self.ekf.augment(
                 &DVector::from_column_slice(inv.point.as_slice()),
@@ -506,15 +537,17 @@ impl BearingSlam {
 
     /// Chi-square gate on one linearized measurement. A degenerate prediction
     /// (landmark estimated at the sensor) is rejected with `nis = f64::MAX`.
+    /// With [`SlamConfig::robust_gate`] the measurement may instead be
+    /// re-admitted or down-weighted with inflated noise (see `robust`).
     fn gate(
-        &self,
+        &mut self,
         id: u64,
         linearized: Result<LinearizedMeasurement>,
         batch: &mut Vec<LinearizedMeasurement>,
         report: &mut BatchReport,
         events: &mut Vec<SlamEvent>,
     ) -> Result<()> {
-        let linearized = match linearized {
+        let mut linearized = match linearized {
             Ok(l) => l,
             Err(SlamError::Degenerate(_)) => {
                 report.rejected += 1;
@@ -536,10 +569,13 @@ impl BearingSlam {
                     });
                 }
             };
-            if nis > limit {
-                report.rejected += 1;
-                events.push(SlamEvent::MeasurementRejected { id, nis });
-                return Ok(());
+            match self.robust_verdict(id, &linearized, nis, limit, events)? {
+                robust::Verdict::Accept => {}
+                robust::Verdict::Reject => {
+                    report.rejected += 1;
+                    return Ok(());
+                }
+                robust::Verdict::Inflate(noise) => linearized.noise = noise,
             }
         }
         batch.push(linearized);
@@ -647,17 +683,13 @@ impl BearingSlam {
             init.j_landmark_z * self.config.bearing_sigma.powi(2) * init.j_landmark_z.transpose()
                 + j_rho * prior.sigma_rho.powi(2) * j_rho.transpose();
         let jacobian = DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice());
-        self.insert_inverse_depth(
-            id,
-            &init.landmark,
-            &[BlockJacobian {
-                offset: 0,
-                jacobian,
-            }],
-            &added,
-            method,
-            0.0,
-        )
+        let mut jacobians = vec![BlockJacobian {
+            offset: 0,
+            jacobian,
+        }];
+        // `z` is already corrected for the offset (`offset_corrected`).
+        self.push_offset_jacobian(&mut jacobians, init.j_landmark_z.as_slice());
+        self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, 0.0)
     }
 
     /// Removes a block and shifts every later block's offset.

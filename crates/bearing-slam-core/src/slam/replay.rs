@@ -246,6 +246,7 @@ impl BearingSlam {
                         PoseAt {
                             offset: c.offset,
                             first: c.first,
+                            bearing_offset: self.offset_index(),
                         },
                         *b,
                     )
