@@ -115,6 +115,71 @@ impl SelectedInverse {
     }
 }
 
+/// The marginal covariances of `keys` only, at `values`, on the `pattern`
+/// of `graph` and its symbolic factorization `cholesky` (the solver's,
+/// reused): `H` assembled and factorized once, then `H x = e_i` solved for
+/// the `dim(key)` unit vectors of each key, whose rows at the key are its
+/// block of `H⁻¹`. The cost of one solver iteration, whatever the size of
+/// the graph's other blocks (the fixed-lag smoother needs only the leaving
+/// pose's). The same numbers as [`marginal_covariances`] to rounding.
+pub(crate) fn marginals_of(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    graph: &FactorGraph,
+    values: &Values,
+    kernel: &RobustKernel,
+    keys: &[Key],
+) -> Result<Marginals> {
+    let eq = assemble(pattern, graph, values, kernel)?;
+    factorize_or_nudge(pattern, cholesky, eq.hessian)?;
+    let n = pattern.ordering.dim;
+    let mut blocks = BTreeMap::new();
+    let mut column = vec![0.0; n];
+    for &key in keys {
+        let Some(&var) = pattern.ordering.index.get(&key) else {
+            return Err(super::values::unknown_key(key));
+        };
+        let off = pattern.ordering.offsets[var];
+        let d = key.dim();
+        let mut block = DMatrix::<f64>::zeros(d, d);
+        for b in 0..d {
+            column.iter_mut().for_each(|v| *v = 0.0);
+            column[off + b] = 1.0;
+            cholesky.solve(&mut column);
+            for a in 0..d {
+                block[(a, b)] = column[off + a];
+            }
+        }
+        let block = 0.5 * (&block + block.transpose());
+        if block.iter().any(|v| !v.is_finite()) {
+            return Err(SlamError::NonFinite {
+                what: "marginal covariance",
+                value: f64::NAN,
+            });
+        }
+        blocks.insert(key, block);
+    }
+    Ok(Marginals { blocks })
+}
+
+/// Factorizes `h`; a matrix positive definite only to rounding (stiff
+/// odometry next to a landmark known only through a weak prior) is retried
+/// once with its diagonal scaled by `1 + 1e-9`, which changes no
+/// well-determined covariance visibly.
+fn factorize_or_nudge(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    mut h: Vec<f64>,
+) -> Result<()> {
+    if cholesky.factorize(pattern, &h).is_err() {
+        for &d in &pattern.diagonal {
+            h[d] += 1e-9 * h[d].abs().max(1e-12);
+        }
+        cholesky.factorize(pattern, &h)?;
+    }
+    Ok(())
+}
+
 /// The marginal covariance of every variable of `graph` at `values` (robust
 /// weights of `kernel` included, as in the last solver iteration). Errors as
 /// the solver does, and when the information matrix is singular (a graph
@@ -128,16 +193,7 @@ pub fn marginal_covariances(
     let pattern = Pattern::new(graph, values)?;
     let eq = assemble(&pattern, graph, values, kernel)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, true)?;
-    if cholesky.factorize(&pattern, &eq.hessian).is_err() {
-        // Numerically semi-definite (stiff odometry next to a landmark known
-        // only through a weak prior): retry once with the diagonal scaled by
-        // 1 + 1e-9, which changes no well-determined covariance visibly.
-        let mut h = eq.hessian.clone();
-        for &d in &pattern.diagonal {
-            h[d] += 1e-9 * h[d].abs().max(1e-12);
-        }
-        cholesky.factorize(&pattern, &h)?;
-    }
+    factorize_or_nudge(&pattern, &mut cholesky, eq.hessian)?;
     let symbolic = cholesky.symbolic();
     let SymbolicCholeskyRaw::Simplicial(simplicial) = symbolic.raw() else {
         return Err(SlamError::Degenerate("expected a simplicial factorization"));
