@@ -159,26 +159,24 @@ impl Pattern {
         )
     }
 
-    /// Adds the block `m` (dim(r) × dim(c)) at block position (r, c), r ≥ c,
-    /// whose first column base is `first` (`slots[(r, c)]`).
+    /// Adds the block `w jaᵀ jb` (dim(r) × dim(c)) at block position
+    /// (r, c), r ≥ c, whose first column base is `first` (`slots[(r, c)]`),
+    /// entry by entry (no temporary matrix).
     fn add_block(
         &self,
         h: &mut [f64],
         first: usize,
-        r: usize,
-        c: usize,
-        m: &nalgebra::DMatrix<f64>,
+        (r, c): (usize, usize),
+        (ja, jb): (&nalgebra::DMatrix<f64>, &nalgebra::DMatrix<f64>),
+        w: f64,
     ) {
-        for t in 0..m.ncols() {
+        for t in 0..jb.ncols() {
             let base = self.bases[first + t];
-            if r == c {
-                for u in t..m.nrows() {
-                    h[base + u - t] += m[(u, t)];
-                }
-            } else {
-                for u in 0..m.nrows() {
-                    h[base + u] += m[(u, t)];
-                }
+            let jt = jb.column(t);
+            // Diagonal blocks hold their lower triangle only.
+            let from = if r == c { t } else { 0 };
+            for u in from..ja.ncols() {
+                h[base + u - from] += w * ja.column(u).dot(&jt);
             }
         }
     }
@@ -245,20 +243,16 @@ pub(crate) fn assemble(
         cost += c;
         let mut slot = slots.iter();
         for (a, ja) in vars.iter().zip(&lin.jacobians) {
-            let mut ga = ja.tr_mul(&lin.residual);
-            ga *= w;
             let oa = pattern.ordering.offsets[*a];
-            for (i, v) in ga.iter().enumerate() {
-                gradient[oa + i] += v;
+            for i in 0..ja.ncols() {
+                gradient[oa + i] += w * ja.column(i).dot(&lin.residual);
             }
             for (b, jb) in vars.iter().zip(&lin.jacobians) {
                 if a >= b {
                     let Some(&first) = slot.next() else {
                         return Err(SlamError::Mismatch("the graph changed after its pattern"));
                     };
-                    let mut block = ja.tr_mul(jb);
-                    block *= w;
-                    pattern.add_block(&mut hessian, first, *a, *b, &block);
+                    pattern.add_block(&mut hessian, first, (*a, *b), (ja, jb), w);
                 }
             }
         }
