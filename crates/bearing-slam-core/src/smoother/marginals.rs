@@ -221,3 +221,63 @@ pub fn marginal_covariances(
     }
     Ok(Marginals { blocks })
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::smoother::factors::{
+        BearingFactor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor,
+    };
+    use nalgebra::{Vector2, Vector3};
+
+    /// Three poses, two landmarks seen in bearing: the selected blocks of
+    /// `marginals_of` (solver's factorization, unit solves) equal the
+    /// selected inverse of `marginal_covariances`.
+    #[test]
+    fn selected_blocks_equal_the_whole_graph_marginals() -> Result<()> {
+        let mut g = FactorGraph::new();
+        let mut v = Values::new();
+        g.add_pose_prior(PosePriorFactor::new(
+            0,
+            Vector3::zeros(),
+            Matrix3::identity() * 1e-2,
+        )?)?;
+        for i in 0..3u64 {
+            v.insert_pose(i, Vector3::new(i as f64, 0.1 * i as f64, 0.05))?;
+            if i > 0 {
+                g.add_odometry(OdometryFactor::new(
+                    i - 1,
+                    i,
+                    Vector3::new(1.0, 0.0, 0.0),
+                    Matrix3::identity() * 0.04,
+                )?)?;
+            }
+        }
+        for (id, p) in [(7u64, Vector2::new(2.0, 3.0)), (9, Vector2::new(1.0, -2.0))] {
+            v.insert_landmark(id, p)?;
+            g.add_landmark_prior(LandmarkPriorFactor::new(
+                id,
+                p,
+                Matrix2::identity() * 100.0,
+            )?)?;
+            for i in 0..3u64 {
+                let pose = v.pose(i)?;
+                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z + 0.01;
+                g.add_bearing(BearingFactor::new(i, id, bearing, 0.02)?)?;
+            }
+        }
+        let kernel = RobustKernel::Huber(2.0);
+        let all = marginal_covariances(&g, &v, &kernel)?;
+        let pattern = Pattern::new(&g, &v)?;
+        let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
+        let keys = [Key::Pose(0), Key::Landmark(9)];
+        let some = marginals_of(&pattern, &mut cholesky, &g, &v, &kernel, &keys)?;
+        assert_eq!(some.blocks().len(), 2);
+        for k in keys {
+            let (a, b) = (all.get(k)?, some.get(k)?);
+            assert!((a - b).norm() <= 1e-9 * a.norm(), "{k:?}: {a} vs {b}");
+        }
+        assert!(some.get(Key::Pose(1)).is_err());
+        Ok(())
+    }
+}
