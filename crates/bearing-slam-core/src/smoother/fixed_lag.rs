@@ -16,8 +16,9 @@
 
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
-use super::marginals::{Marginals, marginal_covariances};
-use super::solver::{SolveReport, SolverConfig, optimize};
+use super::marginals::{Marginals, marginal_covariances, marginals_of};
+use super::solver::{SolveReport, SolverConfig, optimize_on};
+use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
@@ -140,10 +141,34 @@ impl FixedLagSmoother {
     }
 
     /// Optimizes the window, then marginalizes the poses beyond the lag.
+    /// A leaving pose's covariance is its block of `H⁻¹` at the solution,
+    /// from one factorization on the solver's own symbolic analysis (not
+    /// the whole window's marginals).
     pub fn update(&mut self) -> Result<SolveReport> {
-        let report = optimize(&self.graph, &mut self.values, &self.config.solver)?;
+        let pattern = Pattern::new(&self.graph, &self.values)?;
+        let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
+        let report = optimize_on(
+            &pattern,
+            &mut cholesky,
+            &self.graph,
+            &mut self.values,
+            &self.config.solver,
+        )?;
         if self.window.len() > self.config.lag {
-            let marginals = self.marginals()?;
+            let leaving: Vec<Key> = self
+                .window
+                .iter()
+                .take(self.window.len() - self.config.lag)
+                .map(|id| Key::Pose(*id))
+                .collect();
+            let marginals = marginals_of(
+                &pattern,
+                &mut cholesky,
+                &self.graph,
+                &self.values,
+                &self.config.solver.robust,
+                &leaving,
+            )?;
             while self.window.len() > self.config.lag {
                 let Some(oldest) = self.window.front().copied() else {
                     break;

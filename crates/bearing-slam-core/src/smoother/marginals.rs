@@ -115,6 +115,71 @@ impl SelectedInverse {
     }
 }
 
+/// The marginal covariances of `keys` only, at `values`, on the `pattern`
+/// of `graph` and its symbolic factorization `cholesky` (the solver's,
+/// reused): `H` assembled and factorized once, then `H x = e_i` solved for
+/// the `dim(key)` unit vectors of each key, whose rows at the key are its
+/// block of `H⁻¹`. The cost of one solver iteration, whatever the size of
+/// the graph's other blocks (the fixed-lag smoother needs only the leaving
+/// pose's). The same numbers as [`marginal_covariances`] to rounding.
+pub(crate) fn marginals_of(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    graph: &FactorGraph,
+    values: &Values,
+    kernel: &RobustKernel,
+    keys: &[Key],
+) -> Result<Marginals> {
+    let eq = assemble(pattern, graph, values, kernel)?;
+    factorize_or_nudge(pattern, cholesky, eq.hessian)?;
+    let n = pattern.ordering.dim;
+    let mut blocks = BTreeMap::new();
+    let mut column = vec![0.0; n];
+    for &key in keys {
+        let Some(&var) = pattern.ordering.index.get(&key) else {
+            return Err(super::values::unknown_key(key));
+        };
+        let off = pattern.ordering.offsets[var];
+        let d = key.dim();
+        let mut block = DMatrix::<f64>::zeros(d, d);
+        for b in 0..d {
+            column.iter_mut().for_each(|v| *v = 0.0);
+            column[off + b] = 1.0;
+            cholesky.solve(&mut column);
+            for a in 0..d {
+                block[(a, b)] = column[off + a];
+            }
+        }
+        let block = 0.5 * (&block + block.transpose());
+        if block.iter().any(|v| !v.is_finite()) {
+            return Err(SlamError::NonFinite {
+                what: "marginal covariance",
+                value: f64::NAN,
+            });
+        }
+        blocks.insert(key, block);
+    }
+    Ok(Marginals { blocks })
+}
+
+/// Factorizes `h`; a matrix positive definite only to rounding (stiff
+/// odometry next to a landmark known only through a weak prior) is retried
+/// once with its diagonal scaled by `1 + 1e-9`, which changes no
+/// well-determined covariance visibly.
+fn factorize_or_nudge(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    mut h: Vec<f64>,
+) -> Result<()> {
+    if cholesky.factorize(pattern, &h).is_err() {
+        for &d in &pattern.diagonal {
+            h[d] += 1e-9 * h[d].abs().max(1e-12);
+        }
+        cholesky.factorize(pattern, &h)?;
+    }
+    Ok(())
+}
+
 /// The marginal covariance of every variable of `graph` at `values` (robust
 /// weights of `kernel` included, as in the last solver iteration). Errors as
 /// the solver does, and when the information matrix is singular (a graph
@@ -128,16 +193,7 @@ pub fn marginal_covariances(
     let pattern = Pattern::new(graph, values)?;
     let eq = assemble(&pattern, graph, values, kernel)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, true)?;
-    if cholesky.factorize(&pattern, &eq.hessian).is_err() {
-        // Numerically semi-definite (stiff odometry next to a landmark known
-        // only through a weak prior): retry once with the diagonal scaled by
-        // 1 + 1e-9, which changes no well-determined covariance visibly.
-        let mut h = eq.hessian.clone();
-        for &d in &pattern.diagonal {
-            h[d] += 1e-9 * h[d].abs().max(1e-12);
-        }
-        cholesky.factorize(&pattern, &h)?;
-    }
+    factorize_or_nudge(&pattern, &mut cholesky, eq.hessian)?;
     let symbolic = cholesky.symbolic();
     let SymbolicCholeskyRaw::Simplicial(simplicial) = symbolic.raw() else {
         return Err(SlamError::Degenerate("expected a simplicial factorization"));
@@ -164,4 +220,64 @@ pub fn marginal_covariances(
         blocks.insert(*k, block);
     }
     Ok(Marginals { blocks })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::smoother::factors::{
+        BearingFactor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor,
+    };
+    use nalgebra::{Vector2, Vector3};
+
+    /// Three poses, two landmarks seen in bearing: the selected blocks of
+    /// `marginals_of` (solver's factorization, unit solves) equal the
+    /// selected inverse of `marginal_covariances`.
+    #[test]
+    fn selected_blocks_equal_the_whole_graph_marginals() -> Result<()> {
+        let mut g = FactorGraph::new();
+        let mut v = Values::new();
+        g.add_pose_prior(PosePriorFactor::new(
+            0,
+            Vector3::zeros(),
+            Matrix3::identity() * 1e-2,
+        )?)?;
+        for i in 0..3u64 {
+            v.insert_pose(i, Vector3::new(i as f64, 0.1 * i as f64, 0.05))?;
+            if i > 0 {
+                g.add_odometry(OdometryFactor::new(
+                    i - 1,
+                    i,
+                    Vector3::new(1.0, 0.0, 0.0),
+                    Matrix3::identity() * 0.04,
+                )?)?;
+            }
+        }
+        for (id, p) in [(7u64, Vector2::new(2.0, 3.0)), (9, Vector2::new(1.0, -2.0))] {
+            v.insert_landmark(id, p)?;
+            g.add_landmark_prior(LandmarkPriorFactor::new(
+                id,
+                p,
+                Matrix2::identity() * 100.0,
+            )?)?;
+            for i in 0..3u64 {
+                let pose = v.pose(i)?;
+                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z + 0.01;
+                g.add_bearing(BearingFactor::new(i, id, bearing, 0.02)?)?;
+            }
+        }
+        let kernel = RobustKernel::Huber(2.0);
+        let all = marginal_covariances(&g, &v, &kernel)?;
+        let pattern = Pattern::new(&g, &v)?;
+        let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
+        let keys = [Key::Pose(0), Key::Landmark(9)];
+        let some = marginals_of(&pattern, &mut cholesky, &g, &v, &kernel, &keys)?;
+        assert_eq!(some.blocks().len(), 2);
+        for k in keys {
+            let (a, b) = (all.get(k)?, some.get(k)?);
+            assert!((a - b).norm() <= 1e-9 * a.norm(), "{k:?}: {a} vs {b}");
+        }
+        assert!(some.get(Key::Pose(1)).is_err());
+        Ok(())
+    }
 }

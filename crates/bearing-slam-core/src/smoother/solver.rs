@@ -152,6 +152,19 @@ pub fn optimize(
     config.validate()?;
     let pattern = Pattern::new(graph, values)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
+    optimize_on(&pattern, &mut cholesky, graph, values, config)
+}
+
+/// [`optimize`] on the `pattern` of `graph` and its symbolic factorization
+/// `cholesky`, which the caller keeps for more solves on the same pattern
+/// (the fixed-lag smoother's marginal of the leaving pose).
+pub(crate) fn optimize_on(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    graph: &FactorGraph,
+    values: &mut Values,
+    config: &SolverConfig,
+) -> Result<SolveReport> {
     let gauss_newton = config.method == Method::GaussNewton;
     let mut lambda = if gauss_newton {
         0.0
@@ -159,7 +172,7 @@ pub fn optimize(
         config.initial_lambda
     };
     let mut nu = 2.0;
-    let mut eq = assemble(&pattern, graph, values, &config.robust)?;
+    let mut eq = assemble(pattern, graph, values, &config.robust)?;
     let initial_cost = eq.cost;
     let mut report = SolveReport {
         initial_cost,
@@ -187,7 +200,7 @@ pub fn optimize(
                 damped[d] += lambda * eq.hessian[d].max(1e-9);
             }
             report.factorizations += 1;
-            match cholesky.factorize(&pattern, &damped) {
+            match cholesky.factorize(pattern, &damped) {
                 Ok(()) => {}
                 Err(e) if gauss_newton => return Err(e),
                 Err(_) => {
@@ -208,7 +221,7 @@ pub fn optimize(
                 });
             }
             let mut trial = values.clone();
-            retract_all(&pattern, &mut trial, &step)?;
+            retract_all(pattern, &mut trial, &step)?;
             // A step that lands a landmark on a pose (or overflows) is a
             // rejected step for LM, an error for Gauss–Newton.
             let new_cost = match total_cost(graph, &trial, &config.robust) {
@@ -268,7 +281,7 @@ pub fn optimize(
         if report.iterations >= config.max_iterations {
             break;
         }
-        eq = assemble(&pattern, graph, values, &config.robust)?;
+        eq = assemble(pattern, graph, values, &config.robust)?;
         report.iterations += 1;
     }
     if matches!(

@@ -56,14 +56,16 @@ pub(crate) struct Pattern {
     pub ordering: Ordering,
     pub col_ptr: Vec<usize>,
     pub row_idx: Vec<usize>,
-    /// `(row var, col var)` with `offset(row) ≥ offset(col)` → index into
-    /// `bases` of the first of `dim(col)` column bases.
-    slots: HashMap<(usize, usize), usize>,
+    /// Per column of each block pair, where the block's entries start.
     bases: Vec<usize>,
     /// Position of each diagonal entry.
     pub diagonal: Vec<usize>,
     /// Variable indices of each factor, in its key order.
     pub factor_vars: Vec<Vec<usize>>,
+    /// Per factor, the first column base (index into `bases`) of each of
+    /// its blocks `(a, b)` with `a ≥ b`, in the order the assembly visits
+    /// them: no block lookup by hashing per linearization.
+    factor_slots: Vec<Vec<usize>>,
 }
 
 impl Pattern {
@@ -88,6 +90,8 @@ impl Pattern {
         let n = ordering.dim;
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
+        // `(row var, col var)` with `offset(row) ≥ offset(col)` → index into
+        // `bases` of the first of `dim(col)` column bases.
         let mut slots = HashMap::new();
         let mut bases = Vec::new();
         let mut diagonal = Vec::with_capacity(n);
@@ -116,14 +120,28 @@ impl Pattern {
                 col_ptr.push(row_idx.len());
             }
         }
+        let factor_slots = factor_vars
+            .iter()
+            .map(|vars| {
+                let mut first = Vec::with_capacity(vars.len() * (vars.len() + 1) / 2);
+                for &a in vars {
+                    for &b in vars {
+                        if a >= b {
+                            first.push(slots[&(a, b)]);
+                        }
+                    }
+                }
+                first
+            })
+            .collect();
         Ok(Self {
             ordering,
             col_ptr,
             row_idx,
-            slots,
             bases,
             diagonal,
             factor_vars,
+            factor_slots,
         })
     }
 
@@ -141,19 +159,24 @@ impl Pattern {
         )
     }
 
-    /// Adds the block `m` (dim(r) × dim(c)) at block position (r, c), r ≥ c.
-    fn add_block(&self, h: &mut [f64], r: usize, c: usize, m: &nalgebra::DMatrix<f64>) {
-        let first = self.slots[&(r, c)];
-        for t in 0..m.ncols() {
+    /// Adds the block `w jaᵀ jb` (dim(r) × dim(c)) at block position
+    /// (r, c), r ≥ c, whose first column base is `first` (`slots[(r, c)]`),
+    /// entry by entry (no temporary matrix).
+    fn add_block(
+        &self,
+        h: &mut [f64],
+        first: usize,
+        (r, c): (usize, usize),
+        (ja, jb): (&nalgebra::DMatrix<f64>, &nalgebra::DMatrix<f64>),
+        w: f64,
+    ) {
+        for t in 0..jb.ncols() {
             let base = self.bases[first + t];
-            if r == c {
-                for u in t..m.nrows() {
-                    h[base + u - t] += m[(u, t)];
-                }
-            } else {
-                for u in 0..m.nrows() {
-                    h[base + u] += m[(u, t)];
-                }
+            let jt = jb.column(t);
+            // Diagonal blocks hold their lower triangle only.
+            let from = if r == c { t } else { 0 };
+            for u in from..ja.ncols() {
+                h[base + u - from] += w * ja.column(u).dot(&jt);
             }
         }
     }
@@ -209,19 +232,27 @@ pub(crate) fn assemble(
     let mut hessian = vec![0.0; pattern.nnz()];
     let mut gradient = vec![0.0; pattern.ordering.dim];
     let mut cost = 0.0;
-    for (f, vars) in graph.factors().iter().zip(&pattern.factor_vars) {
+    for ((f, vars), slots) in graph
+        .factors()
+        .iter()
+        .zip(&pattern.factor_vars)
+        .zip(&pattern.factor_slots)
+    {
         let lin = f.linearize(values)?;
         let (c, w) = factor_cost(f, lin.residual.norm_squared(), kernel);
         cost += c;
+        let mut slot = slots.iter();
         for (a, ja) in vars.iter().zip(&lin.jacobians) {
-            let ga = ja.tr_mul(&lin.residual) * w;
             let oa = pattern.ordering.offsets[*a];
-            for (i, v) in ga.iter().enumerate() {
-                gradient[oa + i] += v;
+            for i in 0..ja.ncols() {
+                gradient[oa + i] += w * ja.column(i).dot(&lin.residual);
             }
             for (b, jb) in vars.iter().zip(&lin.jacobians) {
                 if a >= b {
-                    pattern.add_block(&mut hessian, *a, *b, &(ja.tr_mul(jb) * w));
+                    let Some(&first) = slot.next() else {
+                        return Err(SlamError::Mismatch("the graph changed after its pattern"));
+                    };
+                    pattern.add_block(&mut hessian, first, (*a, *b), (ja, jb), w);
                 }
             }
         }

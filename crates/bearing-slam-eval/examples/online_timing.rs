@@ -1,0 +1,93 @@
+//! The online fixed-lag smoother (`filter+smoother`, the default window and
+//! solver of `estimator::default_fixed_lag`) on MRCLAM Dataset 6, every
+//! robot, whole runs: its per-scan update time (median, total, and the
+//! log-log slope of the per-part median over 25 equal parts of the run, as
+//! `benches/gtsam_same_graph.py` computes it) with its accuracy (ATE,
+//! landmark RMSE, pose NEES within the 95 % bound, as
+//! `bearing-slam mrclam --estimator filter+smoother` scores it), for
+//! tuning the online mode's speed without losing its accuracy (issue #14):
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example online_timing -- [DATA_DIR [ROBOT]]
+//! ```
+//!
+//! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
+
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam_core::geometry::Pose2;
+use bearing_slam_core::smoother::run_online_smoother;
+use bearing_slam_eval::real_data::{EvalOptions, Method, evaluate_run_with, filter_log};
+use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
+use std::path::PathBuf;
+
+fn median(v: &[f64]) -> f64 {
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    let n = s.len();
+    if n == 0 {
+        return f64::NAN;
+    }
+    if n % 2 == 1 {
+        s[n / 2]
+    } else {
+        0.5 * (s[n / 2 - 1] + s[n / 2])
+    }
+}
+
+/// Log-log slope of the per-part median on the part's end index (25 parts).
+fn flatness(times: &[f64]) -> f64 {
+    let n = times.len();
+    let bins = 25;
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    let mut start = 0;
+    for b in 0..bins {
+        let end = ((n * (b + 1)) as f64 / bins as f64).round() as usize;
+        if end > start {
+            xs.push((end as f64).ln());
+            ys.push(median(&times[start..end]).ln());
+        }
+        start = end;
+    }
+    let mx = xs.iter().sum::<f64>() / xs.len() as f64;
+    let my = ys.iter().sum::<f64>() / ys.len() as f64;
+    let sxy: f64 = xs.iter().zip(&ys).map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+    sxy / sxx
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let data = std::env::args().nth(1).map_or_else(
+        || PathBuf::from("/work/shared/datasets/mrclam"),
+        PathBuf::from,
+    );
+    let dataset = data.join("MRCLAM_Dataset6");
+    let options = EvalOptions::default();
+    let estimator = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    println!(
+        "| robot | updates | median (ms) | total (s) | slope | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    let only: Option<u8> = std::env::args().nth(2).and_then(|r| r.parse().ok());
+    for robot in (1..=ROBOT_COUNT).filter(|r| only.is_none_or(|o| o == *r)) {
+        let run = load_mrclam_with(&dataset, robot, &options.load)?;
+        let log = filter_log(&run, Method::Mte, &options.parameters)?;
+        let config = options
+            .parameters
+            .run_config(Method::Mte, Pose2::default())?;
+        let online = run_online_smoother(&log, &config, &estimator.smoother, estimator.fixed_lag)?;
+        let times = &online.estimator.report().update_times_s;
+        let scored = evaluate_run_with(&run, Method::Mte, &options.parameters, &estimator)?;
+        let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |x| format!("{x:.3}"));
+        println!(
+            "| {robot} | {} | {:.3} | {:.2} | {:.2} | {} | {} | {} |",
+            times.len(),
+            1e3 * median(times),
+            times.iter().sum::<f64>(),
+            flatness(times),
+            fmt(scored.ate_rmse_m),
+            fmt(scored.landmark_rmse_m),
+            fmt(scored.nees_within_95.map(|f| 100.0 * f)),
+        );
+    }
+    Ok(())
+}
