@@ -82,11 +82,13 @@ def _cmd_experiment(args: argparse.Namespace) -> int:
         return _cmd_experiment_acoustic(args)
     if args.name == "particles":
         return _cmd_experiment_particles(args)
+    if args.name == "smoother":
+        return _cmd_experiment_smoother(args)
     particle_only = [args.estimator, args.particles, args.scenario, args.long_only]
     if any(particle_only) or args.long_s is not None or args.long_runs is not None:
         raise UserError(
             "--estimator, --particles, --scenario, --long-only, --long-s and --long-runs apply "
-            "to experiment particles only"
+            "to experiment particles only (--scenario also to experiment smoother)"
         )
     names = list(EXPERIMENTS) if args.name == "all" else [args.name]
     command = "bearing-slam experiment " + " ".join(
@@ -187,9 +189,10 @@ def add_batch_parsers(sub: Any) -> None:
     )
     ex.add_argument(
         "name",
-        choices=[*EXPERIMENTS, "particles", "all"],
-        metavar="|".join([*EXPERIMENTS, "particles", "all"]),
-        help="which experiment (particles: FastSLAM against the EKF, issue 15; not part of all)",
+        choices=[*EXPERIMENTS, "particles", "smoother", "all"],
+        metavar="|".join([*EXPERIMENTS, "particles", "smoother", "all"]),
+        help="which experiment (particles: FastSLAM against the EKF, issue 15; smoother: the "
+        "batch and fixed-lag smoothers against the EKF, issue 14; neither is part of all)",
     )
     ex.add_argument(
         "--runs",
@@ -218,8 +221,7 @@ def add_batch_parsers(sub: Any) -> None:
 
 
 def _add_particle_options(ex: argparse.ArgumentParser) -> None:
-    from bearing_slam.estimators import PARTICLE_ESTIMATORS
-    from bearing_slam.particle_study import (
+    from bearing_slam.estimator_study import (
         DEFAULT_ESTIMATORS,
         DEFAULT_LONG_RUNS,
         DEFAULT_LONG_S,
@@ -228,6 +230,7 @@ def _add_particle_options(ex: argparse.ArgumentParser) -> None:
         LONG_SCENARIO,
         SCENARIOS,
     )
+    from bearing_slam.estimators import PARTICLE_ESTIMATORS
 
     ex.add_argument(
         "--estimator",
@@ -248,7 +251,7 @@ def _add_particle_options(ex: argparse.ArgumentParser) -> None:
         "--scenario",
         action="append",
         choices=SCENARIOS,
-        help=f"particles only, repeatable: the Monte Carlo scenarios (default: all of "
+        help=f"particles and smoother, repeatable: the Monte Carlo scenarios (default: all of "
         f"{', '.join(SCENARIOS)})",
     )
     ex.add_argument(
@@ -270,15 +273,15 @@ def _add_particle_options(ex: argparse.ArgumentParser) -> None:
 
 
 def _cmd_experiment_particles(args: argparse.Namespace) -> int:
-    from bearing_slam.particle_study import (
+    from bearing_slam.estimator_study import (
         DEFAULT_ESTIMATORS,
         DEFAULT_LONG_RUNS,
         DEFAULT_LONG_S,
         DEFAULT_PARTICLE_COUNTS,
         DEFAULT_RUNS,
         SCENARIOS,
-        run_particle_study,
-        write_particle_study,
+        run_estimator_study,
+        write_estimator_study,
     )
 
     if args.long_runs is not None and args.long_runs < 0:
@@ -296,7 +299,7 @@ def _cmd_experiment_particles(args: argparse.Namespace) -> int:
         + ([f"--long-runs {args.long_runs}"] if args.long_runs is not None else [])
         + [f"--out {args.out}"]
     )
-    study = run_particle_study(
+    study = run_estimator_study(
         runs=args.runs if args.runs is not None else DEFAULT_RUNS,
         seed0=args.seed0,
         estimators=estimators,
@@ -307,7 +310,46 @@ def _cmd_experiment_particles(args: argparse.Namespace) -> int:
         progress=not args.quiet,
         echo=print,
     )
-    paths = write_particle_study(study, args.out, command)
+    paths = write_estimator_study(study, args.out, command, "particles")
+    print(study["table"])
+    print(f"wrote {', '.join(p.name for p in paths)} into {args.out}/")
+    return 0
+
+
+def _cmd_experiment_smoother(args: argparse.Namespace) -> int:
+    """``experiment smoother``: the Monte Carlo part of the estimator study
+    with the batch and fixed-lag smoothers beside the EKF (no long run)."""
+    from bearing_slam.estimator_study import (
+        DEFAULT_RUNS,
+        SCENARIOS,
+        SMOOTHER_ESTIMATORS,
+        run_estimator_study,
+        write_estimator_study,
+    )
+
+    particle_only = [args.estimator, args.particles, args.long_only]
+    if any(particle_only) or args.long_s is not None or args.long_runs is not None:
+        raise UserError(
+            "--estimator, --particles, --long-only, --long-s and --long-runs apply to "
+            "experiment particles only"
+        )
+    command = "bearing-slam experiment smoother " + " ".join(
+        [f"--scenario {n}" for n in (args.scenario or [])]
+        + ([f"--runs {args.runs}"] if args.runs is not None else [])
+        + ([f"--seed0 {args.seed0}"] if args.seed0 else [])
+        + [f"--out {args.out}"]
+    )
+    study = run_estimator_study(
+        runs=args.runs if args.runs is not None else DEFAULT_RUNS,
+        seed0=args.seed0,
+        estimators=SMOOTHER_ESTIMATORS,
+        particle_counts=(),
+        scenarios=args.scenario or list(SCENARIOS),
+        long_runs=0,
+        progress=not args.quiet,
+        echo=print,
+    )
+    paths = write_estimator_study(study, args.out, command, "smoother")
     print(study["table"])
     print(f"wrote {', '.join(p.name for p in paths)} into {args.out}/")
     return 0

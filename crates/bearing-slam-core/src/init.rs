@@ -12,6 +12,12 @@ use crate::geometry::{cross2, unit_direction, wrap_angle};
 use nalgebra::{Matrix1x3, Matrix4x3, Vector2, Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
+/// Largest inverse depth (and σ_ρ) a prior may have, 1/m: a landmark a
+/// millimetre away. Beyond it the prior's variance (up to 1e206 found by the
+/// `slam_ops` fuzz target) swamps the covariance and rounding breaks its
+/// positive semi-definiteness.
+pub const MAX_INVERSE_DEPTH: f64 = 1e3;
+
 /// The fixed prior `(ρ_ini, σ_ρ)` of the undelayed method.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct InverseDepthPrior {
@@ -36,7 +42,8 @@ impl InverseDepthPrior {
         sigma_rho: 0.005,
     };
 
-    /// A validated prior.
+    /// A validated prior: `ρ_ini` and `σ_ρ` positive, finite and at most
+    /// [`MAX_INVERSE_DEPTH`].
     pub fn new(rho_ini: f64, sigma_rho: f64) -> Result<Self> {
         if !(rho_ini.is_finite() && rho_ini > 0.0) {
             return Err(SlamError::InvalidParameter {
@@ -46,6 +53,16 @@ impl InverseDepthPrior {
             });
         }
         crate::error::ensure_positive_noise("sigma_rho", sigma_rho)?;
+        for (name, value) in [("rho_ini", rho_ini), ("sigma_rho", sigma_rho)] {
+            if value > MAX_INVERSE_DEPTH {
+                return Err(SlamError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "must be at most 1000 1/m (a landmark a millimetre away): \
+                             a larger inverse depth or σ_ρ overflows the covariance",
+                });
+            }
+        }
         Ok(Self { rho_ini, sigma_rho })
     }
 

@@ -74,3 +74,41 @@ fn a_measurement_noise_below_a_nanoradian_or_nanometre_is_refused_by_name() {
     })
     .unwrap();
 }
+
+/// `crash-…` (slam_ops, the 10-minute run after the fix above): a PI-SR
+/// prior with σ_ρ = 1.2e103 (a variance of 1.4e206) swamped the covariance
+/// and rounding broke its positive semi-definiteness. Priors beyond
+/// 1000 1/m, bearing σ beyond π and range σ beyond 1e6 m are refused by name.
+#[test]
+fn noise_and_priors_beyond_physical_sizes_are_refused_by_name() {
+    use bearing_slam_core::init::MAX_INVERSE_DEPTH;
+    let prior = |rho_ini: f64, sigma_rho: f64| SlamConfig {
+        initializer: InitializerConfig::pi_sr(InverseDepthPrior { rho_ini, sigma_rho }),
+        ..SlamConfig::default()
+    };
+    for (config, name) in [
+        (
+            prior(107.0 * 0.05, 1.194_530_257_715_099_6e103),
+            "sigma_rho",
+        ),
+        (prior(2e3, 0.25), "rho_ini"),
+        (
+            SlamConfig {
+                bearing_sigma: 4.0,
+                ..SlamConfig::default()
+            },
+            "bearing_sigma",
+        ),
+        (
+            SlamConfig {
+                range_sigma: 1e7,
+                ..SlamConfig::default()
+            },
+            "range_sigma",
+        ),
+    ] {
+        let err = BearingSlam::new(config).err().unwrap();
+        assert!(err.to_string().contains(name), "{err}");
+    }
+    BearingSlam::new(prior(MAX_INVERSE_DEPTH, MAX_INVERSE_DEPTH)).unwrap();
+}

@@ -111,6 +111,10 @@ impl InitializerKind {
 /// semi-definiteness to rounding (found by the `slam_ops` fuzz target).
 pub const MIN_MEASUREMENT_SIGMA: f64 = 1e-9;
 
+/// Largest range noise σ (m) a [`SlamConfig`] accepts (the bearing σ is
+/// bounded by π).
+pub const MAX_RANGE_SIGMA: f64 = 1e6;
+
 /// Everything the filter needs to start.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SlamConfig {
@@ -218,6 +222,14 @@ impl SlamConfig {
             }
         }
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
+        if self.bearing_sigma > std::f64::consts::PI {
+            return Err(SlamError::InvalidParameter {
+                name: "bearing_sigma",
+                value: self.bearing_sigma,
+                reason: "must be at most π rad: a bearing spread over more than a \
+                         half-turn carries no direction",
+            });
+        }
         if self.bearing_sigma < MIN_MEASUREMENT_SIGMA {
             return Err(SlamError::InvalidParameter {
                 name: "bearing_sigma",
@@ -235,6 +247,13 @@ impl SlamConfig {
             });
         }
         ensure_positive_noise("range sigma", self.range_sigma)?;
+        if self.range_sigma > MAX_RANGE_SIGMA {
+            return Err(SlamError::InvalidParameter {
+                name: "range_sigma",
+                value: self.range_sigma,
+                reason: "must be at most 1e6 m (a thousand kilometres)",
+            });
+        }
         if self.range_sigma < MIN_MEASUREMENT_SIGMA {
             return Err(SlamError::InvalidParameter {
                 name: "range_sigma",

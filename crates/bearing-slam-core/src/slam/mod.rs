@@ -30,7 +30,9 @@ mod robust_tests;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;
-pub use config::{InitializerConfig, InitializerKind, MIN_MEASUREMENT_SIGMA, SlamConfig};
+pub use config::{
+    InitializerConfig, InitializerKind, MAX_RANGE_SIGMA, MIN_MEASUREMENT_SIGMA, SlamConfig,
+};
 pub use consistency::Consistency;
 use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};

@@ -1,19 +1,22 @@
-"""FastSLAM against the EKF (issue 15): ``bearing-slam experiment particles``.
+"""Estimators against the EKF on the simulator: ``bearing-slam experiment
+particles`` (FastSLAM, issue 15) and ``bearing-slam experiment smoother``
+(the batch and fixed-lag smoothers, issue 14).
 
->>> from bearing_slam.particle_study import run_particle_study
->>> study = run_particle_study(runs=20)  # doctest: +SKIP
+>>> from bearing_slam.estimator_study import run_estimator_study
+>>> study = run_estimator_study(runs=20)  # doctest: +SKIP
 
-Two parts, both written into ``particles.md``, ``particles.json`` and
-``particles.png``:
+Two parts, both written into ``STEM.md``, ``STEM.json`` and ``STEM.png``
+(``particles`` or ``smoother``, :data:`STUDIES`):
 
 * **Monte Carlo** on ``paper_fig4``, ``paper_fig8`` and ``slip_patch``
   (:data:`SCENARIOS`): ``runs`` seeded runs (MTE; FastSLAM triangulates per
   particle and is seeded with the run's seed) of the EKF (``filter``, the
-  reference) and of each FastSLAM estimator at each particle count. Per
-  configuration: the class fractions (converged, drift, diverged, as
-  ``bearing-slam montecarlo``), ATE, final position and heading errors, the
-  mean pose NEES and the fraction of the time the mean NEES lies in its 95 %
-  band, and the wall time; the NEES over time goes into the plot.
+  reference) and of each other estimator (each FastSLAM estimator at each
+  particle count; the smoothers score the NEES of their marginal
+  covariances). Per configuration: the class fractions (converged, drift,
+  diverged, as ``bearing-slam montecarlo``), ATE, final position and heading
+  errors, the mean pose NEES and the fraction of the time the mean NEES lies
+  in its 95 % band, and the wall time; the NEES over time goes into the plot.
 * **The long run** (Bailey, Nieto & Nebot 2006: FastSLAM grows
   over-confident over time whatever M): ``long_runs`` seeds of
   :data:`LONG_SCENARIO` for ``long_s`` seconds, the mean pose NEES over time
@@ -26,7 +29,6 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from itertools import product
 from pathlib import Path
 from typing import Any
 
@@ -43,9 +45,11 @@ __all__ = [
     "DEFAULT_RUNS",
     "LONG_SCENARIO",
     "SCENARIOS",
-    "particle_table",
-    "run_particle_study",
-    "write_particle_study",
+    "SMOOTHER_ESTIMATORS",
+    "STUDIES",
+    "estimator_table",
+    "run_estimator_study",
+    "write_estimator_study",
 ]
 
 #: The scenarios of the Monte Carlo part.
@@ -53,6 +57,22 @@ SCENARIOS: tuple[str, ...] = ("paper_fig4", "paper_fig8", "slip_patch")
 
 #: FastSLAM estimators compared with the EKF unless given.
 DEFAULT_ESTIMATORS: tuple[str, ...] = ("fastslam1", "fastslam2")
+
+#: The smoothers ``experiment smoother`` compares with the EKF.
+SMOOTHER_ESTIMATORS: tuple[str, ...] = ("smoother", "filter+smoother")
+
+#: Each study's file stem and title.
+STUDIES: dict[str, str] = {
+    "particles": "FastSLAM against the EKF",
+    "smoother": "The graph smoothers against the EKF",
+}
+
+#: How the estimators without particles are labelled.
+_LABELS: dict[str, str] = {
+    "filter": "EKF (filter)",
+    "smoother": "batch smoother",
+    "filter+smoother": "fixed-lag smoother (filter+smoother)",
+}
 
 #: Particle counts unless given.
 DEFAULT_PARTICLE_COUNTS: tuple[int, ...] = (10, 100, 1000)
@@ -70,14 +90,22 @@ Echo = Callable[[str], object]
 
 
 def _label(estimator: str, particles: int | None) -> str:
-    return "EKF (filter)" if particles is None else f"{estimator}, M = {particles}"
+    return (
+        _LABELS.get(estimator, estimator) if particles is None else f"{estimator}, M = {particles}"
+    )
 
 
 def _configs(
     estimators: Sequence[str], particle_counts: Sequence[int]
 ) -> list[tuple[str, int | None]]:
+    """The EKF, then each FastSLAM estimator at each particle count and each
+    other estimator once."""
     out: list[tuple[str, int | None]] = [("filter", None)]
-    out += [(e, m) for e, m in product(estimators, particle_counts)]
+    for e in estimators:
+        if e.startswith("fastslam"):
+            out += [(e, m) for m in particle_counts]
+        elif e != "filter":
+            out.append((e, None))
     return out
 
 
@@ -174,7 +202,7 @@ def _long_run(
     }
 
 
-def run_particle_study(
+def run_estimator_study(
     *,
     runs: int = DEFAULT_RUNS,
     seed0: int = 0,
@@ -216,7 +244,7 @@ def run_particle_study(
         "montecarlo": rows,
         "long": long_rows,
     }
-    study["table"] = particle_table(study)
+    study["table"] = estimator_table(study)
     return study
 
 
@@ -259,7 +287,7 @@ def _long_cells(row: dict[str, Any]) -> str:
     )
 
 
-def particle_table(study: dict[str, Any]) -> str:
+def estimator_table(study: dict[str, Any]) -> str:
     """The study's markdown tables."""
     lines: list[str] = []
     if study["montecarlo"]:
@@ -302,7 +330,7 @@ def _long_lines(study: dict[str, Any]) -> list[str]:
     return lines
 
 
-def _plot(study: dict[str, Any], path: Path) -> Path:
+def _plot(study: dict[str, Any], path: Path, title: str) -> Path:
     import matplotlib.pyplot as plt
 
     from bearing_slam.plots.run import save_figure
@@ -350,29 +378,33 @@ def _plot(study: dict[str, Any], path: Path) -> Path:
         ax.set_visible(False)
     handles, names = flat[0].get_legend_handles_labels()
     fig.legend(handles, names, loc="outside right center", fontsize=8)
-    fig.suptitle("FastSLAM against the EKF: pose NEES over time")
+    fig.suptitle(f"{title}: pose NEES over time")
     return save_figure(fig, path, dpi=100)
 
 
-def write_particle_study(study: dict[str, Any], out: str | Path, command: str) -> list[Path]:
-    """Writes ``particles.md``, ``particles.json`` (time series thinned) and
-    ``particles.png`` into ``out``; returns the paths."""
+def write_estimator_study(
+    study: dict[str, Any], out: str | Path, command: str, stem: str = "particles"
+) -> list[Path]:
+    """Writes ``STEM.md``, ``STEM.json`` (time series thinned) and
+    ``STEM.png`` into ``out`` (``stem`` one of :data:`STUDIES`); returns the
+    paths."""
+    import json
+
     from bearing_slam.experiments import compact
     from bearing_slam.outputs import write_text_atomic
 
+    title = STUDIES[stem]
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    md = out / "particles.md"
+    md = out / f"{stem}.md"
     write_text_atomic(
         md,
-        "# FastSLAM against the EKF\n\n"
-        f"Made by `{command}`; the plot is [`particles.png`](particles.png), the numbers "
-        f"[`particles.json`](particles.json).\n\n{study['table'].strip()}\n\n"
-        "![particles](particles.png)\n",
+        f"# {title}\n\n"
+        f"Made by `{command}`; the plot is [`{stem}.png`]({stem}.png), the numbers "
+        f"[`{stem}.json`]({stem}.json).\n\n{study['table'].strip()}\n\n"
+        f"![{stem}]({stem}.png)\n",
     )
-    js = out / "particles.json"
-    import json
-
+    js = out / f"{stem}.json"
     write_text_atomic(js, json.dumps(compact(study), separators=(",", ":")) + "\n")
-    png = _plot(study, out / "particles.png")
+    png = _plot(study, out / f"{stem}.png", title)
     return [md, js, png]
