@@ -220,9 +220,9 @@ def build(export: dict[str, Any]) -> dict[str, Any]:
     for t, obs in scans:
         node = node_of_time[t]
         for lid, z in obs:
-            f = gtsam.BearingFactor2D(X(node), L(lid), gtsam.Rot2(z), bearing_noise)
-            graph.add(f)
-            per_node[node].append(f)
+            bearing = gtsam.BearingFactor2D(X(node), L(lid), gtsam.Rot2(z), bearing_noise)
+            graph.add(bearing)
+            per_node[node].append(bearing)
             rays.setdefault(lid, []).append((t, node, z))
             n_bearings += 1
 
@@ -230,7 +230,7 @@ def build(export: dict[str, Any]) -> dict[str, Any]:
     init_from = {"mte": 0, "triangulated": 0, "first_ray_3m": 0}
     for lid, sightings in rays.items():
         if lid in mte:
-            values.insert(L(lid), gtsam.Point2(*mte[lid]))
+            values.insert(L(lid), np.array(mte[lid], dtype=float))
             init_from["mte"] += 1
             continue
         t0 = sightings[0][0]
@@ -262,7 +262,7 @@ def build(export: dict[str, Any]) -> dict[str, Any]:
             init_from["first_ray_3m"] += 1
         else:
             init_from["triangulated"] += 1
-        values.insert(L(lid), gtsam.Point2(*point))
+        values.insert(L(lid), np.array(point, dtype=float))
 
     # Poses from the MTE filter's estimate after each scan; fillers by odometry.
     mte_pose_at = {t: gtsam.Pose2(x, y, th) for t, x, y, th in export.get("mte_poses", [])}
