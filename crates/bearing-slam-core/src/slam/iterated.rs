@@ -31,20 +31,35 @@ impl BearingSlam {
             return Ok(());
         }
         let consistency = self.config.consistency;
-        for _ in 1..iterations {
-            let Ok(relinearized) = accepted
+        self.iterate_passes(prior, iterations, |slam| {
+            accepted
                 .iter()
                 .zip(variances)
                 .map(|(&(pose, slot, z), &variance)| {
                     let noise = Matrix1::new(variance);
-                    relinearize_about(prior, &self.ekf, consistency, pose, slot, z, &noise)
+                    relinearize_about(prior, &slam.ekf, consistency, pose, slot, z, &noise)
                 })
-                .collect::<Result<Vec<_>>>()
-            else {
+                .collect()
+        })
+    }
+
+    /// The passes of the iterated update: `iterations − 1` times, `prior`
+    /// updated again with the measurements `relinearize` gives at the
+    /// current estimate. A relinearization or update that fails (a
+    /// degenerate geometry at the new estimate) keeps the last iterate,
+    /// which is a valid update. Under the invariant EKF the prior is carried
+    /// to the iterate it is relinearized at and the result on to its own
+    /// estimate (`invariant.rs`).
+    pub(super) fn iterate_passes(
+        &mut self,
+        prior: &Ekf,
+        iterations: usize,
+        relinearize: impl Fn(&Self) -> Result<Vec<LinearizedMeasurement>>,
+    ) -> Result<()> {
+        for _ in 1..iterations {
+            let Ok(relinearized) = relinearize(self) else {
                 break;
             };
-            // Invariant: the prior carried to the iterate it is relinearized
-            // at, the result on to its own estimate (`invariant.rs`).
             let mut next = prior.clone();
             let at = self.ekf.mean().clone();
             self.carry_invariant(&mut next, prior.mean(), &at)?;

@@ -287,30 +287,12 @@ impl BearingSlam {
         let anchor = self.invariant_anchor();
         self.ekf.update(&batch)?;
         self.carry_invariant_from(anchor)?;
-        for _ in 1..REPLAY_ITERATIONS {
-            // A relinearization or update that fails (a degenerate geometry
-            // at the new estimate) keeps the last iterate, a valid update.
-            let Ok(relinearized) = accepted
+        self.iterate_passes(&prior, REPLAY_ITERATIONS, |slam| {
+            accepted
                 .iter()
-                .map(|item| self.linearize_item(&self.ekf, Some(&prior), slot, &bearings, item))
-                .collect::<Result<Vec<_>>>()
-            else {
-                break;
-            };
-            // Invariant: the prior carried to the iterate it is relinearized
-            // at, the result on to its own estimate (`invariant.rs`).
-            let mut next = prior.clone();
-            let at = self.ekf.mean().clone();
-            self.carry_invariant(&mut next, prior.mean(), &at)?;
-            if next.update(&relinearized).is_err() {
-                break;
-            }
-            let updated = next.mean().clone();
-            self.carry_invariant(&mut next, &at, &updated)?;
-            self.ekf = next;
-        }
-        self.wrap_heading()?;
-        self.wrap_ray_azimuths()
+                .map(|item| slam.linearize_item(&slam.ekf, Some(&prior), slot, &bearings, item))
+                .collect()
+        })
     }
 
     /// One replayed measurement linearized at `estimate` (for an update of
