@@ -10,7 +10,7 @@ use super::robust::Verdict;
 use super::{BearingOffset, BearingSlam, Consistency, InitializerConfig, RobustGate, SlamConfig};
 use crate::init::{InverseDepthPrior, TriangulationConfig};
 use crate::landmark::Parameterization;
-use crate::log::{EventKind, LandmarkTruth, SensorLog};
+use crate::log::{EventKind, SensorLog};
 use crate::motion::DiffDriveModel;
 use crate::testing::check_covariance;
 use crate::testing::kinematic::KinematicScenario;
@@ -19,23 +19,11 @@ use nalgebra::{DMatrix, Matrix1, Vector1};
 
 const SIGMA0: [f64; 3] = [0.01, 0.01, 0.05];
 
-/// Two and a half loops of a 1 m circle among six landmarks, 3° bearings.
+/// Two and a half loops of the consistency tests' circle among six
+/// landmarks (3° bearings).
 fn scenario() -> KinematicScenario {
-    let mut s = KinematicScenario::paper_fig4(false);
-    s.wheel_steps = vec![(0.045, 0.055); 300];
-    s.bearing_sigma = 3f64.to_radians();
-    s.landmarks = [
-        (3.0, 1.0),
-        (-2.5, 1.5),
-        (0.5, 4.0),
-        (0.0, -2.0),
-        (2.5, 3.5),
-        (-2.0, -1.5),
-    ]
-    .iter()
-    .zip(1..)
-    .map(|(&(x, y), id)| LandmarkTruth { id, x, y })
-    .collect();
+    let mut s = super::consistency_tests::scenario();
+    s.wheel_steps.truncate(300);
     s
 }
 
