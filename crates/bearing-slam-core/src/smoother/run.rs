@@ -312,25 +312,19 @@ pub fn run_from_log(
     }
     let started = Instant::now();
     let mut problem = build_batch_problem(log, run_config, config, &filter)?;
-    let mut report = problem.report.clone();
-    report.filter_time_s = filter_time_s;
-    let values = &mut problem.initial;
-    report.solve = Some(optimize(&problem.graph, values, &config.solver)?);
+    let mut solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
     let mut first_scan = BTreeMap::new();
     if let Some(rule) = config.triangulate_unmapped {
         first_scan = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
-        report.n_triangulated = first_scan.len();
-        report.n_landmarks += first_scan.len();
-        report.n_measurements = problem.report.n_measurements;
-        report.n_dropped = problem.report.n_dropped;
         if !first_scan.is_empty() {
-            report.solve = Some(optimize(
-                &problem.graph,
-                &mut problem.initial,
-                &config.solver,
-            )?);
+            solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
         }
     }
+    let mut report = SmootherReport {
+        solve: Some(solve),
+        filter_time_s,
+        ..problem.report.clone()
+    };
     let values = &problem.initial;
     let marginals = marginal_covariances(&problem.graph, values, &config.solver.robust)?;
     let n_nodes = problem.skeleton.odometry.len();
@@ -529,6 +523,8 @@ fn add_unmapped_landmarks(
         }
         problem.report.n_measurements += found.inliers;
         problem.report.n_dropped -= found.inliers;
+        problem.report.n_landmarks += 1;
+        problem.report.n_triangulated += 1;
         added.insert(*id, sightings[0].0);
     }
     for f in factors {
