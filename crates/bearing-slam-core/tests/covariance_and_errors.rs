@@ -105,7 +105,9 @@ proptest! {
                     for (i, noise) in seen {
                         if obs.iter().any(|&(id, _)| id == i as u64) { continue; }
                         let (lx, ly) = MAP[i];
-                        obs.push((i as u64, (ly - truth_y).atan2(lx - truth_x) - truth_theta + noise));
+                        let bearing = (ly - truth_y).atan2(lx - truth_x) - truth_theta + noise;
+                        // Wrapped like a sensor's reading: the filter refuses values beyond ±2π.
+                        obs.push((i as u64, bearing.sin().atan2(bearing.cos())));
                     }
                     slam.update_bearings(time, &obs).map_err(|e| TestCaseError::fail(e.to_string()))?;
                 }
