@@ -4,6 +4,7 @@ run, the CLI in a subprocess (:func:`cli`), and a local Dask cluster."""
 from __future__ import annotations
 
 import importlib
+import os
 import subprocess
 import sys
 from collections.abc import Iterator
@@ -11,8 +12,16 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from hypothesis import settings
 
 import bearing_slam as bs
+
+# Hypothesis draws its examples from a fixed seed in `make test`, so that CI
+# judges the same cases every run; `make proptest-explore` sets
+# BEARING_SLAM_EXPLORE=1 to search fresh random examples instead.
+settings.register_profile("deterministic", derandomize=True)
+settings.register_profile("explore", derandomize=False)
+settings.load_profile("explore" if os.environ.get("BEARING_SLAM_EXPLORE") else "deterministic")
 
 
 def cli(
