@@ -147,7 +147,7 @@ impl FixedLagSmoother {
     pub fn update(&mut self) -> Result<SolveReport> {
         let pattern = Pattern::new(&self.graph, &self.values)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-        let report = optimize_on(
+        let (report, _) = optimize_on(
             &pattern,
             &mut cholesky,
             &self.graph,

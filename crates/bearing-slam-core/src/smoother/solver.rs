@@ -7,6 +7,14 @@
 //! a step when the gain ratio (actual over predicted cost decrease) is
 //! positive and updates `λ` by Nielsen's rule; Gauss–Newton (`λ = 0`) always
 //! steps and fails when `H` is singular.
+//!
+//! Besides the cost-based tests, a warm-started solve (the online smoother's)
+//! can stop on the step itself: when the (nearly undamped) step's squared
+//! Newton decrement `−gᵀδ = δᵀ(H + λD)δ` is at most
+//! [`SolverConfig::decrement_tolerance`], the estimate is within
+//! `√tolerance` standard deviations of the quadratic model's minimum in
+//! every direction (`|aᵀδ| ≤ √(aᵀH⁻¹a) √(δᵀHδ)` for any `a`), so one solve
+//! decides that a problem is converged.
 
 use super::graph::FactorGraph;
 use super::robust::RobustKernel;
@@ -43,6 +51,12 @@ pub struct SolverConfig {
     pub gradient_tolerance: f64,
     /// The first damping `λ` (relative to `diag(H)`).
     pub initial_lambda: f64,
+    /// Stop when a step taken with at most the initial damping has a
+    /// squared Newton decrement `−gᵀδ` at most this (0 disables the test):
+    /// the estimate is then within `√decrement_tolerance` standard
+    /// deviations of the linearized minimum along every direction. The
+    /// step is kept when it does not raise the cost.
+    pub decrement_tolerance: f64,
 }
 
 impl Default for SolverConfig {
@@ -56,6 +70,7 @@ impl Default for SolverConfig {
             step_tolerance: 1e-10,
             gradient_tolerance: 1e-10,
             initial_lambda: 1e-5,
+            decrement_tolerance: 0.0,
         }
     }
 }
@@ -70,6 +85,7 @@ impl SolverConfig {
             ("step_tolerance", self.step_tolerance),
             ("gradient_tolerance", self.gradient_tolerance),
             ("initial_lambda", self.initial_lambda),
+            ("decrement_tolerance", self.decrement_tolerance),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(SlamError::InvalidParameter {
@@ -105,6 +121,9 @@ pub enum Termination {
     MaxIterations,
     /// No step lowered the cost however strongly damped.
     NoDecrease,
+    /// A nearly undamped step's squared Newton decrement fell below the
+    /// decrement tolerance.
+    SmallDecrement,
 }
 
 /// What an optimization did.
@@ -152,19 +171,22 @@ pub fn optimize(
     config.validate()?;
     let pattern = Pattern::new(graph, values)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-    optimize_on(&pattern, &mut cholesky, graph, values, config)
+    optimize_on(&pattern, &mut cholesky, graph, values, config).map(|(report, _)| report)
 }
 
 /// [`optimize`] on the `pattern` of `graph` and its symbolic factorization
 /// `cholesky`, which the caller keeps for more solves on the same pattern
-/// (the fixed-lag smoother's marginal of the leaving pose).
+/// (the fixed-lag smoother's marginal of the leaving pose). The flag is
+/// `true` when the solve stopped on the decrement test: `cholesky` then
+/// holds the factor of `H + λD` (`λ` at most the initial damping) at an
+/// estimate within the tolerance of the returned one.
 pub(crate) fn optimize_on(
     pattern: &Pattern,
     cholesky: &mut SparseCholesky,
     graph: &FactorGraph,
     values: &mut Values,
     config: &SolverConfig,
-) -> Result<SolveReport> {
+) -> Result<(SolveReport, bool)> {
     let gauss_newton = config.method == Method::GaussNewton;
     let mut lambda = if gauss_newton {
         0.0
@@ -183,6 +205,7 @@ pub(crate) fn optimize_on(
         converged: false,
     };
     let mut damped = vec![0.0; eq.hessian.len()];
+    let mut factor_current = false;
     loop {
         if eq.cost <= config.absolute_tolerance {
             report.termination = Termination::AbsoluteCost;
@@ -194,6 +217,7 @@ pub(crate) fn optimize_on(
         }
         // Try steps with growing damping until one lowers the cost.
         let mut accepted = None;
+        let mut converged_step = false;
         while accepted.is_none() {
             damped.copy_from_slice(&eq.hessian);
             for &d in &pattern.diagonal {
@@ -229,6 +253,27 @@ pub(crate) fn optimize_on(
                 Err(e) if gauss_newton => return Err(e),
                 Err(_) => f64::INFINITY,
             };
+            // Squared Newton decrement −gᵀδ = δᵀ(H + λD)δ: judged only on a
+            // nearly undamped step (a strongly damped one is short because
+            // of λ, not because the estimate is at the minimum).
+            let decrement: f64 = -eq
+                .gradient
+                .iter()
+                .zip(&step)
+                .map(|(g, d)| g * d)
+                .sum::<f64>();
+            if config.decrement_tolerance > 0.0
+                && lambda <= config.initial_lambda
+                && decrement <= config.decrement_tolerance
+            {
+                converged_step = true;
+                if new_cost <= eq.cost {
+                    accepted = Some((trial, new_cost, step));
+                } else {
+                    accepted = Some((values.clone(), eq.cost, vec![0.0; step.len()]));
+                }
+                break;
+            }
             if gauss_newton {
                 accepted = Some((trial, new_cost, step));
                 break;
@@ -267,6 +312,12 @@ pub(crate) fn optimize_on(
         let old_cost = eq.cost;
         *values = trial;
         report.final_cost = new_cost;
+        if converged_step {
+            report.termination = Termination::SmallDecrement;
+            report.converged = true;
+            factor_current = true;
+            break;
+        }
         let small_step = max_abs(&step) <= config.step_tolerance;
         let small_decrease = (old_cost - new_cost).abs() <= config.relative_tolerance * old_cost;
         if small_step || small_decrease {
@@ -291,5 +342,5 @@ pub(crate) fn optimize_on(
         report.converged = true;
         report.final_cost = eq.cost;
     }
-    Ok(report)
+    Ok((report, factor_current))
 }
