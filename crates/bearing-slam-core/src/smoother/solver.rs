@@ -9,12 +9,15 @@
 //! steps and fails when `H` is singular.
 //!
 //! Besides the cost-based tests, a warm-started solve (the online smoother's)
-//! can stop on the step itself: when the (nearly undamped) step's squared
-//! Newton decrement `−gᵀδ = δᵀ(H + λD)δ` is at most
-//! [`SolverConfig::decrement_tolerance`], the estimate is within
-//! `√tolerance` standard deviations of the quadratic model's minimum in
-//! every direction (`|aᵀδ| ≤ √(aᵀH⁻¹a) √(δᵀHδ)` for any `a`), so one solve
-//! decides that a problem is converged.
+//! can stop on the step itself: when a step taken with at most the initial
+//! damping has `−gᵀδ = δᵀ(H + λD)δ` at most
+//! [`SolverConfig::decrement_tolerance`], it moved every linear function
+//! `aᵀx` of the estimate by at most `√tolerance` of its standard deviation
+//! (`|aᵀδ| ≤ √(aᵀH⁻¹a) √(δᵀHδ)`), so one solve decides that a problem is
+//! converged. (For an undamped step this is the squared Newton decrement,
+//! the distance to the quadratic model's minimum; the LM damping
+//! `λ diag(H)` shortens steps along weak directions, so the test is looser
+//! there.)
 
 use super::graph::FactorGraph;
 use super::robust::RobustKernel;
@@ -51,11 +54,11 @@ pub struct SolverConfig {
     pub gradient_tolerance: f64,
     /// The first damping `λ` (relative to `diag(H)`).
     pub initial_lambda: f64,
-    /// Stop when a step taken with at most the initial damping has a
-    /// squared Newton decrement `−gᵀδ` at most this (0 disables the test):
-    /// the estimate is then within `√decrement_tolerance` standard
-    /// deviations of the linearized minimum along every direction. The
-    /// step is kept when it does not raise the cost.
+    /// Stop when a step taken with at most the initial damping has
+    /// `−gᵀδ` (the squared Newton decrement when undamped) at most this
+    /// (0 disables the test): the step moved the estimate by at most
+    /// `√decrement_tolerance` standard deviations along every direction.
+    /// The step is kept when it does not raise the cost.
     pub decrement_tolerance: f64,
 }
 
@@ -121,7 +124,7 @@ pub enum Termination {
     MaxIterations,
     /// No step lowered the cost however strongly damped.
     NoDecrease,
-    /// A nearly undamped step's squared Newton decrement fell below the
+    /// A step taken with at most the initial damping had `−gᵀδ` below the
     /// decrement tolerance.
     SmallDecrement,
 }
@@ -176,17 +179,18 @@ pub fn optimize(
 
 /// [`optimize`] on the `pattern` of `graph` and its symbolic factorization
 /// `cholesky`, which the caller keeps for more solves on the same pattern
-/// (the fixed-lag smoother's marginal of the leaving pose). The flag is
-/// `true` when the solve stopped on the decrement test: `cholesky` then
-/// holds the factor of `H + λD` (`λ` at most the initial damping) at an
-/// estimate within the tolerance of the returned one.
+/// (the fixed-lag smoother's marginal of the leaving pose). When the solve
+/// stopped on the decrement test it also returns the undamped `H` (lower
+/// triangle, `pattern`'s layout) it last assembled, at an estimate within
+/// the tolerance of the returned one (the damping `λ diag(H)` is not small
+/// for a covariance: stiff odometry makes `diag(H)` large).
 pub(crate) fn optimize_on(
     pattern: &Pattern,
     cholesky: &mut SparseCholesky,
     graph: &FactorGraph,
     values: &mut Values,
     config: &SolverConfig,
-) -> Result<(SolveReport, bool)> {
+) -> Result<(SolveReport, Option<Vec<f64>>)> {
     let gauss_newton = config.method == Method::GaussNewton;
     let mut lambda = if gauss_newton {
         0.0
@@ -205,7 +209,7 @@ pub(crate) fn optimize_on(
         converged: false,
     };
     let mut damped = vec![0.0; eq.hessian.len()];
-    let mut factor_current = false;
+    let mut converged_hessian = None;
     loop {
         if eq.cost <= config.absolute_tolerance {
             report.termination = Termination::AbsoluteCost;
@@ -253,9 +257,9 @@ pub(crate) fn optimize_on(
                 Err(e) if gauss_newton => return Err(e),
                 Err(_) => f64::INFINITY,
             };
-            // Squared Newton decrement −gᵀδ = δᵀ(H + λD)δ: judged only on a
-            // nearly undamped step (a strongly damped one is short because
-            // of λ, not because the estimate is at the minimum).
+            // −gᵀδ = δᵀ(H + λD)δ: judged only on a step damped by at most
+            // the initial λ (a strongly damped one is short because of λ,
+            // not because the estimate is at the minimum).
             let decrement: f64 = -eq
                 .gradient
                 .iter()
@@ -315,7 +319,7 @@ pub(crate) fn optimize_on(
         if converged_step {
             report.termination = Termination::SmallDecrement;
             report.converged = true;
-            factor_current = true;
+            converged_hessian = Some(std::mem::take(&mut eq.hessian));
             break;
         }
         let small_step = max_abs(&step) <= config.step_tolerance;
@@ -342,5 +346,5 @@ pub(crate) fn optimize_on(
         report.converged = true;
         report.final_cost = eq.cost;
     }
-    Ok((report, factor_current))
+    Ok((report, converged_hessian))
 }
