@@ -416,8 +416,9 @@ def markdown(rows: list[dict[str, Any]], command: str) -> str:
             "",
             "Ours: `OnlineStart::Odometry` (a new pose starts at its odometry prediction from",
             "the window's latest pose, a new landmark where the filter sees it from its pose)",
-            "with `estimator::converging_fixed_lag` (each solve stops once a step damped by at most",
-            "the initial λ has −gᵀδ ≤ 0.1²). Not the default: see docs/results/estimators.md.",
+            "with `estimator::converging_fixed_lag` (each solve stops once a step damped by at",
+            "most the initial λ has −gᵀδ ≤ 0.1²). Not the default: see",
+            "docs/results/estimators.md.",
             "",
             "| robot | our median (ms) | iSAM2 median (ms) | ratio | our total (s) "
             "| our slope | iSAM2 slope |",

@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dataset = data.join("MRCLAM_Dataset6");
     let options = EvalOptions::default();
     let default = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-    let mut converging = default.clone();
+    let mut converging = default;
     converging.smoother.online_start = OnlineStart::Odometry;
     converging.fixed_lag = converging_fixed_lag();
     println!(
