@@ -1,6 +1,7 @@
 //! The online smoother (`filter+smoother`): the EKF runs event by event and
 //! starts a [`FixedLagSmoother`] as it goes. Each scan that follows motion
-//! adds a pose, started at the filter's estimate after that scan, tied to
+//! adds a pose, started at the filter's estimate after that scan (or at its
+//! odometry prediction, [`OnlineStart`]), tied to
 //! the previous one by the odometry preintegrated through the filter's own
 //! motion model; a landmark enters the graph when the filter initializes it
 //! (at the filter's estimate), with the observations that waited for it
