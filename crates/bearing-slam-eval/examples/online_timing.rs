@@ -5,7 +5,10 @@
 //! `benches/gtsam_same_graph.py` computes it) with its accuracy (ATE,
 //! landmark RMSE, pose NEES within the 95 % bound, as
 //! `bearing-slam mrclam --estimator filter+smoother` scores it), for
-//! tuning the online mode's speed without losing its accuracy (issue #14):
+//! tuning the online mode's speed without losing its accuracy (issue #14).
+//! Two modes: `default` ([`EstimatorConfig`]'s) and `converging`
+//! (`OnlineStart::Odometry` with `converging_fixed_lag`: new poses start at
+//! the odometry prediction and each solve stops once converged):
 //!
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example online_timing -- [DATA_DIR [ROBOT]]
@@ -13,9 +16,9 @@
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
 
-use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
-use bearing_slam_core::smoother::run_online_smoother;
+use bearing_slam_core::smoother::{OnlineStart, run_online_smoother};
 use bearing_slam_eval::real_data::{EvalOptions, Method, evaluate_run_with, filter_log};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use std::path::PathBuf;
@@ -62,32 +65,43 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     );
     let dataset = data.join("MRCLAM_Dataset6");
     let options = EvalOptions::default();
-    let estimator = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    let default = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    let mut converging = default;
+    converging.smoother.online_start = OnlineStart::Odometry;
+    converging.fixed_lag = converging_fixed_lag();
     println!(
-        "| robot | updates | median (ms) | total (s) | slope | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
+        "| mode | robot | updates | median (ms) | total (s) | slope | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let only: Option<u8> = std::env::args().nth(2).and_then(|r| r.parse().ok());
-    for robot in (1..=ROBOT_COUNT).filter(|r| only.is_none_or(|o| o == *r)) {
-        let run = load_mrclam_with(&dataset, robot, &options.load)?;
-        let log = filter_log(&run, Method::Mte, &options.parameters)?;
-        let config = options
-            .parameters
-            .run_config(Method::Mte, Pose2::default())?;
-        let online = run_online_smoother(&log, &config, &estimator.smoother, estimator.fixed_lag)?;
-        let times = &online.estimator.report().update_times_s;
-        let scored = evaluate_run_with(&run, Method::Mte, &options.parameters, &estimator)?;
-        let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |x| format!("{x:.3}"));
-        println!(
-            "| {robot} | {} | {:.3} | {:.2} | {:.2} | {} | {} | {} |",
-            times.len(),
-            1e3 * median(times),
-            times.iter().sum::<f64>(),
-            flatness(times),
-            fmt(scored.ate_rmse_m),
-            fmt(scored.landmark_rmse_m),
-            fmt(scored.nees_within_95.map(|f| 100.0 * f)),
-        );
+    for (mode, estimator) in [("default", &default), ("converging", &converging)] {
+        for robot in (1..=ROBOT_COUNT).filter(|r| only.is_none_or(|o| o == *r)) {
+            let run = load_mrclam_with(&dataset, robot, &options.load)?;
+            let log = filter_log(&run, Method::Mte, &options.parameters)?;
+            let config = options
+                .parameters
+                .run_config(Method::Mte, Pose2::default())?;
+            let online =
+                run_online_smoother(&log, &config, &estimator.smoother, estimator.fixed_lag)?;
+            let times = &online.estimator.report().update_times_s;
+            let iterations = &online.estimator.report().update_iterations;
+            let cap = estimator.fixed_lag.solver.max_iterations;
+            let mean_iterations =
+                iterations.iter().sum::<usize>() as f64 / iterations.len().max(1) as f64;
+            let at_cap = iterations.iter().filter(|&&i| i >= cap).count();
+            let scored = evaluate_run_with(&run, Method::Mte, &options.parameters, estimator)?;
+            let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |x| format!("{x:.3}"));
+            println!(
+                "| {mode} | {robot} | {} | {:.3} | {:.2} | {:.2} | {mean_iterations:.2} | {at_cap} | {} | {} | {} |",
+                times.len(),
+                1e3 * median(times),
+                times.iter().sum::<f64>(),
+                flatness(times),
+                fmt(scored.ate_rmse_m),
+                fmt(scored.landmark_rmse_m),
+                fmt(scored.nees_within_95.map(|f| 100.0 * f)),
+            );
+        }
     }
     Ok(())
 }

@@ -16,7 +16,7 @@
 
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
-use super::marginals::{Marginals, marginal_covariances, marginals_of};
+use super::marginals::{Marginals, marginal_covariances, marginals_from_hessian, marginals_of};
 use super::solver::{SolveReport, SolverConfig, optimize_on};
 use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
@@ -143,11 +143,12 @@ impl FixedLagSmoother {
     /// Optimizes the window, then marginalizes the poses beyond the lag.
     /// A leaving pose's covariance is its block of `H⁻¹` at the solution,
     /// from one factorization on the solver's own symbolic analysis (not
-    /// the whole window's marginals).
+    /// the whole window's marginals), of the solver's last `H` when it
+    /// stopped on [`SolverConfig::decrement_tolerance`].
     pub fn update(&mut self) -> Result<SolveReport> {
         let pattern = Pattern::new(&self.graph, &self.values)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-        let report = optimize_on(
+        let (report, converged_hessian) = optimize_on(
             &pattern,
             &mut cholesky,
             &self.graph,
@@ -161,14 +162,21 @@ impl FixedLagSmoother {
                 .take(self.window.len() - self.config.lag)
                 .map(|id| Key::Pose(*id))
                 .collect();
-            let marginals = marginals_of(
-                &pattern,
-                &mut cholesky,
-                &self.graph,
-                &self.values,
-                &self.config.solver.robust,
-                &leaving,
-            )?;
+            // A solve stopped on the Newton decrement returns H at an
+            // estimate within the tolerance of the solution: its
+            // covariance without a new linearization.
+            let marginals = if let Some(hessian) = converged_hessian {
+                marginals_from_hessian(&pattern, &mut cholesky, hessian, &leaving)?
+            } else {
+                marginals_of(
+                    &pattern,
+                    &mut cholesky,
+                    &self.graph,
+                    &self.values,
+                    &self.config.solver.robust,
+                    &leaving,
+                )?
+            };
             while self.window.len() > self.config.lag {
                 let Some(oldest) = self.window.front().copied() else {
                     break;

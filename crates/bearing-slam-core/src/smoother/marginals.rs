@@ -131,7 +131,19 @@ pub(crate) fn marginals_of(
     keys: &[Key],
 ) -> Result<Marginals> {
     let eq = assemble(pattern, graph, values, kernel)?;
-    factorize_or_nudge(pattern, cholesky, eq.hessian)?;
+    marginals_from_hessian(pattern, cholesky, eq.hessian, keys)
+}
+
+/// The blocks of `H⁻¹` of `keys` for `hessian` (lower triangle in
+/// `pattern`'s layout, already assembled): one factorization on
+/// `cholesky`'s symbolic analysis, one solve per column of each block.
+pub(crate) fn marginals_from_hessian(
+    pattern: &Pattern,
+    cholesky: &mut SparseCholesky,
+    hessian: Vec<f64>,
+    keys: &[Key],
+) -> Result<Marginals> {
+    factorize_or_nudge(pattern, cholesky, hessian)?;
     let n = pattern.ordering.dim;
     let mut blocks = BTreeMap::new();
     let mut column = vec![0.0; n];

@@ -15,7 +15,7 @@ use super::factors::{
 use super::fixed_lag::FixedLagConfig;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
-use super::online::run_online_smoother;
+use super::online::{OnlineStart, run_online_smoother};
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
@@ -63,6 +63,8 @@ pub struct SmootherConfig {
     /// bearings they explain, and the graph is solved again (`None`: they stay out,
     /// as their bearings did before).
     pub triangulate_unmapped: Option<UnmappedTriangulation>,
+    /// Fixed-lag mode: where a new pose and a new landmark start.
+    pub online_start: OnlineStart,
 }
 
 /// How the batch smoother triangulates the landmarks the filter never
@@ -100,6 +102,7 @@ impl Default for SmootherConfig {
             landmark_prior_sigma_m: Some(100.0),
             min_initial_sigma: 1e-4,
             triangulate_unmapped: Some(UnmappedTriangulation::default()),
+            online_start: OnlineStart::Filter,
         }
     }
 }
@@ -128,6 +131,8 @@ pub struct SmootherReport {
     pub smoother_time_s: f64,
     /// Seconds of each online update (fixed-lag mode), in order.
     pub update_times_s: Vec<f64>,
+    /// Linearizations (solver iterations) of each online update, in order.
+    pub update_iterations: Vec<usize>,
 }
 
 /// The smoothed run, the filter run that started it, and the report.

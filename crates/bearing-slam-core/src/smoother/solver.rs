@@ -7,6 +7,17 @@
 //! a step when the gain ratio (actual over predicted cost decrease) is
 //! positive and updates `λ` by Nielsen's rule; Gauss–Newton (`λ = 0`) always
 //! steps and fails when `H` is singular.
+//!
+//! Besides the cost-based tests, a warm-started solve (the online smoother's)
+//! can stop on the step itself: when a step taken with at most the initial
+//! damping has `−gᵀδ = δᵀ(H + λD)δ` at most
+//! [`SolverConfig::decrement_tolerance`], it moved every linear function
+//! `aᵀx` of the estimate by at most `√tolerance` of its standard deviation
+//! (`|aᵀδ| ≤ √(aᵀH⁻¹a) √(δᵀHδ)`), so one solve decides that a problem is
+//! converged. (For an undamped step this is the squared Newton decrement,
+//! the distance to the quadratic model's minimum; the LM damping
+//! `λ diag(H)` shortens steps along weak directions, so the test is looser
+//! there.)
 
 use super::graph::FactorGraph;
 use super::robust::RobustKernel;
@@ -43,6 +54,12 @@ pub struct SolverConfig {
     pub gradient_tolerance: f64,
     /// The first damping `λ` (relative to `diag(H)`).
     pub initial_lambda: f64,
+    /// Stop when a step taken with at most the initial damping has
+    /// `−gᵀδ` (the squared Newton decrement when undamped) at most this
+    /// (0 disables the test): the step moved the estimate by at most
+    /// `√decrement_tolerance` standard deviations along every direction.
+    /// The step is kept when it does not raise the cost.
+    pub decrement_tolerance: f64,
 }
 
 impl Default for SolverConfig {
@@ -56,6 +73,7 @@ impl Default for SolverConfig {
             step_tolerance: 1e-10,
             gradient_tolerance: 1e-10,
             initial_lambda: 1e-5,
+            decrement_tolerance: 0.0,
         }
     }
 }
@@ -70,6 +88,7 @@ impl SolverConfig {
             ("step_tolerance", self.step_tolerance),
             ("gradient_tolerance", self.gradient_tolerance),
             ("initial_lambda", self.initial_lambda),
+            ("decrement_tolerance", self.decrement_tolerance),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(SlamError::InvalidParameter {
@@ -105,6 +124,9 @@ pub enum Termination {
     MaxIterations,
     /// No step lowered the cost however strongly damped.
     NoDecrease,
+    /// A step taken with at most the initial damping had `−gᵀδ` below the
+    /// decrement tolerance.
+    SmallDecrement,
 }
 
 /// What an optimization did.
@@ -152,19 +174,23 @@ pub fn optimize(
     config.validate()?;
     let pattern = Pattern::new(graph, values)?;
     let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-    optimize_on(&pattern, &mut cholesky, graph, values, config)
+    optimize_on(&pattern, &mut cholesky, graph, values, config).map(|(report, _)| report)
 }
 
 /// [`optimize`] on the `pattern` of `graph` and its symbolic factorization
 /// `cholesky`, which the caller keeps for more solves on the same pattern
-/// (the fixed-lag smoother's marginal of the leaving pose).
+/// (the fixed-lag smoother's marginal of the leaving pose). When the solve
+/// stopped on the decrement test it also returns the undamped `H` (lower
+/// triangle, `pattern`'s layout) it last assembled, at an estimate within
+/// the tolerance of the returned one (the damping `λ diag(H)` is not small
+/// for a covariance: stiff odometry makes `diag(H)` large).
 pub(crate) fn optimize_on(
     pattern: &Pattern,
     cholesky: &mut SparseCholesky,
     graph: &FactorGraph,
     values: &mut Values,
     config: &SolverConfig,
-) -> Result<SolveReport> {
+) -> Result<(SolveReport, Option<Vec<f64>>)> {
     let gauss_newton = config.method == Method::GaussNewton;
     let mut lambda = if gauss_newton {
         0.0
@@ -183,6 +209,7 @@ pub(crate) fn optimize_on(
         converged: false,
     };
     let mut damped = vec![0.0; eq.hessian.len()];
+    let mut converged_hessian = None;
     loop {
         if eq.cost <= config.absolute_tolerance {
             report.termination = Termination::AbsoluteCost;
@@ -194,6 +221,7 @@ pub(crate) fn optimize_on(
         }
         // Try steps with growing damping until one lowers the cost.
         let mut accepted = None;
+        let mut converged_step = false;
         while accepted.is_none() {
             damped.copy_from_slice(&eq.hessian);
             for &d in &pattern.diagonal {
@@ -229,6 +257,27 @@ pub(crate) fn optimize_on(
                 Err(e) if gauss_newton => return Err(e),
                 Err(_) => f64::INFINITY,
             };
+            // −gᵀδ = δᵀ(H + λD)δ: judged only on a step damped by at most
+            // the initial λ (a strongly damped one is short because of λ,
+            // not because the estimate is at the minimum).
+            let decrement: f64 = -eq
+                .gradient
+                .iter()
+                .zip(&step)
+                .map(|(g, d)| g * d)
+                .sum::<f64>();
+            if config.decrement_tolerance > 0.0
+                && lambda <= config.initial_lambda
+                && decrement <= config.decrement_tolerance
+            {
+                converged_step = true;
+                if new_cost <= eq.cost {
+                    accepted = Some((trial, new_cost, step));
+                } else {
+                    accepted = Some((values.clone(), eq.cost, vec![0.0; step.len()]));
+                }
+                break;
+            }
             if gauss_newton {
                 accepted = Some((trial, new_cost, step));
                 break;
@@ -267,6 +316,12 @@ pub(crate) fn optimize_on(
         let old_cost = eq.cost;
         *values = trial;
         report.final_cost = new_cost;
+        if converged_step {
+            report.termination = Termination::SmallDecrement;
+            report.converged = true;
+            converged_hessian = Some(std::mem::take(&mut eq.hessian));
+            break;
+        }
         let small_step = max_abs(&step) <= config.step_tolerance;
         let small_decrease = (old_cost - new_cost).abs() <= config.relative_tolerance * old_cost;
         if small_step || small_decrease {
@@ -291,5 +346,5 @@ pub(crate) fn optimize_on(
         report.converged = true;
         report.final_cost = eq.cost;
     }
-    Ok(report)
+    Ok((report, converged_hessian))
 }

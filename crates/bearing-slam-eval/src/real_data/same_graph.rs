@@ -11,16 +11,17 @@
 //! start, and written as JSON: the factors (square-root information
 //! matrices column-major), the start, our solution, its cost and the
 //! median solve time; with the time of every update of the online
-//! fixed-lag smoother (`filter+smoother`) on the same log, for the
-//! comparison with iSAM2.
+//! fixed-lag smoother (`filter+smoother`) on the same log, at its default
+//! and in its converging mode (`OnlineStart::Odometry`,
+//! `converging_fixed_lag`), for the comparison with iSAM2.
 
 use super::{EvalOptions, FilterParameters, Method, RealDataError, filter_log};
 use crate::stats::median;
-use bearing_slam_core::estimator::EstimatorConfig;
+use bearing_slam_core::estimator::{EstimatorConfig, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::smoother::{
-    Factor, RobustKernel, SolveReport, SolverConfig, Values, batch_problem, optimize,
-    run_online_smoother,
+    Factor, OnlineStart, RobustKernel, SmootherConfig, SolveReport, SolverConfig, Values,
+    batch_problem, optimize, run_online_smoother,
 };
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use serde::Serialize;
@@ -57,6 +58,9 @@ struct SameGraph<'a> {
     /// The online fixed-lag smoother (`filter+smoother`) on the same log:
     /// the time of each of its updates (one per scan), seconds, in order.
     online_update_times_s: Vec<f64>,
+    /// The same with `OnlineStart::Odometry` and
+    /// `estimator::converging_fixed_lag` (each solve stops once converged).
+    online_converging_update_times_s: Vec<f64>,
 }
 
 /// The solver's settings, for the peer to match.
@@ -126,6 +130,14 @@ pub fn export_same_graph(
             let Some(report) = report else { continue };
             let online = run_online_smoother(&log, &config, &smoother, fixed_lag)?;
             let online_update_times_s = online.estimator.report().update_times_s.clone();
+            let converging_smoother = SmootherConfig {
+                online_start: OnlineStart::Odometry,
+                ..smoother
+            };
+            let converging =
+                run_online_smoother(&log, &config, &converging_smoother, converging_fixed_lag())?;
+            let online_converging_update_times_s =
+                converging.estimator.report().update_times_s.clone();
             let SolverConfig {
                 max_iterations,
                 relative_tolerance,
@@ -159,6 +171,7 @@ pub fn export_same_graph(
                 solve_time_s: median(&times).unwrap_or(f64::NAN),
                 solve_times_s: times,
                 online_update_times_s,
+                online_converging_update_times_s,
             };
             let path = out_dir.join(format!("robot{robot}_cut{fraction}.json"));
             let file =
