@@ -1,5 +1,5 @@
 //! Patch warping (MonoSLAM's patch prediction): a patch of a rendered plane,
-//! taken from one camera and warped to a second one 1.2 m closer and
+//! taken from one camera and warped to a second one 1.8 m closer and
 //! rolled, is found where the second camera sees its point; the unwarped
 //! patch correlates worse there.
 
@@ -35,11 +35,11 @@ fn a_warped_patch_of_a_rendered_plane_is_found_at_its_known_place() {
         position: Vector3::zeros(),
         orientation: UnitQuaternion::identity(),
     };
-    // 1.2 m forward (the point grows by 3 / 1.8 = 1.67), yawed 4°, rolled 12°.
+    // 1.8 m forward (the point grows by 3 / 1.2 = 2.5), yawed 4°, rolled 20°.
     let second = CameraPose {
-        position: Vector3::new(0.1, 0.0, 1.2),
+        position: Vector3::new(0.1, 0.0, 1.8),
         orientation: UnitQuaternion::from_euler_angles(0.0, 4f64.to_radians(), 0.0)
-            * UnitQuaternion::from_euler_angles(0.0, 0.0, 12f64.to_radians()),
+            * UnitQuaternion::from_euler_angles(0.0, 0.0, 20f64.to_radians()),
     };
     let image0 = render_frame(&scene, &intrinsics, &first, w, h);
     let image1 = render_frame(&scene, &intrinsics, &second, w, h);
