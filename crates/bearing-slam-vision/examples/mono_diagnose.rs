@@ -93,5 +93,29 @@ fn main() -> ExitCode {
         median(all_best_cand.clone()),
         all_best_cand.len()
     );
+    // Where the map ended up, in the frame of the last camera (truth).
+    if let (Some(cam), Some(truth)) = (out.run.poses.last(), out.truth.last()) {
+        println!("final map (camera frame of the estimate): id, x y z m, in image?");
+        for p in &out.landmarks {
+            let c = cam
+                .orientation
+                .inverse_transform_vector(&(p.position - cam.position));
+            let px = bearing_slam_vision::frames::project_world(
+                &out.sequence.intrinsics,
+                cam,
+                &p.position,
+            );
+            println!(
+                "  {:4} {:8.2} {:8.2} {:8.2}  {:?}  σ_depth {:.2}",
+                p.feature_id,
+                c.x,
+                c.y,
+                c.z,
+                px.map(|q| (q.x.round(), q.y.round())),
+                p.covariance.trace().sqrt()
+            );
+        }
+        let _ = truth;
+    }
     ExitCode::SUCCESS
 }
