@@ -1,5 +1,5 @@
-//! Patch warping to the predicted view (Davison et al., MonoSLAM, PAMI 2007
-//! §3.4; Civera, Davison & Montiel 2008): the surface around a feature is
+//! Patch warping to the predicted view (Davison, Reid, Molton & Stasse,
+//! MonoSLAM, PAMI 2007; Civera, Davison & Montiel 2008): the surface around a feature is
 //! taken as locally planar, its normal pointing at the camera that took the
 //! patch; the stored pixels are mapped into the predicted view by the
 //! homography this plane induces between the two cameras,
