@@ -35,6 +35,12 @@ fn main() -> ExitCode {
             println!(
                 "landmark matches used per frame: {used:?}; rejected by the gate: {rejected}; landmarks initialized: {initialized}"
             );
+            let rescued: usize = out.reports.iter().map(|r| r.rescued).sum();
+            let outliers: usize = out.reports.iter().map(|r| r.ransac_outliers).sum();
+            let warped: usize = out.run.searches.iter().map(|s| s.warped).sum();
+            println!(
+                "1-point RANSAC: {outliers} outliers, {rescued} rescued; searches with a warped patch: {warped}"
+            );
             match serde_json::to_string_pretty(&out.metrics) {
                 Ok(json) => println!("{json}"),
                 Err(e) => eprintln!("mono_run: {e}"),

@@ -24,6 +24,7 @@ pub mod render;
 pub mod run;
 pub mod scene;
 pub mod search;
+pub mod warp;
 
 pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_length};
 pub use error::{Result, VisionError};
@@ -32,4 +33,4 @@ pub use oracle::GroundTruthOracle;
 pub use pipeline::{FilterKind, MonoOutput, MonoRunConfig, run_directory};
 pub use render::{SyntheticConfig, render_sequence};
 pub use run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
-pub use search::{SearchConfig, active_search};
+pub use search::{PredictedView, SearchConfig, active_search, active_search_warped};

@@ -35,6 +35,18 @@ impl Patch {
             let start = row as usize * stride + (x - half) as usize;
             values.extend(raw[start..start + side].iter().map(|&g| f32::from(g)));
         }
+        Self::from_values(half, values, Vector2::new(f64::from(x), f64::from(y)))
+    }
+
+    /// A patch from its `(2·half + 1)²` grey values, row by row (e.g. a
+    /// patch warped to a predicted view, [`crate::warp`]), recorded as taken
+    /// at `taken_at`; `None` if the count is wrong or the values are too
+    /// flat (standard deviation below [`MIN_PATCH_STD`]).
+    pub fn from_values(half: u32, mut values: Vec<f32>, taken_at: Vector2<f64>) -> Option<Self> {
+        let side = (2 * half + 1) as usize;
+        if values.len() != side * side {
+            return None;
+        }
         let n = values.len() as f32;
         let mean = values.iter().sum::<f32>() / n;
         values.iter_mut().for_each(|v| *v -= mean);
@@ -46,7 +58,7 @@ impl Patch {
             half,
             values,
             norm,
-            taken_at: Vector2::new(f64::from(x), f64::from(y)),
+            taken_at,
         })
     }
 

@@ -71,6 +71,10 @@ pub struct MonoRunConfig {
     pub candidate_sigma_px: Option<f64>,
     /// Run at most this many frames.
     pub max_frames: Option<usize>,
+    /// Reject outlier matches by 1-point RANSAC before each update
+    /// (Civera et al. 2010, with the settings of
+    /// [`bearing_slam_core::mono::OnePointRansac::default`]).
+    pub one_point_ransac: bool,
 }
 
 impl Default for MonoRunConfig {
@@ -90,6 +94,7 @@ impl Default for MonoRunConfig {
             candidate_depth_m: None,
             candidate_sigma_px: None,
             max_frames: None,
+            one_point_ransac: true,
         }
     }
 }
@@ -154,6 +159,9 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
     }
     if let Some(s) = config.candidate_sigma_px {
         core.candidate_search_sigma = s;
+    }
+    if config.one_point_ransac {
+        core.ransac = Some(bearing_slam_core::mono::OnePointRansac::default());
     }
     core.validate()?;
     Ok(core)
@@ -271,5 +279,9 @@ impl MonoFilter for Reporting {
 
     fn landmarks(&self) -> Vec<MapPoint> {
         self.inner.landmarks()
+    }
+
+    fn feature_points(&self) -> Vec<(u64, nalgebra::Vector3<f64>)> {
+        self.inner.feature_points()
     }
 }

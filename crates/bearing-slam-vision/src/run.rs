@@ -9,7 +9,8 @@ use crate::detect::{DetectorConfig, detect_features};
 use crate::error::{Result, VisionError};
 use crate::frames::FrameSequence;
 use crate::patch::Patch;
-use crate::search::{FrameSearch, PatchStore, SearchConfig, active_search};
+use crate::search::{FrameSearch, PatchStore, PredictedView, SearchConfig, active_search_warped};
+use crate::warp::PatchView;
 use bearing_slam_core::mono::{CameraPose, MonoFilter};
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
@@ -57,6 +58,13 @@ impl FrontEndConfig {
                 name: "max_half_axis_px",
                 value: s.max_half_axis_px,
                 reason: "must be at least 1 pixel",
+            });
+        }
+        if s.warp && s.warp_window_half <= s.patch_half {
+            return Err(VisionError::InvalidParameter {
+                name: "warp_window_half",
+                value: s.warp_window_half.into(),
+                reason: "must exceed patch_half (the window holds the patch and its surround)",
             });
         }
         if s.patch_half == 0 || s.patch_half > 32 {
@@ -148,12 +156,34 @@ pub fn run_mono<F: MonoFilter>(
         let clock = Instant::now();
         let ids: Vec<u64> = regions.iter().map(|r| r.feature_id).collect();
         store.retain_ids(&ids);
-        let search = active_search(&image, &regions, &mut store, &config.search)?;
+        stats.front_end_s += clock.elapsed().as_secs_f64();
+
+        // The warp needs the predicted camera and the feature points.
+        let clock = Instant::now();
+        let predicted = config.search.warp.then(|| PredictedView {
+            intrinsics: frames.intrinsics,
+            pose: filter.camera_pose(),
+            points: filter.feature_points().into_iter().collect(),
+        });
+        stats.filter_s += clock.elapsed().as_secs_f64();
+
+        let clock = Instant::now();
+        let search = active_search_warped(
+            &image,
+            &regions,
+            &mut store,
+            &config.search,
+            predicted.as_ref(),
+        )?;
         stats.front_end_s += clock.elapsed().as_secs_f64();
 
         let clock = Instant::now();
         filter.update(&search.found, &search.missed)?;
+        let updated_pose = filter.camera_pose();
         stats.filter_s += clock.elapsed().as_secs_f64();
+        for &id in &search.refreshed_ids {
+            store.set_view_pose(id, updated_pose);
+        }
 
         // Where the map is thin: the visible features are the ones searched
         // (found or missed); new ones keep their distance from all predictions.
@@ -196,8 +226,19 @@ pub fn run_mono<F: MonoFilter>(
                 new_px.len()
             )));
         }
-        for (id, patch) in new_ids.into_iter().zip(new_patches) {
+        for ((id, patch), px) in new_ids.into_iter().zip(new_patches).zip(&new_px) {
             store.insert(id, patch);
+            if config.search.warp
+                && let Some(view) = PatchView::capture(
+                    &image,
+                    px.x as u32,
+                    px.y as u32,
+                    config.search.warp_window_half,
+                    pose,
+                )
+            {
+                store.insert_view(id, view);
+            }
         }
         stats.regions = regions.len();
         stats.found = search.found.len();

@@ -5,10 +5,12 @@
 //! measurement (refined to sub-pixel by a parabola through the neighbours).
 
 use crate::error::{Result, VisionError};
+use crate::frames::Intrinsics;
 use crate::patch::Patch;
-use bearing_slam_core::mono::{PixelObservation, SearchRegion};
+use crate::warp::{PatchView, warp_patch};
+use bearing_slam_core::mono::{CameraPose, PixelObservation, SearchRegion};
 use image::GrayImage;
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::HashMap;
 
@@ -33,6 +35,14 @@ pub struct SearchConfig {
     pub patch_half: u32,
     /// Refine the best match to sub-pixel precision.
     pub subpixel: bool,
+    /// Warp each patch to the predicted view through the plane of its
+    /// feature before searching ([`crate::warp`], MonoSLAM's patch
+    /// prediction); needs the filter's feature points.
+    pub warp: bool,
+    /// Half side of the source window kept around each patch for warping,
+    /// pixels (15 → 31×31: the 11×11 patch under a scale change down to
+    /// ~0.35 or a shift of ±10 px).
+    pub warp_window_half: u32,
 }
 
 impl Default for SearchConfig {
@@ -45,6 +55,8 @@ impl Default for SearchConfig {
             max_half_axis_px: 60.0,
             patch_half: 5,
             subpixel: true,
+            warp: true,
+            warp_window_half: 15,
         }
     }
 }
@@ -176,12 +188,30 @@ pub struct FrameSearch {
     pub records: Vec<SearchRecord>,
     /// Patches refreshed this frame.
     pub refreshed: usize,
+    /// The ids of the refreshed patches (their views take the camera pose
+    /// after the update).
+    pub refreshed_ids: Vec<u64>,
+    /// Searches made with a warped patch.
+    pub warped: usize,
+}
+
+/// What the warp needs of the filter's prediction: the camera where the
+/// filter predicts it, and the estimated world point of each feature.
+#[derive(Clone, Debug)]
+pub struct PredictedView {
+    /// The camera's intrinsics.
+    pub intrinsics: Intrinsics,
+    /// The predicted camera pose (world_from_camera).
+    pub pose: CameraPose,
+    /// The estimated world point of each tracked feature, by id.
+    pub points: HashMap<u64, Vector3<f64>>,
 }
 
 /// The patches of the tracked features, by feature id.
 #[derive(Clone, Debug, Default)]
 pub struct PatchStore {
     patches: HashMap<u64, Patch>,
+    views: HashMap<u64, PatchView>,
 }
 
 impl PatchStore {
@@ -193,6 +223,24 @@ impl PatchStore {
     /// Stores (or replaces) a feature's patch.
     pub fn insert(&mut self, feature_id: u64, patch: Patch) {
         self.patches.insert(feature_id, patch);
+    }
+
+    /// Stores (or replaces) where a feature's patch was taken, for warping.
+    pub fn insert_view(&mut self, feature_id: u64, view: PatchView) {
+        self.views.insert(feature_id, view);
+    }
+
+    /// Where a feature's patch was taken.
+    pub fn view(&self, feature_id: u64) -> Option<&PatchView> {
+        self.views.get(&feature_id)
+    }
+
+    /// Sets the camera pose of a feature's stored view (after the update of
+    /// the frame in which the patch was refreshed).
+    pub fn set_view_pose(&mut self, feature_id: u64, pose: CameraPose) {
+        if let Some(v) = self.views.get_mut(&feature_id) {
+            v.pose = pose;
+        }
     }
 
     /// A feature's patch.
@@ -214,6 +262,7 @@ impl PatchStore {
     pub fn retain_ids(&mut self, alive: &[u64]) {
         let alive: std::collections::HashSet<u64> = alive.iter().copied().collect();
         self.patches.retain(|id, _| alive.contains(id));
+        self.views.retain(|id, _| alive.contains(id));
     }
 }
 
@@ -227,6 +276,20 @@ pub fn active_search(
     store: &mut PatchStore,
     config: &SearchConfig,
 ) -> Result<FrameSearch> {
+    active_search_warped(image, regions, store, config, None)
+}
+
+/// [`active_search`] with each patch warped to `predicted` first when
+/// `config.warp` is on and the feature has a stored view and an estimated
+/// point (otherwise its stored patch is used as it is). A refreshed patch
+/// keeps a new view, posed at `predicted` until [`PatchStore::set_view_pose`].
+pub fn active_search_warped(
+    image: &GrayImage,
+    regions: &[SearchRegion],
+    store: &mut PatchStore,
+    config: &SearchConfig,
+    predicted: Option<&PredictedView>,
+) -> Result<FrameSearch> {
     let chi2 = chi2_quantile_2dof(config.confidence)?;
     let mut out = FrameSearch::default();
     for region in regions {
@@ -239,19 +302,41 @@ pub fn active_search(
             });
             continue;
         };
-        let outcome = search_region(image, patch, region, chi2, config)?;
+        let warped = match (config.warp, predicted, store.view(id)) {
+            (true, Some(p), Some(view)) => p.points.get(&id).and_then(|point| {
+                warp_patch(view, &p.intrinsics, point, &p.pose, patch.half()).map(|(w, _)| w)
+            }),
+            _ => None,
+        };
+        if warped.is_some() {
+            out.warped += 1;
+        }
+        let taken_at = patch.taken_at;
+        let outcome = search_region(
+            image,
+            warped.as_ref().unwrap_or(patch),
+            region,
+            chi2,
+            config,
+        )?;
         match outcome {
             SearchOutcome::Found { px, score } => {
                 out.found.push(PixelObservation { feature_id: id, px });
-                if score >= config.refresh_ncc
-                    && (px - patch.taken_at).norm() >= config.refresh_shift_px
+                if score >= config.refresh_ncc && (px - taken_at).norm() >= config.refresh_shift_px
                 {
-                    let (x, y) = (px.x.round(), px.y.round());
-                    if let Some(fresh) =
-                        Patch::extract(image, x as u32, y as u32, config.patch_half)
-                    {
+                    let (x, y) = (px.x.round() as u32, px.y.round() as u32);
+                    if let Some(fresh) = Patch::extract(image, x, y, config.patch_half) {
                         store.insert(id, fresh);
+                        if let Some(p) = predicted {
+                            match PatchView::capture(image, x, y, config.warp_window_half, p.pose) {
+                                Some(view) => store.insert_view(id, view),
+                                None => {
+                                    store.views.remove(&id);
+                                }
+                            }
+                        }
                         out.refreshed += 1;
+                        out.refreshed_ids.push(id);
                     }
                 }
             }

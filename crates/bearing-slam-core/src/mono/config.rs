@@ -4,6 +4,7 @@
 use super::camera::PinholeCamera;
 use super::init::MonoInitializer;
 use super::motion::ConstantVelocity;
+use super::ransac::OnePointRansac;
 use crate::error::{Result, SlamError, ensure_in_range, ensure_positive_noise};
 use crate::init::TriangulationConfig;
 use nalgebra::{Vector3, Vector4};
@@ -38,6 +39,10 @@ pub struct MonoConfig {
     /// Depth, metres, at which a candidate's last ray is placed to predict
     /// where it appears next.
     pub candidate_nominal_depth: f64,
+    /// 1-point RANSAC against outlier matches before the update (Civera et
+    /// al. 2010); `None` updates with every gated match.
+    #[serde(default)]
+    pub ransac: Option<OnePointRansac>,
 }
 
 impl MonoConfig {
@@ -66,6 +71,7 @@ impl MonoConfig {
             gate_probability: 0.9999,
             candidate_search_sigma: 15.0,
             candidate_nominal_depth: 3.0,
+            ransac: None,
         }
     }
 
@@ -117,6 +123,9 @@ impl MonoConfig {
                 self.candidate_nominal_depth > 0.0,
             ),
         ])?;
+        if let Some(r) = &self.ransac {
+            r.validate()?;
+        }
         if self.max_consecutive_misses == 0 {
             return Err(SlamError::InvalidParameter {
                 name: "max_consecutive_misses",

@@ -7,6 +7,7 @@
 
 use super::filter::{FeatureOrigin, MonoSlam};
 use super::init::{Candidate3, decide_3d, triangulate_3d, world_ray};
+use super::landmark::{Parameterization3, inverse_depth_to_xyz};
 use super::motion::{CAMERA_DIM, POSITION, QUATERNION};
 use super::observation::XyzPixel;
 use crate::ekf::BlockJacobian;
@@ -54,6 +55,35 @@ impl MonoSlam {
         .predict(&x_v, &point)?;
         let wide = Matrix2::identity() * self.config.candidate_search_sigma.powi(2);
         Ok((p.value, wide + self.pixel_noise()))
+    }
+
+    /// The world point of every tracked feature as the filter predicts it:
+    /// a landmark at its estimate (inverse depth through (28), skipped while
+    /// `ρ ≤ 0`), a candidate on its last ray at the nominal depth (where
+    /// [`MonoSlam::candidate_region`] predicts it).
+    pub(super) fn feature_points_estimate(&self) -> Vec<(u64, Vector3<f64>)> {
+        let mut points = Vec::with_capacity(self.landmarks.len() + self.candidates.len());
+        for (&id, feature) in &self.landmarks {
+            let point = match feature.kind {
+                Parameterization3::Xyz => self.ekf.block::<3>(feature.offset).ok(),
+                Parameterization3::InverseDepth => self
+                    .ekf
+                    .block::<6>(feature.offset)
+                    .ok()
+                    .and_then(|y| inverse_depth_to_xyz(&y).ok().map(|(p, _)| p)),
+            };
+            if let Some(p) = point {
+                points.push((id, p));
+            }
+        }
+        for (&id, pending) in &self.candidates {
+            points.push((
+                id,
+                pending.last_position
+                    + pending.last_ray.normalize() * self.config.candidate_nominal_depth,
+            ));
+        }
+        points
     }
 
     /// The clone of the current camera pose, taken at the first request

@@ -60,6 +60,11 @@ pub struct MonoUpdateReport {
     pub converted: usize,
     /// NIS of the batch update.
     pub nis: f64,
+    /// 1-point RANSAC: matches used as high-innovation inliers after the
+    /// rescue (included in `used`).
+    pub rescued: usize,
+    /// 1-point RANSAC: matches rejected as outliers (included in `rejected`).
+    pub ransac_outliers: usize,
 }
 
 /// The 6-DOF monocular SLAM filter (Munguía & Grau §"SLAM monocular").
@@ -240,7 +245,11 @@ impl MonoSlam {
     }
 
     /// Linearizes the pixel measurement of a map landmark (29).
-    fn linearize(&self, feature: &Feature, px: &Vector2<f64>) -> Result<LinearizedMeasurement> {
+    pub(super) fn linearize(
+        &self,
+        feature: &Feature,
+        px: &Vector2<f64>,
+    ) -> Result<LinearizedMeasurement> {
         let noise = self.pixel_noise();
         let camera = self.config.camera;
         match feature.kind {
@@ -334,7 +343,7 @@ impl MonoSlam {
 
     /// Renormalizes the quaternion after an update, `q ← q/‖q‖`, with the
     /// normalization's Jacobian applied to the covariance.
-    fn normalize_quaternion(&mut self) -> Result<()> {
+    pub(super) fn normalize_quaternion(&mut self) -> Result<()> {
         let q = self.ekf.block::<4>(QUATERNION)?;
         let (unit, j) = normalize(&q).ok_or(SlamError::Degenerate("camera quaternion is zero"))?;
         self.ekf.reparameterize(
@@ -376,6 +385,7 @@ impl MonoSlam {
             f64::INFINITY
         };
         let mut batch = Vec::new();
+        let mut batch_obs = Vec::new();
         let mut rejected = Vec::new();
         for o in found {
             let Some(feature) = self.landmarks.get(&o.feature_id).copied() else {
@@ -395,6 +405,10 @@ impl MonoSlam {
                 f.misses = 0;
             }
             batch.push(m);
+            batch_obs.push(*o);
+        }
+        if let Some(ransac) = self.config.ransac {
+            return self.update_map_ransac(&ransac, batch, &batch_obs, rejected);
         }
         self.last_report.used = batch.len();
         self.last_report.rejected = rejected.len();
@@ -692,6 +706,10 @@ impl MonoFilter for MonoSlam {
             .keys()
             .filter_map(|&id| self.map_point(id).ok().flatten())
             .collect()
+    }
+
+    fn feature_points(&self) -> Vec<(u64, Vector3<f64>)> {
+        self.feature_points_estimate()
     }
 }
 

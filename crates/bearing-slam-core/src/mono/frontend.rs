@@ -82,4 +82,12 @@ pub trait MonoFilter {
     fn landmarks(&self) -> Vec<MapPoint> {
         Vec::new()
     }
+
+    /// The world point at which the filter currently places each tracked
+    /// feature (map landmarks at their estimate, candidates where their
+    /// search region is predicted), for warping patches to the predicted
+    /// view. Defaults to none: the front end then searches unwarped.
+    fn feature_points(&self) -> Vec<(u64, Vector3<f64>)> {
+        Vec::new()
+    }
 }

@@ -32,6 +32,7 @@ pub mod metrics;
 pub mod motion;
 pub mod observation;
 pub mod quaternion;
+pub mod ransac;
 
 pub use camera::PinholeCamera;
 pub use config::{MonoConfig, MonoStart};
@@ -39,3 +40,4 @@ pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
 pub use frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
 pub use init::MonoInitializer;
 pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
+pub use ransac::{OnePointRansac, RansacSplit};

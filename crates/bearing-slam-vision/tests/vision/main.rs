@@ -9,3 +9,4 @@ mod frames_errors;
 mod oracle_loop;
 mod render_truth;
 mod search;
+mod warp;
