@@ -44,23 +44,36 @@ struct Row {
     costs: Vec<(usize, usize, f64)>,
 }
 
-/// `base` with association `method` and the ablations read from the
-/// environment: `ASSOCIATION_TRACK_GAP_S` (seconds), `ASSOCIATION_NO_EXCLUSION`
-/// `ASSOCIATION_NO_MERGE`, `ASSOCIATION_NO_TRACK_PAIRING` and
-/// `ASSOCIATION_NO_AMBIGUITY`, `ASSOCIATION_NO_AMBIGUOUS_PAIRING` (set: that fix off).
+/// `base` with association `method` and the options read from the
+/// environment: `ASSOCIATION_TRACK_GAP_S` (seconds), and `0` or `1` in
+/// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
+/// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
+/// turn that option of [`AssociationConfig`] off or on (unset: its default).
 fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
+    let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
+        Ok("0") => false,
+        Ok("1") => true,
+        _ => default,
+    };
     let mut config = base.clone();
+    let d = config.slam.association;
     config.slam.association = AssociationConfig {
         method,
         track_max_gap_s: std::env::var("ASSOCIATION_TRACK_GAP_S")
             .ok()
             .and_then(|s| s.parse().ok()),
-        exclusive_track_births: std::env::var_os("ASSOCIATION_NO_EXCLUSION").is_none(),
-        merge_duplicates: std::env::var_os("ASSOCIATION_NO_MERGE").is_none(),
-        associate_tracks: std::env::var_os("ASSOCIATION_NO_TRACK_PAIRING").is_none(),
-        skip_ambiguous_sightings: std::env::var_os("ASSOCIATION_NO_AMBIGUITY").is_none(),
-        skip_ambiguous_pairings: std::env::var_os("ASSOCIATION_NO_AMBIGUOUS_PAIRING").is_none(),
-        ..config.slam.association
+        exclusive_track_births: switch("ASSOCIATION_EXCLUSION", d.exclusive_track_births),
+        merge_duplicates: switch("ASSOCIATION_MERGE", d.merge_duplicates),
+        associate_tracks: switch("ASSOCIATION_TRACK_PAIRING", d.associate_tracks),
+        skip_ambiguous_sightings: switch(
+            "ASSOCIATION_AMBIGUOUS_SIGHTINGS",
+            d.skip_ambiguous_sightings,
+        ),
+        skip_ambiguous_pairings: switch(
+            "ASSOCIATION_AMBIGUOUS_PAIRINGS",
+            d.skip_ambiguous_pairings,
+        ),
+        ..d
     };
     config
 }
