@@ -44,15 +44,42 @@ struct Row {
     costs: Vec<(usize, usize, f64)>,
 }
 
-fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<Row> {
+/// `base` with association `method` and the options read from the
+/// environment: `ASSOCIATION_TRACK_GAP_S` (seconds), and `0` or `1` in
+/// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
+/// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
+/// turn that option of [`AssociationConfig`] off or on (unset: its default).
+fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
+    let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
+        Ok("0") => false,
+        Ok("1") => true,
+        _ => default,
+    };
     let mut config = base.clone();
+    let d = config.slam.association;
     config.slam.association = AssociationConfig {
         method,
         track_max_gap_s: std::env::var("ASSOCIATION_TRACK_GAP_S")
             .ok()
             .and_then(|s| s.parse().ok()),
-        ..config.slam.association
+        exclusive_track_births: switch("ASSOCIATION_EXCLUSION", d.exclusive_track_births),
+        merge_duplicates: switch("ASSOCIATION_MERGE", d.merge_duplicates),
+        associate_tracks: switch("ASSOCIATION_TRACK_PAIRING", d.associate_tracks),
+        skip_ambiguous_sightings: switch(
+            "ASSOCIATION_AMBIGUOUS_SIGHTINGS",
+            d.skip_ambiguous_sightings,
+        ),
+        skip_ambiguous_pairings: switch(
+            "ASSOCIATION_AMBIGUOUS_PAIRINGS",
+            d.skip_ambiguous_pairings,
+        ),
+        ..d
     };
+    config
+}
+
+fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<Row> {
+    let config = configured(base, method);
     let output: RunOutput = run(log, &config)?;
     let summary = summarize(log, &output)?;
     Ok(Row {
@@ -66,9 +93,9 @@ fn pct(x: f64) -> String {
     format!("{:.1}", 100.0 * x)
 }
 
-fn sim(seeds: u64) -> Res<()> {
+fn sim(seeds: u64, first_seed: u64) -> Res<()> {
     println!(
-        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates | spurious (at end) | removed | missed | ATE m | ATE / known |"
+        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates (at end) | spurious (at end) | removed | missed | ATE m | ATE / known |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let only = std::env::var("ASSOCIATION_SCENARIO").ok();
@@ -83,9 +110,13 @@ fn sim(seeds: u64) -> Res<()> {
             (0.0, true, false),
             (0.0, false, true),
         ] {
+            // ASSOCIATION_TARGETS_ONLY: the target rows (clutter 0, 1, 5).
+            if (distractor || dense) && std::env::var_os("ASSOCIATION_TARGETS_ONLY").is_some() {
+                continue;
+            }
             // method -> sums over seeds
-            let mut sums: BTreeMap<&str, [f64; 8]> = BTreeMap::new();
-            for seed in 0..seeds {
+            let mut sums: BTreeMap<&str, [f64; 9]> = BTreeMap::new();
+            for seed in first_seed..first_seed + seeds {
                 let mut scenario = Scenario::named(name, seed)?;
                 scenario.clutter.per_scan = clutter;
                 if distractor {
@@ -142,6 +173,7 @@ fn sim(seeds: u64) -> Res<()> {
                         s.missed as f64,
                         row.ate,
                         s.removed as f64,
+                        s.duplicates_at_end as f64,
                     ]
                     .into_iter()
                     .enumerate()
@@ -157,13 +189,14 @@ fn sim(seeds: u64) -> Res<()> {
                 let s = sums.get(method_name(method)).copied().unwrap_or_default();
                 let known = method == AssociationMethod::Known;
                 println!(
-                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} |",
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} ({:.1}) | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} |",
                     if distractor { "yes" } else { "no" },
                     if dense { "yes" } else { "no" },
                     method_name(method),
                     if known { "—".into() } else { pct(s[0] / n) },
                     if known { "—".into() } else { pct(s[1] / n) },
                     s[2] / n,
+                    s[8] / n,
                     s[3] / n,
                     s[4] / n,
                     s[7] / n,
@@ -174,6 +207,70 @@ fn sim(seeds: u64) -> Res<()> {
             }
         }
     }
+    Ok(())
+}
+
+/// One run in detail (`diag SCENARIO SEED CLUTTER METHOD`): the true
+/// landmarks, then every landmark the filter mapped with where it entered the
+/// map, the nearest true landmark and the nearest landmark already mapped,
+/// then the scores and ATE.
+fn diag(args: &[String]) -> Res<()> {
+    use bearing_slam::core::trace::SlamEvent;
+    let name = args.first().map_or("paper_fig8", String::as_str);
+    let seed: u64 = args.get(1).map_or(Ok(0), |s| s.parse())?;
+    let clutter: f64 = args.get(2).map_or(Ok(0.0), |s| s.parse())?;
+    let method: AssociationMethod = args
+        .get(3)
+        .map_or(Ok(AssociationMethod::Jcbb), |s| s.parse())?;
+    let mut scenario = Scenario::named(name, seed)?;
+    scenario.clutter.per_scan = clutter;
+    let truth = scenario.landmark_truth()?;
+    for l in &truth {
+        println!("truth {} ({:.2}, {:.2})", l.id, l.x, l.y);
+    }
+    let log = simulate(&scenario)?;
+    let config = default_run_config(&log)?;
+    let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+    let run_config = configured(&config, method);
+    let output = run(&log, &run_config)?;
+    let summary = summarize(&log, &output)?;
+    for e in &output.trace.events {
+        let SlamEvent::LandmarkInitialized { id, .. } = e.event else {
+            continue;
+        };
+        let Some(snap) = output
+            .trace
+            .snapshots
+            .iter()
+            .find(|s| s.time >= e.time && s.landmarks.iter().any(|l| l.id == id))
+        else {
+            continue;
+        };
+        let Some(l) = snap.landmarks.iter().find(|l| l.id == id) else {
+            continue;
+        };
+        let nearest_truth = truth
+            .iter()
+            .map(|t| (t.id, (t.x - l.x).hypot(t.y - l.y)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        let nearest_mapped = snap
+            .landmarks
+            .iter()
+            .filter(|o| o.id != id)
+            .map(|o| (o.id, (o.x - l.x).hypot(o.y - l.y)))
+            .min_by(|a, b| a.1.total_cmp(&b.1));
+        println!(
+            "mapped {id} at t={:.1}: ({:.2}, {:.2}) σ=({:.2}, {:.2}); nearest truth {nearest_truth:?}; nearest mapped {nearest_mapped:?}; robot σθ={:.1}°",
+            e.time,
+            l.x,
+            l.y,
+            l.covariance[0][0].sqrt(),
+            l.covariance[1][1].sqrt(),
+            snap.pose_covariance[2][2].sqrt().to_degrees(),
+        );
+    }
+    println!("score {:?}", output.association);
+    println!("ATE {:.3} m, known {known:.3} m", summary.ate_rmse_m);
     Ok(())
 }
 
@@ -320,12 +417,19 @@ fn cost() -> Res<()> {
 fn main() -> Res<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     match args.first().map(String::as_str) {
-        Some("sim") => sim(args.get(1).map_or(Ok(3), |s| s.parse())?),
+        Some("sim") => sim(
+            args.get(1).map_or(Ok(3), |s| s.parse())?,
+            args.get(2).map_or(Ok(0), |s| s.parse())?,
+        ),
         Some("cost") => cost(),
+        Some("diag") => diag(&args[1..]),
         Some("mrclam") => mrclam(Path::new(args.get(1).map_or(
             "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
             String::as_str,
         ))),
-        _ => Err("usage: association sim [SEEDS] | mrclam [DATASET_DIR] | cost".into()),
+        _ => Err(
+            "usage: association sim [SEEDS [FIRST_SEED]] | mrclam [DATASET_DIR] | cost | diag SCENARIO SEED CLUTTER METHOD"
+                .into(),
+        ),
     }
 }

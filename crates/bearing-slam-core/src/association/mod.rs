@@ -107,12 +107,42 @@ pub struct AssociationConfig {
     /// and the hit ratio and scan misses are not used. `None` (the
     /// default): scans.
     pub track_max_gap_s: Option<f64>,
+    /// Mutual exclusion: a bearing inside a mapped landmark's individual
+    /// gate that the pairing did not give to it never starts a new track
+    /// (it may still join one). Off by default: it changed little on the
+    /// simulated runs and, on the kinematic run with a pacing distractor,
+    /// left a distractor landmark in the map that the moving-object removal
+    /// otherwise clears (docs/results/association.md).
+    pub exclusive_track_births: bool,
+    /// Removes the younger of two mapped landmarks whose estimates are the
+    /// same point within the χ²₂ gate at `gate_probability` (the exact
+    /// covariance of their difference): a landmark mapped twice. On by
+    /// default.
+    pub merge_duplicates: bool,
+    /// Pairs the scan's bearings with the mapped landmarks and the tracks
+    /// that have a point jointly (JCBB or nearest neighbour on the combined
+    /// hypothesis set), so that a bearing of a landmark not mapped yet that
+    /// its track explains better is not taken by a mapped landmark.
+    pub associate_tracks: bool,
+    /// A track whose gate holds more than one of a scan's bearings takes
+    /// none of them that scan (neither a hit nor a miss): the closest one
+    /// would bias the track towards its own prediction. Off by default: on
+    /// `paper_fig8` it stops the bogus tracks but almost no track confirms
+    /// (docs/results/association.md).
+    pub skip_ambiguous_sightings: bool,
+    /// A mapped landmark whose individual χ²₁ gate holds more than one of
+    /// the scan's bearings is not updated that scan (its bearing goes to
+    /// the tracks): which bearing is its own is a guess. Off by default:
+    /// with clutter it trades recall for precision and does not lower the
+    /// ATE (docs/results/association.md).
+    pub skip_ambiguous_pairings: bool,
 }
 
 impl Default for AssociationConfig {
     /// Known association; gates at 0.999; 10 000 JCBB nodes; tracks confirmed
     /// after 15 sightings seen in 70 % of their scans, dropped after 3
-    /// misses; no removal of mapped landmarks.
+    /// misses; no removal of moving objects; duplicate merging on; mutual
+    /// exclusion of track births, track pairing and the ambiguity options off.
     fn default() -> Self {
         Self {
             method: AssociationMethod::Known,
@@ -125,6 +155,11 @@ impl Default for AssociationConfig {
             max_tracks: 200,
             moving_object_nis_factor: None,
             track_max_gap_s: None,
+            exclusive_track_births: false,
+            merge_duplicates: true,
+            associate_tracks: false,
+            skip_ambiguous_sightings: false,
+            skip_ambiguous_pairings: false,
         }
     }
 }

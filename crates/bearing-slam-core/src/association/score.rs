@@ -71,6 +71,13 @@ pub struct AssociationScore {
     pub mapped: usize,
     /// Mapped landmarks owned by a true id that owns another one already.
     pub duplicates: usize,
+    /// Of those, the ones still in the map at the end (the others were
+    /// merged into the landmark they duplicated, or removed).
+    #[serde(default)]
+    pub duplicates_at_end: usize,
+    /// Landmarks removed as duplicates of another mapped landmark.
+    #[serde(default)]
+    pub merged: usize,
     /// Landmarks ever mapped that were owned by clutter or a moving distractor.
     pub spurious: usize,
     /// Of those, the ones still in the map at the end (the others were
@@ -154,9 +161,18 @@ pub fn score(
         }
     }
     let mut owned: BTreeMap<u64, usize> = BTreeMap::new();
-    for &truth in owner.values() {
+    let mut owned_at_end: BTreeMap<u64, usize> = BTreeMap::new();
+    for (id, &truth) in &owner {
         *owned.entry(truth).or_default() += 1;
+        if !deaths.contains_key(id) {
+            *owned_at_end.entry(truth).or_default() += 1;
+        }
     }
+    out.duplicates_at_end = owned_at_end
+        .iter()
+        .filter(|&(&truth, _)| truth_kind(truth) == TruthKind::Landmark)
+        .map(|(_, &n)| n.saturating_sub(1))
+        .sum();
     for (&truth, &n) in &owned {
         if truth_kind(truth) == TruthKind::Landmark {
             out.duplicates += n - 1;
@@ -219,6 +235,16 @@ mod tests {
         assert_eq!(s.correct, 3);
         assert_eq!((s.mapped, s.duplicates, s.spurious, s.missed), (3, 1, 1, 1));
         assert_eq!((s.removed, s.spurious_at_end), (1, 0));
+        // Landmarks 10 and 11 both own true id 1 and are both still mapped.
+        assert_eq!(s.duplicates_at_end, 1);
+        let s = score(
+            &records,
+            &births,
+            &BTreeMap::from([(11, 6.5), (12, 7.0)]),
+            &[],
+            2,
+        );
+        assert_eq!((s.duplicates, s.duplicates_at_end), (1, 0));
         assert!((s.precision - 0.6).abs() < 1e-12);
         // Landmark 1's bearings after t = 1.5: 2, 3, 4, 5 → 3 correct of 4.
         assert!((s.recall - 0.75).abs() < 1e-12, "{}", s.recall);

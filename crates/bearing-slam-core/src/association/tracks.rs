@@ -83,6 +83,16 @@ pub struct Track {
     pub chi2: f64,
     /// Sightings dropped as outliers of its point (at most one is allowed).
     pub dropped: usize,
+    /// Scans skipped because more than one bearing lay in its gate.
+    pub ambiguous: usize,
+}
+
+impl Track {
+    /// Scans since it began that count for its hit ratio (those where it
+    /// was not ambiguous), at scan number `scan`.
+    fn judged_scans(&self, scan: u64) -> f64 {
+        ((scan - self.first_scan + 1) as f64 - self.ambiguous as f64).max(1.0)
+    }
 }
 
 impl Track {
@@ -216,6 +226,25 @@ impl TrackSet {
         pose: &Vector3<f64>,
         pose_variances: &Vector3<f64>,
         bearings: &[f64],
+        new_id: impl FnMut() -> u64,
+    ) -> Vec<Vec<u64>> {
+        let may_start = vec![true; bearings.len()];
+        self.observe_excluding(time, pose, pose_variances, bearings, &may_start, new_id)
+    }
+
+    /// [`Self::observe`], where a bearing with `may_start[i] == false` may
+    /// join tracks but never starts one: the filter passes `false` for a
+    /// bearing inside a mapped landmark's individual gate (mutual
+    /// exclusion — a new landmark is never begun where a mapped one already
+    /// explains the bearing; if it is a new landmark behind the mapped one,
+    /// its track starts once the two bearings separate).
+    pub fn observe_excluding(
+        &mut self,
+        time: f64,
+        pose: &Vector3<f64>,
+        pose_variances: &Vector3<f64>,
+        bearings: &[f64],
+        may_start: &[bool],
         mut new_id: impl FnMut() -> u64,
     ) -> Vec<Vec<u64>> {
         self.scan += 1;
@@ -232,12 +261,27 @@ impl TrackSet {
             .collect();
         let mut joined = vec![Vec::new(); bearings.len()];
         let mut taken_by_track = Vec::new();
+        let mut ambiguous = vec![false; self.tracks.len()];
+        let mut claimed = vec![false; bearings.len()];
         for (t, track) in self.tracks.iter().enumerate() {
-            let best = sightings
+            let compatible: Vec<(usize, f64)> = sightings
                 .iter()
                 .enumerate()
                 .filter_map(|(i, s)| self.distance(track, s).map(|d| (i, d)))
-                .min_by(|a, b| a.1.total_cmp(&b.1));
+                .collect();
+            if self.config.skip_ambiguous_sightings && compatible.len() > 1 {
+                // Two bearings in the gate: taking the closer one would bias
+                // the track towards its own prediction (a wide wedge sweeps
+                // across other landmarks' bearings); the scan says nothing
+                // about which is the track's, so it is neither a hit nor a
+                // miss. Each of the bearings still starts no new track.
+                ambiguous[t] = true;
+                for &(i, _) in &compatible {
+                    claimed[i] = true;
+                }
+                continue;
+            }
+            let best = compatible.into_iter().min_by(|a, b| a.1.total_cmp(&b.1));
             if let Some((i, _)) = best {
                 taken_by_track.push((t, i));
             }
@@ -250,14 +294,16 @@ impl TrackSet {
             joined[i].push(track.id);
         }
         for t in 0..self.tracks.len() {
-            if self.tracks[t].misses == 0 && self.tracks[t].last().key.0 == self.scan {
+            if ambiguous.get(t).copied().unwrap_or(false) {
+                self.tracks[t].ambiguous += 1;
+            } else if self.tracks[t].misses == 0 && self.tracks[t].last().key.0 == self.scan {
                 self.refit(t);
             } else {
                 self.tracks[t].misses += 1;
             }
         }
         for (i, s) in sightings.iter().enumerate() {
-            if joined[i].is_empty() {
+            if joined[i].is_empty() && !claimed[i] && may_start.get(i).copied().unwrap_or(true) {
                 let id = new_id();
                 self.tracks.push(Track {
                     id,
@@ -268,6 +314,7 @@ impl TrackSet {
                     point: None,
                     chi2: 0.0,
                     dropped: 0,
+                    ambiguous: 0,
                 });
                 joined[i].push(id);
             }
@@ -285,9 +332,9 @@ impl TrackSet {
             if let Some(gap) = config.track_max_gap_s {
                 return time - t.last().time <= gap && t.chi2.is_finite();
             }
-            let lived = scan - t.first_scan + 1;
-            let ratio_ok = lived < HIT_RATIO_GRACE_SCANS
-                || t.hits as f64 >= config.min_hit_ratio * lived as f64;
+            let lived = t.judged_scans(scan);
+            let ratio_ok = lived < HIT_RATIO_GRACE_SCANS as f64
+                || t.hits as f64 >= config.min_hit_ratio * lived;
             t.misses <= config.max_misses && ratio_ok && t.chi2.is_finite()
         });
         if self.tracks.len() > config.max_tracks {
@@ -421,13 +468,13 @@ impl TrackSet {
     /// with a different point. Ascending ids.
     #[must_use]
     pub fn confirmed(&self) -> Vec<u64> {
-        let lived = |t: &Track| self.scan - t.first_scan + 1;
         self.tracks
             .iter()
             .filter(|t| {
                 let timed = self.config.track_max_gap_s.is_some();
                 t.hits >= self.config.min_sightings
-                    && (timed || t.hits as f64 >= self.config.min_hit_ratio * lived(t) as f64)
+                    && (timed
+                        || t.hits as f64 >= self.config.min_hit_ratio * t.judged_scans(self.scan))
                     && t.point.is_some()
                     && t.last().key.0 == self.scan
             })
@@ -534,6 +581,50 @@ mod tests {
         assert_eq!(s.confirmed(), vec![101]);
         let (x, _) = s.get(101).and_then(|t| t.point).expect("a point");
         assert!((x - Vector2::new(3.0, 2.0)).norm() < 0.05, "{x}");
+    }
+
+    #[test]
+    fn an_excluded_bearing_joins_tracks_but_never_starts_one() {
+        let mut s = set();
+        let pose = Vector3::new(0.0, 0.0, 0.0);
+        let v = Vector3::new(1e-6, 1e-6, 1e-6);
+        let mut next = 0;
+        let mut id = || {
+            next += 1;
+            next
+        };
+        // Inside a mapped landmark's gate: no track is born.
+        let joined = s.observe_excluding(0.0, &pose, &v, &[0.3], &[false], &mut id);
+        assert_eq!(joined, vec![Vec::<u64>::new()]);
+        assert!(s.tracks().is_empty());
+        // A free bearing starts a track; the next scan's excluded bearing
+        // of the same point still joins it.
+        s.observe_excluding(1.0, &pose, &v, &[0.3], &[true], &mut id);
+        let pose = Vector3::new(0.1, 0.0, 0.0);
+        let joined = s.observe_excluding(2.0, &pose, &v, &[0.31], &[false], &mut id);
+        assert_eq!(joined, vec![vec![1]]);
+        assert_eq!(s.tracks().len(), 1);
+    }
+
+    #[test]
+    fn an_ambiguous_scan_is_neither_a_hit_nor_a_miss() {
+        let config = AssociationConfig {
+            skip_ambiguous_sightings: true,
+            ..AssociationConfig::default()
+        };
+        let mut s = TrackSet::new(&config, 0.01, 0.5).expect("valid");
+        drive(&mut s, 0..1, |p, _| vec![bearing_to(p, 3.0, 2.0)]);
+        // Two bearings 0.01 rad apart, both inside the new track's wedge,
+        // for more scans than the track may miss: it takes neither, is not
+        // dropped, and they start no tracks of their own.
+        let joined = drive(&mut s, 1..6, |p, _| {
+            let z = bearing_to(p, 3.0, 2.0);
+            vec![z, z + 0.01]
+        });
+        assert!(joined.iter().flatten().all(Vec::is_empty), "{joined:?}");
+        assert_eq!(s.tracks().len(), 1);
+        let track = &s.tracks()[0];
+        assert_eq!((track.hits, track.misses, track.ambiguous), (1, 0, 5));
     }
 
     #[test]

@@ -37,6 +37,11 @@ struct Prediction {
     id: u64,
     bearing: f64,
     blocks: Vec<BlockJacobian>,
+    /// Variance of the prediction not in the filter's state (a track's
+    /// point), rad²; 0 for a mapped landmark.
+    own_variance: f64,
+    /// Whether it is a track's (a landmark not mapped yet), not a mapped landmark's.
+    track: bool,
 }
 
 /// The tracks of the unknown-identity mode and the ids they hand out.
@@ -56,6 +61,8 @@ pub(super) struct Anonymous {
     deaths: BTreeMap<u64, f64>,
     /// The individual NIS of each landmark's latest pairings.
     recent_nis: BTreeMap<u64, VecDeque<f64>>,
+    /// Landmarks removed as duplicates, with the landmark they duplicated.
+    merged: BTreeMap<u64, u64>,
 }
 
 impl Anonymous {
@@ -82,6 +89,7 @@ impl Anonymous {
             births: BTreeMap::new(),
             deaths: BTreeMap::new(),
             recent_nis: BTreeMap::new(),
+            merged: BTreeMap::new(),
         }))
     }
 }
@@ -134,8 +142,12 @@ impl BearingSlam {
             ));
         }
         let started = Instant::now();
-        let predictions = self.predictions()?;
-        let (problem, kept) = self.pairing_problem(bearings, &predictions)?;
+        let mut predictions = self.predictions()?;
+        if self.config.association.associate_tracks {
+            let tracks = self.track_predictions(bearings)?;
+            predictions.extend(tracks);
+        }
+        let (problem, kept, in_gate) = self.pairing_problem(bearings, &predictions)?;
         let gates = Gates::new(self.config.association.gate_probability, bearings.len())?;
         let pairing = match method {
             AssociationMethod::Jcbb => {
@@ -145,6 +157,22 @@ impl BearingSlam {
                 nearest_neighbour(&problem, &gates)?
             }
         };
+        // A bearing paired with a track is one of a landmark not mapped yet:
+        // it goes to the tracks, not to the filter.
+        let mut pairing = pairing;
+        let skip_ambiguous = self.config.association.skip_ambiguous_pairings;
+        for (i, j) in pairing.landmark_of.iter_mut().enumerate() {
+            let Some(jj) = *j else { continue };
+            // A landmark whose individual gate holds another bearing too
+            // (clutter, or a landmark not mapped yet) is not updated this
+            // scan: which of them is its own is a guess.
+            let ambiguous = skip_ambiguous
+                && (0..problem.bearings.len())
+                    .any(|k| k != i && problem.distance(k, jj) <= gates.individual);
+            if predictions[kept[jj]].track || ambiguous {
+                *j = None;
+            }
+        }
         let cost = ScanCost {
             bearings: bearings.len(),
             candidates: kept.len(),
@@ -174,14 +202,20 @@ impl BearingSlam {
             .collect();
         let pose = self.ekf.block::<3>(0)?;
         let variances = self.pose_covariance().diagonal();
+        let exclusive = self.config.association.exclusive_track_births;
+        let may_start: Vec<bool> = unpaired
+            .iter()
+            .map(|&i| !(exclusive && in_gate[i]))
+            .collect();
         let joined = match self.anonymous.as_mut() {
             Some(anonymous) => {
                 let next_id = &mut anonymous.next_id;
-                anonymous.tracks.observe(
+                anonymous.tracks.observe_excluding(
                     time,
                     &pose,
                     &variances,
                     &unpaired.iter().map(|&i| bearings[i]).collect::<Vec<_>>(),
+                    &may_start,
                     || {
                         let id = *next_id;
                         *next_id += 1;
@@ -195,6 +229,9 @@ impl BearingSlam {
             assigned[i] = Assignment::Tracks(ids);
         }
         batch.initialized += self.promote_confirmed_tracks(time, &pose)?;
+        if self.config.association.merge_duplicates {
+            self.remove_duplicates(time)?;
+        }
         Ok(AnonymousReport {
             batch,
             assigned,
@@ -214,6 +251,8 @@ impl BearingSlam {
                     id,
                     bearing: wrap_angle(-l.innovation[0]),
                     blocks: l.blocks,
+                    own_variance: 0.0,
+                    track: false,
                 }),
                 Err(SlamError::Degenerate(_)) => {}
                 Err(e) => return Err(e),
@@ -223,20 +262,27 @@ impl BearingSlam {
     }
 
     /// The pairing problem over the predictions individually compatible with
-    /// some bearing (their indices in `predictions` are returned too).
+    /// some bearing (their indices in `predictions` are returned too), and
+    /// for each bearing whether it lies in some prediction's individual gate.
     fn pairing_problem(
         &self,
         bearings: &[f64],
         predictions: &[Prediction],
-    ) -> Result<(PairingProblem, Vec<usize>)> {
+    ) -> Result<(PairingProblem, Vec<usize>, Vec<bool>)> {
         let noise_variance = self.config.bearing_sigma.powi(2);
         let gate = Gates::new(self.config.association.gate_probability, 1)?.individual;
         let mut kept = Vec::new();
+        let mut in_gate = vec![false; bearings.len()];
         for (j, p) in predictions.iter().enumerate() {
-            let variance = cross_covariance(self, &p.blocks, &p.blocks)? + noise_variance;
-            let compatible = bearings
-                .iter()
-                .any(|&z| wrap_angle(z - p.bearing).powi(2) / variance <= gate);
+            let variance =
+                cross_covariance(self, &p.blocks, &p.blocks)? + p.own_variance + noise_variance;
+            let mut compatible = false;
+            for (i, &z) in bearings.iter().enumerate() {
+                if wrap_angle(z - p.bearing).powi(2) / variance <= gate {
+                    compatible = true;
+                    in_gate[i] |= !p.track;
+                }
+            }
             if compatible {
                 kept.push(j);
             }
@@ -253,6 +299,7 @@ impl BearingSlam {
                 c[(a, b)] = v;
                 c[(b, a)] = v;
             }
+            c[(a, a)] += predictions[kept[a]].own_variance;
         }
         Ok((
             PairingProblem {
@@ -262,7 +309,73 @@ impl BearingSlam {
                 noise_variance,
             },
             kept,
+            in_gate,
         ))
+    }
+
+    /// The predicted bearings of the tracks that have a point, as pairing
+    /// hypotheses next to the mapped landmarks (JCBB on the combined set):
+    /// for each bearing, the track whose point it fits best within the χ²₁
+    /// gate, each track once. The prediction's `H` has the pose block
+    /// `[d_y/r², −d_x/r², −1]` (the bearing model (8)) in the filter and the
+    /// point's `H_x P_x H_xᵀ` outside it.
+    fn track_predictions(&self, bearings: &[f64]) -> Result<Vec<Prediction>> {
+        let Some(anonymous) = self.anonymous.as_ref() else {
+            return Ok(Vec::new());
+        };
+        let pose = self.ekf.block::<3>(0)?;
+        let pose_covariance = self.pose_covariance();
+        let noise_variance = self.config.bearing_sigma.powi(2);
+        let gate = Gates::new(self.config.association.gate_probability, 1)?.individual;
+        let mut candidates = Vec::new();
+        for track in anonymous.tracks.tracks() {
+            let Some((x, cov)) = &track.point else {
+                continue;
+            };
+            let d = x - pose.xy();
+            let r2 = d.norm_squared();
+            if r2 < 1e-12 {
+                continue;
+            }
+            let h_pose = nalgebra::RowVector3::new(d.y / r2, -d.x / r2, -1.0);
+            let h_point = nalgebra::RowVector2::new(-d.y / r2, d.x / r2);
+            let own_variance = (h_point * cov * h_point.transpose())[(0, 0)];
+            let variance = (h_pose * pose_covariance * h_pose.transpose())[(0, 0)]
+                + own_variance
+                + noise_variance;
+            let bearing = wrap_angle(d.y.atan2(d.x) - pose.z);
+            candidates.push((track.id, bearing, h_pose, own_variance, variance));
+        }
+        let mut chosen: Vec<usize> = Vec::new();
+        for &z in bearings {
+            let best = candidates
+                .iter()
+                .enumerate()
+                .map(|(k, c)| (k, wrap_angle(z - c.1).powi(2) / c.4))
+                .filter(|&(_, d2)| d2 <= gate)
+                .min_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some((k, _)) = best
+                && !chosen.contains(&k)
+            {
+                chosen.push(k);
+            }
+        }
+        Ok(chosen
+            .into_iter()
+            .map(|k| {
+                let (id, bearing, h_pose, own_variance, _) = candidates[k];
+                Prediction {
+                    id,
+                    bearing,
+                    blocks: vec![BlockJacobian {
+                        offset: 0,
+                        jacobian: DMatrix::from_row_slice(1, 3, h_pose.as_slice()),
+                    }],
+                    own_variance,
+                    track: true,
+                }
+            })
+            .collect())
     }
 
     /// Brings the confirmed tracks into the map through the configured
@@ -363,13 +476,15 @@ impl BearingSlam {
     #[must_use]
     pub fn association_score(&self) -> Option<AssociationScore> {
         let a = self.anonymous.as_ref()?;
-        Some(score(
+        let mut s = score(
             &a.records,
             &a.births,
             &a.deaths,
             &a.costs,
             self.config.association.min_sightings,
-        ))
+        );
+        s.merged = a.merged.len();
+        Some(s)
     }
 
     /// Every scan's pairing cost so far (unknown-identity mode; empty otherwise).
@@ -451,6 +566,31 @@ impl BearingSlam {
                 .try_inverse()
                 .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
         })
+    }
+
+    /// Removes the younger of every pair of mapped landmarks that are the
+    /// same point within the χ²₂ gate at `gate_probability`
+    /// ([`Self::duplicate_pairs`]); a removal is recorded as a death and a
+    /// merge (`merged[younger] = older`).
+    pub(super) fn remove_duplicates(&mut self, time: f64) -> Result<()> {
+        let gate = crate::stats::chi2_quantile(2.0, self.config.association.gate_probability)?;
+        let pairs = self.duplicate_pairs(gate)?;
+        for (a, b) in pairs {
+            let Some(anonymous) = self.anonymous.as_mut() else {
+                return Ok(());
+            };
+            let born = |id: u64| anonymous.births.get(&id).copied().unwrap_or(f64::INFINITY);
+            let (older, younger) = if (born(a), a) <= (born(b), b) {
+                (a, b)
+            } else {
+                (b, a)
+            };
+            anonymous.deaths.insert(younger, time);
+            anonymous.merged.insert(younger, older);
+            anonymous.recent_nis.remove(&younger);
+            self.remove_landmark(younger)?;
+        }
+        Ok(())
     }
 
     /// When each landmark of the unknown-identity mode entered the map.

@@ -20,6 +20,7 @@ mod invariant;
 #[cfg(test)]
 mod invariant_tests;
 mod iterated;
+mod merge;
 mod offset;
 mod replay;
 #[cfg(test)]
