@@ -25,7 +25,10 @@ use serde::{Deserialize, Serialize};
 
 /// The settings of 1-point RANSAC. The defaults are those of Civera et
 /// al.'s released code: `p = 0.99`, an inlier threshold of one pixel noise
-/// σ, at most 1000 hypotheses, the rescue at χ²₂(0.95).
+/// σ, at most 1000 hypotheses, the rescue at χ²₂(0.95). (Checked against
+/// `ransac_hypotheses.m` of the authors' MATLAB release:
+/// `p_at_least_one_spurious_free = 0.99`, `threshold = get_std_z(filter)`,
+/// `n_hyp = 1000` initially.)
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OnePointRansac {
     /// Probability that at least one hypothesis is drawn from an inlier.
