@@ -282,3 +282,32 @@ fn leaving_the_compressed_mode_folds_the_local_phase() {
         Ok(UpdateMode::Compressed)
     );
 }
+
+/// Equality during a local phase compares the folded filters (mutation
+/// testing found this branch of `PartialEq` untested): a filter equals its
+/// own fold and its clone, and differs once another measurement enters the
+/// phase or the form differs.
+#[test]
+fn equality_in_a_local_phase_compares_the_folded_filter() {
+    let mut phased = random_filter(6, 52).with_update_mode(UpdateMode::Compressed);
+    predict(&mut phased);
+    let first = batch(&phased, &[0, 1], &[0.1, -0.2]);
+    phased.update(&first).expect("updates");
+    assert!(phased.local.is_some(), "the update opened a local phase");
+
+    let mut folded = phased.clone();
+    folded.global_update();
+    assert!(folded.local.is_none());
+    assert_eq!(phased, folded);
+    assert_eq!(folded, phased);
+    assert_eq!(phased, phased.clone());
+
+    let mut updated = phased.clone();
+    let second = batch(&updated, &[2], &[0.3]);
+    updated.update(&second).expect("updates");
+    assert!(updated.local.is_some());
+    assert_ne!(phased, updated);
+
+    let full = folded.clone().with_update_mode(UpdateMode::Full);
+    assert_ne!(phased, full);
+}
