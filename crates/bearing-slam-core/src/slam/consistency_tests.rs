@@ -64,9 +64,21 @@ pub(super) fn run(
     log: &SensorLog,
     model: &DiffDriveModel,
     events: usize,
+    check: impl FnMut(&BearingSlam),
+) {
+    let events = &log.events[..events.min(log.events.len())];
+    run_events(slam, events, model, check);
+}
+
+/// Wheel and bearing `events` through `slam` in order (other kinds are
+/// skipped), `check` called after each.
+pub(super) fn run_events(
+    slam: &mut BearingSlam,
+    events: &[crate::log::Event],
+    model: &DiffDriveModel,
     mut check: impl FnMut(&BearingSlam),
 ) {
-    for event in log.events.iter().take(events) {
+    for event in events {
         match &event.kind {
             EventKind::Wheels(w) => slam.predict(event.time, model, w).expect("predicts"),
             EventKind::Bearings(obs) => {

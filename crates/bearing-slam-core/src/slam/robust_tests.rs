@@ -6,11 +6,12 @@
 //! Huber down-weighting do what they say and leave an event each time.
 
 use super::consistency::linearize_bearing;
+use super::consistency_tests::run_events;
 use super::robust::Verdict;
 use super::{BearingOffset, BearingSlam, Consistency, InitializerConfig, RobustGate, SlamConfig};
 use crate::init::{InverseDepthPrior, TriangulationConfig};
 use crate::landmark::Parameterization;
-use crate::log::{EventKind, SensorLog};
+use crate::log::SensorLog;
 use crate::motion::DiffDriveModel;
 use crate::testing::check_covariance;
 use crate::testing::kinematic::KinematicScenario;
@@ -52,21 +53,7 @@ fn initializers() -> [InitializerConfig; 3] {
 }
 
 fn run(slam: &mut BearingSlam, log: &SensorLog, model: &DiffDriveModel) {
-    run_events(slam, &log.events, model);
-}
-
-fn run_events(slam: &mut BearingSlam, events: &[crate::log::Event], model: &DiffDriveModel) {
-    for event in events {
-        match &event.kind {
-            EventKind::Wheels(w) => slam.predict(event.time, model, w).expect("predicts"),
-            EventKind::Bearings(obs) => {
-                let pairs: Vec<(u64, f64)> =
-                    obs.iter().map(|o| (o.landmark_id, o.bearing)).collect();
-                slam.update_bearings(event.time, &pairs).expect("updates");
-            }
-            _ => {}
-        }
-    }
+    run_events(slam, &log.events, model, |_| {});
 }
 
 /// `Nᵀ P⁻¹ N` at the first estimates: the information along the global
@@ -161,9 +148,9 @@ fn offset_jacobian_matches_numeric_differences_for_every_option() {
             let mut slam = BearingSlam::new(with_offset(consistency, initializer)).expect("valid");
             // Early (inverse depth) and at the end (converted points).
             let (early, late) = log.events.split_at(log.events.len() / 5);
-            run_events(&mut slam, early, &model);
+            run_events(&mut slam, early, &model, |_| {});
             check_offset_jacobians(&slam, consistency, &mut kinds);
-            run_events(&mut slam, late, &model);
+            run_events(&mut slam, late, &model, |_| {});
             check_covariance(&slam.ekf().covariance()).expect("symmetric PSD");
             assert!(slam.landmark_ids().len() >= 4, "{consistency}: mapped");
             check_offset_jacobians(&slam, consistency, &mut kinds);
