@@ -26,7 +26,7 @@ help:
 	@echo "make proptest-explore - property tests on PROPTEST_ROUNDS fresh random seeds (Rust proptest, Python hypothesis)"
 	@echo "make rust-setup  - add rustfmt and clippy to the toolchain"
 	@echo "make py-lint     - ruff, ruff format --check, mypy --strict, stubtest"
-	@echo "make py-test     - pytest (tests/python, the notebooks of examples/notebooks)"
+	@echo "make py-test     - pytest on one worker per core (tests/python, the notebooks of examples/notebooks)"
 	@echo "make venv        - the Python venv (.venv/) with the runtime, dev, test and docs dependencies"
 	@echo "make develop     - build the extension (release) into the venv"
 	@echo "make docs        - the documentation site in target/site/: pages, Python API (mkdocs --strict), rustdoc in rust/"
@@ -103,8 +103,10 @@ py-lint: develop
 
 # pytest exits 5 when it collects no test: that must fail, and it does (any
 # non-zero status fails make).
+# One pytest worker per core (pytest-xdist); PYTEST_JOBS=0 runs them in-process.
+PYTEST_JOBS ?= $(shell nproc 2>/dev/null || echo 2)
 py-test: develop
-	$(VPY) -m pytest
+	$(VPY) -m pytest -n $(PYTEST_JOBS)
 
 lint: rust-lint rust-doc py-lint docs
 

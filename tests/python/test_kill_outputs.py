@@ -134,9 +134,9 @@ def test_simulate_killed_at_random_moments_leaves_the_old_or_new_mcap(tmp_path: 
 
 def test_demo_killed_leaves_one_seed_only(tmp_path: Path) -> None:
     out = tmp_path / "demo"
-    timed(command("demo", "--out", out, "--seed", "0", "--quiet"))
-    staged = tmp_path / "staged"
-    duration = timed(command("demo", "--out", staged, "--seed", "1", "--quiet"))
+    # The seed-0 run's duration stands for the seed-1 run's (same scenarios,
+    # same methods): the kill moments are fractions of it.
+    duration = timed(command("demo", "--out", out, "--seed", "0", "--quiet"))
     rng = random.Random(22)
     for fraction in (rng.uniform(0.3, 0.95), rng.uniform(0.95, 1.1)):
         killed_at(command("demo", "--out", out, "--seed", "1", "--quiet"), fraction * duration)
