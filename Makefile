@@ -177,7 +177,7 @@ FUZZ_SECONDS ?= 600
 FUZZ_TIMEOUT ?= 10
 FUZZ_TARGETS := mcap_read mcap_truncated mrclam_barcodes mrclam_landmarks \
 	mrclam_groundtruth mrclam_odometry mrclam_measurement scenario_toml \
-	scenario_json sensor_log_json slam_ops
+	scenario_json sensor_log_json slam_ops kitti_frames
 
 .PHONY: fuzz fuzz-smoke fuzz-setup
 
