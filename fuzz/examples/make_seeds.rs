@@ -2,7 +2,11 @@
 //! scenario and the example scenario file as TOML and JSON, a short simulated
 //! sensor log as JSON, and that log (with the filter's trace) as small MCAP
 //! files. Run from `fuzz/`: `cargo +nightly run --example make_seeds`.
-//! The MRCLAM seeds are the synthetic files of `fixtures/mrclam/`.
+//! The MRCLAM seeds are the synthetic files of `fixtures/mrclam/`; the
+//! `kitti_frames` seeds are the files of `fixtures/kitti/` (the first lines
+//! of the KITTI 1 clip's calib.txt and poses.txt, two 16×12 PNG frames), each
+//! behind the byte that selects the file it replaces, and the lone byte that
+//! removes times.txt.
 
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::runner::{OdometryConfig, RunConfig, run};
@@ -94,4 +98,19 @@ fn main() {
         write("mcap_truncated", name, &cut);
     }
     let _ = std::fs::remove_file(&tmp);
+
+    // The order of the `kitti_frames` target's FILES: the first byte selects.
+    let kitti = [
+        "calib.txt",
+        "poses.txt",
+        "times.txt",
+        "frame0.png",
+        "frame1.png",
+    ];
+    for (selector, name) in (0u8..).zip(kitti) {
+        let mut seed = vec![selector];
+        seed.extend(std::fs::read(Path::new("fixtures/kitti").join(name)).expect("kitti fixture"));
+        write("kitti_frames", &format!("{selector}-{name}"), &seed);
+    }
+    write("kitti_frames", "5-no-times", &[5]);
 }

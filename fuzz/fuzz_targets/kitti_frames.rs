@@ -16,8 +16,14 @@ const FILES: [(&str, &[u8]); 5] = [
     ("calib.txt", include_bytes!("../fixtures/kitti/calib.txt")),
     ("poses.txt", include_bytes!("../fixtures/kitti/poses.txt")),
     ("times.txt", include_bytes!("../fixtures/kitti/times.txt")),
-    ("image_l/000000.png", include_bytes!("../fixtures/kitti/frame0.png")),
-    ("image_l/000001.png", include_bytes!("../fixtures/kitti/frame1.png")),
+    (
+        "image_l/000000.png",
+        include_bytes!("../fixtures/kitti/frame0.png"),
+    ),
+    (
+        "image_l/000001.png",
+        include_bytes!("../fixtures/kitti/frame1.png"),
+    ),
 ];
 
 fn clip_dir() -> &'static Path {
