@@ -149,7 +149,12 @@ pub fn search_region(
 /// The best position `(score, u, v)` of a search as its outcome: missed
 /// below `min_ncc`, else found, refined to sub-pixel by a parabola through
 /// the neighbours' scores when `config.subpixel`.
-fn finish(image: &GrayImage, patch: &Patch, best: (f64, i64, i64), config: &SearchConfig) -> SearchOutcome {
+fn finish(
+    image: &GrayImage,
+    patch: &Patch,
+    best: (f64, i64, i64),
+    config: &SearchConfig,
+) -> SearchOutcome {
     let (score, u, v) = best;
     if score < config.min_ncc {
         return SearchOutcome::Missed { best: score };

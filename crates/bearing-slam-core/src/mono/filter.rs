@@ -320,11 +320,7 @@ impl MonoSlam {
             let c = &h_v * p_vl.column(5) + &h_l * p_ll.column(5);
             (Vector2::new(c[0], c[1]), p_ll[(5, 5)])
         });
-        Ok((
-            px,
-            0.5 * (s + s.transpose()) + self.pixel_noise(),
-            with_rho,
-        ))
+        Ok((px, 0.5 * (s + s.transpose()) + self.pixel_noise(), with_rho))
     }
 
     /// A map landmark's search region: the ellipse of (30), and with

@@ -38,8 +38,8 @@ pub mod ransac;
 
 pub use camera::PinholeCamera;
 pub use config::{MonoConfig, MonoStart};
-pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
 pub use epipolar::EpipolarSearch;
+pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
 pub use frontend::{
     CameraPose, EpipolarSegment, MapPoint, MonoFilter, PixelObservation, SearchRegion,
 };
