@@ -69,6 +69,10 @@ pub struct MonoUpdateReport {
     pub ransac_outliers: usize,
 }
 
+/// A landmark's predicted pixel, `S_i`, and for inverse depth the pixel's
+/// covariance with `ρ` and `σ_ρ²`.
+type PredictedRegion = (Vector2<f64>, Matrix2<f64>, Option<(Vector2<f64>, f64)>);
+
 /// The 6-DOF monocular SLAM filter (Munguía & Grau §"SLAM monocular").
 ///
 /// One frame as a front end drives it: predict, search, update, add.
@@ -273,10 +277,7 @@ impl MonoSlam {
     /// The predicted pixel and `S_i = H_i P H_iᵀ + R` (30) of a map landmark,
     /// and for an inverse-depth landmark the pixel's covariance with its `ρ`
     /// (`H P e_ρ`) and `σ_ρ²`, for its epipolar segment.
-    fn predicted_region(
-        &self,
-        feature: &Feature,
-    ) -> Result<(Vector2<f64>, Matrix2<f64>, Option<(Vector2<f64>, f64)>)> {
+    fn predicted_region(&self, feature: &Feature) -> Result<PredictedRegion> {
         let camera = self.config.camera;
         let x_v = self.camera_state()?;
         let (px, h_v, h_l, len) = match feature.kind {
