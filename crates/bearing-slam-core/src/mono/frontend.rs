@@ -48,6 +48,26 @@ pub struct EpipolarSegment {
     pub band_cov: Matrix2<f64>,
 }
 
+impl EpipolarSegment {
+    /// The squared Mahalanobis distance (in the band's metric) from `px` to
+    /// the nearest point of the segment; `None` when the band covariance is
+    /// not invertible.
+    #[must_use]
+    pub fn distance2(&self, px: &Vector2<f64>) -> Option<f64> {
+        let w = self.band_cov.try_inverse()?;
+        let d = self.near_px - self.far_px;
+        let x = px - self.far_px;
+        let dwd = d.dot(&(w * d));
+        let t = if dwd > 1e-12 {
+            (x.dot(&(w * d)) / dwd).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let r = x - d * t;
+        Some(r.dot(&(w * r)))
+    }
+}
+
 /// A feature found in the image.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PixelObservation {

@@ -130,6 +130,7 @@ fn the_segment_search_finds_a_feature_at_unknown_depth_and_refuses_one_off_the_l
         (0.0, 1.6),
     );
     assert!(distance_to_segment(&truth, &off_line) > 10.0);
+    assert!(off_line.distance2(&truth).unwrap() > 50.0);
     let outcome = search_segment(&image1, &patch, &off_line, chi2, &config).unwrap();
     assert!(
         matches!(outcome, SearchOutcome::Missed { .. }),
