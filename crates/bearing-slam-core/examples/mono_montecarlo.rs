@@ -51,6 +51,16 @@ fn method(name: &str, camera: bearing_slam_core::mono::PinholeCamera) -> MonoCon
         "MTE-clone (delayed)" => MonoConfig::delayed_with_clone(camera),
         "undelayed (0.3, 0.3)" => MonoConfig::undelayed(camera, 0.3, 0.3),
         "undelayed (0.1, 0.5)" => MonoConfig::undelayed(camera, 0.1, 0.5),
+        // Issue 17's epipolar-segment search (ρ over ρ̂ ± 3σ_ρ, candidates
+        // over the prior (0.1, 0.5)): the front end gates on the segment.
+        "MTE + epipolar" => MonoConfig {
+            epipolar: Some(bearing_slam_core::mono::EpipolarSearch::default()),
+            ..MonoConfig::delayed(camera)
+        },
+        "undelayed (0.1, 0.5) + epipolar" => MonoConfig {
+            epipolar: Some(bearing_slam_core::mono::EpipolarSearch::default()),
+            ..MonoConfig::undelayed(camera, 0.1, 0.5)
+        },
         _ => MonoConfig::undelayed(camera, 0.01, 0.005),
     }
 }
@@ -152,6 +162,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "undelayed (0.3, 0.3)",
         "undelayed (0.1, 0.5)",
         "undelayed (0.01, 0.005)",
+        "MTE + epipolar",
+        "undelayed (0.1, 0.5) + epipolar",
     ];
     let path = MonoScenario::desk(0, SWEEP_FRAMES, POINTS).path_length();
     let started = std::time::Instant::now();

@@ -41,13 +41,19 @@ fn main() -> ExitCode {
     let chi2 = -2.0 * (1.0f64 - config.front_end.search.confidence).ln();
     let cand_var = config.candidate_sigma_px.unwrap_or(15.0).powi(2) + config.pixel_sigma.powi(2);
     println!(
-        "frame | landmarks: regions found used  half-axis med/max  best-NCC-of-missed med | candidates: regions found  best-NCC-of-missed med | pose err m"
+        "frame | landmarks: regions found used  half-axis med/max  best-NCC-of-missed med | candidates: regions found  best-NCC-of-missed med | pose err m | epipolar segments: n, length med/max px, band half-width med px"
     );
     let mut all_best_lm = Vec::new();
     let mut all_best_cand = Vec::new();
     for (k, search) in out.run.searches.iter().enumerate() {
         let (mut lm, mut cand) = ((0, 0, Vec::new(), Vec::new()), (0, 0, Vec::new()));
+        let (mut seg_len, mut seg_band) = (Vec::new(), Vec::new());
         for r in &search.records {
+            if let Some(seg) = &r.region.segment {
+                seg_len.push((seg.near_px - seg.far_px).norm());
+                let b = seg.band_cov;
+                seg_band.push((chi2 * b[(0, 0)].min(b[(1, 1)])).sqrt());
+            }
             let s = r.region.innovation_cov;
             let is_cand = s[(0, 1)] == 0.0 && (s[(0, 0)] - cand_var).abs() < 1e-9;
             let half = (chi2 * s[(0, 0)].max(s[(1, 1)])).sqrt();
@@ -74,7 +80,7 @@ fn main() -> ExitCode {
         let err = (out.run.poses[k].position - out.truth[k].position).norm();
         let hmax = lm.2.iter().copied().fold(0.0f64, f64::max);
         println!(
-            "{k:3} | {:3} {:3} {:3}  {:6.1}/{:6.1}  {:5.2} | {:3} {:3}  {:5.2} | {err:6.2}",
+            "{k:3} | {:3} {:3} {:3}  {:6.1}/{:6.1}  {:5.2} | {:3} {:3}  {:5.2} | {err:6.2} | {:3} {:6.1}/{:6.1} {:5.1}",
             lm.0,
             lm.1,
             used,
@@ -84,6 +90,10 @@ fn main() -> ExitCode {
             cand.0,
             cand.1,
             median(cand.2.clone()),
+            seg_len.len(),
+            median(seg_len.clone()),
+            seg_len.iter().copied().fold(0.0f64, f64::max),
+            median(seg_band.clone()),
         );
     }
     println!(

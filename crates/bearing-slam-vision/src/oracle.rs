@@ -99,6 +99,7 @@ impl MonoFilter for GroundTruthOracle {
                     feature_id: id,
                     predicted_px: px,
                     innovation_cov: cov,
+                    segment: None,
                 })
             })
             .collect())

@@ -75,6 +75,12 @@ pub struct MonoRunConfig {
     /// (Civera et al. 2010, with the settings of
     /// [`bearing_slam_core::mono::OnePointRansac::default`]).
     pub one_point_ransac: bool,
+    /// Search features of unknown depth (inverse-depth landmarks, delayed
+    /// candidates) along their epipolar segment, `ρ` over `ρ̂ ± 3σ_ρ` cut
+    /// at 0 (a candidate: the prior `rho_ini ± 3 sigma_rho` of this config),
+    /// instead of the ellipse of `S` or a candidate's nominal depth
+    /// ([`bearing_slam_core::mono::epipolar`]).
+    pub epipolar_search: bool,
 }
 
 impl Default for MonoRunConfig {
@@ -95,6 +101,7 @@ impl Default for MonoRunConfig {
             candidate_sigma_px: None,
             max_frames: None,
             one_point_ransac: true,
+            epipolar_search: false,
         }
     }
 }
@@ -162,6 +169,13 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
     }
     if config.one_point_ransac {
         core.ransac = Some(bearing_slam_core::mono::OnePointRansac::default());
+    }
+    if config.epipolar_search {
+        core.epipolar = Some(bearing_slam_core::mono::EpipolarSearch {
+            candidate_rho_ini: config.rho_ini,
+            candidate_sigma_rho: config.sigma_rho,
+            ..bearing_slam_core::mono::EpipolarSearch::default()
+        });
     }
     core.validate()?;
     Ok(core)

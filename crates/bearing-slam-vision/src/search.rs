@@ -8,7 +8,7 @@ use crate::error::{Result, VisionError};
 use crate::frames::Intrinsics;
 use crate::patch::Patch;
 use crate::warp::{PatchView, warp_patch};
-use bearing_slam_core::mono::{CameraPose, PixelObservation, SearchRegion};
+use bearing_slam_core::mono::{CameraPose, EpipolarSegment, PixelObservation, SearchRegion};
 use image::GrayImage;
 use nalgebra::{Matrix2, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
@@ -143,9 +143,21 @@ pub fn search_region(
             }
         }
     }
+    Ok(finish(image, patch, best, config))
+}
+
+/// The best position `(score, u, v)` of a search as its outcome: missed
+/// below `min_ncc`, else found, refined to sub-pixel by a parabola through
+/// the neighbours' scores when `config.subpixel`.
+fn finish(
+    image: &GrayImage,
+    patch: &Patch,
+    best: (f64, i64, i64),
+    config: &SearchConfig,
+) -> SearchOutcome {
     let (score, u, v) = best;
     if score < config.min_ncc {
-        return Ok(SearchOutcome::Missed { best: score });
+        return SearchOutcome::Missed { best: score };
     }
     let mut px = Vector2::new(u as f64, v as f64);
     if config.subpixel {
@@ -165,7 +177,87 @@ pub fn search_region(
         px.x += offset(patch.ncc_at(image, u - 1, v), patch.ncc_at(image, u + 1, v));
         px.y += offset(patch.ncc_at(image, u, v - 1), patch.ncc_at(image, u, v + 1));
     }
-    Ok(SearchOutcome::Found { px, score })
+    SearchOutcome::Found { px, score }
+}
+
+/// Searches one patch along an epipolar segment (a feature of unknown
+/// depth, [`EpipolarSegment`]): every pixel `x` with
+/// `min_t (x − p(t))ᵀ B⁻¹ (x − p(t)) ≤ χ²`, `p(t)` the segment, `B` its
+/// band covariance: the ellipse of (30) swept along the segment. The band's
+/// half sides are clipped to `max_half_axis_px`, the segment's length is
+/// not (the filter bounds it by the depth interval and the image).
+pub fn search_segment(
+    image: &GrayImage,
+    patch: &Patch,
+    segment: &EpipolarSegment,
+    chi2: f64,
+    config: &SearchConfig,
+) -> Result<SearchOutcome> {
+    let b = segment.band_cov;
+    let det = b.determinant();
+    let (a, e) = (segment.far_px, segment.near_px);
+    if !(b.iter().all(|v| v.is_finite())
+        && b[(0, 0)] > 0.0
+        && det > 0.0
+        && a.iter().chain(e.iter()).all(|v| v.is_finite()))
+    {
+        return Err(VisionError::InvalidParameter {
+            name: "epipolar segment",
+            value: det,
+            reason: "the band covariance must be finite and positive definite, the ends finite",
+        });
+    }
+    let w: Matrix2<f64> = Matrix2::new(b[(1, 1)], -b[(0, 1)], -b[(1, 0)], b[(0, 0)]) / det;
+    let d = e - a;
+    let wd = w * d;
+    let dwd = d.dot(&wd);
+    let half_u = (chi2 * b[(0, 0)]).sqrt().min(config.max_half_axis_px);
+    let half_v = (chi2 * b[(1, 1)]).sqrt().min(config.max_half_axis_px);
+    let margin = i64::from(patch.half());
+    let (width, height) = (i64::from(image.width()), i64::from(image.height()));
+    let v0 = ((a.y.min(e.y) - half_v).ceil() as i64).max(margin);
+    let v1 = ((a.y.max(e.y) + half_v).floor() as i64).min(height - 1 - margin);
+    let mut best = (-1.0f64, 0i64, 0i64);
+    let mut any = false;
+    for v in v0..=v1 {
+        // The part of the segment within ±half_v of this row bounds its columns.
+        let vf = v as f64;
+        let (t0, t1) = if d.y.abs() < 1e-12 {
+            (0.0, 1.0)
+        } else {
+            let ta = (vf - half_v - a.y) / d.y;
+            let tb = (vf + half_v - a.y) / d.y;
+            (ta.min(tb).max(0.0), ta.max(tb).min(1.0))
+        };
+        if t0 > t1 {
+            continue;
+        }
+        let (ua, ub) = (a.x + t0 * d.x, a.x + t1 * d.x);
+        let u0 = ((ua.min(ub) - half_u).ceil() as i64).max(margin);
+        let u1 = ((ua.max(ub) + half_u).floor() as i64).min(width - 1 - margin);
+        for u in u0..=u1 {
+            let x = Vector2::new(u as f64 - a.x, vf - a.y);
+            let t = if dwd > 1e-12 {
+                (x.dot(&wd) / dwd).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            let r = x - d * t;
+            if r.dot(&(w * r)) > chi2 {
+                continue;
+            }
+            any = true;
+            if let Some(score) = patch.ncc_at(image, u, v)
+                && score > best.0
+            {
+                best = (score, u, v);
+            }
+        }
+    }
+    if !any {
+        return Ok(SearchOutcome::OutOfView);
+    }
+    Ok(finish(image, patch, best, config))
 }
 
 /// One feature's search, as recorded for plots (Fig. 12).
@@ -312,13 +404,11 @@ pub fn active_search_warped(
             out.warped += 1;
         }
         let taken_at = patch.taken_at;
-        let outcome = search_region(
-            image,
-            warped.as_ref().unwrap_or(patch),
-            region,
-            chi2,
-            config,
-        )?;
+        let used = warped.as_ref().unwrap_or(patch);
+        let outcome = match &region.segment {
+            Some(segment) => search_segment(image, used, segment, chi2, config)?,
+            None => search_region(image, used, region, chi2, config)?,
+        };
         match outcome {
             SearchOutcome::Found { px, score } => {
                 out.found.push(PixelObservation { feature_id: id, px });

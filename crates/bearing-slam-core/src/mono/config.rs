@@ -2,6 +2,7 @@
 //! camera's starting state.
 
 use super::camera::PinholeCamera;
+use super::epipolar::EpipolarSearch;
 use super::init::MonoInitializer;
 use super::motion::ConstantVelocity;
 use super::ransac::OnePointRansac;
@@ -43,6 +44,12 @@ pub struct MonoConfig {
     /// al. 2010); `None` updates with every gated match.
     #[serde(default)]
     pub ransac: Option<OnePointRansac>,
+    /// Search features whose depth is unknown (inverse-depth landmarks,
+    /// candidates) along their epipolar segment
+    /// ([`super::epipolar`]); `None` searches ellipses (landmarks) and
+    /// the nominal-depth prediction (candidates).
+    #[serde(default)]
+    pub epipolar: Option<EpipolarSearch>,
 }
 
 impl MonoConfig {
@@ -72,6 +79,7 @@ impl MonoConfig {
             candidate_search_sigma: 15.0,
             candidate_nominal_depth: 3.0,
             ransac: None,
+            epipolar: None,
         }
     }
 
@@ -125,6 +133,9 @@ impl MonoConfig {
         ])?;
         if let Some(r) = &self.ransac {
             r.validate()?;
+        }
+        if let Some(e) = &self.epipolar {
+            e.validate()?;
         }
         if self.max_consecutive_misses == 0 {
             return Err(SlamError::InvalidParameter {

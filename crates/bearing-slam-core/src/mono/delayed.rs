@@ -60,7 +60,8 @@ impl MonoSlam {
     /// The world point of every tracked feature as the filter predicts it:
     /// a landmark at its estimate (inverse depth through (28), skipped while
     /// `ρ ≤ 0`), a candidate on its last ray at the nominal depth (where
-    /// [`MonoSlam::candidate_region`] predicts it).
+    /// [`MonoSlam::candidate_region`] predicts it; with epipolar search at
+    /// the candidate prior's mean depth).
     pub(super) fn feature_points_estimate(&self) -> Vec<(u64, Vector3<f64>)> {
         let mut points = Vec::with_capacity(self.landmarks.len() + self.candidates.len());
         for (&id, feature) in &self.landmarks {
@@ -76,11 +77,16 @@ impl MonoSlam {
                 points.push((id, p));
             }
         }
+        // With epipolar search a candidate's depth is unknown: its patch is
+        // warped through the plane at the prior's mean depth 1/ρ_ini.
+        let depth = match self.config.epipolar {
+            Some(e) if e.candidate_rho_ini > 0.0 => 1.0 / e.candidate_rho_ini,
+            _ => self.config.candidate_nominal_depth,
+        };
         for (&id, pending) in &self.candidates {
             points.push((
                 id,
-                pending.last_position
-                    + pending.last_ray.normalize() * self.config.candidate_nominal_depth,
+                pending.last_position + pending.last_ray.normalize() * depth,
             ));
         }
         points

@@ -9,7 +9,9 @@
 
 use super::config::{MonoConfig, MonoStart};
 use super::delayed::{Pending, PoseClone};
-use super::frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
+use super::frontend::{
+    CameraPose, EpipolarSegment, MapPoint, MonoFilter, PixelObservation, SearchRegion,
+};
 use super::init::{MonoInitializer, undelayed, world_ray};
 use super::landmark::{
     InverseDepth3, Parameterization3, inverse_depth_to_xyz, linearity_index_3d, ray_angles,
@@ -66,6 +68,10 @@ pub struct MonoUpdateReport {
     /// 1-point RANSAC: matches rejected as outliers (included in `rejected`).
     pub ransac_outliers: usize,
 }
+
+/// A landmark's predicted pixel, `S_i`, and for inverse depth the pixel's
+/// covariance with `ρ` and `σ_ρ²`.
+type PredictedRegion = (Vector2<f64>, Matrix2<f64>, Option<(Vector2<f64>, f64)>);
 
 /// The 6-DOF monocular SLAM filter (Munguía & Grau §"SLAM monocular").
 ///
@@ -268,8 +274,10 @@ impl MonoSlam {
         }
     }
 
-    /// The predicted pixel and `S_i = H_i P H_iᵀ + R` (30) of a map landmark.
-    fn predicted_region(&self, feature: &Feature) -> Result<(Vector2<f64>, Matrix2<f64>)> {
+    /// The predicted pixel and `S_i = H_i P H_iᵀ + R` (30) of a map landmark,
+    /// and for an inverse-depth landmark the pixel's covariance with its `ρ`
+    /// (`H P e_ρ`) and `σ_ρ²`, for its epipolar segment.
+    fn predicted_region(&self, feature: &Feature) -> Result<PredictedRegion> {
         let camera = self.config.camera;
         let x_v = self.camera_state()?;
         let (px, h_v, h_l, len) = match feature.kind {
@@ -307,9 +315,48 @@ impl MonoSlam {
         let s = &h_v * p_vv * h_v.transpose()
             + &cross
             + cross.transpose()
-            + &h_l * p_ll * h_l.transpose();
+            + &h_l * &p_ll * h_l.transpose();
         let s = Matrix2::new(s[(0, 0)], s[(0, 1)], s[(1, 0)], s[(1, 1)]);
-        Ok((px, 0.5 * (s + s.transpose()) + self.pixel_noise()))
+        let with_rho = (len == 6).then(|| {
+            let c = &h_v * p_vl.column(5) + &h_l * p_ll.column(5);
+            (Vector2::new(c[0], c[1]), p_ll[(5, 5)])
+        });
+        Ok((px, 0.5 * (s + s.transpose()) + self.pixel_noise(), with_rho))
+    }
+
+    /// A map landmark's search region: the ellipse of (30), and with
+    /// [`MonoConfig::epipolar`] set, an inverse-depth landmark's epipolar
+    /// segment over `ρ̂ ± k σ_ρ` ([`super::epipolar`]). `None` when neither
+    /// the predicted pixel nor the segment is in the image.
+    fn landmark_region(&self, id: u64, feature: &Feature) -> Option<SearchRegion> {
+        let camera = self.config.camera;
+        let (px, s, with_rho) = self.predicted_region(feature).ok()?;
+        let segment = match (self.config.epipolar, with_rho) {
+            (Some(search), Some((c, var_rho))) => {
+                let y = self.ekf.block::<6>(feature.offset).ok()?;
+                let x_v = self.camera_state().ok()?;
+                let (lo, hi) = search.interval(y[5], var_rho.max(0.0).sqrt());
+                super::epipolar::ray_segment(&camera, &x_v, &y, lo, hi).map(|(far, near, _)| {
+                    EpipolarSegment {
+                        far_px: far,
+                        near_px: near,
+                        band_cov: super::epipolar::conditional_band(
+                            &s,
+                            &c,
+                            var_rho,
+                            &self.pixel_noise(),
+                        ),
+                    }
+                })
+            }
+            _ => None,
+        };
+        (segment.is_some() || camera.contains(&px)).then_some(SearchRegion {
+            feature_id: id,
+            predicted_px: px,
+            innovation_cov: s,
+            segment,
+        })
     }
 
     /// Removes a map landmark and shifts the offsets of those after it.
@@ -601,17 +648,26 @@ impl MonoFilter for MonoSlam {
         let mut regions = Vec::with_capacity(self.landmarks.len() + self.candidates.len());
         for (&id, feature) in &self.landmarks {
             // Behind the camera or off the image: not searched.
-            if let Ok((px, s)) = self.predicted_region(feature)
-                && camera.contains(&px)
-            {
-                regions.push(SearchRegion {
-                    feature_id: id,
-                    predicted_px: px,
-                    innovation_cov: s,
-                });
+            if let Some(region) = self.landmark_region(id, feature) {
+                regions.push(region);
             }
         }
         for (&id, pending) in &self.candidates {
+            if let Some(search) = self.config.epipolar {
+                if let Ok(Some((px, segment))) = self.candidate_segment(pending, &search) {
+                    let (_, s) = self.candidate_region(pending).unwrap_or((
+                        px,
+                        Matrix2::identity() * self.config.candidate_search_sigma.powi(2),
+                    ));
+                    regions.push(SearchRegion {
+                        feature_id: id,
+                        predicted_px: px,
+                        innovation_cov: s,
+                        segment: Some(segment),
+                    });
+                }
+                continue;
+            }
             if let Ok((px, s)) = self.candidate_region(pending)
                 && camera.contains(&px)
             {
@@ -619,6 +675,7 @@ impl MonoFilter for MonoSlam {
                     feature_id: id,
                     predicted_px: px,
                     innovation_cov: s,
+                    segment: None,
                 });
             }
         }

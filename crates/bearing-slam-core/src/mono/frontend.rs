@@ -21,6 +21,51 @@ pub struct SearchRegion {
     /// The innovation covariance `S_i`, pixels² (30); the front end searches
     /// the ellipse `νᵀ S_i⁻¹ ν ≤ χ²` around `predicted_px`.
     pub innovation_cov: Matrix2<f64>,
+    /// For a feature whose depth is unknown (an inverse-depth landmark, a
+    /// candidate): the segment of its epipolar line to search instead of
+    /// the ellipse ([`EpipolarSegment`]); `None` searches the ellipse.
+    pub segment: Option<EpipolarSegment>,
+}
+
+/// The segment of a feature's epipolar line between the projections of its
+/// ray at the least and the greatest plausible inverse depth, and the
+/// covariance of the pixel once the depth is known (the band around the
+/// segment). The front end searches every pixel `x` with
+/// `min_t (x − p(t))ᵀ B⁻¹ (x − p(t)) ≤ χ²`, `p(t)` running from `far_px`
+/// to `near_px`, `B = band_cov`: the ellipse of (30) swept along the line,
+/// the depth's nonlinear spread replaced by the exact projections.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpipolarSegment {
+    /// The pixel of the ray at the least inverse depth (the far end; at
+    /// `ρ = 0`, the ray's vanishing point).
+    pub far_px: Vector2<f64>,
+    /// The pixel of the ray at the greatest inverse depth (the near end),
+    /// clipped where the ray leaves the image or passes behind the camera.
+    pub near_px: Vector2<f64>,
+    /// The pixel's covariance with the inverse depth held fixed, pixels²
+    /// (for a landmark the Schur complement `S − c cᵀ / σ_ρ²`, `c` the
+    /// pixel's covariance with `ρ`; `R` included).
+    pub band_cov: Matrix2<f64>,
+}
+
+impl EpipolarSegment {
+    /// The squared Mahalanobis distance (in the band's metric) from `px` to
+    /// the nearest point of the segment; `None` when the band covariance is
+    /// not invertible.
+    #[must_use]
+    pub fn distance2(&self, px: &Vector2<f64>) -> Option<f64> {
+        let w = self.band_cov.try_inverse()?;
+        let d = self.near_px - self.far_px;
+        let x = px - self.far_px;
+        let dwd = d.dot(&(w * d));
+        let t = if dwd > 1e-12 {
+            (x.dot(&(w * d)) / dwd).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let r = x - d * t;
+        Some(r.dot(&(w * r)))
+    }
 }
 
 /// A feature found in the image.

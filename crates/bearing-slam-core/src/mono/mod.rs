@@ -17,13 +17,15 @@
 //! undelayed and the delayed (MTE) initializers on 3-D rays; [`config`] the
 //! filter's configuration and start; [`filter`] the filter [`MonoSlam`],
 //! which implements [`MonoFilter`] (its candidates and pose clones in the
-//! private `delayed`); [`metrics`] the Sim(3)/SE(3) ATE and the
+//! private `delayed`); [`epipolar`] the epipolar-segment search regions of
+//! features whose depth is unknown; [`metrics`] the Sim(3)/SE(3) ATE and the
 //! 6-DOF pose NEES. The synthetic point world with exact ground truth is
 //! `testing::mono` (feature `testing`).
 
 pub mod camera;
 pub mod config;
 mod delayed;
+pub mod epipolar;
 pub mod filter;
 pub mod frontend;
 pub mod init;
@@ -36,8 +38,11 @@ pub mod ransac;
 
 pub use camera::PinholeCamera;
 pub use config::{MonoConfig, MonoStart};
+pub use epipolar::EpipolarSearch;
 pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
-pub use frontend::{CameraPose, MapPoint, MonoFilter, PixelObservation, SearchRegion};
+pub use frontend::{
+    CameraPose, EpipolarSegment, MapPoint, MonoFilter, PixelObservation, SearchRegion,
+};
 pub use init::MonoInitializer;
 pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
 pub use ransac::{OnePointRansac, RansacSplit};

@@ -283,16 +283,21 @@ impl<'a> MonoSimulation<'a> {
         let mut found = Vec::new();
         let mut missed = Vec::new();
         for region in &regions {
-            let hit = self
-                .truth_of(region.feature_id)
-                .and_then(|i| self.noisy_pixel(k, i))
-                .filter(|px| {
-                    let nu = px - region.predicted_px;
-                    region
-                        .innovation_cov
-                        .try_inverse()
-                        .is_some_and(|s_inv| nu.dot(&(s_inv * nu)) <= self.options.search_chi2)
-                });
+            let hit =
+                self.truth_of(region.feature_id)
+                    .and_then(|i| self.noisy_pixel(k, i))
+                    .filter(|px| match &region.segment {
+                        // A feature of unknown depth: its epipolar segment.
+                        Some(segment) => segment
+                            .distance2(px)
+                            .is_some_and(|d2| d2 <= self.options.search_chi2),
+                        None => {
+                            let nu = px - region.predicted_px;
+                            region.innovation_cov.try_inverse().is_some_and(|s_inv| {
+                                nu.dot(&(s_inv * nu)) <= self.options.search_chi2
+                            })
+                        }
+                    });
             match hit {
                 Some(px) => found.push(PixelObservation {
                     feature_id: region.feature_id,

@@ -5,6 +5,7 @@
 #![allow(clippy::unwrap_used)]
 
 mod align;
+mod epipolar;
 mod frames_errors;
 mod oracle_loop;
 mod render_truth;

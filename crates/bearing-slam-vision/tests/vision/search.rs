@@ -31,6 +31,7 @@ fn region(id: u64, u: f64, v: f64, s: Matrix2<f64>) -> SearchRegion {
         feature_id: id,
         predicted_px: Vector2::new(u, v),
         innovation_cov: s,
+        segment: None,
     }
 }
 

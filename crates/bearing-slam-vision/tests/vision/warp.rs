@@ -70,6 +70,7 @@ fn a_warped_patch_of_a_rendered_plane_is_found_at_its_known_place() {
         feature_id: 0,
         predicted_px: truth + Vector2::new(3.0, -2.0),
         innovation_cov: Matrix2::identity() * 36.0,
+        segment: None,
     };
     let config = SearchConfig::default();
     let chi2 = chi2_quantile_2dof(config.confidence).unwrap();
