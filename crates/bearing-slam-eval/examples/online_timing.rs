@@ -16,7 +16,8 @@
 //!
 //! `ROBOT` 0 means every robot; `MODES` is a comma-separated subset of
 //! `default,converging,keyframes,keyframes-every-scan` (the keyframe window
-//! of `KeyframeRule::default()`, solving at keyframes only or at every scan).
+//! of `KeyframeRule::default()`, solving at keyframes only or at every scan;
+//! its window is 50 poses, or `ONLINE_TIMING_KEYFRAME_LAG` if set).
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
 
@@ -75,6 +76,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     converging.fixed_lag = converging_fixed_lag();
     let mut keyframes = default;
     keyframes.smoother.keyframes = Some(KeyframeRule::default());
+    // ONLINE_TIMING_KEYFRAME_LAG: the keyframe modes' window (default: the
+    // default's 50 poses).
+    if let Some(lag) = std::env::var("ONLINE_TIMING_KEYFRAME_LAG")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        keyframes.fixed_lag.lag = lag;
+    }
     let mut keyframes_every_scan = keyframes;
     keyframes_every_scan.smoother.keyframes = Some(KeyframeRule {
         solve_every_scan: true,
