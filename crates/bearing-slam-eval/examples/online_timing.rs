@@ -17,7 +17,9 @@
 //! `ROBOT` 0 means every robot; `MODES` is a comma-separated subset of
 //! `default,converging,keyframes,keyframes-every-scan` (the keyframe window
 //! of `KeyframeRule::default()`, solving at keyframes only or at every scan;
-//! its window is 50 poses, or `ONLINE_TIMING_KEYFRAME_LAG` if set).
+//! its window is 50 poses, or `ONLINE_TIMING_KEYFRAME_LAG` if set;
+//! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans` sets another rule and
+//! `ONLINE_TIMING_KEYFRAME_FEJ=1` first-estimate Jacobians).
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
 
@@ -83,6 +85,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .and_then(|v| v.parse().ok())
     {
         keyframes.fixed_lag.lag = lag;
+    }
+    // ONLINE_TIMING_KEYFRAME_RULE="metres,radians,scans": another rule.
+    if let Some(rule) = std::env::var("ONLINE_TIMING_KEYFRAME_RULE")
+        .ok()
+        .and_then(|v| {
+            let parts: Vec<&str> = v.split(',').collect();
+            Some(KeyframeRule {
+                min_translation_m: parts.first()?.parse().ok()?,
+                min_rotation_rad: parts.get(1)?.parse().ok()?,
+                max_scans: parts.get(2)?.parse().ok()?,
+                solve_every_scan: false,
+            })
+        })
+    {
+        keyframes.smoother.keyframes = Some(rule);
+    }
+    // ONLINE_TIMING_KEYFRAME_FEJ=1: first-estimate Jacobians on the
+    // marginalized block.
+    if std::env::var("ONLINE_TIMING_KEYFRAME_FEJ").is_ok_and(|v| v == "1") {
+        keyframes.fixed_lag.first_estimates = true;
     }
     let mut keyframes_every_scan = keyframes;
     keyframes_every_scan.smoother.keyframes = Some(KeyframeRule {
