@@ -7,7 +7,10 @@
 //! (at the filter's estimate), with the observations that waited for it
 //! while their poses are still in the window. The window is optimized after
 //! every scan and the poses beyond the lag are marginalized, so the work per
-//! scan stays flat as the run grows.
+//! scan stays flat as the run grows. With a [`KeyframeRule`]
+//! ([`SmootherConfig::keyframes`]) only keyframes by motion get a pose; the
+//! scans between observe from the latest keyframe composed with the
+//! odometry since, and the window spans motion instead of time.
 //!
 //! It is an [`OnlineEstimator`], driven by the runner's one event loop
 //! ([`crate::runner::run_online`]). Live, it reports the filter's estimate;
