@@ -108,6 +108,24 @@ proptest! {
         check(&f, &values_with(4, x, 9, p)).map_err(TestCaseError::fail)?;
     }
 
+    /// A bearing taken from `x ⊕ Δ` (a scan between keyframes): the
+    /// Jacobian through the composition, and a zero residual at the exact
+    /// bearing from the offset sensor.
+    #[test]
+    fn offset_measurement_factors(x in pose(), (r, a, noise) in (0.3..30.0f64, -PI..PI, -0.05..0.05f64), d in prop::array::uniform3(-0.5..0.5f64)) {
+        let offset = Vector3::from(d);
+        let sensor = Pose2::from_vector(&x).compose(&Pose2::from_vector(&offset)).to_vector();
+        let p = sensor.fixed_rows::<2>(0) + r * Vector2::new(a.cos(), a.sin());
+        let z = bearing_to_point(&sensor, &p).unwrap();
+        let v = values_with(4, x, 9, p);
+        let exact = Factor::Bearing(BearingFactor::new(4, 9, z, 0.02).unwrap().with_offset(offset));
+        prop_assert!(exact.error(&v).unwrap().norm() < 1e-9);
+        let f = Factor::Bearing(BearingFactor::new(4, 9, z + noise, 0.02).unwrap().with_offset(offset));
+        check(&f, &v).map_err(TestCaseError::fail)?;
+        let g = Factor::RangeBearing(RangeBearingFactor::new(4, 9, r + noise, z + noise, 0.1, 0.02).unwrap().with_offset(offset));
+        check(&g, &v).map_err(TestCaseError::fail)?;
+    }
+
     #[test]
     fn odometry_factor(xi in pose(), xj in pose(), noise in prop::array::uniform3(-0.1..0.1f64)) {
         let rel = Pose2::from_vector(&xi).between(&Pose2::from_vector(&xj)).to_vector();

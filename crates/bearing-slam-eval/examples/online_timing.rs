@@ -11,14 +11,21 @@
 //! the odometry prediction and each solve stops once converged):
 //!
 //! ```text
-//! cargo run --release -p bearing-slam-eval --example online_timing -- [DATA_DIR [ROBOT]]
+//! cargo run --release -p bearing-slam-eval --example online_timing -- [DATA_DIR [ROBOT [MODES]]]
 //! ```
+//!
+//! `ROBOT` 0 means every robot; `MODES` is a comma-separated subset of
+//! `default,converging,keyframes,keyframes-every-scan` (the keyframe window
+//! of `KeyframeRule::default()`, solving at keyframes only or at every scan;
+//! its window is 50 poses, or `ONLINE_TIMING_KEYFRAME_LAG` if set;
+//! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans` sets another rule and
+//! `ONLINE_TIMING_KEYFRAME_FEJ=1` first-estimate Jacobians).
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
-use bearing_slam_core::smoother::{OnlineStart, run_online_smoother};
+use bearing_slam_core::smoother::{KeyframeRule, OnlineStart, run_online_smoother};
 use bearing_slam_eval::real_data::{EvalOptions, Method, evaluate_run_with, filter_log};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use std::path::PathBuf;
@@ -69,12 +76,59 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut converging = default;
     converging.smoother.online_start = OnlineStart::Odometry;
     converging.fixed_lag = converging_fixed_lag();
+    let mut keyframes = default;
+    keyframes.smoother.keyframes = Some(KeyframeRule::default());
+    // ONLINE_TIMING_KEYFRAME_LAG: the keyframe modes' window (default: the
+    // default's 50 poses).
+    if let Some(lag) = std::env::var("ONLINE_TIMING_KEYFRAME_LAG")
+        .ok()
+        .and_then(|v| v.parse().ok())
+    {
+        keyframes.fixed_lag.lag = lag;
+    }
+    // ONLINE_TIMING_KEYFRAME_RULE="metres,radians,scans": another rule.
+    if let Some(rule) = std::env::var("ONLINE_TIMING_KEYFRAME_RULE")
+        .ok()
+        .and_then(|v| {
+            let parts: Vec<&str> = v.split(',').collect();
+            Some(KeyframeRule {
+                min_translation_m: parts.first()?.parse().ok()?,
+                min_rotation_rad: parts.get(1)?.parse().ok()?,
+                max_scans: parts.get(2)?.parse().ok()?,
+                solve_every_scan: false,
+            })
+        })
+    {
+        keyframes.smoother.keyframes = Some(rule);
+    }
+    // ONLINE_TIMING_KEYFRAME_FEJ=1: first-estimate Jacobians on the
+    // marginalized block.
+    if std::env::var("ONLINE_TIMING_KEYFRAME_FEJ").is_ok_and(|v| v == "1") {
+        keyframes.fixed_lag.first_estimates = true;
+    }
+    let mut keyframes_every_scan = keyframes;
+    keyframes_every_scan.smoother.keyframes = Some(KeyframeRule {
+        solve_every_scan: true,
+        ..KeyframeRule::default()
+    });
     println!(
-        "| mode | robot | updates | median (ms) | total (s) | slope | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
+        "| mode | robot | scans | updates | median (ms) | total (s) | per scan (ms) | slope | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|");
-    let only: Option<u8> = std::env::args().nth(2).and_then(|r| r.parse().ok());
-    for (mode, estimator) in [("default", &default), ("converging", &converging)] {
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let only: Option<u8> = std::env::args()
+        .nth(2)
+        .and_then(|r| r.parse().ok())
+        .filter(|r| *r > 0);
+    let modes: Option<String> = std::env::args().nth(3);
+    for (mode, estimator) in [
+        ("default", &default),
+        ("converging", &converging),
+        ("keyframes", &keyframes),
+        ("keyframes-every-scan", &keyframes_every_scan),
+    ]
+    .into_iter()
+    .filter(|(m, _)| modes.as_ref().is_none_or(|s| s.split(',').any(|x| x == *m)))
+    {
         for robot in (1..=ROBOT_COUNT).filter(|r| only.is_none_or(|o| o == *r)) {
             let run = load_mrclam_with(&dataset, robot, &options.load)?;
             let log = filter_log(&run, Method::Mte, &options.parameters)?;
@@ -84,6 +138,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let online =
                 run_online_smoother(&log, &config, &estimator.smoother, estimator.fixed_lag)?;
             let times = &online.estimator.report().update_times_s;
+            let scans = online.estimator.scans();
             let iterations = &online.estimator.report().update_iterations;
             let cap = estimator.fixed_lag.solver.max_iterations;
             let mean_iterations =
@@ -92,10 +147,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let scored = evaluate_run_with(&run, Method::Mte, &options.parameters, estimator)?;
             let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |x| format!("{x:.3}"));
             println!(
-                "| {mode} | {robot} | {} | {:.3} | {:.2} | {:.2} | {mean_iterations:.2} | {at_cap} | {} | {} | {} |",
+                "| {mode} | {robot} | {scans} | {} | {:.3} | {:.2} | {:.3} | {:.2} | {mean_iterations:.2} | {at_cap} | {} | {} | {} |",
                 times.len(),
                 1e3 * median(times),
                 times.iter().sum::<f64>(),
+                1e3 * times.iter().sum::<f64>() / scans.max(1) as f64,
                 flatness(times),
                 fmt(scored.ate_rmse_m),
                 fmt(scored.landmark_rmse_m),

@@ -196,6 +196,10 @@ pub struct BearingFactor {
     landmark: u64,
     bearing: f64,
     sigma: f64,
+    /// The sensor's pose in the pose variable's frame, when the bearing was
+    /// taken after the variable's time ([`Self::with_offset`]).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    offset: Option<Vector3<f64>>,
 }
 
 impl BearingFactor {
@@ -209,8 +213,29 @@ impl BearingFactor {
             landmark,
             bearing,
             sigma,
+            offset: None,
         })
     }
+
+    /// The bearing taken from `x ⊕ offset` instead of the pose `x`
+    /// itself: a scan between two keyframes observes from the keyframe
+    /// composed with the odometry preintegrated since (held fixed).
+    #[must_use]
+    pub fn with_offset(mut self, offset: Vector3<f64>) -> Self {
+        self.offset = Some(offset);
+        self
+    }
+}
+
+/// The sensor pose `x ⊕ Δ` and its Jacobian `∂(x ⊕ Δ)/∂x` (SE(2)
+/// composition with `Δ` fixed).
+fn offset_pose(x: &Vector3<f64>, offset: &Vector3<f64>) -> (Vector3<f64>, Matrix3<f64>) {
+    let (s, c) = x.z.sin_cos();
+    let dx = c * offset.x - s * offset.y;
+    let dy = s * offset.x + c * offset.y;
+    let pose = Vector3::new(x.x + dx, x.y + dy, wrap_angle(x.z + offset.z));
+    let jacobian = Matrix3::new(1.0, 0.0, -dy, 0.0, 1.0, dx, 0.0, 0.0, 1.0);
+    (pose, jacobian)
 }
 
 /// One range and bearing to a landmark: `e = S (z − h(x_v, p))` with the
@@ -221,6 +246,9 @@ pub struct RangeBearingFactor {
     landmark: u64,
     measured: Vector2<f64>,
     sqrt_info: Matrix2<f64>,
+    /// As [`BearingFactor`]'s: the sensor at `x ⊕ offset`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    offset: Option<Vector3<f64>>,
 }
 
 impl RangeBearingFactor {
@@ -243,7 +271,15 @@ impl RangeBearingFactor {
             landmark,
             measured: Vector2::new(range, bearing),
             sqrt_info: Matrix2::new(1.0 / range_sigma, 0.0, 0.0, 1.0 / bearing_sigma),
+            offset: None,
         })
+    }
+
+    /// The measurement taken from `x ⊕ offset` ([`BearingFactor::with_offset`]).
+    #[must_use]
+    pub fn with_offset(mut self, offset: Vector3<f64>) -> Self {
+        self.offset = Some(offset);
+        self
     }
 }
 
@@ -390,9 +426,21 @@ impl Factor {
             Factor::Bearing(f) => {
                 let x = values.pose(f.pose)?;
                 let p = values.landmark(f.landmark)?;
+                let w = -1.0 / f.sigma;
+                if let Some(offset) = &f.offset {
+                    let (sensor, j_sensor) = offset_pose(&x, offset);
+                    let pred = BearingToPoint.predict(&sensor, &p)?;
+                    let r = BearingToPoint.residual(&Vector1::new(f.bearing), &pred.value);
+                    return Ok(Linearization {
+                        residual: DVector::from_element(1, r.x / f.sigma),
+                        jacobians: vec![
+                            dm(&(pred.j_z_vehicle * j_sensor * w)),
+                            dm(&(pred.j_z_landmark * w)),
+                        ],
+                    });
+                }
                 let pred = BearingToPoint.predict(&x, &p)?;
                 let r = BearingToPoint.residual(&Vector1::new(f.bearing), &pred.value);
-                let w = -1.0 / f.sigma;
                 Ok(Linearization {
                     residual: DVector::from_element(1, r.x / f.sigma),
                     jacobians: vec![dm(&(pred.j_z_vehicle * w)), dm(&(pred.j_z_landmark * w))],
@@ -401,9 +449,21 @@ impl Factor {
             Factor::RangeBearing(f) => {
                 let x = values.pose(f.pose)?;
                 let p = values.landmark(f.landmark)?;
+                let s = -f.sqrt_info;
+                if let Some(offset) = &f.offset {
+                    let (sensor, j_sensor) = offset_pose(&x, offset);
+                    let pred = RangeBearing.predict(&sensor, &p)?;
+                    let r = RangeBearing.residual(&f.measured, &pred.value);
+                    return Ok(Linearization {
+                        residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
+                        jacobians: vec![
+                            dm(&(s * pred.j_z_vehicle * j_sensor)),
+                            dm(&(s * pred.j_z_landmark)),
+                        ],
+                    });
+                }
                 let pred = RangeBearing.predict(&x, &p)?;
                 let r = RangeBearing.residual(&f.measured, &pred.value);
-                let s = -f.sqrt_info;
                 Ok(Linearization {
                     residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
                     jacobians: vec![dm(&(s * pred.j_z_vehicle)), dm(&(s * pred.j_z_landmark))],

@@ -7,7 +7,10 @@
 //! (at the filter's estimate), with the observations that waited for it
 //! while their poses are still in the window. The window is optimized after
 //! every scan and the poses beyond the lag are marginalized, so the work per
-//! scan stays flat as the run grows.
+//! scan stays flat as the run grows. With a [`KeyframeRule`]
+//! ([`SmootherConfig::keyframes`]) only keyframes by motion get a pose; the
+//! scans between observe from the latest keyframe composed with the
+//! odometry since, and the window spans motion instead of time.
 //!
 //! It is an [`OnlineEstimator`], driven by the runner's one event loop
 //! ([`crate::runner::run_online`]). Live, it reports the filter's estimate;
@@ -15,12 +18,14 @@
 //! are rewritten with each pose as it was when it left the window (and the
 //! poses still in it as they are at the end), with marginal covariances.
 
-use super::factors::{Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor};
+use super::factors::{
+    BearingFactor, Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor, RangeBearingFactor,
+};
 use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
 use super::preintegration::PreintegratedOdometry;
-use super::run::{SmootherConfig, SmootherReport, apply_smoothed, measurement_factor};
+use super::run::{SmootherConfig, SmootherReport, apply_smoothed, compose, measurement_factor};
 use super::values::Key;
-use crate::error::Result;
+use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::{BearingObservation, SensorLog};
 use crate::model::MotionModel;
@@ -51,10 +56,89 @@ pub enum OnlineStart {
     Odometry,
 }
 
+/// Which scans get a pose variable of their own in the online window
+/// ([`SmootherConfig::keyframes`]). A scan is a keyframe when the odometry
+/// preintegrated since the latest pose variable has moved the robot at
+/// least `min_translation_m` or turned it at least `min_rotation_rad`, or
+/// when `max_scans` scans already observe from that pose variable. Any
+/// other scan observes from the latest pose composed with that odometry
+/// (held fixed: [`BearingFactor::with_offset`]), its bearing variance
+/// increased by the odometry's heading variance. The window's `lag` poses
+/// then span motion instead of time, the baseline bearing-only landmarks
+/// need.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct KeyframeRule {
+    /// Translation since the latest pose that makes a keyframe, metres.
+    pub min_translation_m: f64,
+    /// Rotation since the latest pose that makes a keyframe, radians.
+    pub min_rotation_rad: f64,
+    /// Scans that may observe from one pose variable (≥ 1); a stationary
+    /// robot then still adds a pose every `max_scans` scans.
+    pub max_scans: usize,
+    /// Solve the window at every scan (`true`) or only when a keyframe
+    /// enters it (`false`: the scans between add their factors only; the
+    /// live estimate is the filter's either way).
+    pub solve_every_scan: bool,
+}
+
+impl Default for KeyframeRule {
+    /// 0.5 m, 0.5 rad, 20 scans, solving at keyframes only: of three rules
+    /// tried on MRCLAM Dataset 6 (0.25 m / 0.35 rad / 10 scans, this one,
+    /// 1 m / 0.7 rad / 40 scans, the last of which leaves some runs with
+    /// fewer keyframes than the window holds) the best on every robot whose
+    /// window fills (`docs/results/estimators.md`; picked on that data, no
+    /// held-out set).
+    fn default() -> Self {
+        Self {
+            min_translation_m: 0.5,
+            min_rotation_rad: 0.5,
+            max_scans: 20,
+            solve_every_scan: false,
+        }
+    }
+}
+
+impl KeyframeRule {
+    /// Whether a scan after `motion` since the latest pose variable, which
+    /// `scans` scans already observe from, is a keyframe.
+    #[must_use]
+    pub fn is_keyframe(&self, motion: &PreintegratedOdometry, scans: usize) -> bool {
+        motion.delta.fixed_rows::<2>(0).norm() >= self.min_translation_m
+            || motion.delta.z.abs() >= self.min_rotation_rad
+            || scans >= self.max_scans
+    }
+
+    fn validate(&self) -> Result<()> {
+        for (name, value) in [
+            ("keyframe min_translation_m", self.min_translation_m),
+            ("keyframe min_rotation_rad", self.min_rotation_rad),
+        ] {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(SlamError::InvalidParameter {
+                    name,
+                    value,
+                    reason: "must be finite and non-negative",
+                });
+            }
+        }
+        if self.max_scans == 0 {
+            return Err(SlamError::InvalidParameter {
+                name: "keyframe max_scans",
+                value: 0.0,
+                reason: "at least one scan observes from each pose",
+            });
+        }
+        Ok(())
+    }
+}
+
 /// The EKF and the fixed-lag smoother it starts, run together online.
 #[derive(Clone, Debug)]
 pub struct OnlineSmoother {
     start: OnlineStart,
+    keyframes: Option<KeyframeRule>,
+    /// Scans observing from the latest pose variable.
+    scans_on_node: usize,
     filter: BearingSlam,
     smoother: FixedLagSmoother,
     run_config: RunConfig,
@@ -65,9 +149,11 @@ pub struct OnlineSmoother {
     /// Pose variables so far (ids `0..nodes`).
     nodes: usize,
     /// Observations of landmarks not yet in the graph, with their pose.
-    waiting: HashMap<u64, Vec<(usize, BearingObservation)>>,
+    waiting: HashMap<u64, Vec<(usize, Option<PreintegratedOdometry>, BearingObservation)>>,
     /// The pose variable of each scan, in order.
     scan_node: Vec<usize>,
+    /// The odometry from that pose to each scan (keyframe windows only).
+    scan_offset: Vec<Option<PreintegratedOdometry>>,
     /// Per track point: the pose variable before it and the motion since.
     records: Vec<(usize, PreintegratedOdometry)>,
     /// The filter's snapshot after the latest scan.
@@ -88,6 +174,9 @@ impl OnlineSmoother {
         config: &SmootherConfig,
         fixed_lag: FixedLagConfig,
     ) -> Result<Self> {
+        if let Some(rule) = &config.keyframes {
+            rule.validate()?;
+        }
         let start = slam.initial_pose;
         let sigma = slam
             .initial_pose_sigma
@@ -102,6 +191,8 @@ impl OnlineSmoother {
         )?))?;
         let mut this = Self {
             start: config.online_start,
+            keyframes: config.keyframes,
+            scans_on_node: 0,
             filter,
             smoother,
             run_config: run_config.clone(),
@@ -111,6 +202,7 @@ impl OnlineSmoother {
             nodes: 1,
             waiting: HashMap::new(),
             scan_node: Vec::new(),
+            scan_offset: Vec::new(),
             records: Vec::new(),
             latest: None,
             report: SmootherReport::default(),
@@ -124,6 +216,12 @@ impl OnlineSmoother {
     #[must_use]
     pub fn report(&self) -> &SmootherReport {
         &self.report
+    }
+
+    /// Scans seen so far.
+    #[must_use]
+    pub fn scans(&self) -> usize {
+        self.scan_node.len()
     }
 
     /// The fixed-lag smoother.
@@ -147,8 +245,50 @@ impl OnlineSmoother {
         Ok(())
     }
 
-    fn add_measurement(&mut self, node: usize, o: &BearingObservation) -> Result<()> {
-        let factor = measurement_factor(node, o, &self.run_config)?;
+    /// The factor of observation `o` at `node`, or at `node ⊕ Δ` with the
+    /// odometry `Δ` since (held fixed; its heading variance added to the
+    /// bearing's, the one error of `Δ` a bearing sees at any range).
+    fn observation_factor(
+        &self,
+        node: usize,
+        offset: Option<&PreintegratedOdometry>,
+        o: &BearingObservation,
+    ) -> Result<Factor> {
+        let Some(motion) = offset else {
+            return measurement_factor(node, o, &self.run_config);
+        };
+        let slam = &self.run_config.slam;
+        let sigma = (slam.bearing_sigma.powi(2) + motion.covariance[(2, 2)].max(0.0)).sqrt();
+        if self.run_config.use_range {
+            let range = o.range.ok_or(SlamError::Mismatch(
+                "range-bearing smoothing of a scan without ranges",
+            ))?;
+            Ok(Factor::RangeBearing(
+                RangeBearingFactor::new(
+                    node as u64,
+                    o.landmark_id,
+                    range,
+                    o.bearing,
+                    slam.range_sigma,
+                    sigma,
+                )?
+                .with_offset(motion.delta),
+            ))
+        } else {
+            Ok(Factor::Bearing(
+                BearingFactor::new(node as u64, o.landmark_id, o.bearing, sigma)?
+                    .with_offset(motion.delta),
+            ))
+        }
+    }
+
+    fn add_measurement(
+        &mut self,
+        node: usize,
+        offset: Option<&PreintegratedOdometry>,
+        o: &BearingObservation,
+    ) -> Result<()> {
+        let factor = self.observation_factor(node, offset, o)?;
         self.smoother.add_factor(factor)?;
         self.report.n_measurements += 1;
         Ok(())
@@ -167,9 +307,9 @@ impl OnlineSmoother {
                 )?))?;
         }
         self.report.n_landmarks += 1;
-        for (node, o) in self.waiting.remove(&id).unwrap_or_default() {
+        for (node, offset, o) in self.waiting.remove(&id).unwrap_or_default() {
             if self.smoother.in_window(node as u64) {
-                self.add_measurement(node, &o)?;
+                self.add_measurement(node, offset.as_ref(), &o)?;
             } else {
                 self.report.n_dropped += 1;
             }
@@ -225,7 +365,11 @@ impl OnlineEstimator for OnlineSmoother {
     ) -> Result<ScanCounts> {
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
         let snapshot = self.filter.snapshot();
-        if self.pending.steps > 0 {
+        let new_pose = self.pending.steps > 0
+            && self
+                .keyframes
+                .is_none_or(|rule| rule.is_keyframe(&self.pending, self.scans_on_node));
+        if new_pose {
             let node = self.nodes as u64;
             let start = match self.start {
                 OnlineStart::Filter => snapshot.pose,
@@ -244,13 +388,22 @@ impl OnlineEstimator for OnlineSmoother {
                     self.odometry_floor_sigma,
                 )?))?;
             self.nodes += 1;
+            self.scans_on_node = 0;
         }
+        self.scans_on_node += 1;
         let node = self.nodes - 1;
+        // A scan that is not a keyframe observes from the latest pose
+        // composed with the odometry since.
+        let offset = (self.pending.steps > 0).then_some(self.pending);
         self.scan_node.push(node);
+        self.scan_offset.push(offset);
         let filter_to_smoother = match self.start {
             OnlineStart::Filter => Pose2::default(),
             OnlineStart::Odometry => {
-                let here = Pose2::from_vector(&self.smoother.values().pose(node as u64)?);
+                let mut here = Pose2::from_vector(&self.smoother.values().pose(node as u64)?);
+                if let Some(motion) = &offset {
+                    here = here.compose(&Pose2::from_vector(&motion.delta));
+                }
                 here.compose(&snapshot.pose.inverse())
             }
         };
@@ -266,16 +419,18 @@ impl OnlineEstimator for OnlineSmoother {
                 .values()
                 .contains(Key::Landmark(o.landmark_id))
             {
-                self.add_measurement(node, o)?;
+                self.add_measurement(node, offset.as_ref(), o)?;
             } else {
                 self.waiting
                     .entry(o.landmark_id)
                     .or_default()
-                    .push((node, *o));
+                    .push((node, offset, *o));
             }
         }
         self.latest = Some(snapshot);
-        self.solve()?;
+        if new_pose || self.keyframes.is_none_or(|rule| rule.solve_every_scan) {
+            self.solve()?;
+        }
         Ok(counts)
     }
 
@@ -297,6 +452,20 @@ impl OnlineEstimator for OnlineSmoother {
         self.waiting.clear();
         let (poses, covs, lms) = self.estimates()?;
         apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
+        // A scan between keyframes is its pose composed with the odometry since.
+        for ((snap, node), offset) in output
+            .trace
+            .snapshots
+            .iter_mut()
+            .zip(&self.scan_node)
+            .zip(&self.scan_offset)
+        {
+            if let Some(motion) = offset {
+                let (pose, cov) = compose(&poses[*node], &covs[*node], motion);
+                snap.pose = pose;
+                snap.pose_covariance = cov.transpose().into();
+            }
+        }
         Ok(())
     }
 }

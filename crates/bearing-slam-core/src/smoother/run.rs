@@ -15,7 +15,7 @@ use super::factors::{
 use super::fixed_lag::FixedLagConfig;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
-use super::online::{OnlineStart, run_online_smoother};
+use super::online::{KeyframeRule, OnlineStart, run_online_smoother};
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
@@ -65,6 +65,10 @@ pub struct SmootherConfig {
     pub triangulate_unmapped: Option<UnmappedTriangulation>,
     /// Fixed-lag mode: where a new pose and a new landmark start.
     pub online_start: OnlineStart,
+    /// Fixed-lag mode: which scans get a pose variable of their own
+    /// (`None`: every scan that follows motion, the window then holding
+    /// the last `lag` scans; `Some`: keyframes by motion, [`KeyframeRule`]).
+    pub keyframes: Option<KeyframeRule>,
 }
 
 /// How the batch smoother triangulates the landmarks the filter never
@@ -103,6 +107,7 @@ impl Default for SmootherConfig {
             min_initial_sigma: 1e-4,
             triangulate_unmapped: Some(UnmappedTriangulation::default()),
             online_start: OnlineStart::Filter,
+            keyframes: None,
         }
     }
 }
