@@ -16,6 +16,7 @@
 //! [confirmed](TrackSet::confirmed) and hands those to its initializer.
 
 use super::AssociationConfig;
+use super::depth_hypotheses::{DepthHypothesis, initial_hypotheses};
 use crate::error::Result;
 use crate::geometry::{unit_direction, wrap_angle};
 use crate::stats::chi2_quantile;
@@ -58,7 +59,7 @@ impl Sighting {
         wrap_angle(self.pose.z + self.bearing)
     }
 
-    fn position(&self) -> Vector2<f64> {
+    pub(crate) fn position(&self) -> Vector2<f64> {
         Vector2::new(self.pose.x, self.pose.y)
     }
 }
@@ -85,6 +86,9 @@ pub struct Track {
     pub dropped: usize,
     /// Scans skipped because more than one bearing lay in its gate.
     pub ambiguous: usize,
+    /// Its surviving depth hypotheses along the first ray (empty with the
+    /// old wedge rule, `AssociationConfig::wedge_hypotheses = 0`).
+    pub hypotheses: Vec<DepthHypothesis>,
 }
 
 impl Track {
@@ -124,6 +128,11 @@ pub struct TrackSet {
     min_depth: f64,
     /// `χ²₁(p)` for a bearing joining a track.
     gate: f64,
+    /// `χ²₂(p)`, for the depth bound of a confirmed point.
+    gate2: f64,
+    /// Least angle between two sightings' rays at the point for them to
+    /// count as distinct views (`√χ²₁(p)` bearing σ).
+    view_separation: f64,
     /// `consistency[k] = χ²_k(p)` for a track's sightings (k = n − 2).
     consistency: Vec<f64>,
     tracks: Vec<Track>,
@@ -147,6 +156,8 @@ impl TrackSet {
             bearing_variance: bearing_sigma * bearing_sigma,
             min_depth,
             gate: chi2_quantile(1.0, p)?,
+            gate2: chi2_quantile(2.0, p)?,
+            view_separation: chi2_quantile(1.0, p)?.sqrt() * bearing_sigma,
             consistency,
             tracks: Vec::new(),
             scan: 0,
@@ -190,6 +201,14 @@ impl TrackSet {
             return (d2 <= self.gate).then_some(d2);
         }
         let p1 = first.position();
+        if self.config.wedge_hypotheses > 0 {
+            let d2 = track
+                .hypotheses
+                .iter()
+                .filter_map(|h| h.distance2(&p1, &p, phi, own, position_variance))
+                .min_by(f64::total_cmp)?;
+            return (d2 <= self.gate).then_some(d2);
+        }
         let u1 = unit_direction(first.world_bearing());
         let near = p1 + self.min_depth * u1 - p;
         let far = p1 + FAR_DEPTH_M * u1 - p;
@@ -263,6 +282,7 @@ impl TrackSet {
         let mut taken_by_track = Vec::new();
         let mut ambiguous = vec![false; self.tracks.len()];
         let mut claimed = vec![false; bearings.len()];
+        let mut branches = Vec::new();
         for (t, track) in self.tracks.iter().enumerate() {
             let compatible: Vec<(usize, f64)> = sightings
                 .iter()
@@ -281,10 +301,30 @@ impl TrackSet {
                 }
                 continue;
             }
-            let best = compatible.into_iter().min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((i, _)) = best {
+            let mut compatible = compatible;
+            compatible.sort_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some(&(i, _)) = compatible.first() {
                 taken_by_track.push((t, i));
             }
+            if track.point.is_none() && self.config.wedge_hypotheses > 0 {
+                // In the wedge phase one bearing cannot tell which of the
+                // compatible bearings is the track's: each of the next best
+                // starts a branch (a copy of the track with that bearing),
+                // and the group consistency of the depth hypotheses, or the
+                // confirmation's competition, decides between them later.
+                for &(i, _) in compatible.iter().skip(1).take(self.config.wedge_branches) {
+                    let mut branch = track.clone();
+                    branch.sightings.push(sightings[i]);
+                    branch.hits += 1;
+                    branch.misses = 0;
+                    branches.push((i, branch));
+                }
+            }
+        }
+        for (i, mut branch) in branches {
+            branch.id = new_id();
+            joined[i].push(branch.id);
+            self.tracks.push(branch);
         }
         for (t, i) in taken_by_track {
             let track = &mut self.tracks[t];
@@ -305,8 +345,15 @@ impl TrackSet {
         for (i, s) in sightings.iter().enumerate() {
             if joined[i].is_empty() && !claimed[i] && may_start.get(i).copied().unwrap_or(true) {
                 let id = new_id();
+                let hypotheses = initial_hypotheses(
+                    s,
+                    self.config.wedge_hypotheses,
+                    self.min_depth,
+                    self.bearing_variance,
+                );
                 self.tracks.push(Track {
                     id,
+                    hypotheses,
                     sightings: vec![*s],
                     first_scan: self.scan,
                     hits: 1,
@@ -362,6 +409,24 @@ impl TrackSet {
         let (point, chi2) = self.fit(&self.tracks[t].sightings);
         let n = self.tracks[t].sightings.len();
         let limit = self.consistency_limit(n);
+        if point.is_none() && self.config.wedge_hypotheses > 0 {
+            self.tracks[t].point = None;
+            self.refit_hypotheses(t);
+            return;
+        }
+        if let Some((x, _)) = &point
+            && self.config.wedge_hypotheses > 0
+        {
+            // The first sighting defines the ray and is never dropped: it
+            // must fit the point on its own (χ²₁), not only as part of the
+            // sum, or the track is the first ray of one landmark followed
+            // by another's bearings.
+            let first = self.tracks[t].sightings[0];
+            if self.residual2(&first, &first, x) > self.gate {
+                self.tracks[t].chi2 = f64::INFINITY;
+                return;
+            }
+        }
         if point.is_none() || chi2 <= limit {
             let track = &mut self.tracks[t];
             track.point = point;
@@ -392,6 +457,31 @@ impl TrackSet {
             }
         }
         self.tracks[t].chi2 = f64::INFINITY;
+    }
+
+    /// Refits track `t`'s depth hypotheses to all its sightings and keeps
+    /// those the whole group fits (χ² within `χ²_{n−1}(p)`); a track left
+    /// with none is marked for removal (χ² = ∞): no static point along its
+    /// first ray explains its sightings.
+    fn refit_hypotheses(&mut self, t: usize) {
+        let n = self.tracks[t].sightings.len();
+        let limit = self.consistency[(n.saturating_sub(1)).clamp(1, MAX_SIGHTINGS)];
+        let bearing_variance = self.bearing_variance;
+        let track = &mut self.tracks[t];
+        let first = track.sightings[0];
+        let sightings = &track.sightings;
+        track.hypotheses.retain_mut(|h| {
+            h.refit(sightings, bearing_variance, |s, range2| {
+                let grown = relative_variances(&first, s);
+                bearing_variance + grown.z + 0.5 * (grown.x + grown.y) / range2
+            })
+            .is_some_and(|chi2| chi2 <= limit)
+        });
+        track.chi2 = if track.hypotheses.is_empty() {
+            f64::INFINITY
+        } else {
+            0.0
+        };
     }
 
     fn consistency_limit(&self, sightings: usize) -> f64 {
@@ -486,8 +576,45 @@ impl TrackSet {
                         && !same_point(o, t, self.gate)
                 })
             })
+            .filter(|t| !self.config.confirm_constrained_depth || self.depth_constrained(t))
+            .filter(|t| parallax_views(t, self.view_separation) >= self.config.min_parallax_views)
+            .filter(|t| !self.config.confirm_unambiguous || !self.outranked(t))
             .map(|t| t.id)
             .collect()
+    }
+
+    /// Whether the track's point is well constrained: its depth σ from the
+    /// latest pose, times `√χ²₂(p)`, is below the depth (the point's χ²₂
+    /// ellipse does not reach the robot).
+    fn depth_constrained(&self, t: &Track) -> bool {
+        let Some((x, cov)) = &t.point else {
+            return false;
+        };
+        let d = x - t.last().position();
+        let depth = d.norm();
+        if depth < 1e-9 {
+            return false;
+        }
+        let radial = d / depth;
+        let sigma = radial.dot(&(cov * radial)).max(0.0).sqrt();
+        sigma * self.gate2.sqrt() < depth
+    }
+
+    /// Whether another live track with a different point competes for one
+    /// of `t`'s sightings and is better supported: more sightings, or as
+    /// many with a smaller χ² per degree of freedom. Of two tracks that
+    /// claim the same bearings only the better supported may enter the map.
+    fn outranked(&self, t: &Track) -> bool {
+        let per_dof = |x: &Track| x.chi2 / x.sightings.len().saturating_sub(2).max(1) as f64;
+        self.tracks.iter().any(|o| {
+            o.id != t.id
+                && o.point.is_some()
+                && o.chi2.is_finite()
+                && o.shares_with(t) > 0
+                && !same_point(o, t, self.gate)
+                && (o.sightings.len() > t.sightings.len()
+                    || (o.sightings.len() == t.sightings.len() && per_dof(o) < per_dof(t)))
+        })
     }
 
     /// Removes track `id` (it entered the map, or was refused) and every
@@ -507,6 +634,30 @@ impl TrackSet {
 /// The pose variances gained from `first` to `later` (never negative).
 fn relative_variances(first: &Sighting, later: &Sighting) -> Vector3<f64> {
     (later.pose_variances - first.pose_variances).map(|v| v.max(0.0))
+}
+
+/// How many of the track's sightings see its point from distinct
+/// directions: counted greedily, oldest first, a sighting counts when its
+/// ray's direction at the point differs from every counted one's by at
+/// least `separation` (rad). 0 without a point. Clutter is independent per
+/// scan, so clutter bearings that fit one point from several such views are
+/// improbable; a nearly parallel bundle of rays counts once.
+fn parallax_views(t: &Track, separation: f64) -> usize {
+    let Some((x, _)) = &t.point else {
+        return 0;
+    };
+    let mut counted: Vec<f64> = Vec::new();
+    for s in &t.sightings {
+        let d = x - s.position();
+        let direction = d.y.atan2(d.x);
+        if counted
+            .iter()
+            .all(|&c| wrap_angle(direction - c).abs() >= separation)
+        {
+            counted.push(direction);
+        }
+    }
+    counted.len()
 }
 
 /// Whether two tracks' points are within the gate of each other.
@@ -625,6 +776,53 @@ mod tests {
         assert_eq!(s.tracks().len(), 1);
         let track = &s.tracks()[0];
         assert_eq!((track.hits, track.misses, track.ambiguous), (1, 0, 5));
+    }
+
+    /// Which landmarks a track's sightings come from when scan 0 offered
+    /// `[A]` and every later scan `[B, A]`: (has A, has B).
+    fn sources(track: &Track) -> (bool, bool) {
+        let is_a = |s: &Sighting| s.key.1 == 1 || s.key.0 == 1;
+        (
+            track.sightings.iter().any(is_a),
+            track.sightings.iter().any(|s| !is_a(s)),
+        )
+    }
+
+    /// A landmark `B` inside the wedge of `A`'s first ray but off the ray
+    /// (3.2° = 5.6 σ off it as seen from the start), listed first in every
+    /// scan. The old wedge rule scores both bearings `d² = 0`, the track of
+    /// `A` takes `B`'s and the map receives a track that mixes the two; with
+    /// depth hypotheses the track branches, and the confirmed tracks hold
+    /// one landmark's bearings each.
+    #[test]
+    fn depth_hypotheses_keep_a_landmark_in_the_wedge_apart() {
+        let run = |wedge_hypotheses: usize| {
+            let config = AssociationConfig {
+                wedge_hypotheses,
+                ..AssociationConfig::default()
+            };
+            let mut s = TrackSet::new(&config, 0.01, 0.5).expect("valid");
+            drive(&mut s, 0..1, |p, _| vec![bearing_to(p, 3.0, 2.0)]);
+            let mut first_track_mixed = false;
+            let mut confirmed = Vec::new();
+            for k in 1..20 {
+                drive(&mut s, k..k + 1, |p, _| {
+                    vec![bearing_to(p, 2.46, 1.85), bearing_to(p, 3.0, 2.0)]
+                });
+                first_track_mixed |= s.get(101).is_some_and(|t| sources(t) == (true, true));
+                for id in s.confirmed() {
+                    confirmed.extend(s.get(id).map(sources));
+                    s.remove_with_competitors(id);
+                }
+            }
+            (first_track_mixed, confirmed)
+        };
+        let (mixed, confirmed) = run(0);
+        assert!(mixed, "the old wedge rule gives B's bearings to A's track");
+        assert!(confirmed.contains(&(true, true)), "{confirmed:?}");
+        let (_, confirmed) = run(6);
+        assert!(!confirmed.is_empty(), "a track confirms");
+        assert!(!confirmed.contains(&(true, true)), "{confirmed:?}");
     }
 
     #[test]
