@@ -140,7 +140,9 @@ pub struct AssociationConfig {
     /// Components of the Gaussian sum over inverse depth that a track
     /// without a point scores bearings against ([`depth_hypotheses`]); 0:
     /// the old wedge rule (any bearing inside the span under which the
-    /// first ray is seen scores `d² = 0`).
+    /// first ray is seen scores `d² = 0`). With hypotheses on, a track's
+    /// first sighting must also fit its least-squares point on its own
+    /// (within the χ²₁ gate), since it is never dropped as an outlier.
     pub wedge_hypotheses: usize,
     /// With depth hypotheses, a track without a point that finds several
     /// compatible bearings in a scan takes the closest and starts a branch
