@@ -49,7 +49,8 @@ struct Row {
 /// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
 /// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
 /// turn that option of [`AssociationConfig`] off or on (unset: its default);
-/// `ASSOCIATION_DEPTH_BOUND` and `ASSOCIATION_UNAMBIGUOUS` likewise, and a
+/// `ASSOCIATION_DEPTH_BOUND`, `ASSOCIATION_UNAMBIGUOUS` and
+/// `ASSOCIATION_TRACK_SCORE` likewise, and a
 /// count in `ASSOCIATION_WEDGE_HYPOTHESES`, `ASSOCIATION_WEDGE_BRANCHES`
 /// and `ASSOCIATION_PARALLAX_VIEWS`.
 fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
@@ -87,6 +88,7 @@ fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
         min_parallax_views: number("ASSOCIATION_PARALLAX_VIEWS", d.min_parallax_views),
         confirm_constrained_depth: switch("ASSOCIATION_DEPTH_BOUND", d.confirm_constrained_depth),
         confirm_unambiguous: switch("ASSOCIATION_UNAMBIGUOUS", d.confirm_unambiguous),
+        confirm_track_score: switch("ASSOCIATION_TRACK_SCORE", d.confirm_track_score),
         ..d
     };
     config

@@ -95,7 +95,7 @@ impl DepthHypothesis {
     /// `(φ − predicted)² / variance` of a world bearing `phi` from `p`, with
     /// `own` the bearing's variance and `position_variance / r²` added for
     /// the position uncertainty; the variance includes the component's own
-    /// spread `h P hᵀ`.
+    /// spread `h P hᵀ`. Returns `(d², variance)`.
     #[must_use]
     pub fn distance2(
         &self,
@@ -104,11 +104,11 @@ impl DepthHypothesis {
         phi: f64,
         own: f64,
         position_variance: f64,
-    ) -> Option<f64> {
+    ) -> Option<(f64, f64)> {
         let (predicted, h, range2) = self.predict(origin, p)?;
         let spread = (h * self.covariance * h.transpose())[(0, 0)];
         let var = own + spread + position_variance / range2;
-        Some(wrap_angle(phi - predicted).powi(2) / var)
+        Some((wrap_angle(phi - predicted).powi(2) / var, var))
     }
 
     /// Refits the component to the group `sightings` (the first defines the

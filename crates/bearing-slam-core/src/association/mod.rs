@@ -162,6 +162,12 @@ pub struct AssociationConfig {
     /// different point shares one of its sightings and is better supported
     /// (more sightings, or as many with a smaller χ² per degree of freedom).
     pub confirm_unambiguous: bool,
+    /// A track enters the map only when its track score (the summed
+    /// log-likelihood ratio of its sightings: each bearing's predictive
+    /// density under the track against the density of the scan's bearings
+    /// uniform round the circle) reaches `ln(1/(1 − p))`, `p` =
+    /// `track_gate_probability` (Wald's sequential test).
+    pub confirm_track_score: bool,
 }
 
 impl Default for AssociationConfig {
@@ -191,6 +197,7 @@ impl Default for AssociationConfig {
             confirm_constrained_depth: true,
             min_parallax_views: 3,
             confirm_unambiguous: true,
+            confirm_track_score: true,
         }
     }
 }

@@ -98,6 +98,11 @@ pub struct Track {
     /// Its surviving depth hypotheses along the first ray (empty with the
     /// old wedge rule, `AssociationConfig::wedge_hypotheses = 0`).
     pub hypotheses: Vec<DepthHypothesis>,
+    /// Its track score: the summed log-likelihood ratio of its sightings,
+    /// each bearing's predictive density under the track against the
+    /// density of the scan's bearings round the circle (a bearing that is
+    /// another landmark's or clutter).
+    pub score: f64,
 }
 
 impl Track {
@@ -139,6 +144,9 @@ pub struct TrackSet {
     gate: f64,
     /// `χ²₂(p)`, for the depth bound of a confirmed point.
     gate2: f64,
+    /// `ln(1/(1 − p))`: the track score a confirmed track needs (Wald's
+    /// sequential test with a false-confirmation probability `1 − p`).
+    score_threshold: f64,
     /// Least angle between two sightings' rays at the point for them to
     /// count as distinct views (`√χ²₁(p)` bearing σ).
     view_separation: f64,
@@ -166,6 +174,7 @@ impl TrackSet {
             min_depth,
             gate: chi2_quantile(1.0, p)?,
             gate2: chi2_quantile(2.0, p)?,
+            score_threshold: -(1.0 - p).ln(),
             view_separation: chi2_quantile(1.0, p)?.sqrt() * bearing_sigma,
             consistency,
             tracks: Vec::new(),
@@ -187,8 +196,10 @@ impl TrackSet {
 
     /// Squared Mahalanobis distance of a bearing from `sighting`'s pose to a
     /// track: against its point when it has one, else against the wedge of
-    /// its first ray. `None`: not compatible.
-    fn distance(&self, track: &Track, sighting: &Sighting) -> Option<f64> {
+    /// its first ray, with the log of the predictive density of the
+    /// bearing (a Gaussian at its variance; uniform over the span with the
+    /// old wedge rule). `None`: not compatible.
+    fn distance(&self, track: &Track, sighting: &Sighting) -> Option<(f64, f64)> {
         let p = sighting.position();
         let phi = sighting.world_bearing();
         // Only the pose uncertainty gained since the track began matters:
@@ -207,16 +218,16 @@ impl TrackSet {
             let var =
                 own + (normal.dot(&(cov * normal)) + 0.5 * position_variance) / (range * range);
             let d2 = wrap_angle(phi - d.y.atan2(d.x)).powi(2) / var;
-            return (d2 <= self.gate).then_some(d2);
+            return (d2 <= self.gate).then_some((d2, log_normal(d2, var)));
         }
         let p1 = first.position();
         if self.config.wedge_hypotheses > 0 {
-            let d2 = track
+            let (d2, var) = track
                 .hypotheses
                 .iter()
                 .filter_map(|h| h.distance2(&p1, &p, phi, own, position_variance))
-                .min_by(f64::total_cmp)?;
-            return (d2 <= self.gate).then_some(d2);
+                .min_by(|a, b| a.0.total_cmp(&b.0))?;
+            return (d2 <= self.gate).then_some((d2, log_normal(d2, var)));
         }
         let u1 = unit_direction(first.world_bearing());
         let near = p1 + self.min_depth * u1 - p;
@@ -239,7 +250,8 @@ impl TrackSet {
             0.0
         };
         let d2 = outside * outside / var;
-        (d2 <= self.gate).then_some(d2)
+        let width = span.abs() + (std::f64::consts::TAU * var).sqrt();
+        (d2 <= self.gate).then_some((d2, -width.ln()))
     }
 
     /// Offers the bearings of one scan that no mapped landmark explained,
@@ -292,11 +304,15 @@ impl TrackSet {
         let mut ambiguous = vec![false; self.tracks.len()];
         let mut claimed = vec![false; bearings.len()];
         let mut branches = Vec::new();
+        // The density of the bearings that are not a track's own: the
+        // scan's other bearings, taken as uniform round the circle (its
+        // own included, so never zero).
+        let log_false_density = (bearings.len().max(1) as f64 / std::f64::consts::TAU).ln();
         for (t, track) in self.tracks.iter().enumerate() {
-            let compatible: Vec<(usize, f64)> = sightings
+            let compatible: Vec<(usize, f64, f64)> = sightings
                 .iter()
                 .enumerate()
-                .filter_map(|(i, s)| self.distance(track, s).map(|d| (i, d)))
+                .filter_map(|(i, s)| self.distance(track, s).map(|(d, l)| (i, d, l)))
                 .collect();
             if self.config.skip_ambiguous_sightings && compatible.len() > 1 {
                 // Two bearings in the gate: taking the closer one would bias
@@ -305,15 +321,15 @@ impl TrackSet {
                 // about which is the track's, so it is neither a hit nor a
                 // miss. Each of the bearings still starts no new track.
                 ambiguous[t] = true;
-                for &(i, _) in &compatible {
+                for &(i, _, _) in &compatible {
                     claimed[i] = true;
                 }
                 continue;
             }
             let mut compatible = compatible;
             compatible.sort_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some(&(i, _)) = compatible.first() {
-                taken_by_track.push((t, i));
+            if let Some(&(i, _, log_density)) = compatible.first() {
+                taken_by_track.push((t, i, log_density - log_false_density));
             }
             if track.point.is_none() && self.config.wedge_hypotheses > 0 {
                 // In the wedge phase one bearing cannot tell which of the
@@ -321,8 +337,11 @@ impl TrackSet {
                 // starts a branch (a copy of the track with that bearing),
                 // and the group consistency of the depth hypotheses, or the
                 // confirmation's competition, decides between them later.
-                for &(i, _) in compatible.iter().skip(1).take(self.config.wedge_branches) {
+                for &(i, _, log_density) in
+                    compatible.iter().skip(1).take(self.config.wedge_branches)
+                {
                     let mut branch = track.clone();
+                    branch.score += log_density - log_false_density;
                     branch.sightings.push(sightings[i]);
                     branch.hits += 1;
                     branch.misses = 0;
@@ -335,8 +354,9 @@ impl TrackSet {
             joined[i].push(branch.id);
             self.tracks.push(branch);
         }
-        for (t, i) in taken_by_track {
+        for (t, i, gain) in taken_by_track {
             let track = &mut self.tracks[t];
+            track.score += gain;
             track.sightings.push(sightings[i]);
             track.hits += 1;
             track.misses = 0;
@@ -363,6 +383,7 @@ impl TrackSet {
                 self.tracks.push(Track {
                     id,
                     hypotheses,
+                    score: 0.0,
                     sightings: vec![*s],
                     first_scan: self.scan,
                     hits: 1,
@@ -588,6 +609,7 @@ impl TrackSet {
             .filter(|t| !self.config.confirm_constrained_depth || self.depth_constrained(t))
             .filter(|t| parallax_views(t, self.view_separation) >= self.config.min_parallax_views)
             .filter(|t| !self.config.confirm_unambiguous || !self.outranked(t))
+            .filter(|t| !self.config.confirm_track_score || t.score >= self.score_threshold)
             .map(|t| t.id)
             .collect()
     }
@@ -667,6 +689,11 @@ fn parallax_views(t: &Track, separation: f64) -> usize {
         }
     }
     counted.len()
+}
+
+/// `ln N(r; 0, var)` of a residual with `r²/var = d2`.
+fn log_normal(d2: f64, var: f64) -> f64 {
+    -0.5 * d2 - 0.5 * (std::f64::consts::TAU * var).ln()
 }
 
 /// Whether two tracks' points are within the gate of each other.
