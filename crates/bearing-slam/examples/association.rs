@@ -48,12 +48,22 @@ struct Row {
 /// environment: `ASSOCIATION_TRACK_GAP_S` (seconds), and `0` or `1` in
 /// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
 /// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
-/// turn that option of [`AssociationConfig`] off or on (unset: its default).
+/// turn that option of [`AssociationConfig`] off or on (unset: its default);
+/// `ASSOCIATION_DEPTH_BOUND`, `ASSOCIATION_UNAMBIGUOUS` and
+/// `ASSOCIATION_TRACK_SCORE` likewise, and a
+/// count in `ASSOCIATION_WEDGE_HYPOTHESES`, `ASSOCIATION_WEDGE_BRANCHES`
+/// and `ASSOCIATION_PARALLAX_VIEWS`.
 fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
     let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
         Ok("0") => false,
         Ok("1") => true,
         _ => default,
+    };
+    let number = |name: &str, default: usize| {
+        std::env::var(name)
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .unwrap_or(default)
     };
     let mut config = base.clone();
     let d = config.slam.association;
@@ -73,6 +83,12 @@ fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
             "ASSOCIATION_AMBIGUOUS_PAIRINGS",
             d.skip_ambiguous_pairings,
         ),
+        wedge_hypotheses: number("ASSOCIATION_WEDGE_HYPOTHESES", d.wedge_hypotheses),
+        wedge_branches: number("ASSOCIATION_WEDGE_BRANCHES", d.wedge_branches),
+        min_parallax_views: number("ASSOCIATION_PARALLAX_VIEWS", d.min_parallax_views),
+        confirm_constrained_depth: switch("ASSOCIATION_DEPTH_BOUND", d.confirm_constrained_depth),
+        confirm_unambiguous: switch("ASSOCIATION_UNAMBIGUOUS", d.confirm_unambiguous),
+        confirm_track_score: switch("ASSOCIATION_TRACK_SCORE", d.confirm_track_score),
         ..d
     };
     config

@@ -12,10 +12,20 @@
 //! that no static point explains). A bearing may join several tracks at
 //! once: competing hypotheses stay until the evidence separates them.
 //!
+//! With `AssociationConfig::wedge_hypotheses > 0` a track without a point
+//! scores bearings against a Gaussian sum over the inverse depth of its
+//! first ray ([`super::depth_hypotheses`]) instead of the bare wedge, the
+//! whole group must fit one of its components, and a wedge-phase track
+//! that finds several compatible bearings branches. A track is confirmed
+//! only when its point is well constrained, seen from enough distinct
+//! directions, and not outranked by a competing track for the same
+//! bearings (the `confirm_*` and `min_parallax_views` options).
+//!
 //! The filter ([`crate::slam::BearingSlam`]) asks which tracks are
 //! [confirmed](TrackSet::confirmed) and hands those to its initializer.
 
 use super::AssociationConfig;
+use super::depth_hypotheses::{DepthHypothesis, initial_hypotheses};
 use crate::error::Result;
 use crate::geometry::{unit_direction, wrap_angle};
 use crate::stats::chi2_quantile;
@@ -58,7 +68,7 @@ impl Sighting {
         wrap_angle(self.pose.z + self.bearing)
     }
 
-    fn position(&self) -> Vector2<f64> {
+    pub(crate) fn position(&self) -> Vector2<f64> {
         Vector2::new(self.pose.x, self.pose.y)
     }
 }
@@ -85,6 +95,14 @@ pub struct Track {
     pub dropped: usize,
     /// Scans skipped because more than one bearing lay in its gate.
     pub ambiguous: usize,
+    /// Its surviving depth hypotheses along the first ray (empty with the
+    /// old wedge rule, `AssociationConfig::wedge_hypotheses = 0`).
+    pub hypotheses: Vec<DepthHypothesis>,
+    /// Its track score: the summed log-likelihood ratio of its sightings,
+    /// each bearing's predictive density under the track against the
+    /// density of the scan's bearings round the circle (a bearing that is
+    /// another landmark's or clutter).
+    pub score: f64,
 }
 
 impl Track {
@@ -124,6 +142,14 @@ pub struct TrackSet {
     min_depth: f64,
     /// `χ²₁(p)` for a bearing joining a track.
     gate: f64,
+    /// `χ²₂(p)`, for the depth bound of a confirmed point.
+    gate2: f64,
+    /// `ln(1/(1 − p))`: the track score a confirmed track needs (Wald's
+    /// sequential test with a false-confirmation probability `1 − p`).
+    score_threshold: f64,
+    /// Least angle between two sightings' rays at the point for them to
+    /// count as distinct views (`√χ²₁(p)` bearing σ).
+    view_separation: f64,
     /// `consistency[k] = χ²_k(p)` for a track's sightings (k = n − 2).
     consistency: Vec<f64>,
     tracks: Vec<Track>,
@@ -147,6 +173,9 @@ impl TrackSet {
             bearing_variance: bearing_sigma * bearing_sigma,
             min_depth,
             gate: chi2_quantile(1.0, p)?,
+            gate2: chi2_quantile(2.0, p)?,
+            score_threshold: -(1.0 - p).ln(),
+            view_separation: chi2_quantile(1.0, p)?.sqrt() * bearing_sigma,
             consistency,
             tracks: Vec::new(),
             scan: 0,
@@ -167,8 +196,10 @@ impl TrackSet {
 
     /// Squared Mahalanobis distance of a bearing from `sighting`'s pose to a
     /// track: against its point when it has one, else against the wedge of
-    /// its first ray. `None`: not compatible.
-    fn distance(&self, track: &Track, sighting: &Sighting) -> Option<f64> {
+    /// its first ray, with the log of the predictive density of the
+    /// bearing (a Gaussian at its variance; uniform over the span with the
+    /// old wedge rule). `None`: not compatible.
+    fn distance(&self, track: &Track, sighting: &Sighting) -> Option<(f64, f64)> {
         let p = sighting.position();
         let phi = sighting.world_bearing();
         // Only the pose uncertainty gained since the track began matters:
@@ -187,9 +218,17 @@ impl TrackSet {
             let var =
                 own + (normal.dot(&(cov * normal)) + 0.5 * position_variance) / (range * range);
             let d2 = wrap_angle(phi - d.y.atan2(d.x)).powi(2) / var;
-            return (d2 <= self.gate).then_some(d2);
+            return (d2 <= self.gate).then_some((d2, log_normal(d2, var)));
         }
         let p1 = first.position();
+        if self.config.wedge_hypotheses > 0 {
+            let (d2, var) = track
+                .hypotheses
+                .iter()
+                .filter_map(|h| h.distance2(&p1, &p, phi, own, position_variance))
+                .min_by(|a, b| a.0.total_cmp(&b.0))?;
+            return (d2 <= self.gate).then_some((d2, log_normal(d2, var)));
+        }
         let u1 = unit_direction(first.world_bearing());
         let near = p1 + self.min_depth * u1 - p;
         let far = p1 + FAR_DEPTH_M * u1 - p;
@@ -211,7 +250,8 @@ impl TrackSet {
             0.0
         };
         let d2 = outside * outside / var;
-        (d2 <= self.gate).then_some(d2)
+        let width = span.abs() + (std::f64::consts::TAU * var).sqrt();
+        (d2 <= self.gate).then_some((d2, -width.ln()))
     }
 
     /// Offers the bearings of one scan that no mapped landmark explained,
@@ -263,11 +303,16 @@ impl TrackSet {
         let mut taken_by_track = Vec::new();
         let mut ambiguous = vec![false; self.tracks.len()];
         let mut claimed = vec![false; bearings.len()];
+        let mut branches = Vec::new();
+        // The density of the bearings that are not a track's own: the
+        // scan's other bearings, taken as uniform round the circle (its
+        // own included, so never zero).
+        let log_false_density = (bearings.len().max(1) as f64 / std::f64::consts::TAU).ln();
         for (t, track) in self.tracks.iter().enumerate() {
-            let compatible: Vec<(usize, f64)> = sightings
+            let compatible: Vec<(usize, f64, f64)> = sightings
                 .iter()
                 .enumerate()
-                .filter_map(|(i, s)| self.distance(track, s).map(|d| (i, d)))
+                .filter_map(|(i, s)| self.distance(track, s).map(|(d, l)| (i, d, l)))
                 .collect();
             if self.config.skip_ambiguous_sightings && compatible.len() > 1 {
                 // Two bearings in the gate: taking the closer one would bias
@@ -276,18 +321,42 @@ impl TrackSet {
                 // about which is the track's, so it is neither a hit nor a
                 // miss. Each of the bearings still starts no new track.
                 ambiguous[t] = true;
-                for &(i, _) in &compatible {
+                for &(i, _, _) in &compatible {
                     claimed[i] = true;
                 }
                 continue;
             }
-            let best = compatible.into_iter().min_by(|a, b| a.1.total_cmp(&b.1));
-            if let Some((i, _)) = best {
-                taken_by_track.push((t, i));
+            let mut compatible = compatible;
+            compatible.sort_by(|a, b| a.1.total_cmp(&b.1));
+            if let Some(&(i, _, log_density)) = compatible.first() {
+                taken_by_track.push((t, i, log_density - log_false_density));
+            }
+            if track.point.is_none() && self.config.wedge_hypotheses > 0 {
+                // In the wedge phase one bearing cannot tell which of the
+                // compatible bearings is the track's: each of the next best
+                // starts a branch (a copy of the track with that bearing),
+                // and the group consistency of the depth hypotheses, or the
+                // confirmation's competition, decides between them later.
+                for &(i, _, log_density) in
+                    compatible.iter().skip(1).take(self.config.wedge_branches)
+                {
+                    let mut branch = track.clone();
+                    branch.score += log_density - log_false_density;
+                    branch.sightings.push(sightings[i]);
+                    branch.hits += 1;
+                    branch.misses = 0;
+                    branches.push((i, branch));
+                }
             }
         }
-        for (t, i) in taken_by_track {
+        for (i, mut branch) in branches {
+            branch.id = new_id();
+            joined[i].push(branch.id);
+            self.tracks.push(branch);
+        }
+        for (t, i, gain) in taken_by_track {
             let track = &mut self.tracks[t];
+            track.score += gain;
             track.sightings.push(sightings[i]);
             track.hits += 1;
             track.misses = 0;
@@ -305,8 +374,16 @@ impl TrackSet {
         for (i, s) in sightings.iter().enumerate() {
             if joined[i].is_empty() && !claimed[i] && may_start.get(i).copied().unwrap_or(true) {
                 let id = new_id();
+                let hypotheses = initial_hypotheses(
+                    s,
+                    self.config.wedge_hypotheses,
+                    self.min_depth,
+                    self.bearing_variance,
+                );
                 self.tracks.push(Track {
                     id,
+                    hypotheses,
+                    score: 0.0,
                     sightings: vec![*s],
                     first_scan: self.scan,
                     hits: 1,
@@ -362,6 +439,24 @@ impl TrackSet {
         let (point, chi2) = self.fit(&self.tracks[t].sightings);
         let n = self.tracks[t].sightings.len();
         let limit = self.consistency_limit(n);
+        if point.is_none() && self.config.wedge_hypotheses > 0 {
+            self.tracks[t].point = None;
+            self.refit_hypotheses(t);
+            return;
+        }
+        if let Some((x, _)) = &point
+            && self.config.wedge_hypotheses > 0
+        {
+            // The first sighting defines the ray and is never dropped: it
+            // must fit the point on its own (χ²₁), not only as part of the
+            // sum, or the track is the first ray of one landmark followed
+            // by another's bearings.
+            let first = self.tracks[t].sightings[0];
+            if self.residual2(&first, &first, x) > self.gate {
+                self.tracks[t].chi2 = f64::INFINITY;
+                return;
+            }
+        }
         if point.is_none() || chi2 <= limit {
             let track = &mut self.tracks[t];
             track.point = point;
@@ -392,6 +487,31 @@ impl TrackSet {
             }
         }
         self.tracks[t].chi2 = f64::INFINITY;
+    }
+
+    /// Refits track `t`'s depth hypotheses to all its sightings and keeps
+    /// those the whole group fits (χ² within `χ²_{n−1}(p)`); a track left
+    /// with none is marked for removal (χ² = ∞): no static point along its
+    /// first ray explains its sightings.
+    fn refit_hypotheses(&mut self, t: usize) {
+        let n = self.tracks[t].sightings.len();
+        let limit = self.consistency[(n.saturating_sub(1)).clamp(1, MAX_SIGHTINGS)];
+        let bearing_variance = self.bearing_variance;
+        let track = &mut self.tracks[t];
+        let first = track.sightings[0];
+        let sightings = &track.sightings;
+        track.hypotheses.retain_mut(|h| {
+            h.refit(sightings, bearing_variance, |s, range2| {
+                let grown = relative_variances(&first, s);
+                bearing_variance + grown.z + 0.5 * (grown.x + grown.y) / range2
+            })
+            .is_some_and(|chi2| chi2 <= limit)
+        });
+        track.chi2 = if track.hypotheses.is_empty() {
+            f64::INFINITY
+        } else {
+            0.0
+        };
     }
 
     fn consistency_limit(&self, sightings: usize) -> f64 {
@@ -486,8 +606,46 @@ impl TrackSet {
                         && !same_point(o, t, self.gate)
                 })
             })
+            .filter(|t| !self.config.confirm_constrained_depth || self.depth_constrained(t))
+            .filter(|t| parallax_views(t, self.view_separation) >= self.config.min_parallax_views)
+            .filter(|t| !self.config.confirm_unambiguous || !self.outranked(t))
+            .filter(|t| !self.config.confirm_track_score || t.score >= self.score_threshold)
             .map(|t| t.id)
             .collect()
+    }
+
+    /// Whether the track's point is well constrained: its depth σ from the
+    /// latest pose, times `√χ²₂(p)`, is below the depth (the point's χ²₂
+    /// ellipse does not reach the robot).
+    fn depth_constrained(&self, t: &Track) -> bool {
+        let Some((x, cov)) = &t.point else {
+            return false;
+        };
+        let d = x - t.last().position();
+        let depth = d.norm();
+        if depth < 1e-9 {
+            return false;
+        }
+        let radial = d / depth;
+        let sigma = radial.dot(&(cov * radial)).max(0.0).sqrt();
+        sigma * self.gate2.sqrt() < depth
+    }
+
+    /// Whether another live track with a different point competes for one
+    /// of `t`'s sightings and is better supported: more sightings, or as
+    /// many with a smaller χ² per degree of freedom. Of two tracks that
+    /// claim the same bearings only the better supported may enter the map.
+    fn outranked(&self, t: &Track) -> bool {
+        let per_dof = |x: &Track| x.chi2 / x.sightings.len().saturating_sub(2).max(1) as f64;
+        self.tracks.iter().any(|o| {
+            o.id != t.id
+                && o.point.is_some()
+                && o.chi2.is_finite()
+                && o.shares_with(t) > 0
+                && !same_point(o, t, self.gate)
+                && (o.sightings.len() > t.sightings.len()
+                    || (o.sightings.len() == t.sightings.len() && per_dof(o) < per_dof(t)))
+        })
     }
 
     /// Removes track `id` (it entered the map, or was refused) and every
@@ -507,6 +665,35 @@ impl TrackSet {
 /// The pose variances gained from `first` to `later` (never negative).
 fn relative_variances(first: &Sighting, later: &Sighting) -> Vector3<f64> {
     (later.pose_variances - first.pose_variances).map(|v| v.max(0.0))
+}
+
+/// How many of the track's sightings see its point from distinct
+/// directions: counted greedily, oldest first, a sighting counts when its
+/// ray's direction at the point differs from every counted one's by at
+/// least `separation` (rad). 0 without a point. Clutter is independent per
+/// scan, so clutter bearings that fit one point from several such views are
+/// improbable; a nearly parallel bundle of rays counts once.
+fn parallax_views(t: &Track, separation: f64) -> usize {
+    let Some((x, _)) = &t.point else {
+        return 0;
+    };
+    let mut counted: Vec<f64> = Vec::new();
+    for s in &t.sightings {
+        let d = x - s.position();
+        let direction = d.y.atan2(d.x);
+        if counted
+            .iter()
+            .all(|&c| wrap_angle(direction - c).abs() >= separation)
+        {
+            counted.push(direction);
+        }
+    }
+    counted.len()
+}
+
+/// `ln N(r; 0, var)` of a residual with `r²/var = d2`.
+fn log_normal(d2: f64, var: f64) -> f64 {
+    -0.5 * d2 - 0.5 * (std::f64::consts::TAU * var).ln()
 }
 
 /// Whether two tracks' points are within the gate of each other.
@@ -537,134 +724,5 @@ fn crossing(a: &Sighting, b: &Sighting) -> Option<Vector2<f64>> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn bearing_to(pose: &Vector3<f64>, x: f64, y: f64) -> f64 {
-        wrap_angle((y - pose.y).atan2(x - pose.x) - pose.z)
-    }
-
-    /// Drives along +x, 0.1 m per step, and offers `bearings(pose, k)` at
-    /// every step `k` of `steps`.
-    fn drive(
-        set: &mut TrackSet,
-        steps: std::ops::Range<usize>,
-        mut bearings: impl FnMut(&Vector3<f64>, usize) -> Vec<f64>,
-    ) -> Vec<Vec<Vec<u64>>> {
-        steps
-            .map(|k| {
-                let pose = Vector3::new(0.1 * k as f64, 0.0, 0.0);
-                let mut next = 100 + 10 * k as u64;
-                set.observe(
-                    k as f64,
-                    &pose,
-                    &Vector3::new(1e-6, 1e-6, 1e-6),
-                    &bearings(&pose, k),
-                    || {
-                        next += 1;
-                        next
-                    },
-                )
-            })
-            .collect()
-    }
-
-    fn set() -> TrackSet {
-        TrackSet::new(&AssociationConfig::default(), 0.01, 0.5).expect("valid")
-    }
-
-    #[test]
-    fn a_static_point_is_tracked_and_confirmed() {
-        let mut s = set();
-        let joined = drive(&mut s, 0..20, |p, _| vec![bearing_to(p, 3.0, 2.0)]);
-        assert!(joined.iter().all(|j| j == &vec![vec![101]]), "{joined:?}");
-        assert_eq!(s.confirmed(), vec![101]);
-        let (x, _) = s.get(101).and_then(|t| t.point).expect("a point");
-        assert!((x - Vector2::new(3.0, 2.0)).norm() < 0.05, "{x}");
-    }
-
-    #[test]
-    fn an_excluded_bearing_joins_tracks_but_never_starts_one() {
-        let mut s = set();
-        let pose = Vector3::new(0.0, 0.0, 0.0);
-        let v = Vector3::new(1e-6, 1e-6, 1e-6);
-        let mut next = 0;
-        let mut id = || {
-            next += 1;
-            next
-        };
-        // Inside a mapped landmark's gate: no track is born.
-        let joined = s.observe_excluding(0.0, &pose, &v, &[0.3], &[false], &mut id);
-        assert_eq!(joined, vec![Vec::<u64>::new()]);
-        assert!(s.tracks().is_empty());
-        // A free bearing starts a track; the next scan's excluded bearing
-        // of the same point still joins it.
-        s.observe_excluding(1.0, &pose, &v, &[0.3], &[true], &mut id);
-        let pose = Vector3::new(0.1, 0.0, 0.0);
-        let joined = s.observe_excluding(2.0, &pose, &v, &[0.31], &[false], &mut id);
-        assert_eq!(joined, vec![vec![1]]);
-        assert_eq!(s.tracks().len(), 1);
-    }
-
-    #[test]
-    fn an_ambiguous_scan_is_neither_a_hit_nor_a_miss() {
-        let config = AssociationConfig {
-            skip_ambiguous_sightings: true,
-            ..AssociationConfig::default()
-        };
-        let mut s = TrackSet::new(&config, 0.01, 0.5).expect("valid");
-        drive(&mut s, 0..1, |p, _| vec![bearing_to(p, 3.0, 2.0)]);
-        // Two bearings 0.01 rad apart, both inside the new track's wedge,
-        // for more scans than the track may miss: it takes neither, is not
-        // dropped, and they start no tracks of their own.
-        let joined = drive(&mut s, 1..6, |p, _| {
-            let z = bearing_to(p, 3.0, 2.0);
-            vec![z, z + 0.01]
-        });
-        assert!(joined.iter().flatten().all(Vec::is_empty), "{joined:?}");
-        assert_eq!(s.tracks().len(), 1);
-        let track = &s.tracks()[0];
-        assert_eq!((track.hits, track.misses, track.ambiguous), (1, 0, 5));
-    }
-
-    #[test]
-    fn a_moving_object_is_never_confirmed() {
-        let mut s = set();
-        // Paces 1 m back and forth across the line of sight (±0.5 m at
-        // 0.5 rad per scan) 3.6 m away: every pair of rays crosses
-        // somewhere, but no one point explains them all. (Smooth motion is
-        // harder: a target at constant velocity seen from a robot at
-        // constant velocity is indistinguishable from a static point —
-        // bearings-only target motion analysis needs a manoeuvre.)
-        let mut confirmed = Vec::new();
-        for k in 0..40 {
-            drive(&mut s, k..k + 1, |p, k| {
-                vec![bearing_to(p, 3.0, 2.0 + 0.5 * (0.5 * k as f64).sin())]
-            });
-            confirmed.extend(s.confirmed());
-        }
-        assert!(confirmed.is_empty(), "{confirmed:?}");
-    }
-
-    #[test]
-    fn scattered_bearings_never_confirm() {
-        let mut s = set();
-        // Deterministic "random" bearings: a golden-ratio walk round the circle.
-        let mut confirmed = Vec::new();
-        let mut phase = 0.0f64;
-        for k in 0..60 {
-            let joined = drive(&mut s, k..k + 1, |_, _| {
-                (0..3)
-                    .map(|i| {
-                        phase = (phase + 0.618_033_988_75 * std::f64::consts::TAU)
-                            % std::f64::consts::TAU;
-                        wrap_angle(phase + 0.1 * (k + i) as f64)
-                    })
-                    .collect()
-            });
-            assert_eq!(joined[0].len(), 3);
-            confirmed.extend(s.confirmed());
-        }
-        assert!(confirmed.is_empty(), "{confirmed:?}");
-    }
-}
+#[path = "tracks_tests.rs"]
+mod tests;
