@@ -121,6 +121,18 @@ fn ate_degenerate_alignments_are_translations() {
     assert_eq!(a.theta, 0.0);
 }
 
+/// A confidence near 0 puts both tails at the median: the two quantiles may
+/// cross by rounding, the interval must not (found by the random-seed run of
+/// `chi2_arguments_never_panic`: lower exceeded upper by 1e-11).
+#[test]
+fn a_vanishing_confidence_gives_an_ordered_interval() {
+    for (dof, runs) in [(2_102_454.877, 1), (2_102_454.877, 4), (2.07e6, 3)] {
+        let (lo, hi) = chi2_interval(dof, runs, 1e-12).unwrap();
+        assert!(lo <= hi, "dof {dof} runs {runs}: {lo} > {hi}");
+        assert!((hi - lo) <= 1e-9 * hi);
+    }
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(256))]
 
