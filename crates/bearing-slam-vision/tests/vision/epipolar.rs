@@ -4,13 +4,13 @@
 //! refused when the segment belongs to another ray (off the line) or when
 //! its depth lies outside the interval.
 
+use crate::{camera_at_origin, wall_three_metres_ahead};
 use bearing_slam_core::mono::epipolar::ray_segment;
 use bearing_slam_core::mono::landmark::ray_angles;
 use bearing_slam_core::mono::{CameraPose, CameraState, EpipolarSegment, PinholeCamera};
 use bearing_slam_vision::frames::{Intrinsics, project_world};
 use bearing_slam_vision::patch::Patch;
 use bearing_slam_vision::render::{point_at_pixel, render_frame};
-use bearing_slam_vision::scene::{Scene, TexturedQuad};
 use bearing_slam_vision::search::{
     SearchConfig, SearchOutcome, chi2_quantile_2dof, search_segment,
 };
@@ -64,20 +64,8 @@ fn distance_to_segment(p: &Vector2<f64>, s: &EpipolarSegment) -> f64 {
 
 #[test]
 fn the_segment_search_finds_a_feature_at_unknown_depth_and_refuses_one_off_the_line() {
-    // One textured wall 3 m ahead (ρ = 1/3), facing the camera.
-    let scene = Scene {
-        quads: vec![TexturedQuad {
-            origin: Vector3::new(-3.0, -3.0, 3.0),
-            edge_u: Vector3::new(6.0, 0.0, 0.0),
-            edge_v: Vector3::new(0.0, 6.0, 0.0),
-            texture_seed: 7,
-        }],
-        background: 128.0,
-    };
-    let first = CameraPose {
-        position: Vector3::zeros(),
-        orientation: UnitQuaternion::identity(),
-    };
+    // One textured wall seen from the origin, 3 m ahead (ρ = 1/3), facing the camera.
+    let (scene, first) = (wall_three_metres_ahead(), camera_at_origin());
     // 0.4 m to the right, 0.15 m forward, yawed 2°: the point moves ~20 px.
     let second = CameraPose {
         position: Vector3::new(0.4, 0.0, 0.15),

@@ -3,11 +3,11 @@
 //! rolled, is found where the second camera sees its point; the unwarped
 //! patch correlates worse there.
 
+use crate::{camera_at_origin, wall_three_metres_ahead};
 use bearing_slam_core::mono::{CameraPose, SearchRegion};
 use bearing_slam_vision::frames::{Intrinsics, project_world};
 use bearing_slam_vision::patch::Patch;
 use bearing_slam_vision::render::{point_at_pixel, render_frame};
-use bearing_slam_vision::scene::{Scene, TexturedQuad};
 use bearing_slam_vision::search::{SearchConfig, SearchOutcome, chi2_quantile_2dof, search_region};
 use bearing_slam_vision::warp::{PatchView, warp_patch};
 use nalgebra::{Matrix2, UnitQuaternion, Vector2, Vector3};
@@ -21,20 +21,8 @@ fn a_warped_patch_of_a_rendered_plane_is_found_at_its_known_place() {
         cx: 80.0,
         cy: 60.0,
     };
-    // One textured wall 3 m ahead, facing the camera.
-    let scene = Scene {
-        quads: vec![TexturedQuad {
-            origin: Vector3::new(-3.0, -3.0, 3.0),
-            edge_u: Vector3::new(6.0, 0.0, 0.0),
-            edge_v: Vector3::new(0.0, 6.0, 0.0),
-            texture_seed: 7,
-        }],
-        background: 128.0,
-    };
-    let first = CameraPose {
-        position: Vector3::zeros(),
-        orientation: UnitQuaternion::identity(),
-    };
+    // One textured wall seen from the origin, 3 m ahead, facing the camera.
+    let (scene, first) = (wall_three_metres_ahead(), camera_at_origin());
     // 1.8 m forward (the point grows by 3 / 1.2 = 2.5), yawed 4°, rolled 20°.
     let second = CameraPose {
         position: Vector3::new(0.1, 0.0, 1.8),
