@@ -651,3 +651,32 @@ fn equality_ignores_the_stored_upper_triangle() {
     b.cov[(4, 0)] = 123.0;
     assert_ne!(a, b);
 }
+
+/// The covariance-update form set on a filter is the one it reports, through
+/// `set_covariance_update` and `with_covariance_update` alike (the third
+/// mutation sample found neither checked).
+#[test]
+fn the_covariance_update_form_is_set_and_reported() {
+    let mut ekf = random_filter(2, 1);
+    assert_eq!(ekf.covariance_update(), CovarianceUpdate::Symmetric);
+    ekf.set_covariance_update(CovarianceUpdate::Joseph);
+    assert_eq!(ekf.covariance_update(), CovarianceUpdate::Joseph);
+    let built = random_filter(2, 1).with_covariance_update(CovarianceUpdate::Joseph);
+    assert_eq!(built.covariance_update(), CovarianceUpdate::Joseph);
+}
+
+/// `Debug` shows the filter's mean, covariance and update forms.
+#[test]
+fn debug_shows_the_state_and_the_update_forms() {
+    let ekf = random_filter(1, 2).with_covariance_update(CovarianceUpdate::Joseph);
+    let text = format!("{ekf:?}");
+    for part in [
+        "Ekf",
+        "mean",
+        "cov",
+        "covariance_update: Joseph",
+        "update_mode",
+    ] {
+        assert!(text.contains(part), "{part} missing from {text}");
+    }
+}
