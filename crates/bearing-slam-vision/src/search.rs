@@ -207,10 +207,12 @@ pub fn search_segment(
             reason: "the band covariance must be finite and positive definite, the ends finite",
         });
     }
-    let w: Matrix2<f64> = Matrix2::new(b[(1, 1)], -b[(0, 1)], -b[(1, 0)], b[(0, 0)]) / det;
+    let metric = segment.metric().ok_or(VisionError::InvalidParameter {
+        name: "epipolar segment",
+        value: det,
+        reason: "the band covariance is not invertible",
+    })?;
     let d = e - a;
-    let wd = w * d;
-    let dwd = d.dot(&wd);
     let half_u = (chi2 * b[(0, 0)]).sqrt().min(config.max_half_axis_px);
     let half_v = (chi2 * b[(1, 1)]).sqrt().min(config.max_half_axis_px);
     let margin = i64::from(patch.half());
@@ -236,14 +238,7 @@ pub fn search_segment(
         let u0 = ((ua.min(ub) - half_u).ceil() as i64).max(margin);
         let u1 = ((ua.max(ub) + half_u).floor() as i64).min(width - 1 - margin);
         for u in u0..=u1 {
-            let x = Vector2::new(u as f64 - a.x, vf - a.y);
-            let t = if dwd > 1e-12 {
-                (x.dot(&wd) / dwd).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            let r = x - d * t;
-            if r.dot(&(w * r)) > chi2 {
+            if metric.distance2(&Vector2::new(u as f64, vf)) > chi2 {
                 continue;
             }
             any = true;

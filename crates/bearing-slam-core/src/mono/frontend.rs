@@ -49,22 +49,55 @@ pub struct EpipolarSegment {
 }
 
 impl EpipolarSegment {
+    /// The band's metric factored once, for the distances of many pixels;
+    /// `None` when the band covariance is not invertible.
+    #[must_use]
+    pub fn metric(&self) -> Option<SegmentMetric> {
+        let w = self.band_cov.try_inverse()?;
+        let along = self.near_px - self.far_px;
+        let w_along = w * along;
+        Some(SegmentMetric {
+            far_px: self.far_px,
+            along,
+            w,
+            w_along,
+            along_w_along: along.dot(&w_along),
+        })
+    }
+
     /// The squared Mahalanobis distance (in the band's metric) from `px` to
     /// the nearest point of the segment; `None` when the band covariance is
     /// not invertible.
     #[must_use]
     pub fn distance2(&self, px: &Vector2<f64>) -> Option<f64> {
-        let w = self.band_cov.try_inverse()?;
-        let d = self.near_px - self.far_px;
+        Some(self.metric()?.distance2(px))
+    }
+}
+
+/// An [`EpipolarSegment`]'s band metric `W = B⁻¹` with the segment, for
+/// [`SegmentMetric::distance2`] at many pixels (an image search).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SegmentMetric {
+    far_px: Vector2<f64>,
+    along: Vector2<f64>,
+    w: Matrix2<f64>,
+    w_along: Vector2<f64>,
+    along_w_along: f64,
+}
+
+impl SegmentMetric {
+    /// `min_t (x − p(t))ᵀ W (x − p(t))`, `p(t)` the segment from its far
+    /// end (`t = 0`) to its near end (`t = 1`).
+    #[must_use]
+    pub fn distance2(&self, px: &Vector2<f64>) -> f64 {
         let x = px - self.far_px;
-        let dwd = d.dot(&(w * d));
-        let t = if dwd > 1e-12 {
-            (x.dot(&(w * d)) / dwd).clamp(0.0, 1.0)
+        let t = if self.along_w_along > 1e-12 {
+            (x.dot(&self.w_along) / self.along_w_along).clamp(0.0, 1.0)
         } else {
             0.0
         };
-        let r = x - d * t;
-        Some(r.dot(&(w * r)))
+        let r = x - self.along * t;
+        r.dot(&(self.w * r))
     }
 }
 

@@ -42,6 +42,7 @@ pub use epipolar::EpipolarSearch;
 pub use filter::{FeatureOrigin, MonoSlam, MonoUpdateReport};
 pub use frontend::{
     CameraPose, EpipolarSegment, MapPoint, MonoFilter, PixelObservation, SearchRegion,
+    SegmentMetric,
 };
 pub use init::MonoInitializer;
 pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
