@@ -2,7 +2,6 @@
 //! real ones.
 
 use bearing_slam_core::log::{BearingObservation, EventKind};
-use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::particle::existence::ExistenceConfig;
 use bearing_slam_core::particle::landmark_ekf::SensorNoise;
 use bearing_slam_core::particle::{FastSlam, FastSlamConfig, FastSlamVariant};
@@ -14,14 +13,7 @@ const SPURIOUS: u64 = 99;
 fn a_spurious_landmark_is_removed_and_the_real_ones_stay() {
     let scenario = KinematicScenario::paper_fig4(false);
     let log = scenario.simulate(3);
-    let model = DiffDriveModel::new(
-        scenario.wheel_base_m,
-        WheelNoise {
-            floor_sigma_m: scenario.encoder_floor_sigma_m,
-            scale_sqrt_m: scenario.encoder_scale_sqrt_m,
-        },
-    )
-    .expect("valid");
+    let model = scenario.wheel_model().expect("valid");
     let mut slam = FastSlam::new(FastSlamConfig {
         variant: FastSlamVariant::FastSlam2,
         particles: 20,

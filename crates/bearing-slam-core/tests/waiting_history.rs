@@ -5,7 +5,6 @@
 use bearing_slam_core::SlamError;
 use bearing_slam_core::init::TriangulationConfig;
 use bearing_slam_core::log::EventKind;
-use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::slam::{BearingSlam, InitializerConfig, SlamConfig};
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 
@@ -22,14 +21,7 @@ fn config(initializer: InitializerConfig) -> SlamConfig {
 fn clones_stay_bounded_and_are_all_released() {
     let scenario = KinematicScenario::paper_fig4(true);
     let log = scenario.simulate(3);
-    let model = DiffDriveModel::new(
-        scenario.wheel_base_m,
-        WheelNoise {
-            floor_sigma_m: scenario.encoder_floor_sigma_m,
-            scale_sqrt_m: scenario.encoder_scale_sqrt_m,
-        },
-    )
-    .expect("valid model");
+    let model = scenario.wheel_model().expect("valid model");
     let mut slam = BearingSlam::new(config(InitializerConfig::TriangulationWithClone(
         TriangulationConfig {
             history: HISTORY,

@@ -48,8 +48,7 @@ use bearing_slam_eval::experiments::{
     Fig8Result, Fig8Row, consistency_table, fig4_initializers, fig8_table,
 };
 use bearing_slam_eval::montecarlo::{
-    InitializerSpec, MonteCarloReport, MonteCarloSpec, RunClass, RunMetrics, RunRecord, RunSeries,
-    classify, run_config,
+    InitializerSpec, MonteCarloReport, MonteCarloSpec, RunRecord, run_config, score_run,
 };
 use bearing_slam_eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, align_landmarks_se2, filter_log,
@@ -353,36 +352,8 @@ fn run_one(
     let seed = spec.scenario.seed0.wrapping_add(index as u64);
     match try_run_one(spec, index, seed, consistency, treatment) {
         Ok(r) => r,
-        Err(e) => failed(index, seed, e.to_string()),
+        Err(e) => RunRecord::failed(index, seed, e.to_string()),
     }
-}
-
-fn failed(run_index: usize, seed: u64, reason: String) -> RunRecord {
-    RunRecord {
-        metrics: RunMetrics {
-            run_index,
-            seed,
-            class: RunClass::Diverged,
-            reason: Some(reason),
-            ate_rmse_m: None,
-            final_position_error_m: None,
-            final_heading_error_deg: None,
-            landmark_rmse_m: None,
-            near_landmark_rmse_m: None,
-            mean_nees: None,
-            n_landmarks: None,
-            dead_reckoning_ate_rmse_m: None,
-            dead_reckoning_final_position_error_m: None,
-            dead_reckoning_final_heading_error_deg: None,
-            measurements_rejected: None,
-        },
-        series: RunSeries::default(),
-        init_events: Vec::new(),
-    }
-}
-
-fn finite(v: f64) -> Option<f64> {
-    v.is_finite().then_some(v)
 }
 
 fn try_run_one(
@@ -404,79 +375,14 @@ fn try_run_one(
     config.slam.update_iterations = iterations();
     robustness(&mut config.slam)?;
     let output = run(&log, &config)?;
-    let summary = summarize(&log, &output)?;
-    let mut series = RunSeries::default();
-    let mut dr_heading = None;
-    let mut reason = None;
-    for p in &output.track {
-        let Some(truth) = p.truth else { continue };
-        let cov = Matrix3::from_fn(|r, c| p.covariance[r][c]);
-        if !p.estimate.is_finite() || !cov.iter().all(|v| v.is_finite()) {
-            reason = Some("non-finite estimate".to_owned());
-        }
-        series.time.push(p.time);
-        series.nees.push(pose_nees(&p.estimate, &cov, &truth).ok());
-        series
-            .position_error_m
-            .push((p.estimate.position() - truth.position()).norm());
-        series.heading_error_deg.push(
-            wrap_angle(p.estimate.theta - truth.theta)
-                .abs()
-                .to_degrees(),
-        );
-        series
-            .dead_reckoning_position_error_m
-            .push((p.dead_reckoning.position() - truth.position()).norm());
-        dr_heading = Some(
-            wrap_angle(p.dead_reckoning.theta - truth.theta)
-                .abs()
-                .to_degrees(),
-        );
-    }
-    let near: Vec<f64> = output
-        .trace
-        .snapshots
-        .last()
-        .map(|s| {
-            s.landmarks
-                .iter()
-                .filter(|l| !far_ids.contains(&l.id))
-                .filter_map(|l| {
-                    log.landmark_truth(l.id)
-                        .map(|t| (l.x - t.x).hypot(l.y - t.y))
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    let near_rmse = (!near.is_empty())
-        .then(|| (near.iter().map(|e| e * e).sum::<f64>() / near.len() as f64).sqrt());
-    let mut metrics = RunMetrics {
-        run_index: index,
+    Ok(score_run(
+        &log,
+        &output,
+        &far_ids,
+        index,
         seed,
-        class: RunClass::Converged,
-        reason,
-        ate_rmse_m: finite(summary.ate_rmse_m),
-        final_position_error_m: finite(summary.final_position_error_m),
-        final_heading_error_deg: finite(summary.final_heading_error_deg),
-        landmark_rmse_m: summary.landmark_rmse_m.and_then(finite),
-        near_landmark_rmse_m: near_rmse.and_then(finite),
-        mean_nees: finite(summary.mean_nees_pose),
-        n_landmarks: Some(summary.n_landmarks_initialized),
-        dead_reckoning_ate_rmse_m: finite(summary.dead_reckoning_ate_rmse_m),
-        dead_reckoning_final_position_error_m: finite(
-            summary.dead_reckoning_final_position_error_m,
-        ),
-        dead_reckoning_final_heading_error_deg: dr_heading.and_then(finite),
-        measurements_rejected: Some(output.counts.measurements_rejected),
-    };
-    let (class, why) = classify(&metrics, &spec.thresholds);
-    metrics.class = class;
-    metrics.reason = why;
-    Ok(RunRecord {
-        metrics,
-        series,
-        init_events: Vec::new(),
-    })
+        &spec.thresholds,
+    ))
 }
 
 fn report(

@@ -3,6 +3,7 @@
 //! and boundary crossings, exact reads during a local phase, structure
 //! changes in a local phase, and the hysteresis of the active set.
 
+use super::tests::random_filter;
 use super::*;
 use crate::measurement::BearingToPoint;
 use nalgebra::{Matrix1, Matrix3, Vector1, Vector3};
@@ -10,19 +11,6 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal, Uniform};
 
-/// A random filter over `n` landmarks with a dense SPD covariance.
-fn random_filter(n: usize, seed: u64) -> Ekf {
-    let mut rng = StdRng::seed_from_u64(seed);
-    let dim = 3 + 2 * n;
-    let uniform = Uniform::new(-20.0, 20.0).expect("valid range");
-    let mut mean = DVector::zeros(dim);
-    for i in 3..dim {
-        mean[i] = uniform.sample(&mut rng);
-    }
-    let a = DMatrix::<f64>::from_fn(dim, dim, |_, _| StandardNormal.sample(&mut rng));
-    let cov = &a * a.transpose() / dim as f64 + DMatrix::identity(dim, dim) * 1e-3;
-    Ekf::new(mean, 0.5 * (&cov + cov.transpose())).expect("valid filter")
-}
 
 /// Unicycle prediction (v = 1 m/s, ω = 0.1 rad/s, dt = 0.1 s) of `ekf`.
 fn predict(ekf: &mut Ekf) {

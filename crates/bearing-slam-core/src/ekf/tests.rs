@@ -11,7 +11,7 @@ use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal, Uniform};
 
 /// A random filter over `n` landmarks with a dense SPD covariance.
-fn random_filter(n: usize, seed: u64) -> Ekf {
+pub(super) fn random_filter(n: usize, seed: u64) -> Ekf {
     let mut rng = StdRng::seed_from_u64(seed);
     let dim = 3 + 2 * n;
     let uniform = Uniform::new(-20.0, 20.0).expect("valid range");

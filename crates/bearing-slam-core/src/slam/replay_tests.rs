@@ -7,7 +7,6 @@ use super::replay::{ar1_mean_variance, replay_plan};
 use super::{BearingSlam, InitializerConfig, SlamConfig};
 use crate::init::{HistoryCorrelation, HistoryTreatment, TriangulationConfig};
 use crate::log::EventKind;
-use crate::motion::{DiffDriveModel, WheelNoise};
 use crate::testing::kinematic::KinematicScenario;
 use crate::trace::{DiscardReason, SlamEvent};
 use nalgebra::{Matrix2, Vector2};
@@ -193,14 +192,7 @@ fn run_fig4(treatment: HistoryTreatment) -> Vec<SlamEvent> {
 fn run_fig4_with(initializer: InitializerConfig, treatment: &str) -> Vec<SlamEvent> {
     let scenario = KinematicScenario::paper_fig4(true);
     let log = scenario.simulate(3);
-    let model = DiffDriveModel::new(
-        scenario.wheel_base_m,
-        WheelNoise {
-            floor_sigma_m: scenario.encoder_floor_sigma_m,
-            scale_sqrt_m: scenario.encoder_scale_sqrt_m,
-        },
-    )
-    .expect("valid model");
+    let model = scenario.wheel_model().expect("valid model");
     let config = SlamConfig {
         initializer,
         ..SlamConfig::default()

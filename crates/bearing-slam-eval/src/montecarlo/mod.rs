@@ -65,6 +65,7 @@ mod run;
 pub use report::{ErrorOverTime, MetricMeans, MonteCarloReport, NeesOverTime, run_many};
 pub use run::{
     RunClass, RunMetrics, RunRecord, RunSeries, classify, run_config, run_one, run_records,
+    score_run,
 };
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};

@@ -104,7 +104,7 @@ impl RunMetrics {
     #[must_use]
     pub fn metric_names() -> Vec<String> {
         const IDENTITY: [&str; 4] = ["run_index", "seed", "class", "reason"];
-        match serde_json::to_value(failed(0, 0, String::new()).metrics) {
+        match serde_json::to_value(RunRecord::failed(0, 0, String::new()).metrics) {
             Ok(serde_json::Value::Object(fields)) => fields
                 .keys()
                 .filter(|k| !IDENTITY.contains(&k.as_str()))
@@ -115,27 +115,32 @@ impl RunMetrics {
     }
 }
 
-fn failed(run_index: usize, seed: u64, reason: String) -> RunRecord {
-    RunRecord {
-        metrics: RunMetrics {
-            run_index,
-            seed,
-            class: RunClass::Diverged,
-            reason: Some(reason),
-            ate_rmse_m: None,
-            final_position_error_m: None,
-            final_heading_error_deg: None,
-            landmark_rmse_m: None,
-            near_landmark_rmse_m: None,
-            mean_nees: None,
-            n_landmarks: None,
-            dead_reckoning_ate_rmse_m: None,
-            dead_reckoning_final_position_error_m: None,
-            dead_reckoning_final_heading_error_deg: None,
-            measurements_rejected: None,
-        },
-        series: RunSeries::default(),
-        init_events: Vec::new(),
+impl RunRecord {
+    /// A run that ended before it could be scored: [`RunClass::Diverged`],
+    /// no metrics, `reason` saying why.
+    #[must_use]
+    pub fn failed(run_index: usize, seed: u64, reason: String) -> Self {
+        Self {
+            metrics: RunMetrics {
+                run_index,
+                seed,
+                class: RunClass::Diverged,
+                reason: Some(reason),
+                ate_rmse_m: None,
+                final_position_error_m: None,
+                final_heading_error_deg: None,
+                landmark_rmse_m: None,
+                near_landmark_rmse_m: None,
+                mean_nees: None,
+                n_landmarks: None,
+                dead_reckoning_ate_rmse_m: None,
+                dead_reckoning_final_position_error_m: None,
+                dead_reckoning_final_heading_error_deg: None,
+                measurements_rejected: None,
+            },
+            series: RunSeries::default(),
+            init_events: Vec::new(),
+        }
     }
 }
 
@@ -243,16 +248,16 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
     let seed = spec.scenario.seed0.wrapping_add(run_index as u64);
     let scenario = match spec.scenario.build(run_index) {
         Ok(s) => s,
-        Err(e) => return failed(run_index, seed, format!("scenario: {e}")),
+        Err(e) => return RunRecord::failed(run_index, seed, format!("scenario: {e}")),
     };
     let log = match simulate(&scenario) {
         Ok(l) => l,
-        Err(e) => return failed(run_index, seed, format!("simulation: {e}")),
+        Err(e) => return RunRecord::failed(run_index, seed, format!("simulation: {e}")),
     };
     let far_ids = scenario.far_landmark_ids.clone();
     let config = match run_config(spec, &log, &far_ids) {
         Ok(c) => c,
-        Err(e) => return failed(run_index, seed, format!("configuration: {e}")),
+        Err(e) => return RunRecord::failed(run_index, seed, format!("configuration: {e}")),
     };
     let estimator = EstimatorConfig {
         kind: spec.estimator,
@@ -262,8 +267,26 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
     };
     let output = match run_estimator(&log, &config, &estimator).map(|r| r.output) {
         Ok(o) => o,
-        Err(e) => return failed(run_index, seed, format!("filter: {e}")),
+        Err(e) => return RunRecord::failed(run_index, seed, format!("filter: {e}")),
     };
+    score_run(&log, &output, &far_ids, run_index, seed, &spec.thresholds)
+}
+
+/// Scores a finished run of `log` as every Monte Carlo run is scored: the
+/// pose error and NEES series against the log's truth, the scalar metrics
+/// (ATE, final errors, landmark RMSE over all and over the landmarks not in
+/// `far_ids`, mean NEES, dead reckoning's errors), the covariance checks, the
+/// class under `thresholds`, and the initialization events as text. A run
+/// that cannot be scored becomes a [`RunRecord::failed`] record.
+#[must_use]
+pub fn score_run(
+    log: &SensorLog,
+    output: &RunOutput,
+    far_ids: &[u64],
+    run_index: usize,
+    seed: u64,
+    thresholds: &Thresholds,
+) -> RunRecord {
     let init_events = output
         .trace
         .events
@@ -284,9 +307,9 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
             _ => None,
         })
         .collect();
-    let summary = match summarize(&log, &output) {
+    let summary = match summarize(log, output) {
         Ok(s) => s,
-        Err(e) => return failed(run_index, seed, format!("scoring: {e}")),
+        Err(e) => return RunRecord::failed(run_index, seed, format!("scoring: {e}")),
     };
     let mut series = RunSeries::default();
     let mut dr_heading = None;
@@ -331,7 +354,7 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
         run_index,
         seed,
         class: RunClass::Converged,
-        reason: check_track(&output).err(),
+        reason: check_track(output).err(),
         ate_rmse_m: finite(summary.ate_rmse_m),
         final_position_error_m: finite(summary.final_position_error_m),
         final_heading_error_deg: finite(summary.final_heading_error_deg),
@@ -349,7 +372,7 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
     if !summary.finite && metrics.reason.is_none() {
         metrics.reason = Some("non-finite covariance".into());
     }
-    let (class, reason) = classify(&metrics, &spec.thresholds);
+    let (class, reason) = classify(&metrics, thresholds);
     metrics.class = class;
     metrics.reason = reason;
     RunRecord {
