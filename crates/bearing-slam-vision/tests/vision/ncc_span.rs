@@ -120,10 +120,14 @@ fn raw_config() -> SearchConfig {
     }
 }
 
+/// The outcome as the scan's `(best score, u, v)`: no position scored
+/// (a region outside the image, or whose pixels all fail the test) is
+/// `(−1, 0, 0)`, as the scan starts.
 fn found(outcome: SearchOutcome) -> (f64, i64, i64) {
     match outcome {
         SearchOutcome::Found { px, score } => (score, px.x as i64, px.y as i64),
-        other => panic!("expected a match, got {other:?}"),
+        SearchOutcome::Missed { best } => (best, 0, 0),
+        SearchOutcome::OutOfView => (-1.0, 0, 0),
     }
 }
 
@@ -145,6 +149,7 @@ fn the_region_search_equals_the_position_by_position_scan() {
         (165.5, 66.2),
         (120.0, 40.0),
     ];
+    let mut matched = 0;
     for patch in patches(&image) {
         for s in shapes {
             for &(u, v) in &centres {
@@ -158,9 +163,12 @@ fn the_region_search_equals_the_position_by_position_scan() {
                 let direct = direct_region(&image, &patch, &r, chi2, config.max_half_axis_px);
                 assert_eq!(fast.0.to_bits(), direct.0.to_bits(), "{r:?}");
                 assert_eq!((fast.1, fast.2), (direct.1, direct.2), "{r:?}");
+                matched += usize::from(fast.0 > -1.0);
             }
         }
     }
+    // Most regions hold positions (a corner one may not, for some shapes).
+    assert!(matched >= 60, "{matched} of 80 regions scored");
 }
 
 #[test]
