@@ -18,7 +18,8 @@ fn noise_image(width: u32, height: u32) -> GrayImage {
         if (60..90).contains(&x) && (10..40).contains(&y) {
             return image::Luma([77]);
         }
-        let mut z = u64::from(x) * 0x9E37_79B9_7F4A_7C15 ^ u64::from(y) * 0xBF58_476D_1CE4_E5B9;
+        let mut z = u64::from(x).wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            ^ u64::from(y).wrapping_mul(0xBF58_476D_1CE4_E5B9);
         z = (z ^ (z >> 29)).wrapping_mul(0x94D0_49BB_1331_11EB);
         image::Luma([(z >> 56) as u8])
     })
