@@ -130,20 +130,75 @@ pub fn search_region(
         return Ok(SearchOutcome::OutOfView);
     }
     let mut best = (-1.0f64, 0i64, 0i64);
+    let mut spans = SpanScan::default();
     for v in v0..=v1 {
-        for u in u0..=u1 {
+        spans.row(image, patch, v, u0..=u1, &mut best, |u| {
             let nu = Vector2::new(u as f64 - p.x, v as f64 - p.y);
-            if nu.dot(&(s_inv * nu)) > chi2 {
-                continue;
-            }
-            if let Some(score) = patch.ncc_at(image, u, v)
-                && score > best.0
-            {
-                best = (score, u, v);
-            }
-        }
+            nu.dot(&(s_inv * nu)) <= chi2
+        });
     }
     Ok(finish(image, patch, best, config))
+}
+
+/// The scan of one search's rows: the positions inside the region are
+/// grouped into runs of adjacent columns, each run scored at once by
+/// [`Patch::ncc_span`] (bit for bit [`Patch::ncc_at`] of each position), and
+/// the best kept in the scan's order (row by row, left to right, the first
+/// of equal scores), as a position-by-position scan would.
+#[derive(Default)]
+struct SpanScan {
+    scores: Vec<f64>,
+}
+
+impl SpanScan {
+    /// Scans the columns `cols` of row `v`, the positions where `inside`
+    /// holds, into `best` (`(score, u, v)`, replaced by a strictly higher
+    /// score); `true` if any position was inside.
+    fn row(
+        &mut self,
+        image: &GrayImage,
+        patch: &Patch,
+        v: i64,
+        cols: std::ops::RangeInclusive<i64>,
+        best: &mut (f64, i64, i64),
+        inside: impl Fn(i64) -> bool,
+    ) -> bool {
+        let (u0, u1) = (*cols.start(), *cols.end());
+        let mut any = false;
+        let mut u = u0;
+        while u <= u1 {
+            if !inside(u) {
+                u += 1;
+                continue;
+            }
+            let first = u;
+            while u <= u1 && inside(u) {
+                u += 1;
+            }
+            any = true;
+            let len = (u - first) as usize;
+            self.scores.clear();
+            self.scores.resize(len, 0.0);
+            if patch.ncc_span(image, first, v, &mut self.scores) {
+                for (k, &score) in self.scores.iter().enumerate() {
+                    if score > best.0 {
+                        *best = (score, first + k as i64, v);
+                    }
+                }
+            } else {
+                // A window leaves the image: position by position, as `ncc_at`
+                // refuses each such window.
+                for x in first..u {
+                    if let Some(score) = patch.ncc_at(image, x, v)
+                        && score > best.0
+                    {
+                        *best = (score, x, v);
+                    }
+                }
+            }
+        }
+        any
+    }
 }
 
 /// The best position `(score, u, v)` of a search as its outcome: missed
@@ -221,6 +276,7 @@ pub fn search_segment(
     let v1 = ((a.y.max(e.y) + half_v).floor() as i64).min(height - 1 - margin);
     let mut best = (-1.0f64, 0i64, 0i64);
     let mut any = false;
+    let mut spans = SpanScan::default();
     for v in v0..=v1 {
         // The part of the segment within ±half_v of this row bounds its columns.
         let vf = v as f64;
@@ -237,17 +293,9 @@ pub fn search_segment(
         let (ua, ub) = (a.x + t0 * d.x, a.x + t1 * d.x);
         let u0 = ((ua.min(ub) - half_u).ceil() as i64).max(margin);
         let u1 = ((ua.max(ub) + half_u).floor() as i64).min(width - 1 - margin);
-        for u in u0..=u1 {
-            if metric.distance2(&Vector2::new(u as f64, vf)) > chi2 {
-                continue;
-            }
-            any = true;
-            if let Some(score) = patch.ncc_at(image, u, v)
-                && score > best.0
-            {
-                best = (score, u, v);
-            }
-        }
+        any |= spans.row(image, patch, v, u0..=u1, &mut best, |u| {
+            metric.distance2(&Vector2::new(u as f64, vf)) <= chi2
+        });
     }
     if !any {
         return Ok(SearchOutcome::OutOfView);

@@ -19,6 +19,8 @@ mod compressed;
 mod compressed_tests;
 #[doc(hidden)]
 pub mod kernel;
+mod reparameterize;
+pub use reparameterize::Reparameterization;
 mod shear;
 #[cfg(test)]
 mod tests;
@@ -655,7 +657,8 @@ impl Ekf {
     /// parameterization `y' = g(y)` of `new_len ≤ old_len` entries with Jacobian
     /// `j_new_old` (e.g. inverse depth → Euclidean point). Covariances become
     /// `J P_yy Jᵀ` and `J P_y·`; the block then shrinks and later blocks move
-    /// down by `old_len − new_len`.
+    /// down by `old_len − new_len`. [`Ekf::reparameterize_blocks`] does
+    /// several at once with one compaction.
     ///
     /// # Errors
     /// A range or Jacobian of the wrong size, or a non-finite new mean,
@@ -668,39 +671,8 @@ impl Ekf {
         new_mean: &DVector<f64>,
         j_new_old: &DMatrix<f64>,
     ) -> Result<()> {
+        self.reparameterize_in_place(offset, old_len, new_mean, j_new_old, &[])?;
         let new_len = new_mean.len();
-        self.check_range("reparameterized block", offset, old_len)?;
-        if j_new_old.nrows() != new_len || j_new_old.ncols() != old_len || new_len > old_len {
-            return Err(SlamError::DimensionMismatch {
-                what: "reparameterization Jacobian",
-                expected: new_len * old_len,
-                got: j_new_old.nrows() * j_new_old.ncols(),
-            });
-        }
-        for &v in new_mean.iter().chain(j_new_old.iter()) {
-            ensure_finite("reparameterized block", v)?;
-        }
-        self.global_update();
-        let n = self.dim();
-        let rows = j_new_old * self.sym_block(offset, old_len, 0, n); // new_len × n
-        let diag = rows.columns(offset, old_len) * j_new_old.transpose();
-        // A block that overflows (a point 1/ρ ≈ 1e116 m away has a variance
-        // beyond f64) is refused before anything is written.
-        for &v in rows.iter().chain(diag.iter()) {
-            ensure_finite("reparameterized covariance", v)?;
-        }
-        // Rows and columns both: their lower parts make up the lower
-        // triangle's new entries (the upper parts are unspecified storage).
-        self.cov
-            .view_mut((offset, 0), (new_len, n))
-            .copy_from(&rows);
-        self.cov
-            .view_mut((0, offset), (n, new_len))
-            .copy_from(&rows.transpose());
-        self.cov
-            .view_mut((offset, offset), (new_len, new_len))
-            .copy_from(&(0.5 * (&diag + diag.transpose())));
-        self.mean.rows_mut(offset, new_len).copy_from(new_mean);
         if new_len < old_len {
             self.remove_block(offset + new_len, old_len - new_len)?;
         }

@@ -19,7 +19,7 @@ use super::landmark::{
 use super::motion::{CAMERA_DIM, CameraState, POSITION, QUATERNION};
 use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
-use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
+use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, Reparameterization};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::model::MeasurementModel;
 use crate::stats::chi2_quantile;
@@ -559,7 +559,12 @@ impl MonoSlam {
             .filter(|(_, f)| f.kind == Parameterization3::InverseDepth)
             .map(|(&id, _)| id)
             .collect();
-        let mut converted = 0;
+        // The conversions are decided on each landmark's own mean and
+        // variance (which no other conversion changes), then applied in one
+        // batch: one compaction of the state instead of one per landmark.
+        let mut items = Vec::new();
+        let mut converting = Vec::new();
+        let mut failure = None;
         for id in ids {
             let Some(feature) = self.landmarks.get(&id).copied() else {
                 continue;
@@ -574,26 +579,45 @@ impl MonoSlam {
             if index >= self.config.linearity_threshold {
                 continue;
             }
-            let (point, j) = inverse_depth_to_xyz(&y)?;
-            match self.ekf.reparameterize(
-                feature.offset,
-                6,
-                &DVector::from_column_slice(point.as_slice()),
-                &DMatrix::from_column_slice(3, 6, j.as_slice()),
-            ) {
-                Ok(()) => {}
-                // A point too far for f64 (ρ near zero) stays in inverse
-                // depth; the filter is unchanged.
-                Err(SlamError::NonFinite { .. }) => continue,
-                Err(e) => return Err(e),
-            }
-            self.shift_after(feature.offset, 3);
+            let (point, j) = match inverse_depth_to_xyz(&y) {
+                Ok(converted) => converted,
+                // The ones before are converted, as one by one.
+                Err(e) => {
+                    failure = Some(e);
+                    break;
+                }
+            };
+            items.push(Reparameterization {
+                offset: feature.offset,
+                old_len: 6,
+                new_mean: DVector::from_column_slice(point.as_slice()),
+                jacobian: DMatrix::from_column_slice(3, 6, j.as_slice()),
+            });
+            converting.push((id, feature.offset));
+        }
+        // A point too far for f64 (ρ near zero) stays in inverse depth (its
+        // flag false); the filter is unchanged for it.
+        let done = self.ekf.reparameterize_blocks(&items)?;
+        let mut converted = 0;
+        // Offsets move down by 3 past each converted block (taken in
+        // decreasing offset order, so each shift sees the original offsets).
+        let mut shifted: Vec<(u64, usize)> = converting
+            .into_iter()
+            .zip(done)
+            .filter_map(|(c, ok)| ok.then_some(c))
+            .collect();
+        shifted.sort_unstable_by_key(|&(_, offset)| std::cmp::Reverse(offset));
+        for (id, offset) in shifted {
+            self.shift_after(offset, 3);
             if let Some(f) = self.landmarks.get_mut(&id) {
                 f.kind = Parameterization3::Xyz;
             }
             converted += 1;
         }
-        Ok(converted)
+        match failure {
+            Some(e) => Err(e),
+            None => Ok(converted),
+        }
     }
 
     /// A map landmark as a Euclidean point with its covariance (for inverse

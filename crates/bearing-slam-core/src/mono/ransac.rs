@@ -187,9 +187,17 @@ impl MonoSlam {
         let mut needed = ransac.max_hypotheses;
         let mut state = ransac.seed;
         let mut tried = 0;
+        // A match drawn again gives the same hypothesis and the same support,
+        // which cannot beat the best (strictly larger wins): only the draw
+        // counts. With few matches and no support the loop runs to
+        // `max_hypotheses`, mostly on repeats.
+        let mut drawn = vec![false; n];
         while tried < needed && n > 0 {
             let pick = (splitmix(&mut state) % n as u64) as usize;
             tried += 1;
+            if std::mem::replace(&mut drawn[pick], true) {
+                continue;
+            }
             let Some(mean) = self.single_update_mean(&matches[pick].measurement) else {
                 continue;
             };

@@ -7,6 +7,7 @@
 mod align;
 mod epipolar;
 mod frames_errors;
+mod ncc_span;
 mod oracle_loop;
 mod render_truth;
 mod search;
