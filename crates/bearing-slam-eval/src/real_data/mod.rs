@@ -64,6 +64,7 @@
 //! [`TriangulationConfig::default`]: bearing_slam_core::init::TriangulationConfig
 //! [`align_se2`]: bearing_slam_core::metrics::align_se2
 
+mod anchor;
 mod export;
 mod method;
 mod parameters;
@@ -72,12 +73,13 @@ mod run;
 mod same_graph;
 pub mod tables;
 
+pub use anchor::{Anchor, anchor_at_first_bearing};
 pub use export::export_logs;
 pub use method::{CommandModel, Method};
 pub use parameters::{CALIBRATED_PARAMETERS, FilterParameters, NAIVE_PARAMETERS};
 pub use run::{
     EvalOptions, RealDataResult, align_landmarks_se2, evaluate_mrclam, evaluate_run,
-    evaluate_run_associated, evaluate_run_observed, evaluate_run_with, filter_log,
+    evaluate_run_anchored, evaluate_run_associated, evaluate_run_observed, evaluate_run_with, filter_log,
 };
 pub use same_graph::export_same_graph;
 
