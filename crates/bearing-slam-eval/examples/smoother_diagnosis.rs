@@ -191,6 +191,9 @@ fn main() -> Result<(), BoxError> {
             let Some(out) = r.output.as_ref() else { continue };
             let Some(last) = out.trace.snapshots.last() else { continue };
             let log = filter_log(&run, Method::Mte, &params)?;
+            let config = params.run_config(Method::Mte, Pose2::default())?;
+            let direct = bearing_slam_core::estimator::run_estimator(&log, &config, &smoother())?;
+            eprintln!("DEBUG {d}/{robot}: {:?} last snapshot {} landmarks {:?}", direct.smoother.as_ref().map(|r| (r.n_landmarks, r.n_triangulated, r.n_dropped, r.n_measurements)), direct.output.trace.snapshots.last().map_or(0, |s| s.landmarks.len()), direct.output.trace.snapshots.last().map(|s| s.landmarks.iter().map(|l| l.id).collect::<Vec<_>>()));
             let scans = log.events.iter().filter_map(|e| match &e.kind {
                 EventKind::Bearings(s) => Some(s),
                 _ => None,

@@ -79,15 +79,23 @@ pub struct UnmappedTriangulation {
     pub min_parallax: f64,
     /// Fewest rays that must agree with the point.
     pub min_inliers: usize,
+    /// Rounds of triangulate-and-solve: a landmark whose rays the rule
+    /// rejects from one solution's poses is tried again from the next
+    /// (after the landmarks just added have corrected the stretches where
+    /// only it and the other unmapped ones were seen), until a round adds
+    /// nothing or this many rounds were made (at least one is).
+    pub max_rounds: usize,
 }
 
 impl Default for UnmappedTriangulation {
     /// The filter's own parallax test, `α_min` = 10° (Munguía & Grau (21),
-    /// [`crate::init::TriangulationConfig`]'s default), and 3 rays.
+    /// [`crate::init::TriangulationConfig`]'s default), 3 rays, at most 3
+    /// rounds.
     fn default() -> Self {
         Self {
             min_parallax: crate::init::TriangulationConfig::default().alpha_min,
             min_inliers: 3,
+            max_rounds: 3,
         }
     }
 }
@@ -325,8 +333,12 @@ pub fn run_from_log(
     let mut solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
     let mut first_scan = BTreeMap::new();
     if let Some(rule) = config.triangulate_unmapped {
-        first_scan = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
-        if !first_scan.is_empty() {
+        for _ in 0..rule.max_rounds.max(1) {
+            let added = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
+            if added.is_empty() {
+                break;
+            }
+            first_scan.extend(added);
             solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
         }
     }
@@ -358,6 +370,16 @@ pub fn run_from_log(
         &pose_cov,
         &lms,
     );
+    // Every landmark of the graph, from the scan where it entered on: the
+    // triangulated ones, and the filter's own, which the filter's later
+    // snapshots leave out while its inverse depth is at or beyond infinity
+    // (ρ ≤ 0) although the smoother has placed it.
+    first_scan.extend(
+        filter_landmarks(&filter)
+            .entry
+            .iter()
+            .map(|(id, (k, _))| (*id, *k)),
+    );
     add_to_snapshots(&mut output, &first_scan, &lms);
     report.smoother_time_s = started.elapsed().as_secs_f64();
     Ok(SmoothedRun {
@@ -387,7 +409,8 @@ pub struct BatchProblem {
 /// Runs the filter on `log` and builds the batch problem its estimate starts
 /// ([`BatchProblem`]); `run_from_log` in batch mode solves exactly this
 /// first, then (with [`SmootherConfig::triangulate_unmapped`]) adds the
-/// landmarks it triangulates from the solution and solves again.
+/// landmarks it triangulates from the solution and solves again, for up to
+/// [`UnmappedTriangulation::max_rounds`] rounds.
 pub fn batch_problem(
     log: &SensorLog,
     run_config: &RunConfig,
@@ -543,9 +566,11 @@ fn add_unmapped_landmarks(
     Ok(added)
 }
 
-/// The landmarks the batch added (`first_scan`: id → scan of its first
-/// bearing) written into every snapshot from that scan on, at their smoothed
-/// estimate (the smoother knows them in hindsight from their first bearing).
+/// The landmarks of `first_scan` (id → the scan where it entered: its first
+/// bearing for one the batch triangulated, the filter's initialization
+/// otherwise) written, at their smoothed estimate, into every snapshot from
+/// that scan on that does not hold them yet (the smoother knows them in
+/// hindsight from there on).
 fn add_to_snapshots(
     output: &mut RunOutput,
     first_scan: &BTreeMap<u64, usize>,
@@ -556,7 +581,8 @@ fn add_to_snapshots(
     }
     for (k, snap) in output.trace.snapshots.iter_mut().enumerate() {
         for (id, first) in first_scan {
-            if let (true, Some((p, c))) = (k >= *first, lms.get(id)) {
+            let held = snap.landmarks.iter().any(|l| l.id == *id);
+            if let (true, false, Some((p, c))) = (k >= *first, held, lms.get(id)) {
                 snap.landmarks.push(LandmarkSnapshot {
                     id: *id,
                     x: p.x,
