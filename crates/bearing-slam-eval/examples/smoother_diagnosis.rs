@@ -86,18 +86,43 @@ fn smoother() -> EstimatorConfig {
     }
 }
 
-/// Rotation of the SE(2) alignment of the final map onto the truth, and the
-/// RMS distance it moves the mapped landmarks.
-fn map_alignment(r: &RealDataResult, run: &MrclamRun) -> Option<(f64, f64)> {
+/// Rotation of the SE(2) alignment of the final map onto the truth, the
+/// RMS distance it moves the mapped landmarks, and the scale of the best
+/// similarity (truth / estimate).
+fn map_alignment(r: &RealDataResult, run: &MrclamRun) -> Option<(f64, f64, f64)> {
     let last = r.output.as_ref()?.trace.snapshots.last()?;
     let estimated: Vec<(u64, f64, f64)> = last.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
     let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
     let (align, _) = align_landmarks_se2(&estimated, &truth)?;
+    let scale = similarity_scale(&estimated, &truth)?;
     let moved = rms_mean(estimated.iter().map(|&(_, x, y)| {
         let p = align.transform_point(&Pose2::new(x, y, 0.0).position());
         ((p.x - x).powi(2) + (p.y - y).powi(2)).sqrt()
     }));
-    Some((wrap_angle(align.theta), moved.0))
+    Some((wrap_angle(align.theta), moved.0, scale))
+}
+
+/// The scale of the best similarity mapping `estimated` onto `truth` (by
+/// id): the truth's spread along the SE(2)-aligned estimate's, about both
+/// centroids (truth / estimate).
+fn similarity_scale(estimated: &[(u64, f64, f64)], truth: &[(u64, f64, f64)]) -> Option<f64> {
+    let (align, _) = align_landmarks_se2(estimated, truth)?;
+    let common: Vec<((f64, f64), (f64, f64))> = estimated
+        .iter()
+        .filter_map(|&(id, x, y)| truth.iter().find(|t| t.0 == id).map(|t| ((x, y), (t.1, t.2))))
+        .collect();
+    let m = common.len() as f64;
+    let (ex, ey) = common.iter().fold((0.0, 0.0), |a, ((x, y), _)| (a.0 + x / m, a.1 + y / m));
+    let (tx, ty) = common.iter().fold((0.0, 0.0), |a, (_, (x, y))| (a.0 + x / m, a.1 + y / m));
+    let (c, s) = (align.theta.cos(), align.theta.sin());
+    let (mut num, mut den) = (0.0, 0.0);
+    for ((x, y), (u, v)) in &common {
+        let (dx, dy) = (x - ex, y - ey);
+        let (rx, ry) = (c * dx - s * dy, s * dx + c * dy);
+        num += rx * (u - tx) + ry * (v - ty);
+        den += rx * rx + ry * ry;
+    }
+    Some(num / den)
 }
 
 fn main() -> Result<(), BoxError> {
@@ -108,7 +133,17 @@ fn main() -> Result<(), BoxError> {
     );
     let datasets = args.next().unwrap_or_else(|| "6".into());
     let options = EvalOptions::default();
-    let params = CALIBRATED_PARAMETERS;
+    // `ODOMETRY_SIGMA_SCALE` multiplies the velocity noise's σ and
+    // `SPEED_SCALE` replaces the command model's speed scale (what-ifs of
+    // parts 2–5 only: the tables use the calibrated parameters).
+    let mut params = CALIBRATED_PARAMETERS;
+    if let Some(k) = std::env::var("ODOMETRY_SIGMA_SCALE").ok().and_then(|v| v.parse::<f64>().ok()) {
+        params.velocity_noise.sigma_v_min *= k;
+        params.velocity_noise.sigma_omega_min *= k;
+    }
+    if let Some(k) = std::env::var("SPEED_SCALE").ok().and_then(|v| v.parse::<f64>().ok()) {
+        params.command.speed_scale = k;
+    }
     let six = data.join("MRCLAM_Dataset6");
     let runs: Vec<MrclamRun> = (1..=5u8)
         .map(|r| load_mrclam_with(&six, r, &options.load))
@@ -140,8 +175,8 @@ fn main() -> Result<(), BoxError> {
 
     // 2. and 3. The gauge, and the anchor moved.
     println!("## 2–3. The smoother's map against the truth, Dataset 6\n");
-    println!("| robot | anchor | first bearing s | DR error at it: m / rad | smoothed heading error: mean / sd rad | map rotation rad | alignment moves map m | ATE raw / aligned m | raw / aligned landmark RMSE m | landmarks |");
-    println!("|---|---|---|---|---|---|---|---|---|---|");
+    println!("| robot | anchor | first bearing s | DR error at it: m / rad | smoothed heading error: mean / sd rad | map rotation rad | alignment moves map m | map scale (truth / estimate) | ATE raw / aligned m | raw / aligned landmark RMSE m | landmarks |");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for run in &runs {
         for anchor in [Anchor::LogStart, Anchor::FirstBearing] {
             let r = evaluate_run_anchored(run, Method::Mte, &params, &smoother(), anchor)?;
@@ -155,10 +190,36 @@ fn main() -> Result<(), BoxError> {
             let heading = out.track.iter().filter_map(|p| p.truth.map(|t| wrap_angle(p.estimate.theta - t.theta)));
             let (h_rms, h_mean, _) = rms_mean(heading);
             let h_sd = (h_rms * h_rms - h_mean * h_mean).max(0.0).sqrt();
-            let (rot, moved) = map_alignment(&r, run).unwrap_or((f64::NAN, f64::NAN));
+            // Distance travelled over 1 s steps: truth / smoothed, truth / dead reckoning.
+            let (mut d_true, mut d_est, mut d_dr, mut prev) = (0.0, 0.0, 0.0, None::<&bearing_slam_core::runner::TrackPoint>);
+            for p in out.track.iter().filter(|p| p.truth.is_some()) {
+                match prev {
+                    Some(q) if p.time - q.time >= 1.0 => {
+                        if let (Some(a), Some(b)) = (q.truth, p.truth) {
+                            if p.time - q.time < 1.5 {
+                                d_true += (b.x - a.x).hypot(b.y - a.y);
+                                d_est += (p.estimate.x - q.estimate.x).hypot(p.estimate.y - q.estimate.y);
+                                d_dr += (p.dead_reckoning.x - q.dead_reckoning.x).hypot(p.dead_reckoning.y - q.dead_reckoning.y);
+                            }
+                        }
+                        prev = Some(p);
+                    }
+                    None => prev = Some(p),
+                    _ => {}
+                }
+            }
+            // The trajectory's own similarity scale against the truth.
+            let pts: Vec<(u64, f64, f64)> = out.track.iter().enumerate().filter(|(_, p)| p.truth.is_some()).map(|(i, p)| (i as u64, p.estimate.x, p.estimate.y)).collect();
+            let tru: Vec<(u64, f64, f64)> = out.track.iter().enumerate().filter_map(|(i, p)| p.truth.map(|t| (i as u64, t.x, t.y))).collect();
+            let traj_scale = similarity_scale(&pts, &tru);
+            if anchor == Anchor::LogStart {
+                eprintln!("robot {}: trajectory similarity scale truth / estimate {:.4}", run.robot, traj_scale.unwrap_or(f64::NAN));
+                eprintln!("robot {}: distance over 1 s steps, truth / smoothed {:.4}, truth / dead reckoning {:.4} (true {:.1} m)", run.robot, d_true / d_est, d_true / d_dr, d_true);
+            }
+            let (rot, moved, scale) = map_alignment(&r, run).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
             let f = |v: Option<f64>| v.map_or_else(|| "n/a".to_string(), |v| format!("{v:.3}"));
             println!(
-                "| {} | {anchor} | {first:.1} | {} | {h_mean:+.3} / {h_sd:.3} | {rot:+.3} | {moved:.3} | {} / {} | {} / {} | {} |",
+                "| {} | {anchor} | {first:.1} | {} | {h_mean:+.3} / {h_sd:.3} | {rot:+.3} | {moved:.3} | {scale:.4} | {} / {} | {} / {} | {} |",
                 run.robot,
                 dr.map_or_else(|| "n/a".into(), |(m, a)| format!("{m:.3} / {a:+.3}")),
                 f(r.ate_rmse_m),
@@ -191,9 +252,6 @@ fn main() -> Result<(), BoxError> {
             let Some(out) = r.output.as_ref() else { continue };
             let Some(last) = out.trace.snapshots.last() else { continue };
             let log = filter_log(&run, Method::Mte, &params)?;
-            let config = params.run_config(Method::Mte, Pose2::default())?;
-            let direct = bearing_slam_core::estimator::run_estimator(&log, &config, &smoother())?;
-            eprintln!("DEBUG {d}/{robot}: {:?} last snapshot {} landmarks {:?}", direct.smoother.as_ref().map(|r| (r.n_landmarks, r.n_triangulated, r.n_dropped, r.n_measurements)), direct.output.trace.snapshots.last().map_or(0, |s| s.landmarks.len()), direct.output.trace.snapshots.last().map(|s| s.landmarks.iter().map(|l| l.id).collect::<Vec<_>>()));
             let scans = log.events.iter().filter_map(|e| match &e.kind {
                 EventKind::Bearings(s) => Some(s),
                 _ => None,
@@ -250,6 +308,42 @@ fn main() -> Result<(), BoxError> {
                             fails.join(", ")
                         );
                     }
+                }
+            }
+        }
+    }
+
+    // 5. Where the aligned map is off: each landmark's error after the SE(2)
+    // alignment of the whole map, the filter's and the triangulated ones.
+    println!("\n## 5. Landmarks off by more than 0.2 m after the SE(2) alignment (smoother + triangulated)\n");
+    println!("| dataset | robot | landmark | aligned error m | bearings | from |\n|---|---|---|---|---|---|");
+    let without = {
+        let mut e = smoother();
+        e.smoother.triangulate_unmapped = None;
+        e
+    };
+    for d in datasets.split(',') {
+        let dir = data.join(format!("MRCLAM_Dataset{d}"));
+        for robot in 1..=5u8 {
+            let run = load_mrclam_with(&dir, robot, &options.load)?;
+            let with = evaluate_run_anchored(&run, Method::Mte, &params, &smoother(), Anchor::LogStart)?;
+            let base = evaluate_run_anchored(&run, Method::Mte, &params, &without, Anchor::LogStart)?;
+            let last = |r: &RealDataResult| r.output.as_ref().and_then(|o| o.trace.snapshots.last().cloned());
+            let (Some(map), Some(base_map)) = (last(&with), last(&base)) else { continue };
+            let estimated: Vec<(u64, f64, f64)> = map.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+            let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+            let Some((align, _)) = align_landmarks_se2(&estimated, &truth) else { continue };
+            for &(id, x, y) in &estimated {
+                let Some(t) = truth.iter().find(|t| t.0 == id) else { continue };
+                let p = align.transform_point(&Pose2::new(x, y, 0.0).position());
+                let err = (p.x - t.1).hypot(p.y - t.2);
+                let n = run.log.events.iter().filter_map(|e| match &e.kind {
+                    EventKind::Bearings(s) => Some(s.iter().filter(|o| o.landmark_id == id).count()),
+                    _ => None,
+                }).sum::<usize>();
+                let from = if base_map.landmarks.iter().any(|l| l.id == id) { "filter" } else { "triangulated" };
+                if err > 0.2 {
+                    println!("| {d} | {robot} | {id} | {err:.2} | {n} | {from} |");
                 }
             }
         }

@@ -11,8 +11,7 @@
 //! cargo run --release -p bearing-slam-eval --example smoother_study [DATA_DIR] [DATASETS]
 //! ```
 //! `PARALLAX_DEG` and `MIN_INLIERS` override the triangulation rule
-//! (default: the filter's α_min = 10° and 3 rays), `ROUNDS` its rounds of
-//! triangulate-and-solve (default 3; 1 is the single round of before). `ANCHOR=first-bearing`
+//! (default: the filter's α_min = 10° and 3 rays). `ANCHOR=first-bearing`
 //! ties every run of Dataset 6 to the Vicon pose at its first bearing scan
 //! instead of the log start ([`Anchor::FirstBearing`]; the datasets without
 //! robot ground truth keep the log start, their maps being scored aligned).
@@ -69,9 +68,6 @@ fn main() -> Result<(), BoxError> {
             }
             if let Some(n) = env_f64("MIN_INLIERS") {
                 t.min_inliers = n as usize;
-            }
-            if let Some(n) = env_f64("ROUNDS") {
-                t.max_rounds = n as usize;
             }
             t
         });

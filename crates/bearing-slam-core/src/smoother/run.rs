@@ -79,23 +79,15 @@ pub struct UnmappedTriangulation {
     pub min_parallax: f64,
     /// Fewest rays that must agree with the point.
     pub min_inliers: usize,
-    /// Rounds of triangulate-and-solve: a landmark whose rays the rule
-    /// rejects from one solution's poses is tried again from the next
-    /// (after the landmarks just added have corrected the stretches where
-    /// only it and the other unmapped ones were seen), until a round adds
-    /// nothing or this many rounds were made (at least one is).
-    pub max_rounds: usize,
 }
 
 impl Default for UnmappedTriangulation {
     /// The filter's own parallax test, `α_min` = 10° (Munguía & Grau (21),
-    /// [`crate::init::TriangulationConfig`]'s default), 3 rays, at most 3
-    /// rounds.
+    /// [`crate::init::TriangulationConfig`]'s default), and 3 rays.
     fn default() -> Self {
         Self {
             min_parallax: crate::init::TriangulationConfig::default().alpha_min,
             min_inliers: 3,
-            max_rounds: 3,
         }
     }
 }
@@ -333,12 +325,8 @@ pub fn run_from_log(
     let mut solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
     let mut first_scan = BTreeMap::new();
     if let Some(rule) = config.triangulate_unmapped {
-        for _ in 0..rule.max_rounds.max(1) {
-            let added = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
-            if added.is_empty() {
-                break;
-            }
-            first_scan.extend(added);
+        first_scan = add_unmapped_landmarks(&mut problem, run_config, config, rule)?;
+        if !first_scan.is_empty() {
             solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
         }
     }
@@ -409,8 +397,7 @@ pub struct BatchProblem {
 /// Runs the filter on `log` and builds the batch problem its estimate starts
 /// ([`BatchProblem`]); `run_from_log` in batch mode solves exactly this
 /// first, then (with [`SmootherConfig::triangulate_unmapped`]) adds the
-/// landmarks it triangulates from the solution and solves again, for up to
-/// [`UnmappedTriangulation::max_rounds`] rounds.
+/// landmarks it triangulates from the solution and solves again.
 pub fn batch_problem(
     log: &SensorLog,
     run_config: &RunConfig,
@@ -633,5 +620,61 @@ pub(super) fn apply_smoothed(
                 })
                 .collect(),
         };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn landmark(id: u64, x: f64) -> LandmarkSnapshot {
+        LandmarkSnapshot {
+            id,
+            x,
+            y: 0.0,
+            covariance: [[1.0, 0.0], [0.0, 1.0]],
+            inverse_depth: false,
+        }
+    }
+
+    fn snapshot(time: f64, landmarks: Vec<LandmarkSnapshot>) -> EstimateSnapshot {
+        EstimateSnapshot {
+            time,
+            pose: Pose2::default(),
+            pose_covariance: [[0.0; 3]; 3],
+            landmarks,
+        }
+    }
+
+    /// The filter's landmark 7 enters at scan 1 and drops out of its last
+    /// snapshot (an inverse depth at infinity); the smoother placed it, so it
+    /// is in every snapshot from scan 1 on, once, at the smoothed estimate.
+    /// Landmark 8, held throughout, is not duplicated.
+    #[test]
+    fn every_graph_landmark_is_in_the_snapshots_from_its_entry_on() {
+        let mut output = RunOutput::default();
+        output.trace.snapshots = vec![
+            snapshot(0.0, vec![landmark(8, 8.0)]),
+            snapshot(1.0, vec![landmark(7, 6.0), landmark(8, 8.0)]),
+            snapshot(2.0, vec![landmark(8, 8.0)]),
+        ];
+        let lms: BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)> = [
+            (7, (Vector2::new(7.0, 0.5), Matrix2::identity() * 0.01)),
+            (8, (Vector2::new(8.0, 0.0), Matrix2::identity() * 0.01)),
+        ]
+        .into_iter()
+        .collect();
+        let entry: BTreeMap<u64, usize> = [(7, 1), (8, 0)].into_iter().collect();
+        add_to_snapshots(&mut output, &entry, &lms);
+        let ids: Vec<Vec<u64>> = output
+            .trace
+            .snapshots
+            .iter()
+            .map(|s| s.landmarks.iter().map(|l| l.id).collect())
+            .collect();
+        assert_eq!(ids, vec![vec![8], vec![7, 8], vec![7, 8]]);
+        let last = &output.trace.snapshots[2].landmarks[0];
+        assert_eq!((last.x, last.y), (7.0, 0.5));
+        assert!((last.covariance[0][0] - 0.01).abs() < 1e-15);
     }
 }

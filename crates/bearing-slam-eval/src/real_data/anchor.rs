@@ -155,7 +155,10 @@ mod tests {
 
     #[test]
     fn the_log_starts_at_the_first_scan_with_the_command_in_force() {
-        let track = [(0.0, Pose2::new(0.0, 0.0, 0.0)), (2.0, Pose2::new(2.0, 4.0, 1.0))];
+        let track = [
+            (1.25, Pose2::new(1.25, 2.5, 0.625)),
+            (1.75, Pose2::new(1.75, 3.5, 0.875)),
+        ];
         let out = anchor_at_first_bearing(&log(), &track).unwrap();
         let start = out.info.initial_pose.unwrap();
         assert!((start.x - 1.5).abs() < 1e-12 && (start.y - 3.0).abs() < 1e-12);
@@ -170,8 +173,10 @@ mod tests {
             }
             ref other => panic!("expected the command in force, got {other:?}"),
         }
-        // The events from the scan on are kept as they were.
-        assert_eq!(out.events.len(), 5);
+        // The events from the scan on are kept as they were: the scan, the
+        // truth and the command at 2 s, with the rest of the 1 s command.
+        assert_eq!(out.events.len(), 4);
+        assert_eq!(&out.events[2..], &log().events[5..]);
     }
 
     #[test]
