@@ -41,7 +41,12 @@ type BoxError = Box<dyn std::error::Error>;
 /// Bearing residuals of every landmark bearing of `runs` against the Vicon
 /// pose at `t + shift` seen from a camera `lever` metres ahead of the
 /// robot's origin; only the bearings in `keep` (per run, by index).
-fn residuals(runs: &[MrclamRun], shift: f64, lever: f64, keep: Option<&[Vec<bool>]>) -> Vec<Vec<Option<f64>>> {
+fn residuals(
+    runs: &[MrclamRun],
+    shift: f64,
+    lever: f64,
+    keep: Option<&[Vec<bool>]>,
+) -> Vec<Vec<Option<f64>>> {
     runs.iter()
         .enumerate()
         .map(|(r, run)| {
@@ -54,10 +59,17 @@ fn residuals(runs: &[MrclamRun], shift: f64, lever: f64, keep: Option<&[Vec<bool
                 for o in scan {
                     let i = out.len();
                     let kept = keep.is_none_or(|k| k[r][i]);
-                    let value = match (kept, interpolate_pose(&run.ground_truth, e.time + shift), truth(o.landmark_id)) {
+                    let value = match (
+                        kept,
+                        interpolate_pose(&run.ground_truth, e.time + shift),
+                        truth(o.landmark_id),
+                    ) {
                         (true, Some(p), Some(l)) => {
-                            let (cx, cy) = (p.x + lever * p.theta.cos(), p.y + lever * p.theta.sin());
-                            Some(wrap_angle(o.bearing - ((l.y - cy).atan2(l.x - cx) - p.theta)))
+                            let (cx, cy) =
+                                (p.x + lever * p.theta.cos(), p.y + lever * p.theta.sin());
+                            Some(wrap_angle(
+                                o.bearing - ((l.y - cy).atan2(l.x - cx) - p.theta),
+                            ))
                         }
                         _ => None,
                     };
@@ -109,11 +121,20 @@ fn similarity_scale(estimated: &[(u64, f64, f64)], truth: &[(u64, f64, f64)]) ->
     let (align, _) = align_landmarks_se2(estimated, truth)?;
     let common: Vec<((f64, f64), (f64, f64))> = estimated
         .iter()
-        .filter_map(|&(id, x, y)| truth.iter().find(|t| t.0 == id).map(|t| ((x, y), (t.1, t.2))))
+        .filter_map(|&(id, x, y)| {
+            truth
+                .iter()
+                .find(|t| t.0 == id)
+                .map(|t| ((x, y), (t.1, t.2)))
+        })
         .collect();
     let m = common.len() as f64;
-    let (ex, ey) = common.iter().fold((0.0, 0.0), |a, ((x, y), _)| (a.0 + x / m, a.1 + y / m));
-    let (tx, ty) = common.iter().fold((0.0, 0.0), |a, (_, (x, y))| (a.0 + x / m, a.1 + y / m));
+    let (ex, ey) = common
+        .iter()
+        .fold((0.0, 0.0), |a, ((x, y), _)| (a.0 + x / m, a.1 + y / m));
+    let (tx, ty) = common
+        .iter()
+        .fold((0.0, 0.0), |a, (_, (x, y))| (a.0 + x / m, a.1 + y / m));
     let (c, s) = (align.theta.cos(), align.theta.sin());
     let (mut num, mut den) = (0.0, 0.0);
     for ((x, y), (u, v)) in &common {
@@ -128,7 +149,12 @@ fn similarity_scale(estimated: &[(u64, f64, f64)], truth: &[(u64, f64, f64)]) ->
 fn main() -> Result<(), BoxError> {
     let mut args = std::env::args().skip(1);
     let data = args.next().map_or_else(
-        || PathBuf::from(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/datasets/mrclam")),
+        || {
+            PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../../shared/datasets/mrclam"
+            ))
+        },
         PathBuf::from,
     );
     let datasets = args.next().unwrap_or_else(|| "6".into());
@@ -137,11 +163,17 @@ fn main() -> Result<(), BoxError> {
     // `SPEED_SCALE` replaces the command model's speed scale (what-ifs of
     // parts 2–5 only: the tables use the calibrated parameters).
     let mut params = CALIBRATED_PARAMETERS;
-    if let Some(k) = std::env::var("ODOMETRY_SIGMA_SCALE").ok().and_then(|v| v.parse::<f64>().ok()) {
+    if let Some(k) = std::env::var("ODOMETRY_SIGMA_SCALE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
         params.velocity_noise.sigma_v_min *= k;
         params.velocity_noise.sigma_omega_min *= k;
     }
-    if let Some(k) = std::env::var("SPEED_SCALE").ok().and_then(|v| v.parse::<f64>().ok()) {
+    if let Some(k) = std::env::var("SPEED_SCALE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
         params.command.speed_scale = k;
     }
     let six = data.join("MRCLAM_Dataset6");
@@ -156,13 +188,26 @@ fn main() -> Result<(), BoxError> {
         .map(|r| r.iter().map(|e| e.is_some_and(|e| e.abs() < 0.2)).collect())
         .collect();
     let pooled = |res: &[Vec<Option<f64>>]| rms_mean(res.iter().flatten().flatten().copied());
-    println!("## 1. Bearing residuals against Vicon, Dataset 6 (|e| < 0.2 rad at no shift, {} bearings)\n", pooled(&residuals(&runs, 0.0, 0.0, Some(&keep))).2);
-    println!("| bearing time shift s | pooled RMS rad | pooled mean rad | RMS per robot 1–5 |\n|---|---|---|---|");
-    for shift in [-0.10, -0.08, -0.06, -0.05, -0.04, -0.03, -0.02, -0.01, 0.0, 0.02, 0.05] {
+    println!(
+        "## 1. Bearing residuals against Vicon, Dataset 6 (|e| < 0.2 rad at no shift, {} bearings)\n",
+        pooled(&residuals(&runs, 0.0, 0.0, Some(&keep))).2
+    );
+    println!(
+        "| bearing time shift s | pooled RMS rad | pooled mean rad | RMS per robot 1–5 |\n|---|---|---|---|"
+    );
+    for shift in [
+        -0.10, -0.08, -0.06, -0.05, -0.04, -0.03, -0.02, -0.01, 0.0, 0.02, 0.05,
+    ] {
         let res = residuals(&runs, shift, 0.0, Some(&keep));
         let (rms, mean, _) = pooled(&res);
-        let per: Vec<String> = res.iter().map(|r| format!("{:.4}", rms_mean(r.iter().flatten().copied()).0)).collect();
-        println!("| {shift:+.2} | {rms:.5} | {mean:+.5} | {} |", per.join(" "));
+        let per: Vec<String> = res
+            .iter()
+            .map(|r| format!("{:.4}", rms_mean(r.iter().flatten().copied()).0))
+            .collect();
+        println!(
+            "| {shift:+.2} | {rms:.5} | {mean:+.5} | {} |",
+            per.join(" ")
+        );
     }
     println!("\n| lever arm along x m | pooled RMS rad | pooled mean rad |\n|---|---|---|");
     for lever in [-0.10, -0.05, -0.02, 0.0, 0.02, 0.05, 0.10] {
@@ -170,37 +215,64 @@ fn main() -> Result<(), BoxError> {
         println!("| {lever:+.2} | {rms:.5} | {mean:+.5} |");
     }
     let res = residuals(&runs, 0.0, 0.0, Some(&keep));
-    let bias: Vec<String> = res.iter().map(|r| format!("{:+.4}", rms_mean(r.iter().flatten().copied()).1)).collect();
-    println!("\nmean bearing residual (bias) per robot 1–5, rad: {}\n", bias.join(" "));
+    let bias: Vec<String> = res
+        .iter()
+        .map(|r| format!("{:+.4}", rms_mean(r.iter().flatten().copied()).1))
+        .collect();
+    println!(
+        "\nmean bearing residual (bias) per robot 1–5, rad: {}\n",
+        bias.join(" ")
+    );
 
     // 2. and 3. The gauge, and the anchor moved.
     println!("## 2–3. The smoother's map against the truth, Dataset 6\n");
-    println!("| robot | anchor | first bearing s | DR error at it: m / rad | smoothed heading error: mean / sd rad | map rotation rad | alignment moves map m | map scale (truth / estimate) | ATE raw / aligned m | raw / aligned landmark RMSE m | landmarks |");
+    println!(
+        "| robot | anchor | first bearing s | DR error at it: m / rad | smoothed heading error: mean / sd rad | map rotation rad | alignment moves map m | map scale (truth / estimate) | ATE raw / aligned m | raw / aligned landmark RMSE m | landmarks |"
+    );
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     for run in &runs {
         for anchor in [Anchor::LogStart, Anchor::FirstBearing] {
             let r = evaluate_run_anchored(run, Method::Mte, &params, &smoother(), anchor)?;
-            let Some(out) = r.output.as_ref() else { continue };
+            let Some(out) = r.output.as_ref() else {
+                continue;
+            };
             let first = out.trace.snapshots.first().map_or(f64::NAN, |s| s.time);
             let dr = out
                 .track
                 .iter()
                 .find(|p| p.time >= first && p.truth.is_some())
-                .and_then(|p| p.truth.map(|t| ((p.dead_reckoning.x - t.x).hypot(p.dead_reckoning.y - t.y), wrap_angle(p.dead_reckoning.theta - t.theta))));
-            let heading = out.track.iter().filter_map(|p| p.truth.map(|t| wrap_angle(p.estimate.theta - t.theta)));
+                .and_then(|p| {
+                    p.truth.map(|t| {
+                        (
+                            (p.dead_reckoning.x - t.x).hypot(p.dead_reckoning.y - t.y),
+                            wrap_angle(p.dead_reckoning.theta - t.theta),
+                        )
+                    })
+                });
+            let heading = out
+                .track
+                .iter()
+                .filter_map(|p| p.truth.map(|t| wrap_angle(p.estimate.theta - t.theta)));
             let (h_rms, h_mean, _) = rms_mean(heading);
             let h_sd = (h_rms * h_rms - h_mean * h_mean).max(0.0).sqrt();
             // Distance travelled over 1 s steps: truth / smoothed, truth / dead reckoning.
-            let (mut d_true, mut d_est, mut d_dr, mut prev) = (0.0, 0.0, 0.0, None::<&bearing_slam_core::runner::TrackPoint>);
+            let (mut d_true, mut d_est, mut d_dr, mut prev) = (
+                0.0,
+                0.0,
+                0.0,
+                None::<&bearing_slam_core::runner::TrackPoint>,
+            );
             for p in out.track.iter().filter(|p| p.truth.is_some()) {
                 match prev {
                     Some(q) if p.time - q.time >= 1.0 => {
-                        if let (Some(a), Some(b)) = (q.truth, p.truth) {
-                            if p.time - q.time < 1.5 {
-                                d_true += (b.x - a.x).hypot(b.y - a.y);
-                                d_est += (p.estimate.x - q.estimate.x).hypot(p.estimate.y - q.estimate.y);
-                                d_dr += (p.dead_reckoning.x - q.dead_reckoning.x).hypot(p.dead_reckoning.y - q.dead_reckoning.y);
-                            }
+                        if let (Some(a), Some(b)) = (q.truth, p.truth)
+                            && p.time - q.time < 1.5
+                        {
+                            d_true += (b.x - a.x).hypot(b.y - a.y);
+                            d_est +=
+                                (p.estimate.x - q.estimate.x).hypot(p.estimate.y - q.estimate.y);
+                            d_dr += (p.dead_reckoning.x - q.dead_reckoning.x)
+                                .hypot(p.dead_reckoning.y - q.dead_reckoning.y);
                         }
                         prev = Some(p);
                     }
@@ -209,14 +281,36 @@ fn main() -> Result<(), BoxError> {
                 }
             }
             // The trajectory's own similarity scale against the truth.
-            let pts: Vec<(u64, f64, f64)> = out.track.iter().enumerate().filter(|(_, p)| p.truth.is_some()).map(|(i, p)| (i as u64, p.estimate.x, p.estimate.y)).collect();
-            let tru: Vec<(u64, f64, f64)> = out.track.iter().enumerate().filter_map(|(i, p)| p.truth.map(|t| (i as u64, t.x, t.y))).collect();
+            let pts: Vec<(u64, f64, f64)> = out
+                .track
+                .iter()
+                .enumerate()
+                .filter(|(_, p)| p.truth.is_some())
+                .map(|(i, p)| (i as u64, p.estimate.x, p.estimate.y))
+                .collect();
+            let tru: Vec<(u64, f64, f64)> = out
+                .track
+                .iter()
+                .enumerate()
+                .filter_map(|(i, p)| p.truth.map(|t| (i as u64, t.x, t.y)))
+                .collect();
             let traj_scale = similarity_scale(&pts, &tru);
             if anchor == Anchor::LogStart {
-                eprintln!("robot {}: trajectory similarity scale truth / estimate {:.4}", run.robot, traj_scale.unwrap_or(f64::NAN));
-                eprintln!("robot {}: distance over 1 s steps, truth / smoothed {:.4}, truth / dead reckoning {:.4} (true {:.1} m)", run.robot, d_true / d_est, d_true / d_dr, d_true);
+                eprintln!(
+                    "robot {}: trajectory similarity scale truth / estimate {:.4}",
+                    run.robot,
+                    traj_scale.unwrap_or(f64::NAN)
+                );
+                eprintln!(
+                    "robot {}: distance over 1 s steps, truth / smoothed {:.4}, truth / dead reckoning {:.4} (true {:.1} m)",
+                    run.robot,
+                    d_true / d_est,
+                    d_true / d_dr,
+                    d_true
+                );
             }
-            let (rot, moved, scale) = map_alignment(&r, run).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
+            let (rot, moved, scale) =
+                map_alignment(&r, run).unwrap_or((f64::NAN, f64::NAN, f64::NAN));
             let f = |v: Option<f64>| v.map_or_else(|| "n/a".to_string(), |v| format!("{v:.3}"));
             println!(
                 "| {} | {anchor} | {first:.1} | {} | {h_mean:+.3} / {h_sd:.3} | {rot:+.3} | {moved:.3} | {scale:.4} | {} / {} | {} / {} | {} |",
@@ -233,10 +327,15 @@ fn main() -> Result<(), BoxError> {
 
     // 4. The landmarks left unmapped.
     println!("\n## 4. Landmarks the smoother leaves out: their rays from the smoothed poses\n");
-    println!("| dataset | robot | landmark | rays | inliers (3σ, in front) | parallax deg | point error m | fails |\n|---|---|---|---|---|---|---|---|");
+    println!(
+        "| dataset | robot | landmark | rays | inliers (3σ, in front) | parallax deg | point error m | fails |\n|---|---|---|---|---|---|---|---|"
+    );
     let rule = RayTriangulationRule {
         min_inliers: UnmappedTriangulation::default().min_inliers,
-        ..RayTriangulationRule::new(params.bearing_sigma_rad, UnmappedTriangulation::default().min_parallax)
+        ..RayTriangulationRule::new(
+            params.bearing_sigma_rad,
+            UnmappedTriangulation::default().min_parallax,
+        )
     };
     let permissive = RayTriangulationRule {
         min_inliers: 2,
@@ -248,19 +347,27 @@ fn main() -> Result<(), BoxError> {
         let dir = data.join(format!("MRCLAM_Dataset{d}"));
         for robot in 1..=5u8 {
             let run = load_mrclam_with(&dir, robot, &options.load)?;
-            let r = evaluate_run_anchored(&run, Method::Mte, &params, &smoother(), Anchor::LogStart)?;
-            let Some(out) = r.output.as_ref() else { continue };
-            let Some(last) = out.trace.snapshots.last() else { continue };
+            let r =
+                evaluate_run_anchored(&run, Method::Mte, &params, &smoother(), Anchor::LogStart)?;
+            let Some(out) = r.output.as_ref() else {
+                continue;
+            };
+            let Some(last) = out.trace.snapshots.last() else {
+                continue;
+            };
             let log = filter_log(&run, Method::Mte, &params)?;
             let scans = log.events.iter().filter_map(|e| match &e.kind {
                 EventKind::Bearings(s) => Some(s),
                 _ => None,
             });
-            let mut rays: std::collections::BTreeMap<u64, Vec<_>> = std::collections::BTreeMap::new();
+            let mut rays: std::collections::BTreeMap<u64, Vec<_>> =
+                std::collections::BTreeMap::new();
             for (scan, snap) in scans.zip(&out.trace.snapshots) {
                 for o in scan {
                     if !last.landmarks.iter().any(|l| l.id == o.landmark_id) {
-                        rays.entry(o.landmark_id).or_default().push((snap.pose.to_vector(), o.bearing));
+                        rays.entry(o.landmark_id)
+                            .or_default()
+                            .push((snap.pose.to_vector(), o.bearing));
                     }
                 }
             }
@@ -270,12 +377,26 @@ fn main() -> Result<(), BoxError> {
                     None => {
                         // Why: how far apart the sensors were, how much the
                         // directions spread, and how the rays sit on the true point.
-                        let spread = rays.iter().flat_map(|a| rays.iter().map(move |b| (a.0.x - b.0.x).hypot(a.0.y - b.0.y))).fold(0.0_f64, f64::max);
-                        let dirs: Vec<f64> = rays.iter().map(|(p, z)| wrap_angle(p.z + z - (rays[0].0.z + rays[0].1))).collect();
-                        let (lo, hi) = dirs.iter().fold((0.0_f64, 0.0_f64), |(lo, hi), d| (lo.min(*d), hi.max(*d)));
-                        let on_truth = truth.map(|t| {
-                            rms_mean(rays.iter().map(|(p, z)| wrap_angle(z - ((t.y - p.y).atan2(t.x - p.x) - p.z))))
-                        });
+                        let spread = rays
+                            .iter()
+                            .flat_map(|a| {
+                                rays.iter()
+                                    .map(move |b| (a.0.x - b.0.x).hypot(a.0.y - b.0.y))
+                            })
+                            .fold(0.0_f64, f64::max);
+                        let dirs: Vec<f64> = rays
+                            .iter()
+                            .map(|(p, z)| wrap_angle(p.z + z - (rays[0].0.z + rays[0].1)))
+                            .collect();
+                        let (lo, hi) = dirs
+                            .iter()
+                            .fold((0.0_f64, 0.0_f64), |(lo, hi), d| (lo.min(*d), hi.max(*d)));
+                        let on_truth =
+                            truth.map(|t| {
+                                rms_mean(rays.iter().map(|(p, z)| {
+                                    wrap_angle(z - ((t.y - p.y).atan2(t.x - p.x) - p.z))
+                                }))
+                            });
                         println!(
                             "| {d} | {robot} | {id} | {} | – | {:.1} | – | no intersection: sensors within {spread:.2} m; rays against the true point: RMS {:.3} rad, mean {:+.3} rad |",
                             rays.len(),
@@ -293,13 +414,22 @@ fn main() -> Result<(), BoxError> {
                             fails.push("inliers < half the rays".to_string());
                         }
                         if p.parallax < rule.min_parallax {
-                            fails.push(format!("parallax < {:.0}°", rule.min_parallax.to_degrees()));
+                            fails
+                                .push(format!("parallax < {:.0}°", rule.min_parallax.to_degrees()));
                         }
                         if fails.is_empty() {
                             let strict = triangulate_rays(rays, &rule)?;
-                            fails.push(format!("none; the rule itself on these rays: {}", if strict.is_some() { "accepted" } else { "rejected" }));
+                            fails.push(format!(
+                                "none; the rule itself on these rays: {}",
+                                if strict.is_some() {
+                                    "accepted"
+                                } else {
+                                    "rejected"
+                                }
+                            ));
                         }
-                        let err = truth.map_or(f64::NAN, |t| (p.point.x - t.x).hypot(p.point.y - t.y));
+                        let err =
+                            truth.map_or(f64::NAN, |t| (p.point.x - t.x).hypot(p.point.y - t.y));
                         println!(
                             "| {d} | {robot} | {id} | {} | {} | {:.1} | {err:.2} | {} |",
                             rays.len(),
@@ -315,8 +445,12 @@ fn main() -> Result<(), BoxError> {
 
     // 5. Where the aligned map is off: each landmark's error after the SE(2)
     // alignment of the whole map, the filter's and the triangulated ones.
-    println!("\n## 5. Landmarks off by more than 0.2 m after the SE(2) alignment (smoother + triangulated)\n");
-    println!("| dataset | robot | landmark | aligned error m | bearings | from |\n|---|---|---|---|---|---|");
+    println!(
+        "\n## 5. Landmarks off by more than 0.2 m after the SE(2) alignment (smoother + triangulated)\n"
+    );
+    println!(
+        "| dataset | robot | landmark | aligned error m | bearings | from |\n|---|---|---|---|---|---|"
+    );
     let without = {
         let mut e = smoother();
         e.smoother.triangulate_unmapped = None;
@@ -326,22 +460,47 @@ fn main() -> Result<(), BoxError> {
         let dir = data.join(format!("MRCLAM_Dataset{d}"));
         for robot in 1..=5u8 {
             let run = load_mrclam_with(&dir, robot, &options.load)?;
-            let with = evaluate_run_anchored(&run, Method::Mte, &params, &smoother(), Anchor::LogStart)?;
-            let base = evaluate_run_anchored(&run, Method::Mte, &params, &without, Anchor::LogStart)?;
-            let last = |r: &RealDataResult| r.output.as_ref().and_then(|o| o.trace.snapshots.last().cloned());
-            let (Some(map), Some(base_map)) = (last(&with), last(&base)) else { continue };
-            let estimated: Vec<(u64, f64, f64)> = map.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
-            let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
-            let Some((align, _)) = align_landmarks_se2(&estimated, &truth) else { continue };
+            let with =
+                evaluate_run_anchored(&run, Method::Mte, &params, &smoother(), Anchor::LogStart)?;
+            let base =
+                evaluate_run_anchored(&run, Method::Mte, &params, &without, Anchor::LogStart)?;
+            let last = |r: &RealDataResult| {
+                r.output
+                    .as_ref()
+                    .and_then(|o| o.trace.snapshots.last().cloned())
+            };
+            let (Some(map), Some(base_map)) = (last(&with), last(&base)) else {
+                continue;
+            };
+            let estimated: Vec<(u64, f64, f64)> =
+                map.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+            let truth: Vec<(u64, f64, f64)> =
+                run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+            let Some((align, _)) = align_landmarks_se2(&estimated, &truth) else {
+                continue;
+            };
             for &(id, x, y) in &estimated {
-                let Some(t) = truth.iter().find(|t| t.0 == id) else { continue };
+                let Some(t) = truth.iter().find(|t| t.0 == id) else {
+                    continue;
+                };
                 let p = align.transform_point(&Pose2::new(x, y, 0.0).position());
                 let err = (p.x - t.1).hypot(p.y - t.2);
-                let n = run.log.events.iter().filter_map(|e| match &e.kind {
-                    EventKind::Bearings(s) => Some(s.iter().filter(|o| o.landmark_id == id).count()),
-                    _ => None,
-                }).sum::<usize>();
-                let from = if base_map.landmarks.iter().any(|l| l.id == id) { "filter" } else { "triangulated" };
+                let n = run
+                    .log
+                    .events
+                    .iter()
+                    .filter_map(|e| match &e.kind {
+                        EventKind::Bearings(s) => {
+                            Some(s.iter().filter(|o| o.landmark_id == id).count())
+                        }
+                        _ => None,
+                    })
+                    .sum::<usize>();
+                let from = if base_map.landmarks.iter().any(|l| l.id == id) {
+                    "filter"
+                } else {
+                    "triangulated"
+                };
                 if err > 0.2 {
                     println!("| {d} | {robot} | {id} | {err:.2} | {n} | {from} |");
                 }
