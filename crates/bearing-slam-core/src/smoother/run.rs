@@ -358,6 +358,16 @@ pub fn run_from_log(
         &pose_cov,
         &lms,
     );
+    // Every landmark of the graph, from the scan where it entered on: the
+    // triangulated ones, and the filter's own, which the filter's later
+    // snapshots leave out while its inverse depth is at or beyond infinity
+    // (ρ ≤ 0) although the smoother has placed it.
+    first_scan.extend(
+        filter_landmarks(&filter)
+            .entry
+            .iter()
+            .map(|(id, (k, _))| (*id, *k)),
+    );
     add_to_snapshots(&mut output, &first_scan, &lms);
     report.smoother_time_s = started.elapsed().as_secs_f64();
     Ok(SmoothedRun {
@@ -543,9 +553,11 @@ fn add_unmapped_landmarks(
     Ok(added)
 }
 
-/// The landmarks the batch added (`first_scan`: id → scan of its first
-/// bearing) written into every snapshot from that scan on, at their smoothed
-/// estimate (the smoother knows them in hindsight from their first bearing).
+/// The landmarks of `first_scan` (id → the scan where it entered: its first
+/// bearing for one the batch triangulated, the filter's initialization
+/// otherwise) written, at their smoothed estimate, into every snapshot from
+/// that scan on that does not hold them yet (the smoother knows them in
+/// hindsight from there on).
 fn add_to_snapshots(
     output: &mut RunOutput,
     first_scan: &BTreeMap<u64, usize>,
@@ -556,7 +568,8 @@ fn add_to_snapshots(
     }
     for (k, snap) in output.trace.snapshots.iter_mut().enumerate() {
         for (id, first) in first_scan {
-            if let (true, Some((p, c))) = (k >= *first, lms.get(id)) {
+            let held = snap.landmarks.iter().any(|l| l.id == *id);
+            if let (true, false, Some((p, c))) = (k >= *first, held, lms.get(id)) {
                 snap.landmarks.push(LandmarkSnapshot {
                     id: *id,
                     x: p.x,
@@ -607,5 +620,61 @@ pub(super) fn apply_smoothed(
                 })
                 .collect(),
         };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn landmark(id: u64, x: f64) -> LandmarkSnapshot {
+        LandmarkSnapshot {
+            id,
+            x,
+            y: 0.0,
+            covariance: [[1.0, 0.0], [0.0, 1.0]],
+            inverse_depth: false,
+        }
+    }
+
+    fn snapshot(time: f64, landmarks: Vec<LandmarkSnapshot>) -> EstimateSnapshot {
+        EstimateSnapshot {
+            time,
+            pose: Pose2::default(),
+            pose_covariance: [[0.0; 3]; 3],
+            landmarks,
+        }
+    }
+
+    /// The filter's landmark 7 enters at scan 1 and drops out of its last
+    /// snapshot (an inverse depth at infinity); the smoother placed it, so it
+    /// is in every snapshot from scan 1 on, once, at the smoothed estimate.
+    /// Landmark 8, held throughout, is not duplicated.
+    #[test]
+    fn every_graph_landmark_is_in_the_snapshots_from_its_entry_on() {
+        let mut output = RunOutput::default();
+        output.trace.snapshots = vec![
+            snapshot(0.0, vec![landmark(8, 8.0)]),
+            snapshot(1.0, vec![landmark(7, 6.0), landmark(8, 8.0)]),
+            snapshot(2.0, vec![landmark(8, 8.0)]),
+        ];
+        let lms: BTreeMap<u64, (Vector2<f64>, Matrix2<f64>)> = [
+            (7, (Vector2::new(7.0, 0.5), Matrix2::identity() * 0.01)),
+            (8, (Vector2::new(8.0, 0.0), Matrix2::identity() * 0.01)),
+        ]
+        .into_iter()
+        .collect();
+        let entry: BTreeMap<u64, usize> = [(7, 1), (8, 0)].into_iter().collect();
+        add_to_snapshots(&mut output, &entry, &lms);
+        let ids: Vec<Vec<u64>> = output
+            .trace
+            .snapshots
+            .iter()
+            .map(|s| s.landmarks.iter().map(|l| l.id).collect())
+            .collect();
+        assert_eq!(ids, vec![vec![8], vec![7, 8], vec![7, 8]]);
+        let last = &output.trace.snapshots[2].landmarks[0];
+        assert_eq!((last.x, last.y), (7.0, 0.5));
+        assert!((last.covariance[0][0] - 0.01).abs() < 1e-15);
     }
 }

@@ -1,7 +1,8 @@
 //! One method on one loaded robot, scored against the ground truth.
 
 use super::{
-    CALIBRATED_PARAMETERS, FilterParameters, GROUND_TRUTH_INTERVAL_S, Method, RealDataError,
+    Anchor, CALIBRATED_PARAMETERS, FilterParameters, GROUND_TRUTH_INTERVAL_S, Method,
+    RealDataError, anchor_at_first_bearing,
 };
 use bearing_slam_core::SlamError;
 use bearing_slam_core::association::AssociationConfig;
@@ -217,7 +218,28 @@ pub fn evaluate_run_with(
     parameters: &FilterParameters,
     estimator: &EstimatorConfig,
 ) -> Result<RealDataResult, RealDataError> {
-    evaluate_by(run, method, parameters, |log, config| {
+    evaluate_run_anchored(run, method, parameters, estimator, Anchor::LogStart)
+}
+
+/// [`evaluate_run_with`] with the estimate's frame tied to the ground truth
+/// at `anchor` ([`Anchor::FirstBearing`]: the log cut at its first bearing
+/// scan and started at the Vicon pose there, [`anchor_at_first_bearing`]).
+///
+/// # Errors
+/// As [`evaluate_run_with`]; [`Anchor::FirstBearing`] on a robot without
+/// ground truth at its first bearing.
+pub fn evaluate_run_anchored(
+    run: &MrclamRun,
+    method: Method,
+    parameters: &FilterParameters,
+    estimator: &EstimatorConfig,
+    anchor: Anchor,
+) -> Result<RealDataResult, RealDataError> {
+    let mut log = filter_log(run, method, parameters)?;
+    if anchor == Anchor::FirstBearing {
+        log = anchor_at_first_bearing(&log, &run.ground_truth)?;
+    }
+    evaluate_log(run, log, method, parameters, |log, config| {
         Ok(run_estimator(log, config, estimator)?.output)
     })
 }
@@ -273,6 +295,18 @@ fn evaluate_by(
     go: impl FnOnce(&SensorLog, &runner::RunConfig) -> Result<RunOutput, RealDataError>,
 ) -> Result<RealDataResult, RealDataError> {
     let log = filter_log(run, method, parameters)?;
+    evaluate_log(run, log, method, parameters, go)
+}
+
+/// [`evaluate_by`] on the log `log` of `run` (already through the command
+/// model and, if asked, anchored).
+fn evaluate_log(
+    run: &MrclamRun,
+    log: SensorLog,
+    method: Method,
+    parameters: &FilterParameters,
+    go: impl FnOnce(&SensorLog, &runner::RunConfig) -> Result<RunOutput, RealDataError>,
+) -> Result<RealDataResult, RealDataError> {
     let config = parameters.run_config(method, Pose2::default())?;
     let started = Instant::now();
     let output = go(&log, &config)?;
