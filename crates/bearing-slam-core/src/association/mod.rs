@@ -373,4 +373,36 @@ mod tests {
             .to_string();
         assert!(err.contains("association.min_sightings"), "{err}");
     }
+
+    #[test]
+    fn the_new_landmark_density_follows_its_rule_and_checks_its_ranges() {
+        let prior = NewLandmarkDensity {
+            expected_landmarks: 15.0,
+            clutter_per_scan: 0.6,
+            field_of_view_rad: 1.2,
+        };
+        let tau = std::f64::consts::TAU;
+        assert!((prior.density(5) - (10.0 / tau + 0.5)).abs() < 1e-12);
+        // More landmarks mapped than expected: clutter alone.
+        assert!((prior.density(20) - 0.5).abs() < 1e-12);
+        let mut config = AssociationConfig {
+            new_landmark_density: Some(prior),
+            ..AssociationConfig::of(AssociationMethod::Jcbb)
+        };
+        config.validate().expect("valid prior");
+        for bad in [
+            NewLandmarkDensity {
+                field_of_view_rad: 7.0,
+                ..prior
+            },
+            NewLandmarkDensity {
+                expected_landmarks: -1.0,
+                ..prior
+            },
+        ] {
+            config.new_landmark_density = Some(bad);
+            let err = config.validate().expect_err("refused").to_string();
+            assert!(err.contains("association.new_landmark_density"), "{err}");
+        }
+    }
 }
