@@ -57,11 +57,7 @@ struct Row {
 /// and `ASSOCIATION_PARALLAX_VIEWS`. `ASSOCIATION_NEW_LANDMARKS=1` turns on
 /// the unmapped-landmark hypothesis with `prior` (the caller's stated
 /// prior: the setup's landmark count, clutter rate and field of view).
-fn configured(
-    base: &RunConfig,
-    method: AssociationMethod,
-    prior: NewLandmarkDensity,
-) -> RunConfig {
+fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDensity) -> RunConfig {
     let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
         Ok("0") => false,
         Ok("1") => true,
