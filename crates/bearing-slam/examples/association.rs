@@ -12,11 +12,13 @@
 
 use bearing_slam::core::Pose2;
 use bearing_slam::core::association::score::AssociationScore;
-use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod, NewLandmarkDensity};
 use bearing_slam::core::log::{LandmarkTruth, SensorLog};
 use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
 use bearing_slam::core::score::summarize;
-use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::eval::real_data::{
+    CALIBRATED_PARAMETERS, EvalOptions, Method, align_landmarks_se2, filter_log,
+};
 use bearing_slam::io::mrclam::load_mrclam_with;
 use bearing_slam::sim::clutter::Distractor;
 use bearing_slam::sim::scenario::Scenario;
@@ -52,8 +54,10 @@ struct Row {
 /// `ASSOCIATION_DEPTH_BOUND`, `ASSOCIATION_UNAMBIGUOUS` and
 /// `ASSOCIATION_TRACK_SCORE` likewise, and a
 /// count in `ASSOCIATION_WEDGE_HYPOTHESES`, `ASSOCIATION_WEDGE_BRANCHES`
-/// and `ASSOCIATION_PARALLAX_VIEWS`.
-fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
+/// and `ASSOCIATION_PARALLAX_VIEWS`. `ASSOCIATION_NEW_LANDMARKS=1` turns on
+/// the unmapped-landmark hypothesis with `prior` (the caller's stated
+/// prior: the setup's landmark count, clutter rate and field of view).
+fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDensity) -> RunConfig {
     let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
         Ok("0") => false,
         Ok("1") => true,
@@ -89,20 +93,48 @@ fn configured(base: &RunConfig, method: AssociationMethod) -> RunConfig {
         confirm_constrained_depth: switch("ASSOCIATION_DEPTH_BOUND", d.confirm_constrained_depth),
         confirm_unambiguous: switch("ASSOCIATION_UNAMBIGUOUS", d.confirm_unambiguous),
         confirm_track_score: switch("ASSOCIATION_TRACK_SCORE", d.confirm_track_score),
+        new_landmark_density: if switch("ASSOCIATION_NEW_LANDMARKS", false) {
+            Some(prior)
+        } else {
+            d.new_landmark_density
+        },
         ..d
     };
     config
 }
 
-fn run_one(log: &SensorLog, base: &RunConfig, method: AssociationMethod) -> Res<Row> {
-    let config = configured(base, method);
+fn run_one(
+    log: &SensorLog,
+    base: &RunConfig,
+    method: AssociationMethod,
+    prior: NewLandmarkDensity,
+) -> Res<Row> {
+    Ok(run_full(log, base, method, prior)?.0)
+}
+
+/// [`run_one`] with the run's output too.
+fn run_full(
+    log: &SensorLog,
+    base: &RunConfig,
+    method: AssociationMethod,
+    prior: NewLandmarkDensity,
+) -> Res<(Row, RunOutput)> {
+    let config = configured(base, method, prior);
     let output: RunOutput = run(log, &config)?;
-    let summary = summarize(log, &output)?;
-    Ok(Row {
-        ate: summary.ate_rmse_m,
-        score: output.association,
-        costs: Vec::new(),
-    })
+    // MRCLAM Datasets 2 and 4 have no robot ground truth: no ATE there.
+    let ate = if output.track.iter().any(|p| p.truth.is_some()) {
+        summarize(log, &output)?.ate_rmse_m
+    } else {
+        f64::NAN
+    };
+    Ok((
+        Row {
+            ate,
+            score: output.association.clone(),
+            costs: Vec::new(),
+        },
+        output,
+    ))
 }
 
 fn pct(x: f64) -> String {
@@ -162,7 +194,15 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                 }
                 let log = simulate(&scenario)?;
                 let config = default_run_config(&log)?;
-                let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
+                // The stated prior of the unmapped-landmark hypothesis: the
+                // scenario's static landmarks, its clutter rate and field of
+                // view (the distractor is not in it).
+                let prior = NewLandmarkDensity {
+                    expected_landmarks: scenario.landmark_truth()?.len() as f64,
+                    clutter_per_scan: clutter,
+                    field_of_view_rad: scenario.sensor.fov_rad,
+                };
+                let known = run_one(&log, &config, AssociationMethod::Known, prior)?.ate;
                 for method in METHODS {
                     let row = if method == AssociationMethod::Known {
                         Row {
@@ -171,7 +211,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                             costs: Vec::new(),
                         }
                     } else {
-                        run_one(&log, &config, method)?
+                        run_one(&log, &config, method, prior)?
                     };
                     let s = row.score.clone().unwrap_or_default();
                     let e = sums.entry(method_name(method)).or_default();
@@ -246,8 +286,13 @@ fn diag(args: &[String]) -> Res<()> {
     }
     let log = simulate(&scenario)?;
     let config = default_run_config(&log)?;
-    let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
-    let run_config = configured(&config, method);
+    let prior = NewLandmarkDensity {
+        expected_landmarks: truth.len() as f64,
+        clutter_per_scan: clutter,
+        field_of_view_rad: scenario.sensor.fov_rad,
+    };
+    let known = run_one(&log, &config, AssociationMethod::Known, prior)?.ate;
+    let run_config = configured(&config, method, prior);
     let output = run(&log, &run_config)?;
     let summary = summarize(&log, &output)?;
     for e in &output.trace.events {
@@ -298,47 +343,110 @@ fn method_name(m: AssociationMethod) -> &'static str {
     }
 }
 
+/// MRCLAM's camera field of view as the prior states it, radians: the
+/// bearings in the files span ±0.58 rad.
+const MRCLAM_FIELD_OF_VIEW_RAD: f64 = 1.2;
+
+/// The other robots of an MRCLAM run (five robots in every dataset).
+const MRCLAM_OTHER_ROBOTS: f64 = 4.0;
+
+/// The aligned RMSE of a run's final map against the true landmarks, with
+/// each mapped landmark named by `name` (its id for a known-id run, its
+/// owner for an unknown-id one; landmarks without a true name left out).
+fn map_rmse(
+    output: &RunOutput,
+    truth: &[(u64, f64, f64)],
+    name: impl Fn(u64) -> Option<u64>,
+) -> Option<f64> {
+    let last = output.trace.snapshots.last()?;
+    let estimated: Vec<(u64, f64, f64)> = last
+        .landmarks
+        .iter()
+        .filter_map(|l| name(l.id).map(|id| (id, l.x, l.y)))
+        .collect();
+    align_landmarks_se2(&estimated, truth).map(|(_, rmse)| rmse)
+}
+
+/// Metres to three decimals, "—" for NaN (no ground truth).
+fn metres(x: f64) -> String {
+    if x.is_nan() {
+        "—".into()
+    } else {
+        format!("{x:.3}")
+    }
+}
+
 fn mrclam(dir: &Path) -> Res<()> {
+    // MRCLAM_KEEP_ROBOTS=1: the other robots' barcode sightings stay in the
+    // log as moving-object bearings (ids hidden like the landmarks').
+    let keep_robots = std::env::var("MRCLAM_KEEP_ROBOTS").as_deref() == Ok("1");
     println!(
-        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | ATE m | ATE / known | mean JCBB nodes | mean pairing ms |"
+        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | robot bearings (paired) | ATE m | ATE / known | map RMSE m | mean JCBB nodes | mean pairing ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
-    let options = EvalOptions::default();
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    let mut options = EvalOptions::default();
+    options.load.keep_robot_sightings = keep_robots;
     for robot in 1..=5u8 {
         let loaded = load_mrclam_with(dir, robot, &options.load)?;
         let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
         let config = CALIBRATED_PARAMETERS.run_config(Method::Mte, Pose2::default())?;
-        let known = run_one(&log, &config, AssociationMethod::Known)?.ate;
-        for method in METHODS {
-            let row = if method == AssociationMethod::Known {
-                Row {
-                    ate: known,
-                    score: None,
-                    costs: Vec::new(),
-                }
+        let truth: Vec<(u64, f64, f64)> = log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+        // The stated prior: the dataset's landmark table (15 landmarks), no
+        // clutter, and with the robots kept, the other four robots spread
+        // over the circle as the landmarks are (4/(2π) per radian).
+        let prior = NewLandmarkDensity {
+            expected_landmarks: loaded.landmark_records.len() as f64,
+            clutter_per_scan: if keep_robots {
+                MRCLAM_OTHER_ROBOTS * MRCLAM_FIELD_OF_VIEW_RAD / std::f64::consts::TAU
             } else {
-                run_one(&log, &config, method)?
-            };
-            match row.score {
-                Some(s) => println!(
-                    "| {robot} | {} | {} | {} | {} | {} | {} | {} | {:.3} | {:.2} | {:.1} | {:.3} |",
-                    method_name(method),
-                    pct(s.precision),
-                    pct(s.recall),
-                    s.mapped,
-                    s.duplicates,
-                    s.spurious,
-                    s.missed,
-                    row.ate,
-                    row.ate / known,
-                    s.mean_nodes,
-                    1e3 * s.mean_scan_seconds,
-                ),
-                None => println!(
-                    "| {robot} | known | — | — | — | — | — | — | {:.3} | 1.00 | — | — |",
-                    row.ate
-                ),
-            }
+                0.0
+            },
+            field_of_view_rad: MRCLAM_FIELD_OF_VIEW_RAD,
+        };
+        let (known_row, known_output) = run_full(&log, &config, AssociationMethod::Known, prior)?;
+        let known = known_row.ate;
+        let known_map = map_rmse(&known_output, &truth, Some);
+        println!(
+            "| {robot} | known | — | — | {} | — | — | — | {} | {} | 1.00 | {} | — | — |",
+            known_output
+                .trace
+                .snapshots
+                .last()
+                .map_or(0, |s| s.landmarks.len()),
+            loaded.report.n_robot_sightings,
+            metres(known),
+            known_map.map_or("—".into(), |r| format!("{r:.3}")),
+        );
+        for method in [AssociationMethod::NearestNeighbour, AssociationMethod::Jcbb] {
+            let (row, output) = run_full(&log, &config, method, prior)?;
+            let Some(s) = row.score else { continue };
+            let map = map_rmse(&output, &truth, |id| {
+                s.owners
+                    .get(&id)
+                    .copied()
+                    .filter(|&t| truth.iter().any(|l| l.0 == t))
+            });
+            println!(
+                "| {robot} | {} | {} | {} | {} | {} | {} | {} | {} ({}) | {} | {} | {} | {:.1} | {:.3} |",
+                method_name(method),
+                pct(s.precision),
+                pct(s.recall),
+                s.mapped,
+                s.duplicates,
+                s.spurious,
+                s.missed,
+                s.false_bearings,
+                s.false_bearings_paired,
+                metres(row.ate),
+                if known.is_nan() {
+                    "—".into()
+                } else {
+                    format!("{:.2}", row.ate / known)
+                },
+                map.map_or("—".into(), |r| format!("{r:.3}")),
+                s.mean_nodes,
+                1e3 * s.mean_scan_seconds,
+            );
         }
     }
     Ok(())
@@ -389,6 +497,7 @@ fn cost() -> Res<()> {
                     if a == b { common + own } else { common }
                 }),
                 noise_variance: deg * deg,
+                new_density: 0.0,
             });
         }
         let gates = Gates::new(0.999, m + 2)?;

@@ -26,6 +26,12 @@ pub struct PairingProblem {
     pub prediction_covariance: DMatrix<f64>,
     /// Bearing noise variance `σ_z²`, rad² (> 0).
     pub noise_variance: f64,
+    /// Density (per radian, ≥ 0) of a bearing from a landmark not mapped yet
+    /// or from clutter ([`super::NewLandmarkDensity::density`]): a pair
+    /// `i → j` is individually compatible only when its predictive density
+    /// `N(ν_ij; 0, S_jj)` is at least this (the "new" hypothesis is the
+    /// likelier otherwise). 0: the χ² gate alone.
+    pub new_density: f64,
 }
 
 /// The χ² gates of a pairing: individual (1 dof) and joint (k dof).
@@ -98,6 +104,13 @@ impl PairingProblem {
             ensure_finite("prediction covariance", c)?;
         }
         crate::error::ensure_positive_noise("bearing noise variance", self.noise_variance)?;
+        if !(self.new_density.is_finite() && self.new_density >= 0.0) {
+            return Err(SlamError::InvalidParameter {
+                name: "new-landmark density",
+                value: self.new_density,
+                reason: "must be a finite density ≥ 0",
+            });
+        }
         Ok(())
     }
 
@@ -114,13 +127,30 @@ impl PairingProblem {
         self.innovation(i, j).powi(2) / s
     }
 
+    /// The predictive density `N(ν_ij; 0, S_jj)` of bearing `i` under
+    /// prediction `j`, per radian.
+    #[must_use]
+    pub fn density(&self, i: usize, j: usize) -> f64 {
+        let s = self.prediction_covariance[(j, j)] + self.noise_variance;
+        (-0.5 * self.distance(i, j)).exp() / (std::f64::consts::TAU * s).sqrt()
+    }
+
+    /// Whether the pair `i → j` is individually compatible: `d²_ij` within
+    /// `gate` and, with a new-landmark density, `N(ν_ij; 0, S_jj)` at least
+    /// that density.
+    #[must_use]
+    pub fn individually_compatible(&self, i: usize, j: usize, gate: f64) -> bool {
+        self.distance(i, j) <= gate
+            && (self.new_density <= 0.0 || self.density(i, j) >= self.new_density)
+    }
+
     /// The individually compatible predictions of every bearing, closest first.
     fn compatible(&self, gate: f64) -> Vec<Vec<(usize, f64)>> {
         (0..self.bearings.len())
             .map(|i| {
                 let mut c: Vec<(usize, f64)> = (0..self.predicted.len())
+                    .filter(|&j| self.individually_compatible(i, j, gate))
                     .map(|j| (j, self.distance(i, j)))
-                    .filter(|&(_, d)| d <= gate)
                     .collect();
                 c.sort_by(|a, b| a.1.total_cmp(&b.1));
                 c
@@ -296,6 +326,7 @@ mod tests {
                 &[common + own, common, common, common + own],
             ),
             noise_variance: 0.005f64.powi(2),
+            new_density: 0.0,
         }
     }
 
@@ -325,6 +356,41 @@ mod tests {
         let starved = jcbb(&problem, &gates, 2).expect("jcbb runs");
         assert!(starved.budget_exhausted);
         assert_eq!(starved.nodes, 2);
+    }
+
+    /// A landmark whose prediction is uncertain (σ_S ≈ 0.3 rad) has a
+    /// bearing 1.2 σ_S away inside its χ² gate; its density there
+    /// (≈ 0.65 /rad) is below that of 6 landmarks not mapped yet (6/2π ≈ 0.95
+    /// /rad), so the bearing stays unpaired for the tracks; a well-predicted
+    /// landmark's bearing is still paired, and without the density both are.
+    #[test]
+    fn the_unmapped_landmark_hypothesis_outweighs_an_uncertain_landmark() {
+        let problem = PairingProblem {
+            bearings: vec![0.36, 1.0],
+            predicted: vec![0.0, 1.0],
+            prediction_covariance: DMatrix::from_row_slice(2, 2, &[0.09, 0.0, 0.0, 1e-4]),
+            noise_variance: 1e-4,
+            new_density: 6.0 / std::f64::consts::TAU,
+        };
+        let gates = Gates::new(0.999, 2).expect("gates");
+        assert!(problem.distance(0, 0) <= gates.individual);
+        assert!(problem.density(0, 0) < problem.new_density);
+        for pairing in [
+            nearest_neighbour(&problem, &gates).expect("nn"),
+            jcbb(&problem, &gates, 100).expect("jcbb"),
+        ] {
+            assert_eq!(pairing.landmark_of, vec![None, Some(1)]);
+        }
+        let without = PairingProblem {
+            new_density: 0.0,
+            ..problem.clone()
+        };
+        let nn = nearest_neighbour(&without, &gates).expect("nn");
+        assert_eq!(nn.landmark_of, vec![Some(0), Some(1)]);
+        let mut bad = problem;
+        bad.new_density = f64::NAN;
+        let e = jcbb(&bad, &gates, 10).expect_err("NaN density").to_string();
+        assert!(e.contains("new-landmark density"), "{e}");
     }
 
     #[test]

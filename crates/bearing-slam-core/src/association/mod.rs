@@ -168,6 +168,69 @@ pub struct AssociationConfig {
     /// uniform round the circle) reaches `ln(1/(1 − p))`, `p` =
     /// `track_gate_probability` (Wald's sequential test).
     pub confirm_track_score: bool,
+    /// The unmapped-landmark hypothesis: a bearing is paired with a mapped
+    /// landmark only when that landmark's predictive density `N(ν; 0, S)`
+    /// beats the density of a bearing from a landmark not mapped yet or
+    /// from clutter ([`NewLandmarkDensity::density`]); otherwise it goes to
+    /// the tracks. `None` (the default): every bearing inside the χ² gate
+    /// may be paired.
+    #[serde(default)]
+    pub new_landmark_density: Option<NewLandmarkDensity>,
+}
+
+/// The prior of the unmapped-landmark hypothesis (the "new landmark"
+/// likelihood of maximum-likelihood association in FastSLAM, Montemerlo et
+/// al. 2003, and the "new" option of JCBB), stated before a run, never
+/// fitted to its scores.
+///
+/// With landmarks spread uniformly in bearing round the robot and each
+/// detected with the same probability `P_D`, a bearing from landmark `j`
+/// has the density `P_D·N(ν; 0, S_j)` and the bearings of the `n_u`
+/// landmarks not mapped yet the density `P_D·n_u/(2π)` per radian; clutter
+/// adds `λ/FOV` (`λ` false bearings per scan over the field of view). The
+/// pairing `z → j` is kept when `N(ν; 0, S_j) ≥ n_u/(2π) + λ/(P_D·FOV)`;
+/// with `P_D` taken as 1 that is `n_u/(2π) + λ/FOV`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct NewLandmarkDensity {
+    /// Landmarks the map is expected to hold when complete (≥ 0): `n_u` is
+    /// this minus the landmarks mapped, floored at 0.
+    pub expected_landmarks: f64,
+    /// Expected false bearings per scan (≥ 0), uniform over the field of view.
+    pub clutter_per_scan: f64,
+    /// The sensor's field of view, radians, in (0, 2π].
+    pub field_of_view_rad: f64,
+}
+
+impl NewLandmarkDensity {
+    /// The density (per radian) of a bearing that no mapped landmark made,
+    /// with `mapped` landmarks in the map: `max(expected − mapped, 0)/(2π) +
+    /// clutter/FOV`.
+    #[must_use]
+    pub fn density(&self, mapped: usize) -> f64 {
+        (self.expected_landmarks - mapped as f64).max(0.0) / std::f64::consts::TAU
+            + self.clutter_per_scan / self.field_of_view_rad
+    }
+
+    /// Checks the ranges; the error names the first value out of range.
+    pub fn validate(&self) -> Result<()> {
+        ensure_in_range(&[
+            (
+                "association.new_landmark_density.expected_landmarks",
+                self.expected_landmarks,
+                self.expected_landmarks.is_finite() && self.expected_landmarks >= 0.0,
+            ),
+            (
+                "association.new_landmark_density.clutter_per_scan",
+                self.clutter_per_scan,
+                self.clutter_per_scan.is_finite() && self.clutter_per_scan >= 0.0,
+            ),
+            (
+                "association.new_landmark_density.field_of_view_rad",
+                self.field_of_view_rad,
+                self.field_of_view_rad > 0.0 && self.field_of_view_rad <= std::f64::consts::TAU,
+            ),
+        ])
+    }
 }
 
 impl Default for AssociationConfig {
@@ -201,6 +264,7 @@ impl Default for AssociationConfig {
             min_parallax_views: 0,
             confirm_unambiguous: false,
             confirm_track_score: false,
+            new_landmark_density: None,
         }
     }
 }
@@ -235,6 +299,9 @@ impl AssociationConfig {
                 self.min_hit_ratio > 0.0 && self.min_hit_ratio <= 1.0,
             ),
         ])?;
+        if let Some(d) = &self.new_landmark_density {
+            d.validate()?;
+        }
         if let Some(g) = self.track_max_gap_s
             && !(g.is_finite() && g > 0.0)
         {
@@ -305,5 +372,37 @@ mod tests {
             .expect_err("1 sighting is refused")
             .to_string();
         assert!(err.contains("association.min_sightings"), "{err}");
+    }
+
+    #[test]
+    fn the_new_landmark_density_follows_its_rule_and_checks_its_ranges() {
+        let prior = NewLandmarkDensity {
+            expected_landmarks: 15.0,
+            clutter_per_scan: 0.6,
+            field_of_view_rad: 1.2,
+        };
+        let tau = std::f64::consts::TAU;
+        assert!((prior.density(5) - (10.0 / tau + 0.5)).abs() < 1e-12);
+        // More landmarks mapped than expected: clutter alone.
+        assert!((prior.density(20) - 0.5).abs() < 1e-12);
+        let mut config = AssociationConfig {
+            new_landmark_density: Some(prior),
+            ..AssociationConfig::of(AssociationMethod::Jcbb)
+        };
+        config.validate().expect("valid prior");
+        for bad in [
+            NewLandmarkDensity {
+                field_of_view_rad: 7.0,
+                ..prior
+            },
+            NewLandmarkDensity {
+                expected_landmarks: -1.0,
+                ..prior
+            },
+        ] {
+            config.new_landmark_density = Some(bad);
+            let err = config.validate().expect_err("refused").to_string();
+            assert!(err.contains("association.new_landmark_density"), "{err}");
+        }
     }
 }

@@ -85,6 +85,13 @@ pub struct AssociationScore {
     pub spurious_at_end: usize,
     /// Landmarks removed from the map again.
     pub removed: usize,
+    /// Bearings of clutter or moving objects (ids in the reserved ranges of
+    /// [`crate::log`]).
+    #[serde(default)]
+    pub false_bearings: usize,
+    /// Of those, the ones paired with a mapped landmark (and used in its update).
+    #[serde(default)]
+    pub false_bearings_paired: usize,
     /// Static landmarks seen at least `min_sightings` times that own no mapped landmark.
     pub missed: usize,
     /// Scans whose pairing stopped at the JCBB node budget.
@@ -93,6 +100,10 @@ pub struct AssociationScore {
     pub mean_nodes: f64,
     /// Mean pairing time per scan, seconds.
     pub mean_scan_seconds: f64,
+    /// Each mapped landmark's owner: `owners[filter id]` is the true id most
+    /// of its bearings carry (to compare the map with the true landmarks).
+    #[serde(default)]
+    pub owners: BTreeMap<u64, u64>,
 }
 
 /// Scores `records`, with `births[id]` the time mapped landmark `id` entered
@@ -150,8 +161,10 @@ pub fn score(
     let mut reachable = 0usize;
     for r in records {
         let is_landmark = truth_kind(r.truth) == TruthKind::Landmark;
+        out.false_bearings += usize::from(!is_landmark);
         if let Assignment::Landmark(id) = r.assigned {
             out.paired += 1;
+            out.false_bearings_paired += usize::from(!is_landmark);
             if is_landmark && owner.get(&id) == Some(&r.truth) {
                 out.correct += 1;
             }
@@ -189,6 +202,7 @@ pub fn score(
         })
         .count();
     let ratio = |a: usize, b: usize| if b == 0 { 1.0 } else { a as f64 / b as f64 };
+    out.owners = owner;
     out.precision = ratio(out.correct, out.paired);
     out.recall = ratio(out.correct, reachable).min(1.0);
     if !costs.is_empty() {
@@ -235,6 +249,9 @@ mod tests {
         assert_eq!(s.correct, 3);
         assert_eq!((s.mapped, s.duplicates, s.spurious, s.missed), (3, 1, 1, 1));
         assert_eq!((s.removed, s.spurious_at_end), (1, 0));
+        // Three clutter bearings, two of them paired (at t = 3 and 6).
+        assert_eq!((s.false_bearings, s.false_bearings_paired), (3, 2));
+        assert_eq!(s.owners, BTreeMap::from([(10, 1), (11, 1), (12, clutter)]));
         // Landmarks 10 and 11 both own true id 1 and are both still mapped.
         assert_eq!(s.duplicates_at_end, 1);
         let s = score(

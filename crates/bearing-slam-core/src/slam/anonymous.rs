@@ -307,6 +307,11 @@ impl BearingSlam {
                 predicted: kept.iter().map(|&j| predictions[j].bearing).collect(),
                 prediction_covariance: c,
                 noise_variance,
+                new_density: self
+                    .config
+                    .association
+                    .new_landmark_density
+                    .map_or(0.0, |d| d.density(self.landmarks.len())),
             },
             kept,
             in_gate,

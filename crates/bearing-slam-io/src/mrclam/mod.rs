@@ -24,7 +24,9 @@
 //!   dropped. Every emitted `dt` is therefore `> 0`.
 //! * **Bearings.** Barcodes map to subjects through the dataset's own
 //!   `Barcodes.dat`. Subjects 1–5 are robots: their rows are dropped and
-//!   counted. Barcodes not in the table are misreads: dropped, counted and
+//!   counted (or, with [`LoadOptions::keep_robot_sightings`], kept as
+//!   moving-object bearings with ids [`DISTRACTOR_ID_START`]` + subject`).
+//!   Barcodes not in the table are misreads: dropped, counted and
 //!   listed. Every other subject (6–20) is a landmark whose id is the subject
 //!   number. Rows with the same timestamp form one `Bearings` event (file
 //!   order kept); if the same landmark appeared twice in one timestamp the
@@ -67,7 +69,8 @@ pub use parse::{
 use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::log::{
-    BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, VelocityOdometry,
+    BearingObservation, DISTRACTOR_ID_START, Event, EventKind, LandmarkTruth, LogInfo, SensorLog,
+    VelocityOdometry,
 };
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -198,6 +201,14 @@ pub struct LoadOptions {
     /// [`MrclamError::TimeGoesBack`] (the default).
     #[serde(default)]
     pub sort_unsorted_rows: bool,
+    /// Keep the sightings of the other robots' barcodes (subjects 1–5) as
+    /// bearings of moving objects, with ids [`DISTRACTOR_ID_START`]` +
+    /// subject`, instead of dropping them: with the ids hidden
+    /// (unknown-identity association) they are bearings the filter must not
+    /// map; with known association the filter drops them as it drops every
+    /// reserved id. Off by default.
+    #[serde(default)]
+    pub keep_robot_sightings: bool,
 }
 
 impl LoadOptions {
@@ -251,6 +262,11 @@ pub struct LoadReport {
     pub n_bearing_events: usize,
     /// Rows dropped because the barcode belongs to a robot (subjects 1–5).
     pub n_dropped_robot: usize,
+    /// Rows of robots' barcodes kept as moving-object bearings
+    /// ([`LoadOptions::keep_robot_sightings`]; counted apart from
+    /// [`Self::n_landmark_bearings`]).
+    #[serde(default)]
+    pub n_robot_sightings: usize,
     /// Rows dropped because the barcode is not in `Barcodes.dat`.
     pub n_dropped_unknown_barcode: usize,
     /// The distinct unknown barcodes seen, ascending.
@@ -497,7 +513,8 @@ pub fn load_mrclam_with(
             unknown.insert(m.barcode);
             continue;
         };
-        if subject <= LAST_ROBOT_SUBJECT {
+        let robot_sighting = subject <= LAST_ROBOT_SUBJECT;
+        if robot_sighting && !options.keep_robot_sightings {
             report.n_dropped_robot += 1;
             continue;
         }
@@ -514,7 +531,11 @@ pub fn load_mrclam_with(
             flush(&mut scan, scan_time, &mut events);
             scan_time = t;
         }
-        let id = u64::from(subject);
+        let id = if robot_sighting {
+            DISTRACTOR_ID_START + u64::from(subject)
+        } else {
+            u64::from(subject)
+        };
         if scan.iter().any(|o| o.landmark_id == id) {
             report.n_dropped_duplicate += 1;
             continue;
@@ -524,7 +545,11 @@ pub fn load_mrclam_with(
             bearing: wrap_angle(m.bearing),
             range: Some(m.range),
         });
-        report.n_landmark_bearings += 1;
+        if robot_sighting {
+            report.n_robot_sightings += 1;
+        } else {
+            report.n_landmark_bearings += 1;
+        }
     }
     flush(&mut scan, scan_time, &mut events);
     report.unknown_barcodes = unknown.into_iter().collect();
