@@ -11,7 +11,6 @@ use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal, Uniform};
 
-
 /// Unicycle prediction (v = 1 m/s, ω = 0.1 rad/s, dt = 0.1 s) of `ekf`.
 fn predict(ekf: &mut Ekf) {
     let x = ekf.block::<3>(0).expect("vehicle");
