@@ -240,9 +240,13 @@ def test_a_filter_shared_by_threads_raises_only_library_errors() -> None:
 
 
 def test_simulate_honours_ctrl_c() -> None:
+    # The child turns Ctrl-C on itself: a process started in the background
+    # by a non-interactive shell (nohup, `cmd &`) inherits SIGINT ignored,
+    # and Python then installs no KeyboardInterrupt handler.
     code = textwrap.dedent(
         """
-        import sys, bearing_slam as bs
+        import signal, sys, bearing_slam as bs
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         print("ready", flush=True)
         try:
             bs.simulate("paper_fig4", duration=80000.0)
@@ -253,8 +257,7 @@ def test_simulate_honours_ctrl_c() -> None:
         """
     )
     # `-X faulthandler`: if the child does not stop, SIGABRT makes it print
-    # where it is (one CI run under heavy load timed out here; the cause
-    # was not reproduced, so the next one will say).
+    # where it is.
     p = subprocess.Popen(
         [sys.executable, "-X", "faulthandler", "-c", code],
         stdout=subprocess.PIPE,
