@@ -26,6 +26,7 @@
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::smoother::{KeyframeRule, OnlineStart, run_online_smoother};
+use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{EvalOptions, Method, evaluate_run_with, filter_log};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use std::path::PathBuf;
@@ -66,10 +67,9 @@ fn flatness(times: &[f64]) -> f64 {
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let data = std::env::args().nth(1).map_or_else(
-        || PathBuf::from("/work/shared/datasets/mrclam"),
-        PathBuf::from,
-    );
+    let data = std::env::args()
+        .nth(1)
+        .map_or_else(default_data_root, PathBuf::from);
     let dataset = data.join("MRCLAM_Dataset6");
     let options = EvalOptions::default();
     let default = EstimatorConfig::of(EstimatorKind::FilterSmoother);

@@ -29,6 +29,7 @@ use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::log::EventKind;
 use bearing_slam_core::smoother::{RayTriangulationRule, UnmappedTriangulation, triangulate_rays};
+use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
     Anchor, CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, align_landmarks_se2,
     evaluate_run_anchored, filter_log,
@@ -148,15 +149,7 @@ fn similarity_scale(estimated: &[(u64, f64, f64)], truth: &[(u64, f64, f64)]) ->
 
 fn main() -> Result<(), BoxError> {
     let mut args = std::env::args().skip(1);
-    let data = args.next().map_or_else(
-        || {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/datasets/mrclam"
-            ))
-        },
-        PathBuf::from,
-    );
+    let data = args.next().map_or_else(default_data_root, PathBuf::from);
     let datasets = args.next().unwrap_or_else(|| "6".into());
     let options = EvalOptions::default();
     // `ODOMETRY_SIGMA_SCALE` multiplies the velocity noise's σ and

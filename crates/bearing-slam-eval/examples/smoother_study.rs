@@ -20,6 +20,7 @@
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam_core::smoother::UnmappedTriangulation;
+use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
     Anchor, CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, evaluate_run_anchored,
 };
@@ -39,15 +40,7 @@ fn cell(v: Option<f64>, digits: usize) -> String {
 
 fn main() -> Result<(), BoxError> {
     let mut args = std::env::args().skip(1);
-    let data = args.next().map_or_else(
-        || {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/datasets/mrclam"
-            ))
-        },
-        PathBuf::from,
-    );
+    let data = args.next().map_or_else(default_data_root, PathBuf::from);
     let datasets = args.next().unwrap_or_else(|| "6,2,4,1".into());
     let anchor: Anchor = std::env::var("ANCHOR")
         .ok()

@@ -92,6 +92,23 @@ pub use run::{
 };
 pub use same_graph::export_same_graph;
 
+/// The directory holding `MRCLAM_Dataset1/`, `2/`, `4/` and `6/`: the
+/// `BEARING_SLAM_DATA` environment variable when set, else
+/// `shared/datasets/mrclam` beside the repository (where the datasets live;
+/// they are never copied into it).
+#[must_use]
+pub fn default_data_root() -> std::path::PathBuf {
+    std::env::var_os("BEARING_SLAM_DATA").map_or_else(
+        || {
+            std::path::PathBuf::from(concat!(
+                env!("CARGO_MANIFEST_DIR"),
+                "/../../../shared/datasets/mrclam"
+            ))
+        },
+        std::path::PathBuf::from,
+    )
+}
+
 use bearing_slam_core::SlamError;
 use bearing_slam_io::mrclam::MrclamError;
 

@@ -7,20 +7,13 @@
 
 #![allow(dead_code)] // each test file uses part of it
 
+use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_io::mrclam::{MrclamRun, load_mrclam};
 use std::path::PathBuf;
 
 /// The directory holding `MRCLAM_Dataset1/` and `MRCLAM_Dataset6/`.
 pub fn data_root() -> PathBuf {
-    std::env::var_os("BEARING_SLAM_DATA").map_or_else(
-        || {
-            PathBuf::from(concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/../../../shared/datasets/mrclam"
-            ))
-        },
-        PathBuf::from,
-    )
+    default_data_root()
 }
 
 /// `MRCLAM_Dataset{n}/`, which must exist.
