@@ -9,7 +9,9 @@
 
 use bearing_slam_core::mono::SearchRegion;
 use bearing_slam_vision::patch::Patch;
-use bearing_slam_vision::search::{SearchConfig, SearchOutcome, chi2_quantile_2dof, search_region};
+use bearing_slam_vision::search::{
+    SearchConfig, SearchOutcome, chi2_quantile_2dof, scan_region_direct, search_region,
+};
 use image::GrayImage;
 use nalgebra::{Matrix2, Vector2};
 use std::hint::black_box;
@@ -24,35 +26,6 @@ fn image() -> GrayImage {
         z = (z ^ (z >> 29)).wrapping_mul(0x94D0_49BB_1331_11EB);
         image::Luma([(z >> 56) as u8])
     })
-}
-
-/// The scan as it was: the ellipse test and `ncc_at` at every pixel.
-fn direct(
-    image: &GrayImage,
-    patch: &Patch,
-    r: &SearchRegion,
-    chi2: f64,
-    clip: f64,
-) -> (f64, i64, i64) {
-    let (s, p) = (r.innovation_cov, r.predicted_px);
-    let s_inv = s.try_inverse().unwrap_or_else(Matrix2::zeros);
-    let (hu, hv) = (
-        (chi2 * s[(0, 0)]).sqrt().min(clip),
-        (chi2 * s[(1, 1)]).sqrt().min(clip),
-    );
-    let mut best = (-1.0, 0, 0);
-    for v in (p.y - hv).ceil() as i64..=(p.y + hv).floor() as i64 {
-        for u in (p.x - hu).ceil() as i64..=(p.x + hu).floor() as i64 {
-            let nu = Vector2::new(u as f64 - p.x, v as f64 - p.y);
-            if nu.dot(&(s_inv * nu)) <= chi2
-                && let Some(score) = patch.ncc_at(image, u, v)
-                && score > best.0
-            {
-                best = (score, u, v);
-            }
-        }
-    }
-    best
 }
 
 fn main() -> ExitCode {
@@ -105,7 +78,8 @@ fn main() -> ExitCode {
     let slow = time(&|| {
         cases
             .iter()
-            .map(|(p, r)| direct(&img, p, r, chi2, config.max_half_axis_px).0)
+            .filter_map(|(p, r)| scan_region_direct(&img, p, r, chi2, config.max_half_axis_px))
+            .map(|best| best.0)
             .sum()
     });
     for (p, r) in &cases {
@@ -113,7 +87,7 @@ fn main() -> ExitCode {
             Ok(SearchOutcome::Found { px, score }) => (score, px.x as i64, px.y as i64),
             _ => (-1.0, 0, 0),
         };
-        if a != direct(&img, p, r, chi2, config.max_half_axis_px) {
+        if Some(a) != scan_region_direct(&img, p, r, chi2, config.max_half_axis_px) {
             eprintln!(
                 "search_speed: the two scans disagree on feature {}",
                 r.feature_id

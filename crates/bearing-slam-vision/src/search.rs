@@ -235,6 +235,47 @@ fn finish(
     SearchOutcome::Found { px, score }
 }
 
+/// The position-by-position scan that [`search_region`] replaced, kept as
+/// its reference: every integer pixel of the bounding box of the ellipse
+/// `νᵀ S⁻¹ ν ≤ χ²` (30) (half sides clipped to `max_half_axis_px`) inside
+/// the ellipse is scored by [`Patch::ncc_at`], and the first strictly best
+/// position kept. Returns `(score, u, v)`, with score −1 when no position
+/// scores, or `None` when `S` is not invertible. The fast search equals it
+/// bit for bit (`tests/vision/ncc_span.rs`) and is timed against it
+/// (`examples/search_speed.rs`).
+#[must_use]
+pub fn scan_region_direct(
+    image: &GrayImage,
+    patch: &Patch,
+    region: &SearchRegion,
+    chi2: f64,
+    max_half_axis_px: f64,
+) -> Option<(f64, i64, i64)> {
+    let (s, p) = (region.innovation_cov, region.predicted_px);
+    let s_inv = s.try_inverse()?;
+    let half_u = (chi2 * s[(0, 0)]).sqrt().min(max_half_axis_px);
+    let half_v = (chi2 * s[(1, 1)]).sqrt().min(max_half_axis_px);
+    let margin = i64::from(patch.half());
+    let (w, h) = (i64::from(image.width()), i64::from(image.height()));
+    let rows = ((p.y - half_v).ceil() as i64).max(margin)
+        ..=((p.y + half_v).floor() as i64).min(h - 1 - margin);
+    let cols = ((p.x - half_u).ceil() as i64).max(margin)
+        ..=((p.x + half_u).floor() as i64).min(w - 1 - margin);
+    let mut best = (-1.0, 0, 0);
+    for v in rows {
+        for u in cols.clone() {
+            let nu = Vector2::new(u as f64 - p.x, v as f64 - p.y);
+            if nu.dot(&(s_inv * nu)) <= chi2
+                && let Some(score) = patch.ncc_at(image, u, v)
+                && score > best.0
+            {
+                best = (score, u, v);
+            }
+        }
+    }
+    Some(best)
+}
+
 /// Searches one patch along an epipolar segment (a feature of unknown
 /// depth, [`EpipolarSegment`]): every pixel `x` with
 /// `min_t (x − p(t))ᵀ B⁻¹ (x − p(t)) ≤ χ²`, `p(t)` the segment, `B` its

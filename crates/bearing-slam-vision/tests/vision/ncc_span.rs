@@ -6,7 +6,8 @@
 use bearing_slam_core::mono::{EpipolarSegment, SearchRegion};
 use bearing_slam_vision::patch::Patch;
 use bearing_slam_vision::search::{
-    SearchConfig, SearchOutcome, chi2_quantile_2dof, search_region, search_segment,
+    SearchConfig, SearchOutcome, chi2_quantile_2dof, scan_region_direct, search_region,
+    search_segment,
 };
 use image::GrayImage;
 use nalgebra::{Matrix2, Vector2};
@@ -77,39 +78,6 @@ fn ncc_span_equals_ncc_at_at_every_position() {
     }
 }
 
-/// The search as it was: every position of the bounding box, the ellipse
-/// test, `ncc_at`, the first strictly best score kept.
-fn direct_region(
-    image: &GrayImage,
-    patch: &Patch,
-    r: &SearchRegion,
-    chi2: f64,
-    clip: f64,
-) -> (f64, i64, i64) {
-    let (s, p) = (r.innovation_cov, r.predicted_px);
-    let s_inv = s.try_inverse().unwrap();
-    let half_u = (chi2 * s[(0, 0)]).sqrt().min(clip);
-    let half_v = (chi2 * s[(1, 1)]).sqrt().min(clip);
-    let m = i64::from(patch.half());
-    let (w, h) = (i64::from(image.width()), i64::from(image.height()));
-    let mut best = (-1.0, 0, 0);
-    for v in ((p.y - half_v).ceil() as i64).max(m)..=((p.y + half_v).floor() as i64).min(h - 1 - m)
-    {
-        for u in
-            ((p.x - half_u).ceil() as i64).max(m)..=((p.x + half_u).floor() as i64).min(w - 1 - m)
-        {
-            let nu = Vector2::new(u as f64 - p.x, v as f64 - p.y);
-            if nu.dot(&(s_inv * nu)) <= chi2
-                && let Some(score) = patch.ncc_at(image, u, v)
-                && score > best.0
-            {
-                best = (score, u, v);
-            }
-        }
-    }
-    best
-}
-
 /// Every match is accepted and left on its integer pixel, so the outcome is
 /// the scan's best position itself.
 fn raw_config() -> SearchConfig {
@@ -161,7 +129,8 @@ fn the_region_search_equals_the_position_by_position_scan() {
                     segment: None,
                 };
                 let fast = found(search_region(&image, &patch, &r, chi2, &config).unwrap());
-                let direct = direct_region(&image, &patch, &r, chi2, config.max_half_axis_px);
+                let direct =
+                    scan_region_direct(&image, &patch, &r, chi2, config.max_half_axis_px).unwrap();
                 assert_eq!(fast.0.to_bits(), direct.0.to_bits(), "{r:?}");
                 assert_eq!((fast.1, fast.2), (direct.1, direct.2), "{r:?}");
                 matched += usize::from(fast.0 > -1.0);
