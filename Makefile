@@ -28,7 +28,7 @@ help:
 	@echo "make py-lint     - ruff, ruff format --check, mypy --strict, stubtest"
 	@echo "make py-test     - pytest on one worker per core (tests/python, the notebooks of examples/notebooks)"
 	@echo "make venv        - the Python venv (.venv/) with the runtime, dev, test and docs dependencies"
-	@echo "make develop     - build the extension (release) into the venv"
+	@echo "make develop     - build the extension (optimized: the extension profile) into the venv"
 	@echo "make docs        - the documentation site in target/site/: pages, Python API (mkdocs --strict), rustdoc in rust/"
 	@echo "make wheel-check - build the release abi3 wheel, install it into a clean venv, run the README quickstart"
 	@echo "make bench       - criterion benchmarks, then the peer comparison (bench-peers)"
@@ -86,9 +86,10 @@ $(STAMP): pyproject.toml
 
 venv: $(STAMP)
 
-# The extension module, built in release mode and installed (editable) into the venv.
+# The extension module, optimized (the `extension` profile: release without
+# debug info) and installed (editable) into the venv.
 $(NATIVE_STAMP): $(STAMP) $(RUST_SOURCES) pyproject.toml
-	source $(VENV)/bin/activate && maturin develop --release
+	source $(VENV)/bin/activate && maturin develop --profile extension
 	touch $@
 
 develop: $(NATIVE_STAMP)
