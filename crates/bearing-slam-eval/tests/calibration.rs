@@ -6,7 +6,7 @@ use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{Event, EventKind, LogInfo, SensorLog, VelocityOdometry};
 use bearing_slam_eval::calibration::{
     CalibrationOptions, calibrate, calibrate_parameters, calibrate_with, comparison_table,
-    motion_residuals,
+    motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
 };
 use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, RealDataError};
 use bearing_slam_io::mrclam::{BarcodeTable, LoadReport, MrclamRun};
@@ -154,4 +154,39 @@ fn motion_residuals_vanish_for_exact_commands() {
         assert!(r.along_m.abs() < 1e-12 && r.cross_m.abs() < 1e-12, "{r:?}");
         assert!(r.heading_rad.abs() < 1e-12, "{r:?}");
     }
+}
+
+/// Windows with a known speed scale and zero-mean error on both sides, the
+/// commanded side's as large as in 1 s MRCLAM windows: the least-squares
+/// slope is attenuated toward zero (errors in variables), the ratio of sums
+/// recovers the scale.
+#[test]
+fn ratio_of_sums_recovers_a_speed_scale_the_least_squares_slope_attenuates() {
+    let scale = 0.95;
+    // A deterministic uniform generator on [0, 1) (64-bit LCG, top 53 bits).
+    let mut state: u64 = 0x2545_f491_4f6c_dd1d;
+    let mut uniform = move || {
+        state = state
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(1_442_695_040_888_963_407);
+        (state >> 11) as f64 / (1_u64 << 53) as f64
+    };
+    let windows: Vec<(f64, f64)> = (0..20_000)
+        .map(|_| {
+            let travelled = 0.1 + 0.2 * uniform(); // what the command really did
+            let commanded = travelled + 0.2 * (uniform() - 0.5); // timing error
+            let true_distance = scale * travelled + 0.02 * (uniform() - 0.5);
+            (commanded, true_distance)
+        })
+        .collect();
+    let ratio = speed_scale_ratio_of_sums(&windows).expect("moving windows");
+    let slope = speed_scale_least_squares(&windows).expect("moving windows");
+    assert!((ratio - scale).abs() < 0.005, "ratio of sums {ratio}");
+    // E[d*²] = 0.0433, var(u) = 0.0033: the slope tends to 0.95 · 0.929.
+    assert!(slope < scale - 0.05, "least-squares slope {slope}");
+    assert!((slope - scale * 0.0433 / 0.0466).abs() < 0.01, "{slope}");
+    // Without motion there is no scale.
+    assert_eq!(speed_scale_ratio_of_sums(&[]), None);
+    assert_eq!(speed_scale_ratio_of_sums(&[(0.0, 0.1)]), None);
+    assert_eq!(speed_scale_least_squares(&[(0.0, 0.1)]), None);
 }

@@ -1,0 +1,210 @@
+//! The command model's speed scale measured from Dataset 6's odometry and
+//! Vicon ground truth alone (no filter, no smoother): how the estimators of
+//! the ratio of true to commanded distance depend on the window length.
+//!
+//! 1. **The rule's quantity.** The commands (delayed by the calibrated
+//!    delay, speed unscaled) integrated over consecutive windows of `T`
+//!    seconds from the true start pose
+//!    ([`motion_residuals`]); `d_true = d_cmd + along`. Per robot and pooled,
+//!    for `T` = 1, 5, 10, 20 s: the through-origin least-squares slope
+//!    `Σ d_true·d_cmd / Σ d_cmd²` (the old rule) and the ratio of sums
+//!    `Σ d_true / Σ d_cmd` (the rule now).
+//! 2. **The path itself.** The same windows with `d_true` the length of the
+//!    Vicon path (sampled every 0.1 s and every 0.5 s), with the
+//!    chord/path ratio (how much a straight chord shortens the path: the
+//!    chord-vs-arc question of the along-track definition) and the same two
+//!    estimators for the turn: `Σ sign(Δθ_cmd)·Δθ_true / Σ |Δθ_cmd|` and
+//!    `Σ Δθ_true·Δθ_cmd / Σ Δθ_cmd²`.
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example speed_scale_diagnosis [DATA_DIR]
+//! ```
+
+use bearing_slam_core::geometry::wrap_angle;
+use bearing_slam_core::log::EventKind;
+use bearing_slam_eval::calibration::{
+    motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
+};
+use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, CommandModel, default_data_root};
+use bearing_slam_io::mrclam::{
+    DEFAULT_MAX_GROUND_TRUTH_GAP_S, MrclamRun, ROBOT_COUNT, interpolate_pose_with_max_gap,
+    load_mrclam,
+};
+use std::path::PathBuf;
+
+type BoxError = Box<dyn std::error::Error>;
+
+const WINDOWS_S: [f64; 4] = [1.0, 5.0, 10.0, 20.0];
+
+/// One window measured against the Vicon path.
+#[derive(Clone, Copy, Default)]
+struct PathWindow {
+    d_cmd: f64,
+    theta_cmd: f64,
+    path_fine: f64,
+    path_coarse: f64,
+    chord: f64,
+    theta_true: f64,
+}
+
+/// Consecutive windows of `window_s` from the first command (as
+/// [`motion_residuals`]), moving ones only, compared with the Vicon path.
+fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
+    let commands: Vec<(f64, f64, f64, f64)> = run
+        .log
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Velocity(c) => Some((e.time, c.v, c.omega, c.dt)),
+            _ => None,
+        })
+        .collect();
+    let (Some(first), Some(last)) = (commands.first(), commands.last()) else {
+        return Vec::new();
+    };
+    let (origin, end_of_commands) = (first.0, last.0 + last.3);
+    let truth = |t: f64| {
+        interpolate_pose_with_max_gap(&run.ground_truth, t, DEFAULT_MAX_GROUND_TRUTH_GAP_S)
+    };
+    let mut out = Vec::new();
+    let mut k = 0_u32;
+    loop {
+        let start = origin + f64::from(k) * window_s;
+        let end = start + window_s;
+        k += 1;
+        if end > end_of_commands + 1e-9 {
+            break;
+        }
+        let mut w = PathWindow::default();
+        let mut rotation = 0.0;
+        let mut covered = 0.0;
+        let first_index = commands.partition_point(|c| c.0 + c.3 <= start);
+        for &(t, v, omega, dt) in &commands[first_index..] {
+            if t >= end {
+                break;
+            }
+            let (a, b) = (t.max(start), (t + dt).min(end));
+            if b > a {
+                w.d_cmd += v.abs() * (b - a);
+                w.theta_cmd += omega * (b - a);
+                rotation += omega.abs() * (b - a);
+                covered += b - a;
+            }
+        }
+        if covered < window_s - 1e-6 || (w.d_cmd <= 0.0 && rotation <= 0.0) {
+            continue;
+        }
+        let path = |step: f64| -> Option<(f64, f64, f64)> {
+            let n = (window_s / step).round() as u32;
+            let mut previous = truth(start)?;
+            let first = previous;
+            let (mut length, mut turn) = (0.0, 0.0);
+            for i in 1..=n {
+                let p = truth(start + window_s * f64::from(i) / f64::from(n))?;
+                length += (p.x - previous.x).hypot(p.y - previous.y);
+                turn += wrap_angle(p.theta - previous.theta);
+                previous = p;
+            }
+            Some((length, turn, (previous.x - first.x).hypot(previous.y - first.y)))
+        };
+        let (Some((fine, turn, chord)), Some((coarse, _, _))) = (path(0.1), path(0.5)) else {
+            continue;
+        };
+        w.path_fine = fine;
+        w.path_coarse = coarse;
+        w.theta_true = turn;
+        w.chord = chord;
+        out.push(w);
+    }
+    out
+}
+
+fn fmt(x: Option<f64>) -> String {
+    x.map_or_else(|| "–".to_owned(), |v| format!("{v:.4}"))
+}
+
+fn main() -> Result<(), BoxError> {
+    let data = std::env::args()
+        .nth(1)
+        .map_or_else(default_data_root, PathBuf::from);
+    let dataset = data.join("MRCLAM_Dataset6");
+    let delayed = CommandModel {
+        delay_s: CALIBRATED_PARAMETERS.command.delay_s,
+        speed_scale: 1.0,
+    };
+    let mut runs = Vec::new();
+    for robot in 1..=ROBOT_COUNT {
+        let mut run = load_mrclam(&dataset, robot)?;
+        run.log = delayed.apply(&run.log)?;
+        runs.push(run);
+    }
+    println!(
+        "Dataset 6, commands delayed by {} s, speed unscaled.\n",
+        delayed.delay_s
+    );
+
+    println!("## 1. d_true = d_cmd + along (the rule's windows)\n");
+    println!("| T (s) | robot | windows | OLS slope Σd_t·d_c/Σd_c² | ratio of sums Σd_t/Σd_c |");
+    println!("|---|---|---|---|---|");
+    for window in WINDOWS_S {
+        let mut pooled = Vec::new();
+        for run in &runs {
+            let (residuals, _) = motion_residuals(run, window, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?;
+            let pairs: Vec<(f64, f64)> = residuals
+                .iter()
+                .filter(|r| r.commanded_distance_m > 0.0 || r.commanded_rotation_rad > 0.0)
+                .map(|r| (r.commanded_distance_m, r.commanded_distance_m + r.along_m))
+                .collect();
+            println!(
+                "| {window} | {} | {} | {} | {} |",
+                run.robot,
+                pairs.len(),
+                fmt(speed_scale_least_squares(&pairs)),
+                fmt(speed_scale_ratio_of_sums(&pairs))
+            );
+            pooled.extend(pairs);
+        }
+        println!(
+            "| {window} | pooled | {} | **{}** | **{}** |",
+            pooled.len(),
+            fmt(speed_scale_least_squares(&pooled)),
+            fmt(speed_scale_ratio_of_sums(&pooled))
+        );
+    }
+
+    println!("\n## 2. d_true = the Vicon path length; the turn\n");
+    println!(
+        "| T (s) | robot | windows | path ratio (0.1 s) | path ratio (0.5 s) | path OLS (0.1 s) \
+         | Σchord/Σpath | turn ratio Σsgn·Δθ_t/Σ|Δθ_c| | turn OLS |"
+    );
+    println!("|---|---|---|---|---|---|---|---|---|");
+    for window in WINDOWS_S {
+        let mut pooled = Vec::new();
+        let row = |label: String, w: &[PathWindow]| {
+            let fine: Vec<(f64, f64)> = w.iter().map(|x| (x.d_cmd, x.path_fine)).collect();
+            let coarse: Vec<(f64, f64)> = w.iter().map(|x| (x.d_cmd, x.path_coarse)).collect();
+            let chord: Vec<(f64, f64)> = w.iter().map(|x| (x.path_fine, x.chord)).collect();
+            let turn: Vec<(f64, f64)> = w
+                .iter()
+                .map(|x| (x.theta_cmd.abs(), x.theta_true * x.theta_cmd.signum()))
+                .collect();
+            println!(
+                "| {window} | {label} | {} | {} | {} | {} | {} | {} | {} |",
+                w.len(),
+                fmt(speed_scale_ratio_of_sums(&fine)),
+                fmt(speed_scale_ratio_of_sums(&coarse)),
+                fmt(speed_scale_least_squares(&fine)),
+                fmt(speed_scale_ratio_of_sums(&chord)),
+                fmt(speed_scale_ratio_of_sums(&turn)),
+                fmt(speed_scale_least_squares(&turn)),
+            );
+        };
+        for run in &runs {
+            let w = path_windows(run, window);
+            row(run.robot.to_string(), &w);
+            pooled.extend(w);
+        }
+        row("pooled".to_owned(), &pooled);
+    }
+    Ok(())
+}
