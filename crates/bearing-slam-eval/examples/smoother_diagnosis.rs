@@ -21,6 +21,10 @@
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example smoother_diagnosis [DATA_DIR] [DATASETS]
 //! ```
+//! What-ifs (parts 2–5 only): `SPEED_SCALE` replaces the command model's
+//! speed scale, `TURN_SCALE` multiplies every commanded turn rate,
+//! `ODOMETRY_SIGMA_SCALE` the velocity noise's σ.
+//!
 //! `DATA_DIR` holds `MRCLAM_Dataset{2,4,6}`; `DATASETS` (default `6`) is the
 //! comma list whose unmapped landmarks part 4 examines (parts 1–3 need
 //! Dataset 6's ground truth).
@@ -170,9 +174,23 @@ fn main() -> Result<(), BoxError> {
         params.command.speed_scale = k;
     }
     let six = data.join("MRCLAM_Dataset6");
-    let runs: Vec<MrclamRun> = (1..=5u8)
+    let mut runs: Vec<MrclamRun> = (1..=5u8)
         .map(|r| load_mrclam_with(&six, r, &options.load))
         .collect::<Result<_, _>>()?;
+    // `TURN_SCALE` multiplies every commanded turn rate ω (a what-if: the
+    // command model has no turn scale).
+    if let Some(k) = std::env::var("TURN_SCALE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
+        for run in &mut runs {
+            for event in &mut run.log.events {
+                if let EventKind::Velocity(command) = &mut event.kind {
+                    command.omega *= k;
+                }
+            }
+        }
+    }
 
     // 1. The sensor.
     let base = residuals(&runs, 0.0, 0.0, None);

@@ -23,7 +23,7 @@
 use bearing_slam_core::geometry::wrap_angle;
 use bearing_slam_core::log::EventKind;
 use bearing_slam_eval::calibration::{
-    motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
+    MotionResidual, motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
 };
 use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, CommandModel, default_data_root};
 use bearing_slam_io::mrclam::{
@@ -36,9 +36,17 @@ type BoxError = Box<dyn std::error::Error>;
 
 const WINDOWS_S: [f64; 4] = [1.0, 5.0, 10.0, 20.0];
 
+/// Sampling steps of the Vicon path (section 3), seconds.
+const STEPS_S: [f64; 8] = [0.02, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0, 2.0];
+
 /// One window measured against the Vicon path.
 #[derive(Clone, Copy, Default)]
 struct PathWindow {
+    /// Whether anything was commanded in the window.
+    moving: bool,
+    /// The path length sampled every `STEPS_S[i]` (NaN for steps longer
+    /// than the window).
+    paths: [f64; STEPS_S.len()],
     d_cmd: f64,
     theta_cmd: f64,
     path_fine: f64,
@@ -91,9 +99,10 @@ fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
                 covered += b - a;
             }
         }
-        if covered < window_s - 1e-6 || (w.d_cmd <= 0.0 && rotation <= 0.0) {
+        if covered < window_s - 1e-6 {
             continue;
         }
+        w.moving = w.d_cmd > 0.0 || rotation > 0.0;
         let path = |step: f64| -> Option<(f64, f64, f64)> {
             let n = (window_s / step).round() as u32;
             let mut previous = truth(start)?;
@@ -105,11 +114,32 @@ fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
                 turn += wrap_angle(p.theta - previous.theta);
                 previous = p;
             }
-            Some((length, turn, (previous.x - first.x).hypot(previous.y - first.y)))
+            Some((
+                length,
+                turn,
+                (previous.x - first.x).hypot(previous.y - first.y),
+            ))
         };
         let (Some((fine, turn, chord)), Some((coarse, _, _))) = (path(0.1), path(0.5)) else {
             continue;
         };
+        let mut sampled = true;
+        for (i, &step) in STEPS_S.iter().enumerate() {
+            w.paths[i] = if step <= window_s + 1e-9 {
+                match path(step) {
+                    Some((length, _, _)) => length,
+                    None => {
+                        sampled = false;
+                        f64::NAN
+                    }
+                }
+            } else {
+                f64::NAN
+            };
+        }
+        if !sampled {
+            continue;
+        }
         w.path_fine = fine;
         w.path_coarse = coarse;
         w.theta_true = turn;
@@ -144,31 +174,42 @@ fn main() -> Result<(), BoxError> {
     );
 
     println!("## 1. d_true = d_cmd + along (the rule's windows)\n");
-    println!("| T (s) | robot | windows | OLS slope Σd_t·d_c/Σd_c² | ratio of sums Σd_t/Σd_c |");
-    println!("|---|---|---|---|---|");
+    println!(
+        "| T (s) | robot | moving windows | OLS slope Σd_t·d_c/Σd_c² | ratio of sums Σd_t/Σd_c \
+         | all windows | ratio of sums, all windows |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     for window in WINDOWS_S {
-        let mut pooled = Vec::new();
+        let (mut pooled, mut pooled_all) = (Vec::new(), Vec::new());
         for run in &runs {
             let (residuals, _) = motion_residuals(run, window, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?;
+            let pair =
+                |r: &MotionResidual| (r.commanded_distance_m, r.commanded_distance_m + r.along_m);
+            let all: Vec<(f64, f64)> = residuals.iter().map(pair).collect();
             let pairs: Vec<(f64, f64)> = residuals
                 .iter()
                 .filter(|r| r.commanded_distance_m > 0.0 || r.commanded_rotation_rad > 0.0)
-                .map(|r| (r.commanded_distance_m, r.commanded_distance_m + r.along_m))
+                .map(pair)
                 .collect();
             println!(
-                "| {window} | {} | {} | {} | {} |",
+                "| {window} | {} | {} | {} | {} | {} | {} |",
                 run.robot,
                 pairs.len(),
                 fmt(speed_scale_least_squares(&pairs)),
-                fmt(speed_scale_ratio_of_sums(&pairs))
+                fmt(speed_scale_ratio_of_sums(&pairs)),
+                all.len(),
+                fmt(speed_scale_ratio_of_sums(&all)),
             );
             pooled.extend(pairs);
+            pooled_all.extend(all);
         }
         println!(
-            "| {window} | pooled | {} | **{}** | **{}** |",
+            "| {window} | pooled | {} | **{}** | **{}** | {} | **{}** |",
             pooled.len(),
             fmt(speed_scale_least_squares(&pooled)),
-            fmt(speed_scale_ratio_of_sums(&pooled))
+            fmt(speed_scale_ratio_of_sums(&pooled)),
+            pooled_all.len(),
+            fmt(speed_scale_ratio_of_sums(&pooled_all)),
         );
     }
 
@@ -200,11 +241,65 @@ fn main() -> Result<(), BoxError> {
             );
         };
         for run in &runs {
-            let w = path_windows(run, window);
+            let w: Vec<PathWindow> = path_windows(run, window)
+                .into_iter()
+                .filter(|w| w.moving)
+                .collect();
             row(run.robot.to_string(), &w);
             pooled.extend(w);
         }
         row("pooled".to_owned(), &pooled);
     }
+
+    println!("\n## 3. The path ratio Σ path(h) / Σ d_cmd against the sampling step h\n");
+    println!("Moving windows; h = T is the chord. Pooled, then per robot at T = 20 s.\n");
+    let header: Vec<String> = STEPS_S.iter().map(|h| format!("h = {h} s")).collect();
+    println!("| T (s) | robot | {} | chord (h = T) |", header.join(" | "));
+    println!("|---|---|{}---|", "---|".repeat(STEPS_S.len()));
+    let ratio_row = |label: &str, window: f64, w: &[PathWindow]| {
+        let cells: Vec<String> = (0..STEPS_S.len())
+            .map(|i| {
+                let pairs: Vec<(f64, f64)> = w.iter().map(|x| (x.d_cmd, x.paths[i])).collect();
+                fmt(speed_scale_ratio_of_sums(&pairs).filter(|r| r.is_finite()))
+            })
+            .collect();
+        let chord: Vec<(f64, f64)> = w.iter().map(|x| (x.d_cmd, x.chord)).collect();
+        println!(
+            "| {window} | {label} | {} | {} |",
+            cells.join(" | "),
+            fmt(speed_scale_ratio_of_sums(&chord))
+        );
+    };
+    let mut parked = Vec::new();
+    for window in WINDOWS_S {
+        let mut pooled = Vec::new();
+        for run in &runs {
+            let all = path_windows(run, window);
+            let moving: Vec<PathWindow> = all.iter().copied().filter(|w| w.moving).collect();
+            if window >= 20.0 {
+                ratio_row(&run.robot.to_string(), window, &moving);
+            }
+            if window <= 1.0 {
+                parked.extend(all.into_iter().filter(|w| !w.moving));
+            }
+            pooled.extend(moving);
+        }
+        ratio_row("pooled", window, &pooled);
+    }
+
+    println!("\n## 4. Parked: Vicon path per second while nothing is commanded (1 s windows)\n");
+    println!(
+        "{} parked windows, all robots. mm/s against the sampling step h:\n",
+        parked.len()
+    );
+    println!("| {} |", header.join(" | "));
+    println!("|{}", "---|".repeat(STEPS_S.len()));
+    let cells: Vec<String> = (0..STEPS_S.len())
+        .map(|i| {
+            let total: f64 = parked.iter().map(|w| w.paths[i]).sum();
+            format!("{:.2}", 1000.0 * total / parked.len() as f64)
+        })
+        .collect();
+    println!("| {} |", cells.join(" | "));
     Ok(())
 }

@@ -102,9 +102,9 @@ pub fn ar1_inflation(rho: f64, n: usize) -> f64 {
 /// finite.
 #[must_use]
 pub fn speed_scale_ratio_of_sums(windows: &[(f64, f64)]) -> Option<f64> {
-    let (cmd, truth) = windows
-        .iter()
-        .fold((0.0, 0.0), |(c, t), &(d_cmd, d_true)| (c + d_cmd, t + d_true));
+    let (cmd, truth) = windows.iter().fold((0.0, 0.0), |(c, t), &(d_cmd, d_true)| {
+        (c + d_cmd, t + d_true)
+    });
     (cmd > 0.0 && cmd.is_finite() && truth.is_finite()).then(|| truth / cmd)
 }
 
