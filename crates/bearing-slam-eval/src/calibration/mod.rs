@@ -77,11 +77,11 @@
 //!    per-window error `u`. A slope of `y` on a noisy regressor is biased
 //!    toward zero (errors in variables: it tends to
 //!    `k·Σd*² / (Σd*² + Σu²)`), and the bias shrinks as windows lengthen —
-//!    the slope measured 0.93, 0.941, 0.948, 0.956 over 1, 5, 10, 20 s
-//!    windows. The ratio of sums has no such bias: for `d_true = k·d* + e`
-//!    with zero-mean `u` and `e` it tends to `k` whatever their variances
-//!    (a multiplicative bias is all it assumes), so it should not depend on
-//!    the window length; `calibrate` prints both estimators at 1, 5, 10 and
+//!    a one-off check had found the slope at 0.93, 0.941, 0.948, 0.956 over
+//!    1, 5, 10, 20 s windows. The ratio of sums has no such bias: for
+//!    `d_true = k·d* + e` with zero-mean `u` and `e` it tends to `k`
+//!    whatever their variances (a multiplicative bias is all it assumes), so
+//!    regressor noise cannot make it depend on the window length; `calibrate` prints both estimators at 1, 5, 10 and
 //!    20 s as the check. The windows stay 1 s long so that the along-track
 //!    error is a distance (at 1 s the chord of the true path is shorter
 //!    than the path by a negligible fraction; over long windows heading
@@ -100,8 +100,8 @@
 //!    than the path over 5, 10 and 20 s (pulling `k − 1` toward 0: about
 //!    half of the rise); the commands' turn error (below) rotates the
 //!    predicted end frame and mixes cross-track into along-track error. The
-//!    Vicon path itself settles it: `Σ
-//!    path / Σ d_cmd` over the same windows is flat in `T` (path sampled
+//!    Vicon path itself settles it: `Σ path / Σ d_cmd` over the same windows
+//!    is flat in `T` (path sampled
 //!    every 0.5 s: 0.9376, 0.9385, 0.9383, 0.9387 at 1, 5, 10, 20 s). Its
 //!    level depends on the sampling step below 0.2 s (Vicon jitter: a
 //!    parked robot "travels" 6 mm/s sampled at 0.02 s, 1.3 mm/s at 0.25 s,
