@@ -15,9 +15,18 @@
 //!    chord-vs-arc question of the along-track definition) and the same two
 //!    estimators for the turn: `Σ sign(Δθ_cmd)·Δθ_true / Σ |Δθ_cmd|` and
 //!    `Σ Δθ_true·Δθ_cmd / Σ Δθ_cmd²`.
+//! 3. **The sampling step.** `Σ path(h) / Σ d_cmd` for Vicon paths sampled
+//!    every `h` = 0.02–2 s, and the chord (`h = T`): Vicon jitter inflates
+//!    short steps, curvature shortens long ones. 3b: the 1 s ratio by the
+//!    window's commanded rotation and distance, and the fit of
+//!    `v_true = v·(a − b·|ω|)` by moment equations (instruments 1 and the
+//!    window's commanded rotation).
+//! 4. **Parked.** The Vicon path per second of a robot commanded to stand
+//!    still, against `h` (the jitter).
 //!
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example speed_scale_diagnosis [DATA_DIR]
+//! # the output is docs/results/mrclam/speed_scale_diagnosis.md
 //! ```
 
 use bearing_slam_core::geometry::wrap_angle;
@@ -49,6 +58,10 @@ struct PathWindow {
     paths: [f64; STEPS_S.len()],
     d_cmd: f64,
     theta_cmd: f64,
+    /// Commanded rotation `Σ |ω| dt`.
+    rotation: f64,
+    /// `Σ |v|·|ω| dt`.
+    turning_distance: f64,
     path_fine: f64,
     path_coarse: f64,
     chord: f64,
@@ -96,6 +109,7 @@ fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
                 w.d_cmd += v.abs() * (b - a);
                 w.theta_cmd += omega * (b - a);
                 rotation += omega.abs() * (b - a);
+                w.turning_distance += v.abs() * omega.abs() * (b - a);
                 covered += b - a;
             }
         }
@@ -103,6 +117,7 @@ fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
             continue;
         }
         w.moving = w.d_cmd > 0.0 || rotation > 0.0;
+        w.rotation = rotation;
         let path = |step: f64| -> Option<(f64, f64, f64)> {
             let n = (window_s / step).round() as u32;
             let mut previous = truth(start)?;
@@ -168,6 +183,13 @@ fn main() -> Result<(), BoxError> {
         run.log = delayed.apply(&run.log)?;
         runs.push(run);
     }
+    println!("# The speed scale from odometry and Vicon alone (Dataset 6)\n");
+    println!(
+        "Written by `cargo run --release -p bearing-slam-eval --example speed_scale_diagnosis \
+         > docs/results/mrclam/speed_scale_diagnosis.md` (no filter or smoother is run; the \
+         reading is in the calibration module's documentation and in \
+         `docs/results/estimators.md`).\n"
+    );
     println!(
         "Dataset 6, commands delayed by {} s, speed unscaled.\n",
         delayed.delay_s
@@ -285,6 +307,92 @@ fn main() -> Result<(), BoxError> {
             pooled.extend(moving);
         }
         ratio_row("pooled", window, &pooled);
+    }
+
+    println!(
+        "\n## 3b. The rule's ratio of sums by how much the window turns and how fast it goes\n"
+    );
+    println!("1 s windows, all robots pooled: commanded rotation Σ|ω|dt, commanded distance.\n");
+    println!(
+        "| commanded rotation (rad) | windows | share of Σd_cmd | ratio of sums | path ratio (0.5 s) |"
+    );
+    println!("|---|---|---|---|---|");
+    let mut rule_windows = Vec::new();
+    let mut vicon_windows = Vec::new();
+    for run in &runs {
+        let (residuals, _) = motion_residuals(run, 1.0, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?;
+        rule_windows.extend(
+            residuals
+                .into_iter()
+                .filter(|r| r.commanded_distance_m > 0.0 || r.commanded_rotation_rad > 0.0),
+        );
+        vicon_windows.extend(path_windows(run, 1.0).into_iter().filter(|w| w.moving));
+    }
+    let total: f64 = rule_windows.iter().map(|r| r.commanded_distance_m).sum();
+    let half_step = STEPS_S.iter().position(|&h| h == 0.5).unwrap_or(0);
+    let bins = [
+        (0.0, 0.02),
+        (0.02, 0.1),
+        (0.1, 0.25),
+        (0.25, 0.5),
+        (0.5, f64::INFINITY),
+    ];
+    for (lo, hi) in bins {
+        let pairs: Vec<(f64, f64)> = rule_windows
+            .iter()
+            .filter(|r| (lo..hi).contains(&r.commanded_rotation_rad))
+            .map(|r| (r.commanded_distance_m, r.commanded_distance_m + r.along_m))
+            .collect();
+        let path: Vec<(f64, f64)> = vicon_windows
+            .iter()
+            .filter(|w| (lo..hi).contains(&w.rotation))
+            .map(|w| (w.d_cmd, w.paths[half_step]))
+            .collect();
+        println!(
+            "| [{lo}, {hi}) | {} | {:.2} | {} | {} |",
+            pairs.len(),
+            pairs.iter().map(|p| p.0).sum::<f64>() / total,
+            fmt(speed_scale_ratio_of_sums(&pairs)),
+            fmt(speed_scale_ratio_of_sums(&path)),
+        );
+    }
+    // The two-parameter model v_true = v·(a − b·|ω|): moment equations with
+    // the instruments 1 and the window's commanded rotation,
+    // Σ w·(path − a·d_cmd + b·Σ|v||ω|dt) = 0 for w = 1 and w = rotation.
+    let (mut m, mut r) = ([[0.0; 2]; 2], [0.0; 2]);
+    for w in &vicon_windows {
+        for (k, weight) in [1.0, w.rotation].into_iter().enumerate() {
+            m[k][0] += weight * w.d_cmd;
+            m[k][1] -= weight * w.turning_distance;
+            r[k] += weight * w.paths[half_step];
+        }
+    }
+    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    let a = (r[0] * m[1][1] - m[0][1] * r[1]) / det;
+    let b = (m[0][0] * r[1] - m[1][0] * r[0]) / det;
+    println!(
+        "\nv_true = v·(a − b·|ω|) by the moment equations (Vicon path sampled every 0.5 s): \
+         a = {a:.4}, b = {b:.4} s/rad"
+    );
+    println!("\n| commanded distance (m) | windows | ratio of sums |");
+    println!("|---|---|---|");
+    for (lo, hi) in [
+        (0.0, 0.05),
+        (0.05, 0.1),
+        (0.1, 0.15),
+        (0.15, 0.2),
+        (0.2, f64::INFINITY),
+    ] {
+        let pairs: Vec<(f64, f64)> = rule_windows
+            .iter()
+            .filter(|r| (lo..hi).contains(&r.commanded_distance_m))
+            .map(|r| (r.commanded_distance_m, r.commanded_distance_m + r.along_m))
+            .collect();
+        println!(
+            "| [{lo}, {hi}) | {} | {} |",
+            pairs.len(),
+            fmt(speed_scale_ratio_of_sums(&pairs))
+        );
     }
 
     println!("\n## 4. Parked: Vicon path per second while nothing is commanded (1 s windows)\n");
