@@ -5,8 +5,9 @@
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{Event, EventKind, LogInfo, SensorLog, VelocityOdometry};
 use bearing_slam_eval::calibration::{
-    CalibrationOptions, calibrate, calibrate_parameters, calibrate_with, comparison_table,
-    motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
+    CalibrationOptions, MotionResidual, calibrate, calibrate_parameters, calibrate_with,
+    comparison_table, motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
+    turn_dependent_speed,
 };
 use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, RealDataError};
 use bearing_slam_io::mrclam::{BarcodeTable, LoadReport, MrclamRun};
@@ -112,6 +113,10 @@ fn tuning_rule_reproduces_the_calibrated_parameters() {
     let windows: Vec<f64> = c.speed_scale_vs_window.iter().map(|w| w.0).collect();
     assert_eq!(windows, [1.0, 5.0, 10.0, 20.0]);
     assert_eq!(c.speed_scale_vs_window[0].1, scale);
+    // Measured, not applied: faster than commanded straight ahead, slower in
+    // turns (`speed_scale_diagnosis` part 3b).
+    let (a, b) = c.turn_dependent_speed.expect("Dataset 6 turns");
+    assert!(a > 1.0 && b > 0.5, "{a} {b}");
     let table = comparison_table(&c.parameters);
     assert!(!table.contains("WARNING"), "{table}");
     assert_eq!(
@@ -194,4 +199,45 @@ fn ratio_of_sums_recovers_a_speed_scale_the_least_squares_slope_attenuates() {
     assert_eq!(speed_scale_ratio_of_sums(&[]), None);
     assert_eq!(speed_scale_ratio_of_sums(&[(0.0, 0.1)]), None);
     assert_eq!(speed_scale_least_squares(&[(0.0, 0.1)]), None);
+}
+
+/// Windows of a robot whose speed falls with the turn rate,
+/// `v_true = v·(a − b·|ω|)`, with zero-mean error on the commanded distance:
+/// the moment equations recover `(a, b)`, the single ratio of sums cannot.
+#[test]
+fn turn_dependent_speed_recovers_the_model() {
+    let (a, b) = (1.03, 1.0);
+    let mut rng = StdRng::seed_from_u64(13);
+    let windows: Vec<MotionResidual> = (0..50_000)
+        .map(|k| {
+            let v = 0.05 + 0.05 * rng.random::<f64>();
+            let omega = if k % 2 == 0 {
+                0.0
+            } else {
+                0.5 * rng.random::<f64>()
+            };
+            let commanded = v + 0.04 * (rng.random::<f64>() - 0.5); // timing error
+            let travelled = v * (a - b * omega) + 0.01 * (rng.random::<f64>() - 0.5);
+            MotionResidual {
+                start_s: f64::from(k),
+                duration_s: 1.0,
+                commanded_distance_m: commanded,
+                commanded_rotation_rad: omega,
+                commanded_turning_distance: commanded * omega,
+                along_m: travelled - commanded,
+                cross_m: 0.0,
+                heading_rad: 0.0,
+            }
+        })
+        .collect();
+    let (fit_a, fit_b) = turn_dependent_speed(&windows).expect("turning and straight windows");
+    assert!((fit_a - a).abs() < 0.01, "a = {fit_a}");
+    assert!((fit_b - b).abs() < 0.05, "b = {fit_b}");
+    // Straight windows only: no turn to fit b from.
+    let straight: Vec<MotionResidual> = windows
+        .iter()
+        .copied()
+        .filter(|w| w.commanded_rotation_rad == 0.0)
+        .collect();
+    assert_eq!(turn_dependent_speed(&straight), None);
 }

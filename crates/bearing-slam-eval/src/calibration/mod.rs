@@ -125,8 +125,10 @@
 //!    every straight stretch by ~10 % and lengthens every turn, which
 //!    curls the trajectory and shrinks the map. Fitted to
 //!    `v_true = v·(a − b·|ω|)` by the moment equations with the instruments
-//!    1 and the window's commanded rotation (`speed_scale_diagnosis` part
-//!    3b): `a` = 1.037, `b` = 1.075 s/rad. The command model has no such
+//!    1 and the window's commanded rotation ([`turn_dependent_speed`],
+//!    printed by `calibrate`): `a` = 1.036, `b` = 1.107 s/rad on the rule's
+//!    windows (`d_true = d_cmd + along`), 1.037 and 1.075 on the Vicon path
+//!    (`speed_scale_diagnosis` part 3b). The command model has no such
 //!    term yet: adding one changes its form (and every MRCLAM table), a
 //!    decision left to a later change; what-ifs in
 //!    `docs/results/estimators.md`.
@@ -169,7 +171,7 @@ pub use noise::{
 pub use residuals::{BearingResidual, MotionResidual, bearing_residuals, motion_residuals};
 pub use rule::{
     ParameterCalibration, ar1_inflation, calibrate_parameters, comparison_table,
-    speed_scale_least_squares, speed_scale_ratio_of_sums,
+    speed_scale_least_squares, speed_scale_ratio_of_sums, turn_dependent_speed,
 };
 
 /// Gaps between landmark scans longer than this are "blind stretches"

@@ -2,7 +2,7 @@
 //! truth (see the [calibration documentation](super) for the rule).
 
 use super::noise::{dataset_name, is_moving, require_truth};
-use super::residuals::{bearing_residuals, motion_residuals};
+use super::residuals::{MotionResidual, bearing_residuals, motion_residuals};
 use super::{
     BEARING_OUTLIER_RAD, BLIND_GAP_THRESHOLD_S, COMMAND_WINDOW_S, CORRELATION_PAIR_MAX_S,
     RANGE_OUTLIER_M,
@@ -50,6 +50,10 @@ pub struct ParameterCalibration {
     pub speed_scale_least_squares: f64,
     /// The same least-squares slope per robot.
     pub speed_scale_least_squares_per_robot: Vec<f64>,
+    /// `(a, b)` of the speed model `v_true = v·(a − b·|ω|)` fitted to the
+    /// same 1 s windows after the delay ([`turn_dependent_speed`]): measured,
+    /// not applied (the command model has one speed scale).
+    pub turn_dependent_speed: Option<(f64, f64)>,
     /// Both estimators pooled over windows of other lengths (after the
     /// delay): `(T, ratio of sums, least-squares slope, windows)`. A rule
     /// free of regressor noise gives about the same ratio at every `T`.
@@ -120,6 +124,35 @@ pub fn speed_scale_least_squares(windows: &[(f64, f64)]) -> Option<f64> {
         .iter()
         .fold((0.0, 0.0), |(xx, xy), &(x, y)| (xx + x * x, xy + x * y));
     (xx > 0.0 && xx.is_finite() && xy.is_finite()).then(|| xy / xx)
+}
+
+/// The speed model `v_true = v·(a − b·|ω|)` fitted to `windows` (measured
+/// by [`calibrate_parameters`], not applied: the command model has one
+/// scale): `(a, b)` from the two moment equations
+/// `Σ w·(d_true − a·Σ|v|dt + b·Σ|v||ω|dt) = 0` with the instruments
+/// `w = 1` and `w = Σ|ω|dt` (`d_true = d_cmd + along`). Like the ratio of
+/// sums it is not attenuated by zero-mean errors of the commanded side that
+/// are independent of the instruments. `None` when the equations are
+/// singular (no turn, or turns only) or a value is not finite.
+#[must_use]
+pub fn turn_dependent_speed(windows: &[MotionResidual]) -> Option<(f64, f64)> {
+    let (mut m, mut r) = ([[0.0; 2]; 2], [0.0; 2]);
+    for w in windows {
+        let d_true = w.commanded_distance_m + w.along_m;
+        for (k, weight) in [1.0, w.commanded_rotation_rad].into_iter().enumerate() {
+            m[k][0] += weight * w.commanded_distance_m;
+            m[k][1] -= weight * w.commanded_turning_distance;
+            r[k] += weight * d_true;
+        }
+    }
+    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    let scale = m[0][0].abs().max(m[1][1].abs()).powi(2);
+    if !(det.is_finite() && det.abs() > 1e-12 * scale) {
+        return None;
+    }
+    let a = (r[0] * m[1][1] - m[0][1] * r[1]) / det;
+    let b = (m[0][0] * r[1] - m[1][0] * r[0]) / det;
+    (a.is_finite() && b.is_finite()).then_some((a, b))
 }
 
 /// A run with the command model applied to its log (for the residuals).
@@ -326,6 +359,16 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         .collect::<Result<Vec<_>, _>>()?;
     let speed_scale = speed_scale_ratio_of_sums(&pooled).ok_or_else(no_motion)?;
     let least_squares = speed_scale_least_squares(&pooled).ok_or_else(no_motion)?;
+    let mut delayed_windows = Vec::new();
+    for run in &delayed_runs {
+        delayed_windows.extend(
+            motion_residuals(run, COMMAND_WINDOW_S, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?
+                .0
+                .into_iter()
+                .filter(is_moving),
+        );
+    }
+    let turn_speed = turn_dependent_speed(&delayed_windows);
     let mut speed_scale_vs_window = Vec::new();
     for window in SPEED_SCALE_CHECK_WINDOWS_S {
         let pooled: Vec<(f64, f64)> = pairs_at(window)?.into_iter().flatten().collect();
@@ -396,6 +439,7 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         speed_ratio_per_robot,
         speed_scale_least_squares: least_squares,
         speed_scale_least_squares_per_robot,
+        turn_dependent_speed: turn_speed,
         speed_scale_vs_window,
         bearing_std_rad: bearing_std,
         bearing_lag1_correlation: bearing_rho,

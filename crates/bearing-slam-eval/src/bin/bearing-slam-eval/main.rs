@@ -150,6 +150,12 @@ fn calibrate(data: &Path) -> Result<(), BoxError> {
             .collect::<Vec<_>>()
             .join(", ")
     );
+    if let Some((a, b)) = c.turn_dependent_speed {
+        println!(
+            "speed in turns (measured, not applied): v_true = v·(a − b·|ω|), \
+             a = {a:.4}, b = {b:.4} s/rad"
+        );
+    }
     println!("| window (s) | ratio of sums (the rule) | least-squares slope | windows |");
     println!("|---|---|---|---|");
     for (window, ratio, slope, n) in &c.speed_scale_vs_window {
