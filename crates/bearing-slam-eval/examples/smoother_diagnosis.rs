@@ -21,6 +21,13 @@
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example smoother_diagnosis [DATA_DIR] [DATASETS]
 //! ```
+//! What-ifs (parts 2–5 only): `SPEED_SCALE` replaces the command model's
+//! speed scale, `TURN_SCALE` multiplies every commanded turn rate,
+//! `ODOMETRY_SIGMA_SCALE` the velocity noise's σ, `TRUE_ODOMETRY=1`
+//! replaces the commands by the Vicon motion over their intervals,
+//! `TURN_SPEED=a,b` scales each commanded speed by `max(0, a − b·|ω|)`
+//! instead of the speed scale.
+//!
 //! `DATA_DIR` holds `MRCLAM_Dataset{2,4,6}`; `DATASETS` (default `6`) is the
 //! comma list whose unmapped landmarks part 4 examines (parts 1–3 need
 //! Dataset 6's ground truth).
@@ -31,8 +38,8 @@ use bearing_slam_core::log::EventKind;
 use bearing_slam_core::smoother::{RayTriangulationRule, UnmappedTriangulation, triangulate_rays};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
-    Anchor, CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, align_landmarks_se2,
-    evaluate_run_anchored, filter_log,
+    Anchor, CALIBRATED_PARAMETERS, CommandModel, EvalOptions, Method, RealDataResult,
+    align_landmarks_se2, evaluate_run_anchored, filter_log,
 };
 use bearing_slam_io::mrclam::{MrclamRun, interpolate_pose, load_mrclam_with};
 use std::path::PathBuf;
@@ -169,10 +176,69 @@ fn main() -> Result<(), BoxError> {
     {
         params.command.speed_scale = k;
     }
+    // `TRUE_ODOMETRY=1` replaces every command by the Vicon motion over its
+    // interval (forward displacement and turn, no delay, no speed scale): the
+    // odometry is then right and any map-scale error is the bearings' or the
+    // estimator's.
+    let true_odometry = std::env::var("TRUE_ODOMETRY").is_ok_and(|v| v == "1");
+    if true_odometry {
+        params.command = CommandModel::IDENTITY;
+    }
     let six = data.join("MRCLAM_Dataset6");
-    let runs: Vec<MrclamRun> = (1..=5u8)
+    let mut runs: Vec<MrclamRun> = (1..=5u8)
         .map(|r| load_mrclam_with(&six, r, &options.load))
         .collect::<Result<_, _>>()?;
+    if true_odometry {
+        for run in &mut runs {
+            let truth = run.ground_truth.clone();
+            for event in &mut run.log.events {
+                let time = event.time;
+                if let EventKind::Velocity(command) = &mut event.kind
+                    && command.dt > 0.0
+                    && let (Some(a), Some(b)) = (
+                        interpolate_pose(&truth, time),
+                        interpolate_pose(&truth, time + command.dt),
+                    )
+                {
+                    let turn = wrap_angle(b.theta - a.theta);
+                    let heading = a.theta + 0.5 * turn;
+                    let forward = (b.x - a.x) * heading.cos() + (b.y - a.y) * heading.sin();
+                    command.v = forward / command.dt;
+                    command.omega = turn / command.dt;
+                }
+            }
+        }
+    }
+    // `TURN_SPEED=a,b` replaces the speed scale by a turn-dependent one,
+    // `v ← v·max(0, a − b·|ω|)` (a what-if of a command model whose speed
+    // ratio falls while the robot turns: `speed_scale_diagnosis` part 3b).
+    if let Some((a, b)) = std::env::var("TURN_SPEED").ok().and_then(|v| {
+        let (a, b) = v.split_once(',')?;
+        Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
+    }) {
+        params.command.speed_scale = 1.0;
+        for run in &mut runs {
+            for event in &mut run.log.events {
+                if let EventKind::Velocity(command) = &mut event.kind {
+                    command.v *= (a - b * command.omega.abs()).max(0.0);
+                }
+            }
+        }
+    }
+    // `TURN_SCALE` multiplies every commanded turn rate ω (a what-if: the
+    // command model has no turn scale).
+    if let Some(k) = std::env::var("TURN_SCALE")
+        .ok()
+        .and_then(|v| v.parse::<f64>().ok())
+    {
+        for run in &mut runs {
+            for event in &mut run.log.events {
+                if let EventKind::Velocity(command) = &mut event.kind {
+                    command.omega *= k;
+                }
+            }
+        }
+    }
 
     // 1. The sensor.
     let base = residuals(&runs, 0.0, 0.0, None);

@@ -15,10 +15,13 @@
 //! ties every run of Dataset 6 to the Vicon pose at its first bearing scan
 //! instead of the log start ([`Anchor::FirstBearing`]; the datasets without
 //! robot ground truth keep the log start, their maps being scored aligned).
+//! `TURN_SPEED=a,b` (a what-if, not the calibrated command model) scales
+//! each commanded speed by `max(0, a − b·|ω|)` instead of the speed scale.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam_core::log::EventKind;
 use bearing_slam_core::smoother::UnmappedTriangulation;
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
@@ -48,7 +51,17 @@ fn main() -> Result<(), BoxError> {
         .transpose()?
         .unwrap_or_default();
     let options = EvalOptions::default();
-    let params = CALIBRATED_PARAMETERS;
+    let mut params = CALIBRATED_PARAMETERS;
+    // `TURN_SPEED=a,b`: a what-if (not the calibrated command model) that
+    // scales each commanded speed by `max(0, a − b·|ω|)` instead of the
+    // speed scale (the robots slow down in turns: `speed_scale_diagnosis`).
+    let turn_speed = std::env::var("TURN_SPEED").ok().and_then(|v| {
+        let (a, b) = v.split_once(',')?;
+        Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
+    });
+    if turn_speed.is_some() {
+        params.command.speed_scale = 1.0;
+    }
     let smoother = |triangulate: bool| {
         let mut e = EstimatorConfig {
             kind: EstimatorKind::Smoother,
@@ -78,7 +91,14 @@ fn main() -> Result<(), BoxError> {
     for d in datasets.split(',') {
         let dir = data.join(format!("MRCLAM_Dataset{d}"));
         for robot in 1..=5u8 {
-            let run = load_mrclam_with(&dir, robot, &options.load)?;
+            let mut run = load_mrclam_with(&dir, robot, &options.load)?;
+            if let Some((a, b)) = turn_speed {
+                for event in &mut run.log.events {
+                    if let EventKind::Velocity(command) = &mut event.kind {
+                        command.v *= (a - b * command.omega.abs()).max(0.0);
+                    }
+                }
+            }
             let anchor = if run.report.has_ground_truth {
                 anchor
             } else {

@@ -5,11 +5,14 @@
 use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{Event, EventKind, LogInfo, SensorLog, VelocityOdometry};
 use bearing_slam_eval::calibration::{
-    CalibrationOptions, calibrate, calibrate_parameters, calibrate_with, comparison_table,
-    motion_residuals,
+    CalibrationOptions, MotionResidual, calibrate, calibrate_parameters, calibrate_with,
+    comparison_table, motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
+    turn_dependent_speed,
 };
 use bearing_slam_eval::real_data::{CALIBRATED_PARAMETERS, RealDataError};
 use bearing_slam_io::mrclam::{BarcodeTable, LoadReport, MrclamRun};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 
 mod common;
 
@@ -102,6 +105,18 @@ fn tuning_rule_reproduces_the_calibrated_parameters() {
     let c = calibrate_parameters(&dataset(6)).expect("calibration");
     assert_eq!(c.source, "MRCLAM_Dataset6");
     assert_eq!(c.speed_ratio_per_robot.len(), 5);
+    // The speed scale is the ratio of sums; the least-squares slope of the
+    // same 1 s windows (the old rule) is attenuated below it.
+    let scale = c.parameters.command.speed_scale;
+    assert!(scale > c.speed_scale_least_squares, "{c:?}");
+    assert_eq!(c.speed_scale_least_squares_per_robot.len(), 5);
+    let windows: Vec<f64> = c.speed_scale_vs_window.iter().map(|w| w.0).collect();
+    assert_eq!(windows, [1.0, 5.0, 10.0, 20.0]);
+    assert_eq!(c.speed_scale_vs_window[0].1, scale);
+    // Measured, not applied: faster than commanded straight ahead, slower in
+    // turns (`speed_scale_diagnosis` part 3b).
+    let (a, b) = c.turn_dependent_speed.expect("Dataset 6 turns");
+    assert!(a > 1.0 && b > 0.5, "{a} {b}");
     let table = comparison_table(&c.parameters);
     assert!(!table.contains("WARNING"), "{table}");
     assert_eq!(
@@ -154,4 +169,75 @@ fn motion_residuals_vanish_for_exact_commands() {
         assert!(r.along_m.abs() < 1e-12 && r.cross_m.abs() < 1e-12, "{r:?}");
         assert!(r.heading_rad.abs() < 1e-12, "{r:?}");
     }
+}
+
+/// Windows with a known speed scale and zero-mean error on both sides, the
+/// commanded side's as large as in 1 s MRCLAM windows: the least-squares
+/// slope is attenuated toward zero (errors in variables), the ratio of sums
+/// recovers the scale.
+#[test]
+fn ratio_of_sums_recovers_a_speed_scale_the_least_squares_slope_attenuates() {
+    let scale = 0.95;
+    let mut rng = StdRng::seed_from_u64(14);
+    let mut uniform = move || rng.random::<f64>();
+    let windows: Vec<(f64, f64)> = (0..50_000)
+        .map(|_| {
+            let travelled = 0.1 + 0.2 * uniform(); // what the command really did
+            let commanded = travelled + 0.2 * (uniform() - 0.5); // timing error
+            let true_distance = scale * travelled + 0.02 * (uniform() - 0.5);
+            (commanded, true_distance)
+        })
+        .collect();
+    let ratio = speed_scale_ratio_of_sums(&windows).expect("moving windows");
+    let slope = speed_scale_least_squares(&windows).expect("moving windows");
+    // Σu / Σd* has a standard deviation of 0.12 %: 5σ.
+    assert!((ratio - scale).abs() < 0.006, "ratio of sums {ratio}");
+    // E[d*²] = 0.0433, var(u) = 0.0033: the slope tends to 0.95 · 0.929.
+    assert!(slope < scale - 0.05, "least-squares slope {slope}");
+    assert!((slope - scale * 0.0433 / 0.0466).abs() < 0.01, "{slope}");
+    // Without motion there is no scale.
+    assert_eq!(speed_scale_ratio_of_sums(&[]), None);
+    assert_eq!(speed_scale_ratio_of_sums(&[(0.0, 0.1)]), None);
+    assert_eq!(speed_scale_least_squares(&[(0.0, 0.1)]), None);
+}
+
+/// Windows of a robot whose speed falls with the turn rate,
+/// `v_true = v·(a − b·|ω|)`, with zero-mean error on the commanded distance:
+/// the moment equations recover `(a, b)`, the single ratio of sums cannot.
+#[test]
+fn turn_dependent_speed_recovers_the_model() {
+    let (a, b) = (1.03, 1.0);
+    let mut rng = StdRng::seed_from_u64(13);
+    let windows: Vec<MotionResidual> = (0..50_000)
+        .map(|k| {
+            let v = 0.05 + 0.05 * rng.random::<f64>();
+            let omega = if k % 2 == 0 {
+                0.0
+            } else {
+                0.5 * rng.random::<f64>()
+            };
+            let commanded = v + 0.04 * (rng.random::<f64>() - 0.5); // timing error
+            let travelled = v * (a - b * omega) + 0.01 * (rng.random::<f64>() - 0.5);
+            MotionResidual {
+                start_s: f64::from(k),
+                duration_s: 1.0,
+                commanded_distance_m: commanded,
+                commanded_rotation_rad: omega,
+                commanded_turning_distance: commanded * omega,
+                along_m: travelled - commanded,
+                cross_m: 0.0,
+                heading_rad: 0.0,
+            }
+        })
+        .collect();
+    let (fit_a, fit_b) = turn_dependent_speed(&windows).expect("turning and straight windows");
+    assert!((fit_a - a).abs() < 0.01, "a = {fit_a}");
+    assert!((fit_b - b).abs() < 0.05, "b = {fit_b}");
+    // Straight windows only: no turn to fit b from.
+    let straight: Vec<MotionResidual> = windows
+        .iter()
+        .copied()
+        .filter(|w| w.commanded_rotation_rad == 0.0)
+        .collect();
+    assert_eq!(turn_dependent_speed(&straight), None);
 }

@@ -34,6 +34,9 @@ pub struct MotionResidual {
     pub commanded_distance_m: f64,
     /// Rotation commanded over the window, `Σ |ω| dt`, radians.
     pub commanded_rotation_rad: f64,
+    /// Distance commanded weighted by the turn rate, `Σ |v|·|ω| dt`, m·rad/s
+    /// (the regressor of a speed that falls with the turn rate).
+    pub commanded_turning_distance: f64,
     /// Along-track (forward) error of the prediction, metres.
     pub along_m: f64,
     /// Cross-track (leftward) error of the prediction, metres.
@@ -134,6 +137,7 @@ pub fn motion_residuals(
         let mut cursor = start;
         let mut distance = 0.0;
         let mut rotation = 0.0;
+        let mut turning = 0.0;
         let mut covered = true;
         for &(t, v, omega, dt) in &commands[index..] {
             if t >= end {
@@ -155,6 +159,7 @@ pub fn motion_residuals(
                 state = model.propagate(&state, &command)?;
                 distance += v.abs() * duration;
                 rotation += omega.abs() * duration;
+                turning += v.abs() * omega.abs() * duration;
                 cursor = segment_end;
             }
         }
@@ -168,6 +173,7 @@ pub fn motion_residuals(
             duration_s: window_s,
             commanded_distance_m: distance,
             commanded_rotation_rad: rotation,
+            commanded_turning_distance: turning,
             along_m: error.x,
             cross_m: error.y,
             heading_rad: error.theta,

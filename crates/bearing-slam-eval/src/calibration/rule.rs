@@ -2,7 +2,7 @@
 //! truth (see the [calibration documentation](super) for the rule).
 
 use super::noise::{dataset_name, is_moving, require_truth};
-use super::residuals::{bearing_residuals, motion_residuals};
+use super::residuals::{MotionResidual, bearing_residuals, motion_residuals};
 use super::{
     BEARING_OUTLIER_RAD, BLIND_GAP_THRESHOLD_S, COMMAND_WINDOW_S, CORRELATION_PAIR_MAX_S,
     RANGE_OUTLIER_M,
@@ -18,6 +18,11 @@ use bearing_slam_io::mrclam::{
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::Path;
+
+/// The window lengths at which [`calibrate_parameters`] reports both
+/// speed-scale estimators (the check that the rule does not depend on it),
+/// seconds.
+const SPEED_SCALE_CHECK_WINDOWS_S: [f64; 4] = [1.0, 5.0, 10.0, 20.0];
 
 /// What [`calibrate_parameters`] measured, and the parameters its rule gives.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -35,8 +40,24 @@ pub struct ParameterCalibration {
     /// Pooled RMS heading error of 1 s windows for each delay tried:
     /// `(delay_s, rms_rad)`.
     pub delay_scan: Vec<(f64, f64)>,
-    /// Pooled true/commanded distance ratio per robot (after the delay).
+    /// True/commanded distance per robot by the rule's estimator
+    /// ([`speed_scale_ratio_of_sums`] of the [`COMMAND_WINDOW_S`] windows
+    /// after the delay).
     pub speed_ratio_per_robot: Vec<f64>,
+    /// The old speed-scale rule, for comparison: the through-origin
+    /// least-squares slope ([`speed_scale_least_squares`]) of the same
+    /// windows, pooled (attenuated by the commanded distance's own error).
+    pub speed_scale_least_squares: f64,
+    /// The same least-squares slope per robot.
+    pub speed_scale_least_squares_per_robot: Vec<f64>,
+    /// `(a, b)` of the speed model `v_true = v·(a − b·|ω|)` fitted to the
+    /// same 1 s windows after the delay ([`turn_dependent_speed`]): measured,
+    /// not applied (the command model has one speed scale).
+    pub turn_dependent_speed: Option<(f64, f64)>,
+    /// Both estimators pooled over windows of other lengths (after the
+    /// delay): `(T, ratio of sums, least-squares slope, windows)`. A rule
+    /// free of regressor noise gives about the same ratio at every `T`.
+    pub speed_scale_vs_window: Vec<(f64, f64, f64, usize)>,
     /// Standard deviation of the bearing residuals (outliers removed), rad.
     pub bearing_std_rad: f64,
     /// Lag-one correlation of consecutive bearing residuals of one landmark.
@@ -77,11 +98,76 @@ pub fn ar1_inflation(rho: f64, n: usize) -> f64 {
     (1.0 + 2.0 * sum / nf).max(0.0).sqrt()
 }
 
+/// The rule's speed-scale estimator: `Σ d_true / Σ d_cmd` over `windows` of
+/// `(d_cmd, d_true)` (commanded and true distance): the total distance truly
+/// travelled over the total commanded. For `d_true = k·d_cmd* + e` and
+/// `d_cmd = d_cmd* + u` with zero-mean errors `e`, `u` it tends to `k`
+/// whatever their variances. `None` when `Σ d_cmd ≤ 0` or a value is not
+/// finite.
+#[must_use]
+pub fn speed_scale_ratio_of_sums(windows: &[(f64, f64)]) -> Option<f64> {
+    let (cmd, truth) = windows.iter().fold((0.0, 0.0), |(c, t), &(d_cmd, d_true)| {
+        (c + d_cmd, t + d_true)
+    });
+    (cmd > 0.0 && cmd.is_finite() && truth.is_finite()).then(|| truth / cmd)
+}
+
+/// The old speed-scale estimator, kept for comparison: the through-origin
+/// least-squares slope `Σ d_true·d_cmd / Σ d_cmd²` of `(d_cmd, d_true)`
+/// pairs. With error `u` on the commanded side it tends to
+/// `k·Σd*² / (Σd*² + Σu²)`: biased toward zero (errors-in-variables
+/// attenuation), the more so the shorter the windows. `None` when
+/// `Σ d_cmd² = 0` or a value is not finite.
+#[must_use]
+pub fn speed_scale_least_squares(windows: &[(f64, f64)]) -> Option<f64> {
+    let (xx, xy) = windows
+        .iter()
+        .fold((0.0, 0.0), |(xx, xy), &(x, y)| (xx + x * x, xy + x * y));
+    (xx > 0.0 && xx.is_finite() && xy.is_finite()).then(|| xy / xx)
+}
+
+/// The speed model `v_true = v·(a − b·|ω|)` fitted to `windows` (measured
+/// by [`calibrate_parameters`], not applied: the command model has one
+/// scale): `(a, b)` from the two moment equations
+/// `Σ w·(d_true − a·Σ|v|dt + b·Σ|v||ω|dt) = 0` with the instruments
+/// `w = 1` and `w = Σ|ω|dt` (`d_true = d_cmd + along`). Like the ratio of
+/// sums it is not attenuated by zero-mean errors of the commanded side that
+/// are independent of the instruments. `None` when the equations are
+/// singular (no turn, or turns only) or a value is not finite.
+#[must_use]
+pub fn turn_dependent_speed(windows: &[MotionResidual]) -> Option<(f64, f64)> {
+    let (mut m, mut r) = ([[0.0; 2]; 2], [0.0; 2]);
+    for w in windows {
+        let d_true = w.commanded_distance_m + w.along_m;
+        for (k, weight) in [1.0, w.commanded_rotation_rad].into_iter().enumerate() {
+            m[k][0] += weight * w.commanded_distance_m;
+            m[k][1] -= weight * w.commanded_turning_distance;
+            r[k] += weight * d_true;
+        }
+    }
+    let det = m[0][0] * m[1][1] - m[0][1] * m[1][0];
+    let scale = m[0][0].abs().max(m[1][1].abs()).powi(2);
+    if !(det.is_finite() && det.abs() > 1e-12 * scale) {
+        return None;
+    }
+    let a = (r[0] * m[1][1] - m[0][1] * r[1]) / det;
+    let b = (m[0][0] * r[1] - m[1][0] * r[0]) / det;
+    (a.is_finite() && b.is_finite()).then_some((a, b))
+}
+
 /// A run with the command model applied to its log (for the residuals).
 fn corrected(run: &MrclamRun, command: &CommandModel) -> Result<MrclamRun, SlamError> {
     let mut out = run.clone();
     out.log = command.apply(&run.log)?;
     Ok(out)
+}
+
+/// `(d_cmd, d_true = d_cmd + along)` of moving windows.
+fn distance_pairs(windows: &[(f64, f64, f64)]) -> Vec<(f64, f64)> {
+    windows
+        .iter()
+        .map(|&(along, _, dist)| (dist, dist + along))
+        .collect()
 }
 
 /// Moving windows only: `(along, heading, commanded distance)` per window.
@@ -245,26 +331,57 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(0.0, |d| d.0);
 
-    // Speed scale.
+    // Speed scale: the ratio of sums (the least-squares slope for comparison).
     let delayed = CommandModel {
         delay_s,
         speed_scale: 1.0,
     };
-    let (mut num, mut den) = (0.0, 0.0);
-    let mut speed_ratio_per_robot = Vec::new();
-    for run in &runs {
-        let (mut n, mut d) = (0.0, 0.0);
-        for (along, _, dist) in moving_windows(&corrected(run, &delayed)?, COMMAND_WINDOW_S)? {
-            n += (dist + along) * dist;
-            d += dist * dist;
-        }
-        speed_ratio_per_robot.push(n / d);
-        num += n;
-        den += d;
+    let delayed_runs: Vec<MrclamRun> = runs
+        .iter()
+        .map(|r| corrected(r, &delayed))
+        .collect::<Result<_, _>>()?;
+    let pairs_at = |window: f64| -> Result<Vec<Vec<(f64, f64)>>, SlamError> {
+        delayed_runs
+            .iter()
+            .map(|run| Ok(distance_pairs(&moving_windows(run, window)?)))
+            .collect()
+    };
+    let per_robot = pairs_at(COMMAND_WINDOW_S)?;
+    let pooled: Vec<(f64, f64)> = per_robot.iter().flatten().copied().collect();
+    let no_motion = || calibration_error("no moving window");
+    let speed_ratio_per_robot = per_robot
+        .iter()
+        .map(|p| speed_scale_ratio_of_sums(p).ok_or_else(no_motion))
+        .collect::<Result<Vec<_>, _>>()?;
+    let speed_scale_least_squares_per_robot = per_robot
+        .iter()
+        .map(|p| speed_scale_least_squares(p).ok_or_else(no_motion))
+        .collect::<Result<Vec<_>, _>>()?;
+    let speed_scale = speed_scale_ratio_of_sums(&pooled).ok_or_else(no_motion)?;
+    let least_squares = speed_scale_least_squares(&pooled).ok_or_else(no_motion)?;
+    let mut delayed_windows = Vec::new();
+    for run in &delayed_runs {
+        delayed_windows.extend(
+            motion_residuals(run, COMMAND_WINDOW_S, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?
+                .0
+                .into_iter()
+                .filter(is_moving),
+        );
+    }
+    let turn_speed = turn_dependent_speed(&delayed_windows);
+    let mut speed_scale_vs_window = Vec::new();
+    for window in SPEED_SCALE_CHECK_WINDOWS_S {
+        let pooled: Vec<(f64, f64)> = pairs_at(window)?.into_iter().flatten().collect();
+        speed_scale_vs_window.push((
+            window,
+            speed_scale_ratio_of_sums(&pooled).unwrap_or(f64::NAN),
+            speed_scale_least_squares(&pooled).unwrap_or(f64::NAN),
+            pooled.len(),
+        ));
     }
     let command = CommandModel {
         delay_s,
-        speed_scale: num / den,
+        speed_scale,
     };
     let fixed: Vec<MrclamRun> = runs
         .iter()
@@ -320,6 +437,10 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         blind_time_fraction: blind_fraction,
         delay_scan,
         speed_ratio_per_robot,
+        speed_scale_least_squares: least_squares,
+        speed_scale_least_squares_per_robot,
+        turn_dependent_speed: turn_speed,
+        speed_scale_vs_window,
         bearing_std_rad: bearing_std,
         bearing_lag1_correlation: bearing_rho,
         range_std_m: range_std,

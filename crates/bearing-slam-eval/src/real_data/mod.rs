@@ -19,10 +19,12 @@
 //!   0.043 rad at 0 s, 0.026 rad at 0.25 s on Dataset 6). Every `Velocity`
 //!   event is moved later by the delay.
 //! * **Speed scale.** The robots drive slower than commanded (true/commanded
-//!   distance 0.90–0.95 per robot). Every commanded `v` is multiplied by
-//!   [`CommandModel::speed_scale`], the pooled least-squares ratio of true to
-//!   commanded distance over 1 s windows. One number for all robots: the
-//!   per-robot spread is left to the noise.
+//!   distance 0.905–0.955 per robot). Every commanded `v` is multiplied by
+//!   [`CommandModel::speed_scale`], the pooled ratio of sums of true to
+//!   commanded distance over 1 s windows (`Σ d_true / Σ d_cmd`: free of the
+//!   attenuation a least-squares slope suffers from the commanded
+//!   distance's own error). One number for all robots: the per-robot spread
+//!   is left to the noise.
 //!
 //! Dead reckoning ([`Method::DeadReckoning`] and every
 //! [`RealDataResult::odometry_ate_rmse_m`]) integrates the same corrected

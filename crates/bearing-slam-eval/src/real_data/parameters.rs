@@ -38,7 +38,9 @@ pub struct FilterParameters {
 /// of `bearing-slam-eval calibrate`, copied here): time-weighted
 /// median blind stretch `T` = 27 s (258 stretches, 42 % of the time);
 /// delay 0.25 s (RMS 1 s heading error 0.043 → 0.026 rad); speed scale 0.93
-/// (per robot 0.90–0.95); bearing `s` = 0.0124 rad, `ρ` = 0.64 over visits
+/// (ratio of sums of true to commanded distance over 1 s windows 0.934, per
+/// robot 0.905–0.955; the least-squares slope of the rule before 2026-11-25
+/// gave 0.929, the same constant); bearing `s` = 0.0124 rad, `ρ` = 0.64 over visits
 /// of `n` = 6 scans → ×1.74 → σ_z = 0.021 rad; range `s` = 0.17 m,
 /// `ρ` = 0.96 → ×2.36 → σ_r = 0.41 m; `σ_v_min` = 0.025 m/s,
 /// `σ_ω_min` = 0.039 rad/s (per one-second hold, matched at 27 s).

@@ -141,6 +141,26 @@ fn calibrate(data: &Path) -> Result<(), BoxError> {
     let c = calibrate_parameters(&data.join("MRCLAM_Dataset6"))?;
     println!("{}", serde_json::to_string_pretty(&c)?);
     print!("{}", comparison_table(&c.parameters));
+    println!(
+        "\nspeed scale, old rule (least-squares slope, 1 s windows): {:.4} (per robot {})",
+        c.speed_scale_least_squares,
+        c.speed_scale_least_squares_per_robot
+            .iter()
+            .map(|x| format!("{x:.4}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    if let Some((a, b)) = c.turn_dependent_speed {
+        println!(
+            "speed in turns (measured, not applied): v_true = v·(a − b·|ω|), \
+             a = {a:.4}, b = {b:.4} s/rad"
+        );
+    }
+    println!("| window (s) | ratio of sums (the rule) | least-squares slope | windows |");
+    println!("|---|---|---|---|");
+    for (window, ratio, slope, n) in &c.speed_scale_vs_window {
+        println!("| {window} | {ratio:.4} | {slope:.4} | {n} |");
+    }
     Ok(())
 }
 
