@@ -23,7 +23,9 @@
 
 use super::tracks::Sighting;
 use crate::geometry::{unit_direction, wrap_angle};
-use nalgebra::{Matrix2, RowVector2, Vector2};
+use crate::measurement::BearingToInverseDepth;
+use crate::model::MeasurementModel;
+use nalgebra::{Matrix2, RowVector2, Vector2, Vector3, Vector4};
 
 /// Gauss–Newton iterations of a component's MAP estimate.
 const ITERATIONS: usize = 5;
@@ -166,27 +168,27 @@ impl DepthHypothesis {
     }
 }
 
-/// The bearing of `origin + m(angle)/ρ` from `p`, its Jacobian with respect
-/// to `(angle, ρ)` and the squared range.
+/// The bearing (world frame) of `origin + m(angle)/ρ` from `p`, its
+/// Jacobian with respect to `(angle, ρ)` and the squared range: the shared
+/// inverse-depth bearing model (11)(12) ([`BearingToInverseDepth`]) seen
+/// from a sensor at `p` with zero heading. `None` when `ρ ≤ 0` or `p` is at
+/// the point.
 fn predict_at(
     angle: f64,
     inverse_depth: f64,
     origin: &Vector2<f64>,
     p: &Vector2<f64>,
 ) -> Option<(f64, RowVector2<f64>, f64)> {
-    let u = unit_direction(angle);
-    let x = origin + u / inverse_depth;
-    let d = x - p;
-    let range2 = d.norm_squared();
+    if !(inverse_depth > 0.0) {
+        return None;
+    }
+    let range2 = (origin + unit_direction(angle) / inverse_depth - p).norm_squared();
     if range2 < 1e-12 || !range2.is_finite() {
         return None;
     }
-    // ∂atan2(d)/∂x = [−d_y, d_x] / |d|²; ∂x/∂α = m⊥/ρ, ∂x/∂ρ = −m/ρ².
-    let dx = RowVector2::new(-d.y, d.x) / range2;
-    let normal = Vector2::new(-u.y, u.x);
-    let h = RowVector2::new(
-        dx.dot(&(normal / inverse_depth).transpose()),
-        -dx.dot(&(u / (inverse_depth * inverse_depth)).transpose()),
-    );
-    Some((d.y.atan2(d.x), h, range2))
+    let sensor = Vector3::new(p.x, p.y, 0.0);
+    let landmark = Vector4::new(origin.x, origin.y, angle, inverse_depth);
+    let prediction = BearingToInverseDepth.predict(&sensor, &landmark).ok()?;
+    let j = prediction.j_z_landmark;
+    Some((prediction.value.x, RowVector2::new(j[2], j[3]), range2))
 }
