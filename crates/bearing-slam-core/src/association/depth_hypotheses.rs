@@ -179,7 +179,7 @@ fn predict_at(
     origin: &Vector2<f64>,
     p: &Vector2<f64>,
 ) -> Option<(f64, RowVector2<f64>, f64)> {
-    if !(inverse_depth > 0.0) {
+    if inverse_depth.is_nan() || inverse_depth <= 0.0 {
         return None;
     }
     let range2 = (origin + unit_direction(angle) / inverse_depth - p).norm_squared();
