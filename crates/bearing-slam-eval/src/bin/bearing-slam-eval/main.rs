@@ -16,7 +16,7 @@ mod residuals;
 use bearing_slam_eval::calibration::{calibrate_parameters, comparison_table};
 use bearing_slam_eval::real_data::report::{evaluate_tables, read_gtsam};
 use bearing_slam_eval::real_data::tables::markdown_files;
-use bearing_slam_eval::real_data::{export_logs, export_same_graph};
+use bearing_slam_eval::real_data::{default_data_root, export_logs, export_same_graph};
 use clap::{Args, Parser, Subcommand};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -39,16 +39,15 @@ struct Cli {
 #[derive(Args)]
 struct Data {
     /// The directory holding `MRCLAM_Dataset1/`, `2/`, `4/` and `6/`
-    /// (default: `shared/datasets/mrclam` beside the repository).
+    /// (default: `$BEARING_SLAM_DATA`, else `shared/datasets/mrclam` beside
+    /// the repository).
     #[arg(long, value_name = "DIR")]
     data: Option<PathBuf>,
 }
 
 impl Data {
     fn dir(&self) -> PathBuf {
-        self.data
-            .clone()
-            .unwrap_or_else(|| Path::new(ROOT).join("../shared/datasets/mrclam"))
+        self.data.clone().unwrap_or_else(default_data_root)
     }
 }
 
