@@ -184,7 +184,8 @@ def test_python_api() -> None:
     # max(0, a - b|omega|) of its own turn rate, each command 0.25 s later.
     command = metrics["parameters"]["command"]
     a, b = command["speed_scale"], command["turn_slowdown_s_per_rad"]
-    assert a > 1.0 and b > 0.5, command
+    assert a > 1.0, command
+    assert b > 0.5, command
     raw, _ = bs.load_mrclam(D6, 5, start=0.0, end=120.0)
     n = min(len(raw.velocity), len(log.velocity))
     assert n > 100
@@ -194,7 +195,8 @@ def test_python_api() -> None:
     factor = np.maximum(0.0, a - b * np.abs(logged[:, 2]))
     assert corrected[:, 1] == pytest.approx(logged[:, 1] * factor)
     turning = (logged[:, 1] != 0.0) & (np.abs(logged[:, 2]) > 0.05)
-    assert turning.any() and (factor[turning] < a).all()
+    assert turning.any()
+    assert (factor[turning] < a).all()
     dr = mrclam.evaluate(D6, 5, "dead-reckoning", start=0.0, end=120.0)
     assert dr.metrics["n_measurements_used"] == 0
     assert dr.metrics["ate_rmse_m"] == pytest.approx(metrics["odometry_ate_rmse_m"])
