@@ -558,7 +558,8 @@ def _parser() -> argparse.ArgumentParser:
         help="run the filter on a real UTIAS MRCLAM robot and score it",
         description="Runs bearing-only SLAM on robot --robot of an MRCLAM dataset directory "
         "(MRCLAM_Dataset6/ with Vicon ground truth, MRCLAM_Dataset1/ without) with the noise "
-        "parameters and command-model correction (0.25 s delay, speed x0.93) calibrated on "
+        "parameters and command-model correction (0.25 s delay, speed v*max(0, 1.04 - "
+        "1.11 s/rad*|omega|): faster than commanded straight ahead, slower in turns) calibrated on "
         "Dataset 6, and writes into --out: metrics.json, trajectory.png, pose_errors.png, "
         "nees.png and estimate.mcap (the corrected log + estimate, opens in Foxglove). "
         "metrics.json has landmark_rmse_m against Landmark_Groundtruth.dat: with robot ground "

@@ -21,6 +21,7 @@ import subprocess
 from pathlib import Path
 from typing import Any
 
+import numpy as np
 import pytest
 
 import bearing_slam as bs
@@ -179,9 +180,23 @@ def test_python_api() -> None:
     )
     assert log.info["source"] == "MRCLAM_Dataset6 robot 5"
     assert log.duration <= 121.0
-    # The log holds the corrected commands: speeds scaled by the calibrated 0.93.
+    # The log holds the corrected commands: each speed scaled by the calibrated
+    # max(0, a - b|omega|) of its own turn rate, each command 0.25 s later.
+    command = metrics["parameters"]["command"]
+    a, b = command["speed_scale"], command["turn_slowdown_s_per_rad"]
+    assert a > 1.0, command
+    assert b > 0.5, command
     raw, _ = bs.load_mrclam(D6, 5, start=0.0, end=120.0)
-    assert log.velocity[:, 1].max() == pytest.approx(0.93 * raw.velocity[:, 1].max())
+    n = min(len(raw.velocity), len(log.velocity))
+    assert n > 100
+    corrected, logged = log.velocity[:n], raw.velocity[:n]
+    assert corrected[:, 0] == pytest.approx(logged[:, 0] + command["delay_s"])
+    assert corrected[:, 2] == pytest.approx(logged[:, 2])
+    factor = np.maximum(0.0, a - b * np.abs(logged[:, 2]))
+    assert corrected[:, 1] == pytest.approx(logged[:, 1] * factor)
+    turning = (logged[:, 1] != 0.0) & (np.abs(logged[:, 2]) > 0.05)
+    assert turning.any()
+    assert (factor[turning] < a).all()
     dr = mrclam.evaluate(D6, 5, "dead-reckoning", start=0.0, end=120.0)
     assert dr.metrics["n_measurements_used"] == 0
     assert dr.metrics["ate_rmse_m"] == pytest.approx(metrics["odometry_ate_rmse_m"])

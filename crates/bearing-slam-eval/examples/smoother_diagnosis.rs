@@ -21,12 +21,12 @@
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example smoother_diagnosis [DATA_DIR] [DATASETS]
 //! ```
-//! What-ifs (parts 2–5 only): `SPEED_SCALE` replaces the command model's
-//! speed scale, `TURN_SCALE` multiplies every commanded turn rate,
+//! What-ifs (parts 2–5 only): `SPEED_SCALE=k` replaces the command model's
+//! speed by the constant scale `k` (no turn slowdown), `TURN_SCALE` multiplies every commanded turn rate,
 //! `ODOMETRY_SIGMA_SCALE` the velocity noise's σ, `TRUE_ODOMETRY=1`
 //! replaces the commands by the Vicon motion over their intervals,
-//! `TURN_SPEED=a,b` scales each commanded speed by `max(0, a − b·|ω|)`
-//! instead of the speed scale.
+//! `TURN_SPEED=a,b` replaces the command model's speed scale `a` and turn
+//! slowdown `b` (each speed becomes `v·max(0, a − b·|ω|)`).
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset{2,4,6}`; `DATASETS` (default `6`) is the
 //! comma list whose unmapped landmarks part 4 examines (parts 1–3 need
@@ -175,6 +175,7 @@ fn main() -> Result<(), BoxError> {
         .and_then(|v| v.parse::<f64>().ok())
     {
         params.command.speed_scale = k;
+        params.command.turn_slowdown_s_per_rad = 0.0;
     }
     // `TRUE_ODOMETRY=1` replaces every command by the Vicon motion over its
     // interval (forward displacement and turn, no delay, no speed scale): the
@@ -209,21 +210,15 @@ fn main() -> Result<(), BoxError> {
             }
         }
     }
-    // `TURN_SPEED=a,b` replaces the speed scale by a turn-dependent one,
-    // `v ← v·max(0, a − b·|ω|)` (a what-if of a command model whose speed
-    // ratio falls while the robot turns: `speed_scale_diagnosis` part 3b).
+    // `TURN_SPEED=a,b` replaces the command model's speed scale and turn
+    // slowdown, `v ← v·max(0, a − b·|ω|)` (`TURN_SPEED=0.93,0` is the
+    // constant scale used until 2026-11-25).
     if let Some((a, b)) = std::env::var("TURN_SPEED").ok().and_then(|v| {
         let (a, b) = v.split_once(',')?;
         Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
     }) {
-        params.command.speed_scale = 1.0;
-        for run in &mut runs {
-            for event in &mut run.log.events {
-                if let EventKind::Velocity(command) = &mut event.kind {
-                    command.v *= (a - b * command.omega.abs()).max(0.0);
-                }
-            }
-        }
+        params.command.speed_scale = a;
+        params.command.turn_slowdown_s_per_rad = b;
     }
     // `TURN_SCALE` multiplies every commanded turn rate ω (a what-if: the
     // command model has no turn scale).

@@ -15,13 +15,15 @@
 //! ties every run of Dataset 6 to the Vicon pose at its first bearing scan
 //! instead of the log start ([`Anchor::FirstBearing`]; the datasets without
 //! robot ground truth keep the log start, their maps being scored aligned).
-//! `TURN_SPEED=a,b` (a what-if, not the calibrated command model) scales
-//! each commanded speed by `max(0, a − b·|ω|)` instead of the speed scale.
+//! `TURN_SPEED=a,b` (a what-if) replaces the calibrated command model's
+//! speed scale `a` and turn slowdown `b` (each speed becomes
+//! `v·max(0, a − b·|ω|)`; `TURN_SPEED=0.93,0` is the constant scale used
+//! until 2026-11-25). `SIGMA_V_MIN` (a what-if) replaces the velocity
+//! noise's speed floor `σ_v_min` (m/s per one-second hold).
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
-use bearing_slam_core::log::EventKind;
 use bearing_slam_core::smoother::UnmappedTriangulation;
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
@@ -52,15 +54,17 @@ fn main() -> Result<(), BoxError> {
         .unwrap_or_default();
     let options = EvalOptions::default();
     let mut params = CALIBRATED_PARAMETERS;
-    // `TURN_SPEED=a,b`: a what-if (not the calibrated command model) that
-    // scales each commanded speed by `max(0, a − b·|ω|)` instead of the
-    // speed scale (the robots slow down in turns: `speed_scale_diagnosis`).
-    let turn_speed = std::env::var("TURN_SPEED").ok().and_then(|v| {
+    // `TURN_SPEED=a,b`: a what-if that replaces the command model's speed
+    // scale and turn slowdown (validated when the model is applied).
+    if let Some((a, b)) = std::env::var("TURN_SPEED").ok().and_then(|v| {
         let (a, b) = v.split_once(',')?;
         Some((a.parse::<f64>().ok()?, b.parse::<f64>().ok()?))
-    });
-    if turn_speed.is_some() {
-        params.command.speed_scale = 1.0;
+    }) {
+        params.command.speed_scale = a;
+        params.command.turn_slowdown_s_per_rad = b;
+    }
+    if let Some(sigma) = env_f64("SIGMA_V_MIN") {
+        params.velocity_noise.sigma_v_min = sigma;
     }
     let smoother = |triangulate: bool| {
         let mut e = EstimatorConfig {
@@ -91,14 +95,7 @@ fn main() -> Result<(), BoxError> {
     for d in datasets.split(',') {
         let dir = data.join(format!("MRCLAM_Dataset{d}"));
         for robot in 1..=5u8 {
-            let mut run = load_mrclam_with(&dir, robot, &options.load)?;
-            if let Some((a, b)) = turn_speed {
-                for event in &mut run.log.events {
-                    if let EventKind::Velocity(command) = &mut event.kind {
-                        command.v *= (a - b * command.omega.abs()).max(0.0);
-                    }
-                }
-            }
+            let run = load_mrclam_with(&dir, robot, &options.load)?;
             let anchor = if run.report.has_ground_truth {
                 anchor
             } else {

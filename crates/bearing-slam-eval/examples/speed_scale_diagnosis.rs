@@ -8,7 +8,8 @@
 //!    ([`motion_residuals`]); `d_true = d_cmd + along`. Per robot and pooled,
 //!    for `T` = 1, 5, 10, 20 s: the through-origin least-squares slope
 //!    `Σ d_true·d_cmd / Σ d_cmd²` (the old rule) and the ratio of sums
-//!    `Σ d_true / Σ d_cmd` (the rule now).
+//!    `Σ d_true / Σ d_cmd` (the constant-scale rule until the command
+//!    model gained the turn term, 3b, on 2026-11-25).
 //! 2. **The path itself.** The same windows with `d_true` the length of the
 //!    Vicon path (sampled every 0.1 s and every 0.5 s), with the
 //!    chord/path ratio (how much a straight chord shortens the path: the
@@ -20,7 +21,8 @@
 //!    short steps, curvature shortens long ones. 3b: the 1 s ratio by the
 //!    window's commanded rotation and distance, and the fit of
 //!    `v_true = v·(a − b·|ω|)` by moment equations (instruments 1 and the
-//!    window's commanded rotation).
+//!    window's commanded rotation; on the rule's windows, `d_true = d_cmd +
+//!    along`, this fit is the command model's speed since 2026-11-25).
 //! 4. **Parked.** The Vicon path per second of a robot commanded to stand
 //!    still, against `h` (the jitter).
 //!
@@ -173,10 +175,7 @@ fn main() -> Result<(), BoxError> {
         .nth(1)
         .map_or_else(default_data_root, PathBuf::from);
     let dataset = data.join("MRCLAM_Dataset6");
-    let delayed = CommandModel {
-        delay_s: CALIBRATED_PARAMETERS.command.delay_s,
-        speed_scale: 1.0,
-    };
+    let delayed = CommandModel::delay_only(CALIBRATED_PARAMETERS.command.delay_s);
     let mut runs = Vec::new();
     for robot in 1..=ROBOT_COUNT {
         let mut run = load_mrclam(&dataset, robot)?;

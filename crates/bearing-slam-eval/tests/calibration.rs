@@ -105,18 +105,32 @@ fn tuning_rule_reproduces_the_calibrated_parameters() {
     let c = calibrate_parameters(&dataset(6)).expect("calibration");
     assert_eq!(c.source, "MRCLAM_Dataset6");
     assert_eq!(c.speed_ratio_per_robot.len(), 5);
-    // The speed scale is the ratio of sums; the least-squares slope of the
-    // same 1 s windows (the old rule) is attenuated below it.
-    let scale = c.parameters.command.speed_scale;
-    assert!(scale > c.speed_scale_least_squares, "{c:?}");
+    // The speed model is the turn-dependent fit: faster than commanded
+    // straight ahead, slower in turns (`speed_scale_diagnosis` part 3b).
+    let (a, b) = c.turn_dependent_speed;
+    assert_eq!(c.parameters.command.speed_scale, a);
+    assert_eq!(c.parameters.command.turn_slowdown_s_per_rad, b);
+    assert!(a > 1.0 && b > 0.5, "{a} {b}");
+    // The constant-scale estimators stay as checks: the least-squares slope
+    // of the same 1 s windows is attenuated below the ratio of sums.
+    assert!(c.speed_ratio > c.speed_scale_least_squares, "{c:?}");
+    assert!(c.speed_ratio < a, "{c:?}");
     assert_eq!(c.speed_scale_least_squares_per_robot.len(), 5);
     let windows: Vec<f64> = c.speed_scale_vs_window.iter().map(|w| w.0).collect();
     assert_eq!(windows, [1.0, 5.0, 10.0, 20.0]);
-    assert_eq!(c.speed_scale_vs_window[0].1, scale);
-    // Measured, not applied: faster than commanded straight ahead, slower in
-    // turns (`speed_scale_diagnosis` part 3b).
-    let (a, b) = c.turn_dependent_speed.expect("Dataset 6 turns");
-    assert!(a > 1.0 && b > 0.5, "{a} {b}");
+    assert_eq!(c.speed_scale_vs_window[0].1, c.speed_ratio);
+    // The constants are the rule's (a, b) to three significant digits.
+    let k = CALIBRATED_PARAMETERS.command;
+    assert!(
+        (k.speed_scale - a).abs() <= 0.005,
+        "{a} vs {}",
+        k.speed_scale
+    );
+    assert!(
+        (k.turn_slowdown_s_per_rad - b).abs() <= 0.005,
+        "{b} vs {}",
+        k.turn_slowdown_s_per_rad
+    );
     let table = comparison_table(&c.parameters);
     assert!(!table.contains("WARNING"), "{table}");
     assert_eq!(

@@ -34,7 +34,9 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `"range-bearing"`) on robot `robot` (1–5) of an MRCLAM dataset directory
 /// (`MRCLAM_DatasetN/`), optionally on the window `[start, end)` in seconds
 /// since the robot's first command, with the parameters calibrated on
-/// Dataset 6 (command delay and speed scale applied to the log). Returns
+/// Dataset 6 (command delay and turn-dependent speed scale
+/// `v·max(0, a − b·|ω|)` applied to the log; `metrics["parameters"]["command"]`
+/// holds them). Returns
 /// `(result, metrics, log)`: the `RunResult`, the real-data scores as a dict
 /// (`ate_rmse_m`, `odometry_ate_rmse_m`, `landmark_rmse_m` raw in the Vicon
 /// frame, `landmark_rmse_aligned_m`, counts, the loader's `report`, the

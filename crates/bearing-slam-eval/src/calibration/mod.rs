@@ -63,75 +63,59 @@
 //!    outliers |r| > [`RANGE_OUTLIER_M`] removed).
 //! 2. **Command model** ([`CommandModel`]). Delay: the value on a 0.05 s grid
 //!    in `[0, 0.5]` s that minimizes the pooled RMS heading error of
-//!    [`COMMAND_WINDOW_S`] windows. Speed scale: the **ratio of sums**
-//!    [`speed_scale_ratio_of_sums`] `= Σ d_true / Σ d_cmd` over the moving
-//!    windows after the delay (`d_true = d_cmd + along-track error`): the
-//!    distance the robot truly travelled over the distance it was commanded,
-//!    the whole log pooled.
+//!    [`COMMAND_WINDOW_S`] windows. Speed: `v_true = v·max(0, a − b·|ω|)`
+//!    ([`CommandModel::speed_scale`] `a`, the scale of a command that does
+//!    not turn, and [`CommandModel::turn_slowdown_s_per_rad`] `b`), fitted
+//!    by [`turn_dependent_speed`] to the same moving [`COMMAND_WINDOW_S`]
+//!    windows after the delay: the two moment equations
+//!    `Σ w·(d_true − a·Σ|v|dt + b·Σ|v||ω|dt) = 0` with the instruments
+//!    `w = 1` and `w` = the window's commanded rotation `Σ|ω|dt`
+//!    (`d_true = d_cmd + along-track error`, the whole log pooled). `a` and
+//!    `b` are rounded to three significant digits in
+//!    [`CALIBRATED_PARAMETERS`]; a fit with `a ≤ 0` or `b < 0` is an error.
+//!    This rule (adopted 2026-11-25) was set from the odometry and the Vicon
+//!    track alone, before any filter or smoother was run with it.
 //!
-//!    *Why not least squares.* Until 2026-11-25 the rule was the
-//!    through-origin least-squares slope `Σ d_true d_cmd / Σ d_cmd²`
-//!    ([`speed_scale_least_squares`], still printed by `calibrate`). A
-//!    window's commanded distance is not what the robot did over that window
-//!    (command timing jitter, acceleration lag): `d_cmd = d* + u` with a
-//!    per-window error `u`. A slope of `y` on a noisy regressor is biased
+//!    *Why the turn term.* The true/commanded distance ratio of the 1 s
+//!    windows depends on how much the window turns (pooled; commanded
+//!    rotation `Σ|ω|dt`): below 0.02 rad (54 % of the commanded distance)
+//!    1.031, 0.02–0.1 rad 0.953, 0.1–0.25 rad 0.825, 0.25–0.5 rad 0.649 (the
+//!    Vicon path agrees within 0.013; `speed_scale_diagnosis` part 3b,
+//!    `docs/results/mrclam/speed_scale_diagnosis.md`). The robots drive
+//!    3 % faster than commanded straight ahead and much slower in turns, so
+//!    the single scale of the earlier rule (0.93) shortened every straight
+//!    stretch by ~10 % and lengthened every turn, which curls the
+//!    trajectory and shrinks the map. On Dataset 6 the fit gives `a` =
+//!    1.036, `b` = 1.107 s/rad (the Vicon path, sampled every 0.5 s, gives
+//!    1.037 and 1.075: the rule's windows are the calibration's, not the
+//!    path's).
+//!
+//!    *Why moment equations, not least squares.* A window's commanded
+//!    distance is not what the robot did over that window (command timing
+//!    jitter, acceleration lag): `d_cmd = d* + u` with a per-window error
+//!    `u`. A least-squares slope of `d_true` on the noisy regressor is biased
 //!    toward zero (errors in variables: it tends to
-//!    `k·Σd*² / (Σd*² + Σu²)`), and the bias shrinks as windows lengthen —
-//!    a one-off check had found the slope at 0.93, 0.941, 0.948, 0.956 over
-//!    1, 5, 10, 20 s windows. The ratio of sums has no such bias: for
-//!    `d_true = k·d* + e` with zero-mean `u` and `e` it tends to `k`
-//!    whatever their variances (a multiplicative bias is all it assumes), so
-//!    regressor noise cannot make it depend on the window length; `calibrate` prints both estimators at 1, 5, 10 and
-//!    20 s as the check. The windows stay 1 s long so that the along-track
-//!    error is a distance (at 1 s the chord of the true path is shorter
-//!    than the path by a negligible fraction; over long windows heading
-//!    errors rotate the along-track axis). This rule was chosen before any
-//!    filter or smoother was run with it.
+//!    `k·Σd*² / (Σd*² + Σu²)`), the more so the shorter the windows. Sums of
+//!    `d_true` and `d_cmd` weighted by instruments that do not depend on `u`
+//!    have no such bias: with `w = 1` alone and `b = 0` the fit is the
+//!    **ratio of sums** [`speed_scale_ratio_of_sums`] `= Σ d_true / Σ d_cmd`,
+//!    the constant scale of the rule from 2026-11-25 until the turn term
+//!    (before it, the through-origin slope [`speed_scale_least_squares`]).
+//!    `calibrate` still prints both at 1, 5, 10 and 20 s as checks:
+//!    pooled, 1 s windows, ratio of sums 0.934 (per robot 0.905–0.955),
+//!    slope 0.929.
 //!
-//!    *What Dataset 6 says* (`calibrate`, and the `speed_scale_diagnosis`
-//!    example, which uses nothing but the odometry and the Vicon track).
-//!    Pooled, 1 s windows: ratio of sums 0.934 (per robot 0.905–0.955),
-//!    least-squares slope 0.929: the attenuation at 1 s is 0.5 %, and the
-//!    constant stays 0.93. Over 5, 10, 20 s windows the ratio of sums is
-//!    0.940, 0.943, 0.945 (the slope 0.942, 0.947, 0.948): it too rises, but
-//!    not from regressor noise. Over a long window `d_cmd + along` is not a
-//!    distance: a scale error moves the end point by `(k − 1)` times the
-//!    **chord**, not the path, and the chord is 1.2, 2.9 and 7.5 % shorter
-//!    than the path over 5, 10 and 20 s (pulling `k − 1` toward 0: about
-//!    half of the rise); the commands' turn error (below) rotates the
-//!    predicted end frame and mixes cross-track into along-track error. The
-//!    Vicon path itself settles it: `Σ path / Σ d_cmd` over the same windows
-//!    is flat in `T` (path sampled
-//!    every 0.5 s: 0.9376, 0.9385, 0.9383, 0.9387 at 1, 5, 10, 20 s). Its
-//!    level depends on the sampling step below 0.2 s (Vicon jitter: a
-//!    parked robot "travels" 6 mm/s sampled at 0.02 s, 1.3 mm/s at 0.25 s,
-//!    0.5 mm/s at 1 s; 0.99 at 0.02 s, 0.957 at 0.1 s, 0.941 at 0.25 s), and
-//!    from 0.5 s up it bends only by curvature: the 1 s chord is 0.1 %
-//!    shorter than the path sampled every 0.5 s (0.9365 against 0.9376),
-//!    which is the chord-vs-arc shrinkage of the rule's 1 s windows:
-//!    negligible. The short windows are the right ones; the long ones are
-//!    biased toward 1. The true distance ratio lies between the rule's 0.934
-//!    and the path's 0.938: a larger single speed scale is not what the
-//!    MRCLAM maps, 4–7 % too small, need (the smoothed trajectories' length
-//!    over 1 s steps is already within 2 % of the truth on four robots of
-//!    five; see `docs/results/estimators.md`).
-//!
-//!    *Turning* (measured, not applied). The ratio depends on how much the
-//!    window turns (1 s windows, pooled; commanded rotation `Σ|ω|dt`):
-//!    below 0.02 rad (54 % of the commanded distance) 1.031, 0.02–0.1 rad
-//!    0.953, 0.1–0.25 rad 0.825, 0.25–0.5 rad 0.649 (the Vicon path agrees
-//!    within 0.013): the robots drive 3 % faster than commanded straight
-//!    ahead and much slower in turns, so the single scale 0.93 shortens
-//!    every straight stretch by ~10 % and lengthens every turn, which
-//!    curls the trajectory and shrinks the map. Fitted to
-//!    `v_true = v·(a − b·|ω|)` by the moment equations with the instruments
-//!    1 and the window's commanded rotation ([`turn_dependent_speed`],
-//!    printed by `calibrate`): `a` = 1.036, `b` = 1.107 s/rad on the rule's
-//!    windows (`d_true = d_cmd + along`), 1.037 and 1.075 on the Vicon path
-//!    (`speed_scale_diagnosis` part 3b). The command model has no such
-//!    term yet: adding one changes its form (and every MRCLAM table), a
-//!    decision left to a later change; what-ifs in
-//!    `docs/results/estimators.md`.
+//!    *Why 1 s windows.* At 1 s the along-track error is a distance (the
+//!    chord of the true path is 0.1 % shorter than the path sampled every
+//!    0.5 s). Over long windows `d_cmd + along` is not a distance: a scale
+//!    error moves the end point by `(k − 1)` times the **chord**, not the
+//!    path (1.2, 2.9 and 7.5 % shorter than the path over 5, 10, 20 s), and
+//!    the commands' turn error (below) rotates the predicted end frame,
+//!    which biases the long windows' ratio toward 1 (0.940, 0.943, 0.945
+//!    over 5, 10, 20 s). The Vicon path itself is flat in `T` (sampled
+//!    every 0.5 s: 0.9376, 0.9385, 0.9383, 0.9387 at 1, 5, 10, 20 s); below
+//!    0.2 s its level depends on the sampling step (Vicon jitter: a parked
+//!    robot "travels" 6 mm/s sampled at 0.02 s, 0.5 mm/s at 1 s).
 //!
 //!    *The turn rate* (not part of the command model, measured only): the
 //!    robots turn less than commanded. `Σ sgn(Δθ_cmd)·Δθ_true / Σ |Δθ_cmd|`
@@ -141,7 +125,8 @@
 //!    itself biased low where a window's turn is small and its sign
 //!    uncertain), so no turn scale is applied until a rule for it is
 //!    settled.
-//! 3. **Velocity noise.** The velocity model's noise is white (variances per
+//! 3. **Velocity noise**, on the runs corrected by the command model of
+//!    step 2. The velocity model's noise is white (variances per
 //!    one-second hold), but the real command error is not: with the
 //!    corrections above the heading error grows about like √T (white) but
 //!    the along-track error still grows faster. A white model can only match
@@ -154,11 +139,18 @@
 //!    T-second windows in which the robot was commanded to move (RMS, not
 //!    robust σ, for the same reason as the bearings); the α's are zero. Over
 //!    shorter horizons this overstates the drift (conservative), over longer
-//!    ones it understates it.
+//!    ones it understates it. With the turn-dependent speed the along-track
+//!    error is about half what it was with the constant scale (RMS per
+//!    one-second hold 0.0052 against 0.0104 m/s over 1 s windows, 0.011
+//!    against 0.020 over 16 s), so `σ_v_min` falls from 0.025 to 0.019 m/s;
+//!    the heading error, and `σ_ω_min`, are unchanged (the speed does not
+//!    turn the robot).
 //!
 //! [`interpolate_pose_with_max_gap`]: bearing_slam_io::mrclam::interpolate_pose_with_max_gap
 //! [`CALIBRATED_PARAMETERS`]: crate::real_data::CALIBRATED_PARAMETERS
 //! [`CommandModel`]: crate::real_data::CommandModel
+//! [`CommandModel::speed_scale`]: crate::real_data::CommandModel::speed_scale
+//! [`CommandModel::turn_slowdown_s_per_rad`]: crate::real_data::CommandModel::turn_slowdown_s_per_rad
 
 mod noise;
 pub mod residuals;
@@ -189,5 +181,6 @@ pub const BEARING_OUTLIER_RAD: f64 = 0.2;
 /// Range residuals larger than this are gross outliers, metres.
 pub const RANGE_OUTLIER_M: f64 = 1.0;
 
-/// The window of the command-model calibration (delay, speed scale), seconds.
+/// The window of the command-model calibration (delay, turn-dependent speed
+/// scale), seconds.
 pub const COMMAND_WINDOW_S: f64 = 1.0;

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 use std::path::Path;
 
 /// The window lengths at which [`calibrate_parameters`] reports both
-/// speed-scale estimators (the check that the rule does not depend on it),
+/// constant speed-scale estimators (the check that the rule does not depend on it),
 /// seconds.
 const SPEED_SCALE_CHECK_WINDOWS_S: [f64; 4] = [1.0, 5.0, 10.0, 20.0];
 
@@ -40,9 +40,12 @@ pub struct ParameterCalibration {
     /// Pooled RMS heading error of 1 s windows for each delay tried:
     /// `(delay_s, rms_rad)`.
     pub delay_scan: Vec<(f64, f64)>,
-    /// True/commanded distance per robot by the rule's estimator
-    /// ([`speed_scale_ratio_of_sums`] of the [`COMMAND_WINDOW_S`] windows
-    /// after the delay).
+    /// True/commanded distance pooled over the [`COMMAND_WINDOW_S`] windows
+    /// after the delay, by the constant-scale estimator
+    /// ([`speed_scale_ratio_of_sums`]; the rule's speed scale until
+    /// 2026-11-25, now a check beside the turn-dependent fit).
+    pub speed_ratio: f64,
+    /// The same ratio of sums per robot.
     pub speed_ratio_per_robot: Vec<f64>,
     /// The old speed-scale rule, for comparison: the through-origin
     /// least-squares slope ([`speed_scale_least_squares`]) of the same
@@ -51,9 +54,10 @@ pub struct ParameterCalibration {
     /// The same least-squares slope per robot.
     pub speed_scale_least_squares_per_robot: Vec<f64>,
     /// `(a, b)` of the speed model `v_true = v·(a − b·|ω|)` fitted to the
-    /// same 1 s windows after the delay ([`turn_dependent_speed`]): measured,
-    /// not applied (the command model has one speed scale).
-    pub turn_dependent_speed: Option<(f64, f64)>,
+    /// same 1 s windows after the delay ([`turn_dependent_speed`]): the
+    /// command model's [`CommandModel::speed_scale`] and
+    /// [`CommandModel::turn_slowdown_s_per_rad`] (unrounded).
+    pub turn_dependent_speed: (f64, f64),
     /// Both estimators pooled over windows of other lengths (after the
     /// delay): `(T, ratio of sums, least-squares slope, windows)`. A rule
     /// free of regressor noise gives about the same ratio at every `T`.
@@ -126,9 +130,9 @@ pub fn speed_scale_least_squares(windows: &[(f64, f64)]) -> Option<f64> {
     (xx > 0.0 && xx.is_finite() && xy.is_finite()).then(|| xy / xx)
 }
 
-/// The speed model `v_true = v·(a − b·|ω|)` fitted to `windows` (measured
-/// by [`calibrate_parameters`], not applied: the command model has one
-/// scale): `(a, b)` from the two moment equations
+/// The speed model `v_true = v·(a − b·|ω|)` fitted to `windows` (the
+/// command model's speed scale `a` and turn slowdown `b` by the rule of
+/// [`calibrate_parameters`]): `(a, b)` from the two moment equations
 /// `Σ w·(d_true − a·Σ|v|dt + b·Σ|v||ω|dt) = 0` with the instruments
 /// `w = 1` and `w = Σ|ω|dt` (`d_true = d_cmd + along`). Like the ratio of
 /// sums it is not attenuated by zero-mean errors of the commanded side that
@@ -313,10 +317,7 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
     let mut delay_scan = Vec::new();
     for k in 0..=10 {
         let delay = 0.05 * f64::from(k);
-        let command = CommandModel {
-            delay_s: delay,
-            speed_scale: 1.0,
-        };
+        let command = CommandModel::delay_only(delay);
         let mut windows = Vec::new();
         for run in &runs {
             windows.extend(moving_windows(
@@ -331,11 +332,10 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         .min_by(|a, b| a.1.total_cmp(&b.1))
         .map_or(0.0, |d| d.0);
 
-    // Speed scale: the ratio of sums (the least-squares slope for comparison).
-    let delayed = CommandModel {
-        delay_s,
-        speed_scale: 1.0,
-    };
+    // Speed: v·(a − b·|ω|) by the moment equations on the 1 s windows after
+    // the delay; the constant-scale estimators (ratio of sums, least-squares
+    // slope) are printed beside it.
+    let delayed = CommandModel::delay_only(delay_s);
     let delayed_runs: Vec<MrclamRun> = runs
         .iter()
         .map(|r| corrected(r, &delayed))
@@ -357,7 +357,7 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         .iter()
         .map(|p| speed_scale_least_squares(p).ok_or_else(no_motion))
         .collect::<Result<Vec<_>, _>>()?;
-    let speed_scale = speed_scale_ratio_of_sums(&pooled).ok_or_else(no_motion)?;
+    let speed_ratio = speed_scale_ratio_of_sums(&pooled).ok_or_else(no_motion)?;
     let least_squares = speed_scale_least_squares(&pooled).ok_or_else(no_motion)?;
     let mut delayed_windows = Vec::new();
     for run in &delayed_runs {
@@ -368,7 +368,8 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
                 .filter(is_moving),
         );
     }
-    let turn_speed = turn_dependent_speed(&delayed_windows);
+    let turn_speed = turn_dependent_speed(&delayed_windows)
+        .ok_or_else(|| calibration_error("the turn-dependent speed fit is singular"))?;
     let mut speed_scale_vs_window = Vec::new();
     for window in SPEED_SCALE_CHECK_WINDOWS_S {
         let pooled: Vec<(f64, f64)> = pairs_at(window)?.into_iter().flatten().collect();
@@ -381,8 +382,12 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
     }
     let command = CommandModel {
         delay_s,
-        speed_scale,
+        speed_scale: turn_speed.0,
+        turn_slowdown_s_per_rad: turn_speed.1,
     };
+    // A fit outside the model's range (a ≤ 0 or b < 0) is an error naming
+    // the parameter, not a silently clamped model.
+    command.validate()?;
     let fixed: Vec<MrclamRun> = runs
         .iter()
         .map(|r| corrected(r, &command))
@@ -436,6 +441,7 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         n_blind_stretches: gaps.len(),
         blind_time_fraction: blind_fraction,
         delay_scan,
+        speed_ratio,
         speed_ratio_per_robot,
         speed_scale_least_squares: least_squares,
         speed_scale_least_squares_per_robot,
@@ -478,9 +484,14 @@ pub fn comparison_table(rule: &FilterParameters) -> String {
         ),
         ("command delay [s]", rule.command.delay_s, k.command.delay_s),
         (
-            "speed scale",
+            "speed scale a (at ω = 0)",
             rule.command.speed_scale,
             k.command.speed_scale,
+        ),
+        (
+            "turn slowdown b [s/rad]",
+            rule.command.turn_slowdown_s_per_rad,
+            k.command.turn_slowdown_s_per_rad,
         ),
     ];
     let mut table =

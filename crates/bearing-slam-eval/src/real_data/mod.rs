@@ -18,13 +18,18 @@
 //!   [`CommandModel::delay_s`] later than its stamp (pooled RMS heading error
 //!   0.043 rad at 0 s, 0.026 rad at 0.25 s on Dataset 6). Every `Velocity`
 //!   event is moved later by the delay.
-//! * **Speed scale.** The robots drive slower than commanded (true/commanded
-//!   distance 0.905–0.955 per robot). Every commanded `v` is multiplied by
-//!   [`CommandModel::speed_scale`], the pooled ratio of sums of true to
-//!   commanded distance over 1 s windows (`Σ d_true / Σ d_cmd`: free of the
-//!   attenuation a least-squares slope suffers from the commanded
-//!   distance's own error). One number for all robots: the per-robot spread
-//!   is left to the noise.
+//! * **Turn-dependent speed.** The robots drive about 3 % faster than
+//!   commanded straight ahead and much slower in turns (true/commanded
+//!   distance of 1 s windows 1.031 below 0.02 rad of turn, 0.649 at
+//!   0.25–0.5 rad). Every commanded `v` is multiplied by
+//!   `max(0, a − b·|ω|)` of its own turn rate ω
+//!   ([`CommandModel::speed_factor`]: `a` = [`CommandModel::speed_scale`],
+//!   `b` = [`CommandModel::turn_slowdown_s_per_rad`]), fitted by moment
+//!   equations to the 1 s windows (free of the attenuation a least-squares
+//!   slope suffers from the commanded distance's own error). One model for
+//!   all robots: the per-robot spread is left to the noise. Until
+//!   2026-11-25 the model had one constant scale (0.93), which shortened the
+//!   straight stretches and curled the trajectories.
 //!
 //! Dead reckoning ([`Method::DeadReckoning`] and every
 //! [`RealDataResult::odometry_ate_rmse_m`]) integrates the same corrected

@@ -23,7 +23,7 @@ pub struct FilterParameters {
     pub range_sigma_m: f64,
     /// Velocity-model noise (variances per one-second hold).
     pub velocity_noise: VelocityNoise,
-    /// The command delay and speed scale.
+    /// The command delay and the turn-dependent speed scale.
     pub command: CommandModel,
     /// Probability of the χ² gate.
     pub gate_probability: f64,
@@ -34,27 +34,33 @@ pub struct FilterParameters {
 }
 
 /// The parameters [`calibrate_parameters`] derives from Dataset 6 by the rule
-/// of [`crate::calibration`], rounded to two significant digits (the output
-/// of `bearing-slam-eval calibrate`, copied here): time-weighted
+/// of [`crate::calibration`], rounded to two significant digits (the command
+/// model's speed terms to three; the output of `bearing-slam-eval calibrate`,
+/// copied here and in `docs/results/mrclam/calibration.txt`): time-weighted
 /// median blind stretch `T` = 27 s (258 stretches, 42 % of the time);
-/// delay 0.25 s (RMS 1 s heading error 0.043 → 0.026 rad); speed scale 0.93
-/// (ratio of sums of true to commanded distance over 1 s windows 0.934, per
-/// robot 0.905–0.955; the least-squares slope of the rule before 2026-11-25
-/// gave 0.929, the same constant); bearing `s` = 0.0124 rad, `ρ` = 0.64 over visits
-/// of `n` = 6 scans → ×1.74 → σ_z = 0.021 rad; range `s` = 0.17 m,
-/// `ρ` = 0.96 → ×2.36 → σ_r = 0.41 m; `σ_v_min` = 0.025 m/s,
-/// `σ_ω_min` = 0.039 rad/s (per one-second hold, matched at 27 s).
+/// delay 0.25 s (RMS 1 s heading error 0.043 → 0.026 rad); speed
+/// `v·max(0, a − b·|ω|)` with `a` = 1.04, `b` = 1.11 s/rad (moment fit on
+/// the 1 s windows after the delay: 1.0360, 1.1068; until 2026-11-25 one
+/// constant scale 0.93, the ratio of sums 0.934 of true to commanded
+/// distance, which the turn term replaces because that ratio falls from
+/// 1.03 on straight windows to 0.65 in turns); bearing `s` = 0.0124 rad,
+/// `ρ` = 0.64 over visits of `n` = 6 scans → ×1.74 → σ_z = 0.021 rad; range
+/// `s` = 0.17 m, `ρ` = 0.96 → ×2.36 → σ_r = 0.41 m; `σ_v_min` = 0.019 m/s
+/// (0.025 with the constant scale), `σ_ω_min` = 0.039 rad/s (per
+/// one-second hold, matched at 27 s on the runs corrected by this command
+/// model).
 pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
     bearing_sigma_rad: 0.021,
     range_sigma_m: 0.41,
     velocity_noise: VelocityNoise {
         alpha: [0.0; 6],
-        sigma_v_min: 0.025,
+        sigma_v_min: 0.019,
         sigma_omega_min: 0.039,
     },
     command: CommandModel {
         delay_s: 0.25,
-        speed_scale: 0.93,
+        speed_scale: 1.04,
+        turn_slowdown_s_per_rad: 1.11,
     },
     gate_probability: 0.999,
     triangulation: TriangulationConfig {

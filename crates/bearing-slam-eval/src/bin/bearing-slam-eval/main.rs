@@ -149,13 +149,15 @@ fn calibrate(data: &Path) -> Result<(), BoxError> {
             .collect::<Vec<_>>()
             .join(", ")
     );
-    if let Some((a, b)) = c.turn_dependent_speed {
-        println!(
-            "speed in turns (measured, not applied): v_true = v·(a − b·|ω|), \
-             a = {a:.4}, b = {b:.4} s/rad"
-        );
-    }
-    println!("| window (s) | ratio of sums (the rule) | least-squares slope | windows |");
+    let (a, b) = c.turn_dependent_speed;
+    println!(
+        "speed model (the rule, applied): v_true = v·(a − b·|ω|), a = {a:.4}, b = {b:.4} s/rad"
+    );
+    println!(
+        "constant speed scale, ratio of sums (the rule until 2026-11-25), 1 s windows: {:.4}",
+        c.speed_ratio
+    );
+    println!("| window (s) | ratio of sums | least-squares slope | windows |");
     println!("|---|---|---|---|");
     for (window, ratio, slope, n) in &c.speed_scale_vs_window {
         println!("| {window} | {ratio:.4} | {slope:.4} | {n} |");
