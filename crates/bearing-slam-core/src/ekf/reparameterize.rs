@@ -200,6 +200,27 @@ mod tests {
         Ekf::new(mean, &a * a.transpose() + DMatrix::identity(n, n)).unwrap()
     }
 
+    /// A Jacobian whose rows or columns do not match the blocks, or a block
+    /// that would grow, is refused by name and leaves the filter as it was.
+    #[test]
+    fn a_jacobian_of_the_wrong_shape_is_refused() {
+        let n = 12;
+        let cases = [
+            (DVector::from_element(2, 1.0), DMatrix::from_element(3, 4, 0.5)), // rows ≠ new
+            (DVector::from_element(2, 1.0), DMatrix::from_element(2, 3, 0.5)), // cols ≠ old
+            (DVector::from_element(5, 1.0), DMatrix::from_element(5, 4, 0.5)), // grows
+        ];
+        for (new_mean, jacobian) in &cases {
+            let mut ekf = filter(n);
+            let err = ekf.reparameterize(4, 4, new_mean, jacobian).unwrap_err();
+            assert!(
+                matches!(err, crate::error::SlamError::DimensionMismatch { .. }),
+                "{err:?}"
+            );
+            assert_eq!(ekf, filter(n));
+        }
+    }
+
     /// Three blocks shrunk out of offset order (one refused as non-finite)
     /// give the filter of one `reparameterize` after another, bit for bit.
     #[test]
