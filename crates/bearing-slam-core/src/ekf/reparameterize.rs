@@ -205,14 +205,15 @@ mod tests {
     #[test]
     fn a_jacobian_of_the_wrong_shape_is_refused() {
         let n = 12;
-        let cases = [
-            (DVector::from_element(2, 1.0), DMatrix::from_element(3, 4, 0.5)), // rows ≠ new
-            (DVector::from_element(2, 1.0), DMatrix::from_element(2, 3, 0.5)), // cols ≠ old
-            (DVector::from_element(5, 1.0), DMatrix::from_element(5, 4, 0.5)), // grows
-        ];
-        for (new_mean, jacobian) in &cases {
+        // (new length, Jacobian rows, Jacobian columns) for an old block of 4.
+        let cases = [(2, 3, 4), (2, 2, 3), (5, 5, 4)]; // rows ≠ new, cols ≠ old, grows
+        for (new_len, rows, cols) in cases {
+            let (new_mean, jacobian) = (
+                DVector::from_element(new_len, 1.0),
+                DMatrix::from_element(rows, cols, 0.5),
+            );
             let mut ekf = filter(n);
-            let err = ekf.reparameterize(4, 4, new_mean, jacobian).unwrap_err();
+            let err = ekf.reparameterize(4, 4, &new_mean, &jacobian).unwrap_err();
             assert!(
                 matches!(err, crate::error::SlamError::DimensionMismatch { .. }),
                 "{err:?}"
