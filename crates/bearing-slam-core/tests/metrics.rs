@@ -614,6 +614,10 @@ fn pose_nees_scoring_starts_at_the_floor_and_keeps_later_collapses() {
     // The one-sided 95 % quantile of χ²(3).
     assert!((s.bound - 7.814_727_903_251_178).abs() < 1e-9);
     assert_eq!(s.bound, pose_nees_bound().unwrap());
+    // Odd and two-element series: the middle value, the mean of the two.
+    let odd = NeesSummary::from_series(&[5.0, 1.0, 4.0, 2.0, 3.0]).unwrap();
+    assert_eq!(odd.median, 3.0);
+    assert_eq!(NeesSummary::from_series(&[2.0, 1.0]).unwrap().median, 1.5);
     let none = NeesSummary::from_series(&[f64::NAN]).unwrap();
     assert!(none.n_scored == 0 && none.mean.is_nan() && none.fraction_within_bound.is_nan());
 }

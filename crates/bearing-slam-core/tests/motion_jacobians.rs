@@ -552,6 +552,13 @@ fn sinc_series_and_closed_form_agree_at_the_switch() {
         assert_relative_eq!(d, (h * h.cos() - h.sin()) / (h * h), epsilon = 1e-10);
     }
     assert_eq!(sinc_with_derivative(0.0), (1.0, 0.0));
+    // Inside the switch the series is as good as the closed form there: at
+    // most 2 ulp apart (a wrong sign in its h⁶ term is 4 ulp off near 0.01).
+    for k in 0..=100 {
+        let h = 0.009 + 9.9e-6 * f64::from(k);
+        let (s, _) = sinc_with_derivative(h);
+        assert!((s - h.sin() / h).abs() <= 2.3e-16, "h = {h}: {s}");
+    }
     let (a, da) = sinc_with_derivative(1e-2 - 1e-15);
     let (b, db) = sinc_with_derivative(1e-2 + 1e-15);
     assert_relative_eq!(a, b, epsilon = 1e-15);
@@ -650,6 +657,15 @@ fn odometry_increment_special_cases() -> Result<()> {
     assert_eq!(inc.rot1, 0.0);
     assert_relative_eq!(inc.rot2, 1.0, epsilon = 1e-12);
     assert!(inc.trans.abs() < MIN_TRANSLATION_FOR_ROT1_M);
+    // Exactly the threshold is not "too short": a sideways step of it keeps
+    // its direction (δ_rot1 = π/2), it is not projected away on the heading.
+    let inc = OdometryIncrement::from_poses(
+        &Pose2::new(0.0, 0.0, 0.0),
+        &Pose2::new(0.0, MIN_TRANSLATION_FOR_ROT1_M, 0.0),
+    )?;
+    assert_relative_eq!(inc.rot1, PI / 2.0, epsilon = 1e-12);
+    assert_eq!(inc.trans, MIN_TRANSLATION_FOR_ROT1_M);
+    assert_relative_eq!(inc.rot2, -PI / 2.0, epsilon = 1e-12);
     // Forward: textbook values.
     let inc =
         OdometryIncrement::from_poses(&Pose2::new(0.0, 0.0, 0.0), &Pose2::new(1.0, 1.0, PI / 2.0))?;
