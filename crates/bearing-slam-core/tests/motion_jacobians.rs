@@ -657,6 +657,20 @@ fn odometry_increment_special_cases() -> Result<()> {
     assert_eq!(inc.rot1, 0.0);
     assert_relative_eq!(inc.rot2, 1.0, epsilon = 1e-12);
     assert!(inc.trans.abs() < MIN_TRANSLATION_FOR_ROT1_M);
+    // A short step along a heading off the x-axis projects whole: δ_trans
+    // is its length (both of the heading's components count).
+    let heading = 0.3_f64;
+    let step = 0.5 * MIN_TRANSLATION_FOR_ROT1_M;
+    let inc = OdometryIncrement::from_poses(
+        &Pose2::new(1.0, 1.0, heading),
+        &Pose2::new(
+            1.0 + step * heading.cos(),
+            1.0 + step * heading.sin(),
+            heading,
+        ),
+    )?;
+    assert_eq!(inc.rot1, 0.0);
+    assert_relative_eq!(inc.trans, step, max_relative = 1e-6);
     // Exactly the threshold is not "too short": a sideways step of it keeps
     // its direction (δ_rot1 = π/2), it is not projected away on the heading.
     let inc = OdometryIncrement::from_poses(
