@@ -189,12 +189,12 @@ def test_python_api() -> None:
     raw, _ = bs.load_mrclam(D6, 5, start=0.0, end=120.0)
     n = min(len(raw.velocity), len(log.velocity))
     assert n > 100
-    corrected, logged = log.velocity[:n], raw.velocity[:n]
-    assert corrected[:, 0] == pytest.approx(logged[:, 0] + command["delay_s"])
-    assert corrected[:, 2] == pytest.approx(logged[:, 2])
-    factor = np.maximum(0.0, a - b * np.abs(logged[:, 2]))
-    assert corrected[:, 1] == pytest.approx(logged[:, 1] * factor)
-    turning = (logged[:, 1] != 0.0) & (np.abs(logged[:, 2]) > 0.05)
+    corrected, raw_commands = log.velocity[:n], raw.velocity[:n]
+    assert corrected[:, 0] == pytest.approx(raw_commands[:, 0] + command["delay_s"])
+    assert corrected[:, 2] == pytest.approx(raw_commands[:, 2])
+    factor = np.maximum(0.0, a - b * np.abs(raw_commands[:, 2]))
+    assert corrected[:, 1] == pytest.approx(raw_commands[:, 1] * factor)
+    turning = (raw_commands[:, 1] != 0.0) & (np.abs(raw_commands[:, 2]) > 0.05)
     assert turning.any()
     assert (factor[turning] < a).all()
     dr = mrclam.evaluate(D6, 5, "dead-reckoning", start=0.0, end=120.0)
