@@ -73,8 +73,10 @@
 //!    (`d_true = d_cmd + along-track error`, the whole log pooled). `a` and
 //!    `b` are rounded to three significant digits in
 //!    [`CALIBRATED_PARAMETERS`]; a fit with `a ≤ 0` or `b < 0` is an error.
-//!    This rule (adopted 2026-11-25) was set from the odometry and the Vicon
-//!    track alone, before any filter or smoother was run with it.
+//!    The form and its fit (adopted 2026-11-25) come from the odometry and
+//!    the Vicon track alone; a what-if run of the smoother at the rounded
+//!    Vicon-path fit (1.04, 1.1) had been seen before it was adopted
+//!    (`docs/results/estimators.md`).
 //!
 //!    *Why the turn term.* The true/commanded distance ratio of the 1 s
 //!    windows depends on how much the window turns (pooled; commanded
