@@ -166,24 +166,31 @@ fn corrected(run: &MrclamRun, command: &CommandModel) -> Result<MrclamRun, SlamE
     Ok(out)
 }
 
-/// `(d_cmd, d_true = d_cmd + along)` of moving windows.
-fn distance_pairs(windows: &[(f64, f64, f64)]) -> Vec<(f64, f64)> {
+/// `(d_cmd, d_true = d_cmd + along)` of windows.
+fn distance_pairs(windows: &[MotionResidual]) -> Vec<(f64, f64)> {
     windows
         .iter()
-        .map(|&(along, _, dist)| (dist, dist + along))
+        .map(|r| (r.commanded_distance_m, r.commanded_distance_m + r.along_m))
         .collect()
 }
 
-/// Moving windows only: `(along, heading, commanded distance)` per window.
-fn moving_windows(run: &MrclamRun, window_s: f64) -> Result<Vec<(f64, f64, f64)>, SlamError> {
+/// The windows of `window_s` in which the robot was commanded to move.
+fn moving_residuals(run: &MrclamRun, window_s: f64) -> Result<Vec<MotionResidual>, SlamError> {
     Ok(
         motion_residuals(run, window_s, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?
             .0
             .into_iter()
             .filter(is_moving)
-            .map(|r| (r.along_m, r.heading_rad, r.commanded_distance_m))
             .collect(),
     )
+}
+
+/// Moving windows only: `(along, heading, commanded distance)` per window.
+fn moving_windows(run: &MrclamRun, window_s: f64) -> Result<Vec<(f64, f64, f64)>, SlamError> {
+    Ok(moving_residuals(run, window_s)?
+        .into_iter()
+        .map(|r| (r.along_m, r.heading_rad, r.commanded_distance_m))
+        .collect())
 }
 
 /// The RMS of one column of the windows (NaN for none) and their number.
@@ -343,10 +350,18 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
     let pairs_at = |window: f64| -> Result<Vec<Vec<(f64, f64)>>, SlamError> {
         delayed_runs
             .iter()
-            .map(|run| Ok(distance_pairs(&moving_windows(run, window)?)))
+            .map(|run| Ok(distance_pairs(&moving_residuals(run, window)?)))
             .collect()
     };
-    let per_robot = pairs_at(COMMAND_WINDOW_S)?;
+    // The 1 s windows of every robot, computed once for both fits.
+    let windows_per_robot: Vec<Vec<MotionResidual>> = delayed_runs
+        .iter()
+        .map(|run| moving_residuals(run, COMMAND_WINDOW_S))
+        .collect::<Result<_, _>>()?;
+    let per_robot: Vec<Vec<(f64, f64)>> = windows_per_robot
+        .iter()
+        .map(|w| distance_pairs(w))
+        .collect();
     let pooled: Vec<(f64, f64)> = per_robot.iter().flatten().copied().collect();
     let no_motion = || calibration_error("no moving window");
     let speed_ratio_per_robot = per_robot
@@ -359,15 +374,7 @@ pub fn calibrate_parameters(dataset_dir: &Path) -> Result<ParameterCalibration, 
         .collect::<Result<Vec<_>, _>>()?;
     let speed_ratio = speed_scale_ratio_of_sums(&pooled).ok_or_else(no_motion)?;
     let least_squares = speed_scale_least_squares(&pooled).ok_or_else(no_motion)?;
-    let mut delayed_windows = Vec::new();
-    for run in &delayed_runs {
-        delayed_windows.extend(
-            motion_residuals(run, COMMAND_WINDOW_S, DEFAULT_MAX_GROUND_TRUTH_GAP_S)?
-                .0
-                .into_iter()
-                .filter(is_moving),
-        );
-    }
+    let delayed_windows: Vec<MotionResidual> = windows_per_robot.into_iter().flatten().collect();
     let turn_speed = turn_dependent_speed(&delayed_windows)
         .ok_or_else(|| calibration_error("the turn-dependent speed fit is singular"))?;
     let mut speed_scale_vs_window = Vec::new();
