@@ -32,7 +32,7 @@
 //! ```
 
 use bearing_slam_core::geometry::wrap_angle;
-use bearing_slam_core::log::EventKind;
+use bearing_slam_eval::calibration::residuals::velocity_commands;
 use bearing_slam_eval::calibration::{
     MotionResidual, motion_residuals, speed_scale_least_squares, speed_scale_ratio_of_sums,
 };
@@ -73,15 +73,7 @@ struct PathWindow {
 /// Consecutive windows of `window_s` from the first command (as
 /// [`motion_residuals`]), moving ones only, compared with the Vicon path.
 fn path_windows(run: &MrclamRun, window_s: f64) -> Vec<PathWindow> {
-    let commands: Vec<(f64, f64, f64, f64)> = run
-        .log
-        .events
-        .iter()
-        .filter_map(|e| match e.kind {
-            EventKind::Velocity(c) => Some((e.time, c.v, c.omega, c.dt)),
-            _ => None,
-        })
-        .collect();
+    let commands = velocity_commands(run);
     let (Some(first), Some(last)) = (commands.first(), commands.last()) else {
         return Vec::new();
     };

@@ -78,6 +78,19 @@ pub fn bearing_residuals(run: &MrclamRun, max_gap_s: f64) -> (Vec<BearingResidua
     (out, skipped)
 }
 
+/// The run's velocity commands in log order, as `(time, v, ω, dt)`.
+#[must_use]
+pub fn velocity_commands(run: &MrclamRun) -> Vec<(f64, f64, f64, f64)> {
+    run.log
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Velocity(c) => Some((e.time, c.v, c.omega, c.dt)),
+            _ => None,
+        })
+        .collect()
+}
+
 /// The run's commands integrated over consecutive windows of `window_s`
 /// seconds from the true start pose, by the filter's own velocity model
 /// ([`VelocityModel::propagate`]: the exact arc, noise-free), and compared
@@ -95,15 +108,7 @@ pub fn motion_residuals(
 ) -> Result<(Vec<MotionResidual>, usize), SlamError> {
     // The mean motion does not depend on the noise: any valid one will do.
     let model = VelocityModel::new(CALIBRATED_PARAMETERS.velocity_noise)?;
-    let commands: Vec<(f64, f64, f64, f64)> = run
-        .log
-        .events
-        .iter()
-        .filter_map(|e| match e.kind {
-            EventKind::Velocity(c) => Some((e.time, c.v, c.omega, c.dt)),
-            _ => None,
-        })
-        .collect();
+    let commands = velocity_commands(run);
     let mut out = Vec::new();
     let mut skipped = 0;
     let (Some(first), Some(last)) = (commands.first(), commands.last()) else {
