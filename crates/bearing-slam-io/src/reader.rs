@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use bearing_slam_core::log::{Event, LandmarkTruth, LogInfo, SensorLog};
 use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamTrace, TimedSlamEvent};
-use mcap::records::Record;
+use mcap::records::{Record, op};
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use serde::de::DeserializeOwned;
 
@@ -329,7 +329,7 @@ impl Reader {
                     // The spec puts a header first. Without this check, zeros
                     // after the magic read as endless empty records of the
                     // (unknown) opcode 0, one per 9 bytes.
-                    if std::mem::take(&mut first_record) && opcode != mcap::records::op::HEADER {
+                    if std::mem::take(&mut first_record) && opcode != op::HEADER {
                         return Err(IoError::NotMcap {
                             path: self.path.clone(),
                             reason: format!(
@@ -337,6 +337,18 @@ impl Reader {
                                  (0x01): the file is corrupt"
                             ),
                         });
+                    }
+                    // Only the records this reader uses are parsed; the
+                    // linear reader has already checked every record's
+                    // framing. Parsing the rest would only add `mcap` 0.26's
+                    // bugs: an attachment shorter than its own header makes
+                    // `parse_record` slice out of bounds (`read.rs`, line 176;
+                    // found by the `mcap_truncated` fuzzer).
+                    if !matches!(
+                        opcode,
+                        op::SCHEMA | op::CHANNEL | op::MESSAGE | op::DATA_END
+                    ) {
+                        continue;
                     }
                     let record = match mcap::parse_record(opcode, data) {
                         Ok(r) => r,

@@ -194,3 +194,31 @@ fn a_chunk_record_longer_than_its_chunk_is_a_damaged_file_not_a_panic() {
         ),
     }
 }
+
+/// Found by the `mcap_truncated` fuzzer in CI (stop 26): an attachment record
+/// whose body is shorter than its own header made `mcap` 0.26's
+/// `parse_record` slice out of bounds (`read.rs`, line 176). The reader does
+/// not use attachments and no longer parses them.
+#[test]
+fn an_attachment_shorter_than_its_header_is_not_a_panic() {
+    // The magic and header record of the file above (8 + 1 + 8 + 29 bytes).
+    let mut bytes = CHUNK_RECORD_LONGER_THAN_CHUNK[..46].to_vec();
+    assert_eq!(bytes[21], 0x15, "the header's library string length");
+    // An attachment (opcode 0x09) of 32 zero bytes: the header alone (two
+    // times, two empty strings, the data length) is 32 bytes, so the crc
+    // that must follow does not fit.
+    bytes.push(0x09);
+    bytes.extend_from_slice(&32u64.to_le_bytes());
+    bytes.extend_from_slice(&[0; 32]);
+    let outcome = std::panic::catch_unwind(|| read_log_bytes(&bytes, "short_attachment.mcap"))
+        .expect("reading a short attachment must not panic");
+    match outcome {
+        Err(IoError::Mcap { .. }) => {}
+        Err(other) => panic!("unexpected error kind: {other:?}"),
+        Ok(run) => assert!(
+            !run.is_complete(),
+            "a file cut after an attachment cannot read as complete: {:?}",
+            run.completeness
+        ),
+    }
+}
