@@ -1,5 +1,6 @@
 //! How the encoder/truth agreement depends on the wheel sub-step count
-//! (stability check of the explicit wheel–ground coupling):
+//! (stability check of the explicit wheel–ground coupling; counts below
+//! the stability limit `RobotParams::max_stable_mu` are refused):
 //! `cargo run --release -p bearing-slam-sim --example substeps`.
 
 use bearing_slam_core::log::EventKind;
@@ -10,7 +11,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for slip in [false, true] {
             let mut s = Scenario::named("slip_patch", 0)?.with_slip(slip);
             s.robot.wheel_substeps = n;
-            let log = simulate(&s)?;
+            let log = match simulate(&s) {
+                Ok(log) => log,
+                Err(refused) => {
+                    println!("substeps {n:2} slip {slip:5}: {refused}");
+                    continue;
+                }
+            };
             let enc: f64 = log
                 .events
                 .iter()

@@ -71,8 +71,18 @@ impl Encoders {
     /// The tick count for a total wheel rotation `angle` (radians).
     #[must_use]
     pub fn ticks(&self, angle: f64) -> i64 {
-        // Saturating float → int conversion; angles stay far below i64 range.
+        // Saturating float → int conversion; the simulation stops with an
+        // error before an angle leaves the range of `can_count`.
         (angle / TAU * f64::from(self.params.ticks_per_rev)).floor() as i64
+    }
+
+    /// Whether a total wheel rotation `angle` (radians) has an exact tick
+    /// count (below 2⁵³ ticks either way, so that differences of counts
+    /// cannot overflow); false for NaN and infinities.
+    #[must_use]
+    pub fn can_count(&self, angle: f64) -> bool {
+        const MAX_TICKS: f64 = 9_007_199_254_740_992.0; // 2^53
+        (angle / TAU * f64::from(self.params.ticks_per_rev)).abs() < MAX_TICKS
     }
 
     /// Reads both encoders at total wheel rotations `angles = [left, right]`
@@ -105,6 +115,16 @@ mod tests {
     use super::*;
     use rand::SeedableRng;
     use rand::rngs::StdRng;
+
+    #[test]
+    fn only_angles_with_an_exact_tick_count_can_be_counted() {
+        let enc = Encoders::new(EncoderParams::default(), 0.035);
+        let per_tick = TAU / f64::from(EncoderParams::default().ticks_per_rev);
+        assert!(enc.can_count(0.0) && enc.can_count(-1e6) && enc.can_count(1e6));
+        assert!(enc.can_count(per_tick * 9.0e15) && enc.can_count(-per_tick * 9.0e15));
+        assert!(!enc.can_count(per_tick * 9.1e15) && !enc.can_count(-per_tick * 9.1e15));
+        assert!(!enc.can_count(f64::NAN) && !enc.can_count(f64::INFINITY));
+    }
 
     #[test]
     fn quantized_distances_sum_to_the_rotation() {

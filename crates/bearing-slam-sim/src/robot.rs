@@ -162,6 +162,28 @@ impl RobotParams {
         0.5 * self.mass_kg * GRAVITY * (1.0 - self.caster_load_share())
     }
 
+    /// Largest floor friction coefficient for which the explicit
+    /// wheel–ground integration of [`DriveTrain::integrate`] is stable at
+    /// `physics_hz` with [`Self::wheel_substeps`] sub-steps.
+    ///
+    /// Below `slip_epsilon_mps` the regularized Coulomb force is linear in
+    /// the slip velocity with slope `k = μ N / ε`. A wheel's slip then decays
+    /// at the rate `λ = k (r²/I_w + 1/m + (a/2)²/I_z)`: the wheel's spin, the
+    /// body's translation and its yaw all answer the contact force. Explicit
+    /// Euler with sub-step `h` is stable for `h λ < 2`. Beyond it the force
+    /// flips sign every sub-step: a bounded chatter that silently gives wrong
+    /// slip for a moderate μ, a blow-up for a huge one (the `scenario_json`
+    /// fuzzer's μ = 9e94 overflowed the encoder count).
+    #[must_use]
+    pub fn max_stable_mu(&self, physics_hz: f64) -> f64 {
+        let h = 1.0 / (physics_hz * f64::from(self.wheel_substeps.max(1)));
+        let half_base = 0.5 * self.wheel_base_m;
+        let inverse_mass = self.wheel_radius_m.powi(2) / self.wheel_inertia_kgm2
+            + 1.0 / self.mass_kg
+            + half_base * half_base / self.yaw_inertia_kgm2;
+        2.0 * self.slip_epsilon_mps / (h * self.wheel_load_n() * inverse_mass)
+    }
+
     /// Normal load on the caster, newtons.
     #[must_use]
     pub fn caster_load_n(&self) -> f64 {

@@ -312,6 +312,7 @@ impl Scenario {
         self.encoders.validate()?;
         self.sensor.validate()?;
         self.world.validate()?;
+        check_contact_stability(&self.robot, &self.world, self.slip, self.rates.physics_hz)?;
         self.variation.validate()?;
         self.clutter.validate()?;
         self.controller.validate()?;
@@ -494,6 +495,35 @@ const START_POSE_SIGMA: [f64; 3] = [0.02, 0.02, 0.017_453_292_519_943_295];
 /// The seeded spread of the slip patches' friction: σ of ln μ = 0.3 (ice at
 /// μ = 0.05 ranges over 0.037–0.067 at ±1σ).
 const SLIP_MU_LOG_SIGMA: f64 = 0.3;
+
+/// Refuses a floor whose friction makes the explicit wheel–ground
+/// integration unstable at this physics rate and sub-step count
+/// ([`RobotParams::max_stable_mu`]), naming the coefficient and the knob that
+/// allows it. Checked on the nominal world by [`Scenario::validate`] and on
+/// each run's drawn slip patches by [`crate::Simulation::new`].
+pub(crate) fn check_contact_stability(
+    robot: &RobotParams,
+    world: &WorldSpec,
+    slip: bool,
+    physics_hz: f64,
+) -> Result<()> {
+    let max_mu = robot.max_stable_mu(physics_hz);
+    for (name, mu) in world.friction_coefficients(slip) {
+        if mu > max_mu {
+            return Err(SimError::OutOfRange {
+                name,
+                value: mu,
+                allowed: format!(
+                    "at most {max_mu:.3} with robot.wheel_substeps = {} at rates.physics_hz = \
+                     {physics_hz}: the explicit wheel-ground integration is unstable beyond it \
+                     (raise robot.wheel_substeps)",
+                    robot.wheel_substeps
+                ),
+            });
+        }
+    }
+    Ok(())
+}
 
 fn lm(id: u64, x: f64, y: f64) -> LandmarkTruth {
     LandmarkTruth { id, x, y }

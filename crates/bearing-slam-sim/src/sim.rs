@@ -15,7 +15,9 @@ use crate::controller::{Command, CommandLimiter, Controller};
 use crate::encoders::Encoders;
 use crate::error::{Result, SimError};
 use crate::robot::DriveTrain;
-use crate::scenario::{STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario, stream_rng};
+use crate::scenario::{
+    STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario, check_contact_stability, stream_rng,
+};
 use crate::sensor::BearingSensor;
 use crate::world::PhysicsScene;
 use bearing_slam_core::Pose2;
@@ -75,6 +77,12 @@ impl Simulation {
         let max_steps = ((cap_s / dt_odo).ceil().max(1.0) as u64) * odometry_every;
         let pose = scenario.start_pose()?;
         let world = scenario.world_for_run()?;
+        check_contact_stability(
+            &scenario.robot,
+            &world,
+            scenario.slip,
+            scenario.rates.physics_hz,
+        )?;
         let landmarks = scenario.landmark_truth()?;
         let robot = scenario.robot.clone();
         let info = LogInfo {
@@ -324,6 +332,16 @@ impl Simulation {
             return Err(SimError::Diverged {
                 time,
                 what: "wheel forces",
+            });
+        }
+        let wheels = self.drive.wheels();
+        if wheels
+            .iter()
+            .any(|w| !w.omega.is_finite() || !self.encoders.can_count(w.angle))
+        {
+            return Err(SimError::Diverged {
+                time,
+                what: "wheel rotation (beyond what the encoders can count)",
             });
         }
         self.scene.apply(&forces);

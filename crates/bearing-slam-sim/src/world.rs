@@ -188,6 +188,26 @@ impl WorldSpec {
         Ok(())
     }
 
+    /// Every friction coefficient of the floor with the field it comes from
+    /// (`world.base_mu`, `world.patches[i].mu`, and `world.slip_patches[i].mu`
+    /// when `slip` is on).
+    pub fn friction_coefficients(&self, slip: bool) -> impl Iterator<Item = (String, f64)> + '_ {
+        let slip_patches: &[FrictionPatch] = if slip { &self.slip_patches } else { &[] };
+        std::iter::once(("world.base_mu".to_owned(), self.base_mu))
+            .chain(
+                self.patches
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| (format!("world.patches[{i}].mu"), p.mu())),
+            )
+            .chain(
+                slip_patches
+                    .iter()
+                    .enumerate()
+                    .map(|(i, p)| (format!("world.slip_patches[{i}].mu"), p.mu())),
+            )
+    }
+
     /// The friction map, with the slip patches when `slip` is on.
     #[must_use]
     pub fn friction_map(&self, slip: bool) -> FrictionMap {

@@ -218,3 +218,57 @@ fn every_named_scenario_is_within_the_bounds() {
         Scenario::named(name, 3).unwrap().validate().unwrap();
     }
 }
+
+/// Found by the `scenario_json` fuzzer (issue 20): `world.base_mu = 8.9e94`
+/// made the explicit wheel–ground integration blow up, and the encoder
+/// count overflowed (a panic in debug builds). Milder, `base_mu = 10` at the
+/// default rates chattered without a word and the robot never finished its
+/// path. The bound is the integration's stability limit
+/// (`RobotParams::max_stable_mu`), so a floor just inside it still runs
+/// the physics of the default floor.
+#[test]
+fn a_floor_too_stiff_for_the_wheel_substeps_is_refused_naming_the_knob() {
+    let fuzz_input = include_str!("../../../fuzz/seeds/scenario_json/regression-stiff-floor.json");
+    let error = Scenario::from_json_str(fuzz_input).expect_err("μ = 8.9e94");
+    assert!(matches!(error, SimError::OutOfRange { .. }), "{error}");
+    let default_limit = bearing_slam_sim::robot::RobotParams::default().max_stable_mu(200.0);
+    assert!(
+        (5.0..6.0).contains(&default_limit),
+        "the default robot at 200 Hz × 20 sub-steps: {default_limit}"
+    );
+    refused(
+        &toml("[world]\nbase_mu = 10.0", ""),
+        "world.base_mu",
+        "raise robot.wheel_substeps",
+    );
+    refused(
+        &toml(
+            "slip = true\n[world]\nslip_patches = [ { shape = \"circle\", center = [0.0, 0.0], radius = 1.0, mu = 6.0 } ]",
+            "",
+        ),
+        "world.slip_patches[0].mu",
+        "robot.wheel_substeps = 20",
+    );
+    // Fewer sub-steps lower the bound: the default floor (μ = 0.8) needs at
+    // least three at 200 Hz.
+    refused(
+        &toml("[robot]\nwheel_substeps = 2", ""),
+        "world.base_mu",
+        "robot.wheel_substeps = 2",
+    );
+    let end_pose = |mu: f64| {
+        let s = Scenario::from_toml_str(&toml(&format!("[world]\nbase_mu = {mu}"), "")).unwrap();
+        bearing_slam_sim::simulate(&s)
+            .unwrap()
+            .ground_truth()
+            .last()
+            .unwrap()
+            .1
+    };
+    let default_floor = end_pose(0.8);
+    let stiff_floor = end_pose(0.95 * default_limit);
+    assert!(
+        (default_floor.x - stiff_floor.x).hypot(default_floor.y - stiff_floor.y) < 0.01,
+        "{default_floor:?} vs {stiff_floor:?}"
+    );
+}
