@@ -23,7 +23,9 @@ fn assert_finite_state(slam: &BearingSlam) {
 
 /// `crash-88b59f46…` (slam_ops, found in the CI smoke): PI-SR with an
 /// inverse-depth prior of 1.7e-117 and a conversion threshold of 2.8e207, so
-/// the landmark is converted to a point at once, 1/ρ ≈ 6e116 m away.
+/// the landmark is converted to a point at once, 1/ρ ≈ 6e116 m away. Such a
+/// threshold is now refused (see the `crash-20b315b9…` test below); at the
+/// largest one allowed the landmark must still stay in inverse depth.
 #[test]
 fn a_landmark_at_a_vanishing_inverse_depth_is_not_converted_into_an_infinite_point() {
     let config = SlamConfig {
@@ -34,7 +36,7 @@ fn a_landmark_at_a_vanishing_inverse_depth_is_not_converted_into_an_infinite_poi
         bearing_sigma: 107.0 * 0.005,
         range_sigma: 107.0 * 0.05,
         gate_probability: Some(107.0 * 0.0079),
-        conversion_threshold: Some(2.817_009_055_122_276_2e209 * 0.01),
+        conversion_threshold: Some(bearing_slam_core::landmark::MAX_CONVERSION_THRESHOLD),
         covariance_update: CovarianceUpdate::Symmetric,
         ..SlamConfig::default()
     };
@@ -111,4 +113,168 @@ fn noise_and_priors_beyond_physical_sizes_are_refused_by_name() {
         assert!(err.to_string().contains(name), "{err}");
     }
     BearingSlam::new(prior(MAX_INVERSE_DEPTH, MAX_INVERSE_DEPTH)).unwrap();
+}
+
+/// One operation of the `slam_ops` fuzz target, as its `Debug` output shows
+/// it: a scan `Sight`ed from the current estimate at hidden landmarks on a
+/// 0.25 m grid, or a scan of given `Bearings`. Times are `step` after the
+/// last time.
+enum Scan {
+    Sight(f64, &'static [(u8, i8, i8, i8)]),
+    Bearings(f64, &'static [(u8, f64)]),
+}
+
+/// Replays `scans` as the fuzz target does, checking its invariants after
+/// every call that succeeds; returns the filter.
+fn replay(config: SlamConfig, scans: &[Scan]) -> BearingSlam {
+    let mut slam = BearingSlam::new(config).unwrap();
+    let mut time = 0.0_f64;
+    for scan in scans {
+        let (step, obs): (f64, Vec<(u64, f64)>) = match scan {
+            Scan::Sight(step, targets) => {
+                let pose = slam.pose();
+                let obs = targets
+                    .iter()
+                    .map(|&(id, x, y, noise)| {
+                        let dx = f64::from(x) * 0.25 - pose.x;
+                        let dy = f64::from(y) * 0.25 - pose.y;
+                        let z = dy.atan2(dx) - pose.theta + f64::from(noise) * 1e-4;
+                        (u64::from(id % 32), z)
+                    })
+                    .collect();
+                (*step, obs)
+            }
+            Scan::Bearings(step, obs) => (
+                *step,
+                obs.iter().map(|&(id, z)| (u64::from(id % 32), z)).collect(),
+            ),
+        };
+        let at = time + step;
+        if slam.update_bearings(at, &obs).is_ok() {
+            assert_finite_state(&slam);
+            let p = slam.ekf().covariance();
+            let scale = p.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
+            for i in 0..p.nrows() {
+                assert!(
+                    p[(i, i)] >= -1e-9 * scale,
+                    "negative variance P[{i},{i}] = {}",
+                    p[(i, i)]
+                );
+            }
+            time = slam.time().unwrap_or(at);
+        }
+    }
+    slam
+}
+
+/// `crash-20b315b9…` (slam_ops, a 5-minute run of 2026-11-25): PI-SR with
+/// ρ_ini = 1.6e-28 and a conversion threshold of 5.7e131. Landmarks ~1e28 m
+/// away were converted to points with variances near 1e110 beside the
+/// pose's 1e-4, and the next update's rounding gave a variance of −1.7e140.
+#[test]
+fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consistent() {
+    let config = |threshold: f64| SlamConfig {
+        initializer: InitializerConfig::pi_sr(InverseDepthPrior {
+            rho_ini: 1.628_381_746_901_222_5e-28,
+            sigma_rho: 48.0 * 0.05,
+        }),
+        bearing_sigma: 53.0 * 0.005,
+        range_sigma: 53.0 * 0.05,
+        conversion_threshold: Some(threshold),
+        covariance_update: CovarianceUpdate::Symmetric,
+        ..SlamConfig::default()
+    };
+    let error = BearingSlam::new(config(5.656_443_431_061_487e131))
+        .err()
+        .unwrap();
+    assert!(
+        error.to_string().contains("conversion_threshold"),
+        "{error}"
+    );
+    let b = |k: f64| k * 0.05;
+    const T77: (u8, i8, i8, i8) = (77, 77, 77, 77);
+    const F255: (u8, i8, i8, i8) = (255, -1, -1, -1);
+    let scans = [
+        Scan::Sight(b(-1.0), &[(168, -79, 71, 58)]),
+        Scan::Sight(
+            1.194_530_257_715_099_6e103,
+            &[
+                (0, 85, -108, 43),
+                (148, 107, 107, 107),
+                (107, 107, 107, 107),
+            ],
+        ),
+        Scan::Bearings(b(107.0), &[]),
+        Scan::Bearings(b(47.0), &[(42, 112.0 * 0.05), (64, 58.0 * 0.05)]),
+        Scan::Sight(
+            4.587_420_216_333_672_5e-120,
+            &[(107, 107, 107, 107), (47, 107, 107, 0)],
+        ),
+        Scan::Bearings(
+            b(107.0),
+            &[(107, -108.0 * 0.05), (38, 83.0 * 0.05), (255, 91.0 * 0.05)],
+        ),
+        Scan::Sight(
+            b(41.0),
+            &[(41, 1, 0, -41), (206, 107, 107, 107), (107, 107, 107, 107)],
+        ),
+        Scan::Bearings(b(111.0), &[]),
+        Scan::Bearings(
+            b(107.0),
+            &[
+                (107, 112.0 * 0.05),
+                (0, 107.0 * 0.05),
+                (107, -109.0 * 0.05),
+                (147, -2.271_524_849_433_554_7e-214),
+                (147, 2.816_941_646_607_429_4e209),
+                (107, 107.0 * 0.05),
+            ],
+        ),
+        Scan::Bearings(b(47.0), &[(255, 112.0 * 0.05), (64, 58.0 * 0.05)]),
+        Scan::Sight(
+            1.503_703_664_904_409_4e208,
+            &[(39, 47, -79, 107), (47, 107, 107, 0)],
+        ),
+        Scan::Bearings(b(-108.0), &[(38, 83.0 * 0.05), (255, 91.0 * 0.05)]),
+        Scan::Sight(
+            2.410_825_316_011_744_8e64,
+            &[
+                (77, 77, -1, -1),
+                F255,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                T77,
+                (77, -1, -1, -1),
+                F255,
+                F255,
+                F255,
+                F255,
+                F255,
+                F255,
+                F255,
+                F255,
+                (113, -52, 119, 107),
+                (112, 107, 0, 107),
+                (107, 107, 6, 107),
+                (255, -1, -1, -33),
+                F255,
+                (107, 111, 49, 107),
+            ],
+        ),
+        Scan::Bearings(b(47.0), &[]),
+        Scan::Bearings(b(107.0), &[(50, 0.0)]),
+    ];
+    // The largest threshold allowed replays the input without harm.
+    let slam = replay(
+        config(bearing_slam_core::landmark::MAX_CONVERSION_THRESHOLD),
+        &scans,
+    );
+    assert!(!slam.landmark_ids().is_empty());
 }

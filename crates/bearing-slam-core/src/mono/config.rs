@@ -8,6 +8,7 @@ use super::motion::ConstantVelocity;
 use super::ransac::OnePointRansac;
 use crate::error::{Result, SlamError, ensure_in_range, ensure_positive_noise};
 use crate::init::TriangulationConfig;
+use crate::landmark::MAX_CONVERSION_THRESHOLD;
 use nalgebra::{Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
@@ -118,7 +119,7 @@ impl MonoConfig {
             (
                 "linearity_threshold",
                 self.linearity_threshold,
-                self.linearity_threshold >= 0.0,
+                (0.0..=MAX_CONVERSION_THRESHOLD).contains(&self.linearity_threshold),
             ),
             (
                 "gate_probability",

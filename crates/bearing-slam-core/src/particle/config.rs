@@ -5,6 +5,7 @@ use super::landmark_ekf::SensorNoise;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig};
+use crate::landmark::MAX_CONVERSION_THRESHOLD;
 use serde::{Deserialize, Serialize};
 
 /// Which FastSLAM.
@@ -119,12 +120,12 @@ impl FastSlamConfig {
             }
         }
         if let Some(t) = self.conversion_threshold
-            && !(t > 0.0 && t.is_finite())
+            && !(t > 0.0 && t <= MAX_CONVERSION_THRESHOLD)
         {
             return Err(SlamError::InvalidParameter {
                 name: "conversion_threshold",
                 value: t,
-                reason: "must be positive",
+                reason: "must be in (0, 1] (a linearity index; Civera et al. use 0.1)",
             });
         }
         if !(self.resample_threshold > 0.0 && self.resample_threshold <= 1.0) {

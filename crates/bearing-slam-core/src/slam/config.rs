@@ -9,6 +9,7 @@ use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig};
+use crate::landmark::MAX_CONVERSION_THRESHOLD;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -285,12 +286,12 @@ impl SlamConfig {
             });
         }
         if let Some(t) = self.conversion_threshold
-            && !(t > 0.0 && t.is_finite())
+            && !(t > 0.0 && t <= MAX_CONVERSION_THRESHOLD)
         {
             return Err(SlamError::InvalidParameter {
                 name: "conversion_threshold",
                 value: t,
-                reason: "must be positive",
+                reason: "must be in (0, 1] (a linearity index; Civera et al. use 0.1)",
             });
         }
         match &self.initializer {
