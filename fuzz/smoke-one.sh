@@ -2,7 +2,8 @@
 # One fuzz target's CI smoke (called by `make fuzz-smoke`, from fuzz/):
 #   smoke-one.sh TARGET WORKDIR SECONDS TIMEOUT
 # Runs TARGET for SECONDS on its committed seeds in a throw-away corpus
-# under WORKDIR. On success prints libFuzzer's final statistics; on failure
+# under WORKDIR, with libFuzzer's random seed FUZZ_SEED when it is set (the
+# CI smoke fixes it, so a failure there replays with the same mutations). On success prints libFuzzer's final statistics; on failure
 # the panic or sanitizer report and cargo-fuzz's account of the failing
 # input (its Debug form and the command that reproduces it), then fails.
 set -uo pipefail
@@ -11,7 +12,7 @@ mkdir -p "$work/$target"
 log="$work/$target.log"
 if "${CARGO:-cargo}" +nightly fuzz run "$target" "$work/$target" "seeds/$target" -- \
 	-max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=4096 \
-	-print_final_stats=1 >"$log" 2>&1; then
+	-print_final_stats=1 ${FUZZ_SEED:+"-seed=$FUZZ_SEED"} >"$log" 2>&1; then
 	echo "fuzz smoke: $target ok"
 	grep -E '^(Done|stat::(number_of_executed_units|new_units_added))' "$log"
 	exit 0
