@@ -137,19 +137,34 @@ pub struct InverseRangeBearing {
     pub j_point_measurement: Matrix2<f64>,
 }
 
+/// Longest range a range-bearing measurement may report, metres (1000 km,
+/// beyond any range sensor a robot carries). A point placed farther by (7)
+/// gets a variance that swamps f64's digits beside the pose's (the
+/// `slam_ops` fuzzer's range of 8.5e136 m gave a variance of 3e272, then a
+/// negative one).
+pub const MAX_RANGE: f64 = 1e6;
+
+/// Returns `range` if it is a usable range-bearing range: positive, finite
+/// and at most [`MAX_RANGE`]; otherwise an error naming it.
+pub fn ensure_range(range: f64) -> Result<f64> {
+    if range > 0.0 && range <= MAX_RANGE {
+        Ok(range)
+    } else {
+        Err(SlamError::InvalidParameter {
+            name: "range",
+            value: range,
+            reason: "must be positive and at most 1e6 m (measurement::MAX_RANGE)",
+        })
+    }
+}
+
 /// Munguía & Grau (7): the point seen at range `r` and bearing `z` from `pose`.
 pub fn inverse_range_bearing(
     pose: &Vector3<f64>,
     range: f64,
     bearing: f64,
 ) -> Result<InverseRangeBearing> {
-    if !(range.is_finite() && range > 0.0) {
-        return Err(SlamError::InvalidParameter {
-            name: "range",
-            value: range,
-            reason: "must be positive and finite",
-        });
-    }
+    ensure_range(range)?;
     crate::error::ensure_finite("bearing", bearing)?;
     let m = unit_direction(pose.z + bearing);
     let dm = Vector2::new(-m.y, m.x);

@@ -116,24 +116,59 @@ fn noise_and_priors_beyond_physical_sizes_are_refused_by_name() {
 }
 
 /// One operation of the `slam_ops` fuzz target, as its `Debug` output shows
-/// it: a scan `Sight`ed from the current estimate at hidden landmarks on a
-/// 0.25 m grid, or a scan of given `Bearings`. Times are `step` after the
-/// last time.
-enum Scan {
+/// it, with its numbers already scaled: a velocity or wheel prediction, a
+/// scan `Sight`ed from the current estimate at hidden landmarks on a 0.25 m
+/// grid, or a scan of given bearings or range-bearings. Times are `step`
+/// after the last time.
+enum Op {
+    Velocity(f64, f64, f64, f64),
+    Wheels(f64, f64, f64),
     Sight(f64, &'static [(u8, i8, i8, i8)]),
     Bearings(f64, &'static [(u8, f64)]),
+    RangeBearings(f64, &'static [(u8, f64, f64)]),
 }
 
-/// Replays `scans` as the fuzz target does, checking its invariants after
-/// every call that succeeds; returns the filter.
-fn replay(config: SlamConfig, scans: &[Scan]) -> BearingSlam {
+/// Replays `ops` as the fuzz target does (its motion models, its time
+/// rule), checking its invariants after every call that succeeds; returns
+/// the filter.
+fn replay(config: SlamConfig, ops: &[Op]) -> BearingSlam {
+    use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
+    use bearing_slam_core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
+    let velocity = VelocityModel::new(VelocityNoise {
+        alpha: [0.05, 0.01, 0.01, 0.05, 0.01, 0.01],
+        sigma_v_min: 0.01,
+        sigma_omega_min: 0.01,
+    })
+    .unwrap();
+    let wheels = DiffDriveModel::new(
+        0.3,
+        WheelNoise {
+            floor_sigma_m: 1e-3,
+            scale_sqrt_m: 0.02,
+        },
+    )
+    .unwrap();
     let mut slam = BearingSlam::new(config).unwrap();
     let mut time = 0.0_f64;
-    for scan in scans {
-        let (step, obs): (f64, Vec<(u64, f64)>) = match scan {
-            Scan::Sight(step, targets) => {
+    for op in ops {
+        let (ok, at) = match *op {
+            Op::Velocity(step, v, omega, dt) => {
+                let control = VelocityOdometry { v, omega, dt };
+                (
+                    slam.predict(time + step, &velocity, &control).is_ok(),
+                    time + step,
+                )
+            }
+            Op::Wheels(step, left_m, right_m) => {
+                let control = WheelOdometry { left_m, right_m };
+                (
+                    slam.predict(time + step, &wheels, &control).is_ok(),
+                    time + step,
+                )
+            }
+            Op::Sight(step, targets) => {
                 let pose = slam.pose();
-                let obs = targets
+                let obs: Vec<(u64, f64)> = targets
                     .iter()
                     .map(|&(id, x, y, noise)| {
                         let dx = f64::from(x) * 0.25 - pose.x;
@@ -142,15 +177,25 @@ fn replay(config: SlamConfig, scans: &[Scan]) -> BearingSlam {
                         (u64::from(id % 32), z)
                     })
                     .collect();
-                (*step, obs)
+                (slam.update_bearings(time + step, &obs).is_ok(), time + step)
             }
-            Scan::Bearings(step, obs) => (
-                *step,
-                obs.iter().map(|&(id, z)| (u64::from(id % 32), z)).collect(),
-            ),
+            Op::Bearings(step, obs) => {
+                let obs: Vec<(u64, f64)> =
+                    obs.iter().map(|&(id, z)| (u64::from(id % 32), z)).collect();
+                (slam.update_bearings(time + step, &obs).is_ok(), time + step)
+            }
+            Op::RangeBearings(step, obs) => {
+                let obs: Vec<(u64, f64, f64)> = obs
+                    .iter()
+                    .map(|&(id, r, z)| (u64::from(id % 32), r, z))
+                    .collect();
+                (
+                    slam.update_range_bearings(time + step, &obs).is_ok(),
+                    time + step,
+                )
+            }
         };
-        let at = time + step;
-        if slam.update_bearings(at, &obs).is_ok() {
+        if ok {
             assert_finite_state(&slam);
             let p = slam.ekf().covariance();
             let scale = p.iter().fold(1.0_f64, |m, x| m.max(x.abs()));
@@ -195,8 +240,8 @@ fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consiste
     const T77: (u8, i8, i8, i8) = (77, 77, 77, 77);
     const F255: (u8, i8, i8, i8) = (255, -1, -1, -1);
     let scans = [
-        Scan::Sight(b(-1.0), &[(168, -79, 71, 58)]),
-        Scan::Sight(
+        Op::Sight(b(-1.0), &[(168, -79, 71, 58)]),
+        Op::Sight(
             1.194_530_257_715_099_6e103,
             &[
                 (0, 85, -108, 43),
@@ -204,22 +249,22 @@ fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consiste
                 (107, 107, 107, 107),
             ],
         ),
-        Scan::Bearings(b(107.0), &[]),
-        Scan::Bearings(b(47.0), &[(42, 112.0 * 0.05), (64, 58.0 * 0.05)]),
-        Scan::Sight(
+        Op::Bearings(b(107.0), &[]),
+        Op::Bearings(b(47.0), &[(42, 112.0 * 0.05), (64, 58.0 * 0.05)]),
+        Op::Sight(
             4.587_420_216_333_672_5e-120,
             &[(107, 107, 107, 107), (47, 107, 107, 0)],
         ),
-        Scan::Bearings(
+        Op::Bearings(
             b(107.0),
             &[(107, -108.0 * 0.05), (38, 83.0 * 0.05), (255, 91.0 * 0.05)],
         ),
-        Scan::Sight(
+        Op::Sight(
             b(41.0),
             &[(41, 1, 0, -41), (206, 107, 107, 107), (107, 107, 107, 107)],
         ),
-        Scan::Bearings(b(111.0), &[]),
-        Scan::Bearings(
+        Op::Bearings(b(111.0), &[]),
+        Op::Bearings(
             b(107.0),
             &[
                 (107, 112.0 * 0.05),
@@ -230,13 +275,13 @@ fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consiste
                 (107, 107.0 * 0.05),
             ],
         ),
-        Scan::Bearings(b(47.0), &[(255, 112.0 * 0.05), (64, 58.0 * 0.05)]),
-        Scan::Sight(
+        Op::Bearings(b(47.0), &[(255, 112.0 * 0.05), (64, 58.0 * 0.05)]),
+        Op::Sight(
             1.503_703_664_904_409_4e208,
             &[(39, 47, -79, 107), (47, 107, 107, 0)],
         ),
-        Scan::Bearings(b(-108.0), &[(38, 83.0 * 0.05), (255, 91.0 * 0.05)]),
-        Scan::Sight(
+        Op::Bearings(b(-108.0), &[(38, 83.0 * 0.05), (255, 91.0 * 0.05)]),
+        Op::Sight(
             2.410_825_316_011_744_8e64,
             &[
                 (77, 77, -1, -1),
@@ -268,13 +313,115 @@ fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consiste
                 (107, 111, 49, 107),
             ],
         ),
-        Scan::Bearings(b(47.0), &[]),
-        Scan::Bearings(b(107.0), &[(50, 0.0)]),
+        Op::Bearings(b(47.0), &[]),
+        Op::Bearings(b(107.0), &[(50, 0.0)]),
     ];
     // The largest threshold allowed replays the input without harm.
     let slam = replay(
         config(bearing_slam_core::landmark::MAX_CONVERSION_THRESHOLD),
         &scans,
     );
+    assert!(!slam.landmark_ids().is_empty());
+}
+
+/// `crash-7de3df45…` (slam_ops, a 10-minute run of 2026-11-25, after the
+/// fix above): a range-bearing measurement at 8.5e136 m placed a point with
+/// a variance near 3e272 beside the pose's, and a later update's rounding
+/// gave a variance of −9.6e271. Ranges beyond 1e6 m are refused by name,
+/// and an update that would turn a variance negative beyond rounding is
+/// refused (`NotPositiveDefinite`) with the filter unchanged.
+#[test]
+fn a_range_beyond_a_thousand_km_is_refused_and_the_fuzz_input_stays_consistent() {
+    let config = SlamConfig {
+        initializer: InitializerConfig::pi_sr(InverseDepthPrior {
+            rho_ini: 2.092_453_304_968_725e-110,
+            sigma_rho: 41.0 * 0.05,
+        }),
+        bearing_sigma: 41.0 * 0.005,
+        range_sigma: 41.0 * 0.05,
+        gate_probability: Some(107.0 * 0.0079),
+        conversion_threshold: None,
+        covariance_update: CovarianceUpdate::Symmetric,
+        ..SlamConfig::default()
+    };
+    let mut slam = BearingSlam::new(config.clone()).unwrap();
+    let error = slam
+        .update_range_bearings(1.0, &[(9, 8.537_506_901_813_635e136, 0.1)])
+        .unwrap_err();
+    assert!(error.to_string().contains("range"), "{error}");
+    slam.update_range_bearings(1.0, &[(9, bearing_slam_core::measurement::MAX_RANGE, 0.1)])
+        .unwrap();
+    let (s, v, w, d) = (0.05, 0.05, 0.02, 0.02);
+    const TINY: f64 = -2.271_524_849_433_572_4e-214;
+    let ops = [
+        Op::Bearings(
+            112.0 * s,
+            &[(64, 107.0 * 0.05), (107, 107.0 * 0.05), (107, 107.0 * 0.05)],
+        ),
+        Op::Velocity(126.0 * s, -128.0 * v, 39.0 * w, 107.0 * d),
+        Op::Velocity(
+            -1.347_655_509_433_809_9e28,
+            2.817_004_352_190_485e209,
+            47.0 * w,
+            64.0 * d,
+        ),
+        Op::Bearings(-126.0 * s, &[(41, 126.0 * 0.05)]),
+        Op::Sight(
+            4.587_420_216_333_32e-120,
+            &[(255, -1, 47, 107), (107, 107, 65, 85)],
+        ),
+        Op::Wheels(0.0, -41.0 * 0.01, 1.241_515_846_445_215_6e-70),
+        Op::Velocity(107.0 * s, 107.0 * v, 107.0 * w, 107.0 * d),
+        Op::Bearings(107.0 * s, &[]),
+        Op::Bearings(
+            TINY,
+            &[
+                (147, -2.271_524_849_433_554_7e-214),
+                (112, 107.0 * 0.05),
+                (47, 107.0 * 0.05),
+                (50, 107.0 * 0.05),
+                (107, 47.0 * 0.05),
+                (255, 112.0 * 0.05),
+                (64, 58.0 * 0.05),
+            ],
+        ),
+        Op::RangeBearings(
+            2.113_984_460_800_156_4e-110,
+            &[(41, 8.537_506_901_813_635e136, 91.0 * 0.05)],
+        ),
+        Op::Sight(
+            41.0 * s,
+            &[
+                (41, 1, 8, -41),
+                (206, 107, 63, 107),
+                (107, 107, 107, 107),
+                (112, 107, 0, 107),
+                (107, 107, 107, 107),
+                (111, 57, 107, 112),
+                (64, 107, 107, 107),
+                (107, 107, 107, 107),
+                (107, 107, 107, 112),
+                (0, 107, 0, 107),
+            ],
+        ),
+        Op::Bearings(
+            TINY,
+            &[
+                (147, -2.271_524_849_433_554_7e-214),
+                (112, 107.0 * 0.05),
+                (107, 107.0 * 0.05),
+            ],
+        ),
+        Op::Bearings(47.0 * s, &[(255, 112.0 * 0.05), (64, 58.0 * 0.05)]),
+        Op::RangeBearings(
+            2.113_984_460_800_156_4e-110,
+            &[
+                (41, 8.537_506_901_813_635e136, 93.0 * 0.05),
+                (93, 93.0 * 0.2, 93.0 * 0.05),
+                (168, 41.0 * 0.2, 41.0 * 0.05),
+            ],
+        ),
+    ];
+    let slam = replay(config, &ops);
     assert!(!slam.landmark_ids().is_empty());
 }

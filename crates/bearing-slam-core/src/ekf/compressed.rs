@@ -531,8 +531,12 @@ impl Ekf {
         let psi = &local.psi + g.transpose() * &s_inv_g;
         let t = g.transpose() * &s_inv_nu;
         let phi = &local.phi - &k_gain * &g;
+        let explained = &k_gain * c.transpose();
+        for s in 0..a {
+            super::update::check_variance_shrink(local.p_aa[(s, s)], explained[(s, s)])?;
+        }
         let p_aa = match self.covariance_update {
-            super::CovarianceUpdate::Symmetric => &local.p_aa - &k_gain * c.transpose(),
+            super::CovarianceUpdate::Symmetric => &local.p_aa - &explained,
             super::CovarianceUpdate::Joseph => {
                 let i_kh = DMatrix::identity(a, a) - &k_gain * &h;
                 &i_kh * &local.p_aa * i_kh.transpose() + &k_gain * &r_mat * k_gain.transpose()

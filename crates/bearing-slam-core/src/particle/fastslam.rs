@@ -592,13 +592,7 @@ fn check_scan(scan: &[BearingObservation], use_range: bool) -> Result<Vec<Observ
             let range = o.range.ok_or(SlamError::Mismatch(
                 "range-bearing update on a scan without ranges",
             ))?;
-            if !(range.is_finite() && range > 0.0) {
-                return Err(SlamError::InvalidParameter {
-                    name: "range",
-                    value: range,
-                    reason: "must be positive and finite",
-                });
-            }
+            crate::measurement::ensure_range(range)?;
             Ok(Observation::RangeBearing {
                 range,
                 bearing: o.bearing,

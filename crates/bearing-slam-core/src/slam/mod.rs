@@ -439,14 +439,7 @@ impl BearingSlam {
     ) -> Result<BatchReport> {
         for (i, &(id, r, z)) in observations.iter().enumerate() {
             ensure_bearing(z)?;
-            ensure_finite("range", r)?;
-            if r <= 0.0 {
-                return Err(SlamError::InvalidParameter {
-                    name: "range",
-                    value: r,
-                    reason: "must be positive",
-                });
-            }
+            crate::measurement::ensure_range(r)?;
             if observations[..i].iter().any(|&(other, _, _)| other == id) {
                 return Err(SlamError::DuplicateMeasurement(id));
             }

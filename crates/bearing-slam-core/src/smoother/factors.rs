@@ -262,7 +262,7 @@ impl RangeBearingFactor {
         range_sigma: f64,
         bearing_sigma: f64,
     ) -> Result<Self> {
-        ensure_finite("range", range)?;
+        crate::measurement::ensure_range(range)?;
         ensure_finite("bearing", bearing)?;
         ensure_positive_noise("range sigma", range_sigma)?;
         ensure_positive_noise("bearing sigma", bearing_sigma)?;
