@@ -680,3 +680,44 @@ fn debug_shows_the_state_and_the_update_forms() {
         assert!(text.contains(part), "{part} missing from {text}");
     }
 }
+
+/// An update that would shrink a variance by more than 1e12 (fewer than
+/// about four of f64's digits left) is refused before anything is written,
+/// in both update modes; a shrink of 1e10 goes through. The `slam_ops`
+/// fuzzer's far point (variance 3e273) is the extreme case of the first.
+#[test]
+fn an_update_past_f64s_resolution_of_a_variance_is_refused_and_writes_nothing() {
+    let direct = |noise: f64| LinearizedMeasurement {
+        innovation: DVector::from_element(1, 1.0),
+        noise: DMatrix::from_element(1, 1, noise),
+        blocks: vec![BlockJacobian {
+            offset: 0,
+            jacobian: DMatrix::from_element(1, 1, 1.0),
+        }],
+    };
+    for mode in [UpdateMode::Full, UpdateMode::Compressed] {
+        let make = || {
+            let cov = DMatrix::from_diagonal(&DVector::from_vec(vec![1e20, 1.0]));
+            Ekf::new(DVector::zeros(2), cov)
+                .expect("valid filter")
+                .with_update_mode(mode)
+        };
+        let mut ekf = make();
+        let before = ekf.clone();
+        // Posterior ≈ R = 1e6: a shrink of 1e14.
+        let error = ekf.update(&[direct(1e6)]).expect_err("shrink 1e14");
+        assert!(
+            matches!(error, SlamError::NotPositiveDefinite { .. }),
+            "{mode:?}: {error}"
+        );
+        assert_eq!(ekf, before, "{mode:?}: the filter changed");
+        // Posterior ≈ 1e10: a shrink of 1e10.
+        let mut ekf = make();
+        ekf.update(&[direct(1e10)]).expect("shrink 1e10");
+        let posterior = ekf.covariance()[(0, 0)];
+        assert!(
+            (posterior / 1e10 - 1.0).abs() < 1e-6,
+            "{mode:?}: {posterior}"
+        );
+    }
+}
