@@ -51,7 +51,8 @@ pub(crate) struct PyConfig {
     /// Mahalanobis gate probability, or None for no gate.
     #[pyo3(get, set)]
     pub gate_probability: Option<f64>,
-    /// Linearity-index threshold for inverse depth → Euclidean, or None.
+    /// Linearity-index threshold for inverse depth → Euclidean, in (0, 1]
+    /// (Civera et al. use 0.1), or None.
     #[pyo3(get, set)]
     pub conversion_threshold: Option<f64>,
     /// `"symmetric"` (default, the optimal-gain form) or `"joseph"`.
