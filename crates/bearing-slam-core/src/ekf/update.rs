@@ -196,7 +196,7 @@ fn solve_block<const W: usize>(
 
 /// Reusable scratch buffers of [`Ekf::update`] and [`Ekf::apply_prediction`],
 /// so that a step allocates nothing once the buffers have grown. Scratch only:
-/// a clone starts empty and equality ignores it.
+/// a clone starts empty, and `Ekf`'s equality does not look at it.
 #[derive(Default)]
 pub(super) struct Workspace {
     /// `C = P Hᵀ`, column-major N×m.
@@ -228,12 +228,6 @@ pub(super) struct Workspace {
 impl Clone for Workspace {
     fn clone(&self) -> Self {
         Self::default()
-    }
-}
-
-impl PartialEq for Workspace {
-    fn eq(&self, _: &Self) -> bool {
-        true
     }
 }
 
