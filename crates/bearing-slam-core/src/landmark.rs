@@ -70,9 +70,8 @@ pub fn inverse_depth_to_point(landmark: &Vector4<f64>) -> Result<InverseDepthPoi
 /// in `mono`). At 1 the ±2σ depth interval of a landmark seen head-on is
 /// already twice its distance, ten times Civera et al.'s 0.1. Beyond it a
 /// landmark near infinity is converted with a covariance that swamps f64's
-/// digits: the `slam_ops` fuzzer's ρ = 1.6e-28 put point variances near 1e110
-/// beside the pose's 1e-4, and the next update's rounding gave a variance of
-/// −1.7e140.
+/// digits: after the `slam_ops` fuzzer's ρ = 1.6e-28 was converted, the next
+/// update's rounding gave a variance of −1.7e137.
 pub const MAX_CONVERSION_THRESHOLD: f64 = 1.0;
 
 /// Civera et al.'s linearity index of the inverse-depth → depth mapping, in 2-D:

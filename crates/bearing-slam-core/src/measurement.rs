@@ -140,7 +140,7 @@ pub struct InverseRangeBearing {
 /// Longest range a range-bearing measurement may report, metres (1000 km,
 /// beyond any range sensor a robot carries). A point placed farther by (7)
 /// gets a variance that swamps f64's digits beside the pose's (the
-/// `slam_ops` fuzzer's range of 8.5e136 m gave a variance of 3e272, then a
+/// `slam_ops` fuzzer's range of 8.5e136 m gave a variance of 5e273, then a
 /// negative one).
 pub const MAX_RANGE: f64 = 1e6;
 

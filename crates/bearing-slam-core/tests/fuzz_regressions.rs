@@ -214,8 +214,9 @@ fn replay(config: SlamConfig, ops: &[Op]) -> BearingSlam {
 
 /// `crash-20b315b9…` (slam_ops, a 5-minute run of 2026-11-25): PI-SR with
 /// ρ_ini = 1.6e-28 and a conversion threshold of 5.7e131. Landmarks ~1e28 m
-/// away were converted to points with variances near 1e110 beside the
-/// pose's 1e-4, and the next update's rounding gave a variance of −1.7e140.
+/// away were converted to points with variances that swamped f64's
+/// resolution of the pose's, and the next update's rounding gave a variance
+/// of −1.7e137.
 #[test]
 fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consistent() {
     let config = |threshold: f64| SlamConfig {
@@ -326,8 +327,8 @@ fn a_conversion_threshold_above_one_is_refused_and_the_fuzz_input_stays_consiste
 
 /// `crash-7de3df45…` (slam_ops, a 10-minute run of 2026-11-25, after the
 /// fix above): a range-bearing measurement at 8.5e136 m placed a point with
-/// a variance near 3e272 beside the pose's, and a later update's rounding
-/// gave a variance of −9.6e271. Ranges beyond 1e6 m are refused by name,
+/// a variance near 5e273 beside the pose's, and a later update's rounding
+/// gave a variance of −9.6e257. Ranges beyond 1e6 m are refused by name,
 /// and an update that would turn a variance negative beyond rounding is
 /// refused (`NotPositiveDefinite`) with the filter unchanged.
 #[test]

@@ -389,7 +389,7 @@ impl Workspace {
     /// past [`MAX_VARIANCE_SHRINK`] what is left is rounding that later
     /// shows as negative variances. The `slam_ops` fuzzer found it: a point
     /// 8.5e136 m away with a variance of 3e273, measured again with a range
-    /// σ of 2 m, came out at −9.6e263. A state with zero prior variance has
+    /// σ of 2 m, came out at −9.6e257. A state with zero prior variance has
     /// a zero row in `C` and is skipped. Nothing has been written yet.
     #[inline(always)]
     fn check_posterior_variances(
