@@ -3,9 +3,10 @@
 #   smoke-one.sh TARGET WORKDIR SECONDS TIMEOUT
 # Runs TARGET for SECONDS on its committed seeds in a throw-away corpus
 # under WORKDIR, with libFuzzer's random seed FUZZ_SEED when it is set (the
-# CI smoke fixes it, so a failure there replays with the same mutations). On success prints libFuzzer's final statistics; on failure
-# the panic or sanitizer report and cargo-fuzz's account of the failing
-# input (its Debug form and the command that reproduces it), then fails.
+# CI smoke fixes it, so a failure there replays with the same mutations).
+# On success prints libFuzzer's final statistics; on failure the panic or
+# sanitizer report and cargo-fuzz's account of the failing input (its Debug
+# form and the command that reproduces it), then fails.
 set -uo pipefail
 target=$1 work=$2 seconds=$3 timeout=$4
 mkdir -p "$work/$target"

@@ -173,7 +173,7 @@ impl RobotParams {
     /// Euler with sub-step `h` is stable for `h λ < 2`. Beyond it the force
     /// flips sign every sub-step: a bounded chatter that silently gives wrong
     /// slip for a moderate μ, a blow-up for a huge one (the `scenario_json`
-    /// fuzzer's μ = 9e94 overflowed the encoder count).
+    /// fuzzer's μ = 8.9e94 overflowed the encoder count).
     #[must_use]
     pub fn max_stable_mu(&self, physics_hz: f64) -> f64 {
         let h = 1.0 / (physics_hz * f64::from(self.wheel_substeps.max(1)));
