@@ -238,21 +238,23 @@ fuzz-smoke: fuzz-setup
 # --- Mutation testing (cargo-mutants) of the estimator's core modules: the
 # EKF, landmark initialization, measurement and motion models, landmark
 # parameterizations and the metrics. Each mutant is built and the core's
-# tests run against it: hours for all ~1900 on two cores. MUTANTS_ARGS
-# passes more options (`--shard 0/20` for a sample, `--list` to count).
+# tests run against it: hours for all ~2300 on two cores. MUTANTS_JOBS
+# builds and tests that many mutants at once; MUTANTS_ARGS passes more options (`--sharding round-robin
+# --shard 0/40` for a sample, `--list` to count).
 MUTANTS_FILES := -f 'crates/bearing-slam-core/src/ekf/*.rs' \
 	-f crates/bearing-slam-core/src/init.rs \
 	-f crates/bearing-slam-core/src/measurement.rs \
 	-f 'crates/bearing-slam-core/src/motion/*.rs' \
 	-f crates/bearing-slam-core/src/landmark.rs \
 	-f crates/bearing-slam-core/src/metrics.rs
+MUTANTS_JOBS ?= 1
 MUTANTS_ARGS ?=
 
 .PHONY: mutants soak
 
 mutants:
 	@command -v cargo-mutants >/dev/null 2>&1 || $(CARGO) install cargo-mutants --locked
-	nice -n 10 $(CARGO) mutants -p bearing-slam-core --test-package bearing-slam-core -j 1 --profile mutants --gitignore true \
+	nice -n 10 $(CARGO) mutants -p bearing-slam-core --test-package bearing-slam-core -j $(MUTANTS_JOBS) --profile mutants --gitignore true \
 		$(MUTANTS_FILES) $(MUTANTS_ARGS)
 
 # Long runs (not in CI): 1e6 filter steps at a fixed state size with the

@@ -96,8 +96,8 @@ pub struct EstimatorConfig {
 
 /// The online smoother's window and solver: 50 poses, relinearized
 /// marginalization (no first-estimate Jacobians), Huber(2), 5 iterations
-/// per scan — the configuration `tests/smoother_run.rs` checks against the
-/// batch (within 1.3× its ATE).
+/// per scan — the configuration `tests/integration/smoother_run.rs` checks
+/// against the batch (within 1.3× its ATE).
 #[must_use]
 pub fn default_fixed_lag() -> FixedLagConfig {
     FixedLagConfig {

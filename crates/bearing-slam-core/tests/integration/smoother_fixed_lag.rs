@@ -3,7 +3,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod smoother_common;
+use super::smoother_common;
 
 use bearing_slam_core::smoother::{
     Factor, FixedLagConfig, FixedLagSmoother, Key, RobustKernel, SolveReport, SolverConfig,

@@ -4,8 +4,6 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod smoother_common;
-
 use bearing_slam_core::Pose2;
 use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam_core::measurement::bearing_to_point;

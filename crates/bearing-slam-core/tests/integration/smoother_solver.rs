@@ -4,7 +4,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod smoother_common;
+use super::smoother_common;
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::smoother::{
