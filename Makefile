@@ -174,6 +174,8 @@ bench-peers: develop $(BENCH_STAMP)
 # (committed, small). A crash stops the run and leaves the input in
 # fuzz/artifacts/TARGET/; replay it with
 # `cd fuzz && cargo +nightly fuzz run TARGET artifacts/TARGET/crash-...`.
+# The targets that read files (MRCLAM, KITTI) write them under TMPDIR, here
+# a throw-away directory: libFuzzer exits without running destructors.
 FUZZ_SECONDS ?= 600
 FUZZ_TIMEOUT ?= 10
 FUZZ_TARGETS := mcap_read mcap_truncated mrclam_barcodes mrclam_landmarks \
@@ -187,9 +189,10 @@ fuzz-setup:
 	@command -v cargo-fuzz >/dev/null 2>&1 || $(CARGO) install cargo-fuzz --locked
 
 fuzz: fuzz-setup
-	cd fuzz && for t in $(FUZZ_TARGETS); do \
+	cd fuzz && scratch=$$(mktemp -d) && trap 'rm -rf "$$scratch"' EXIT && \
+	for t in $(FUZZ_TARGETS); do \
 		mkdir -p corpus/$$t && \
-		$(CARGO) +nightly fuzz run $$t corpus/$$t seeds/$$t -- \
+		TMPDIR=$$scratch $(CARGO) +nightly fuzz run $$t corpus/$$t seeds/$$t -- \
 			-max_total_time=$(FUZZ_SECONDS) -timeout=$(FUZZ_TIMEOUT) -rss_limit_mb=4096 \
 			-print_final_stats=1 || exit 1; \
 	done

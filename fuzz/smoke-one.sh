@@ -6,10 +6,14 @@
 # CI smoke fixes it, so a failure there replays with the same mutations).
 # On success prints libFuzzer's final statistics; on failure the panic or
 # sanitizer report and cargo-fuzz's account of the failing input (its Debug
-# form and the command that reproduces it), then fails.
+# form and the command that reproduces it), then fails. The targets that
+# read files write them under TMPDIR, which points inside WORKDIR: libFuzzer
+# exits without running destructors, so they cannot clean up after
+# themselves.
 set -uo pipefail
 target=$1 work=$2 seconds=$3 timeout=$4
-mkdir -p "$work/$target"
+mkdir -p "$work/$target" "$work/$target.tmp"
+export TMPDIR="$work/$target.tmp"
 log="$work/$target.log"
 if "${CARGO:-cargo}" +nightly fuzz run "$target" "$work/$target" "seeds/$target" -- \
 	-max_total_time="$seconds" -timeout="$timeout" -rss_limit_mb=4096 \
