@@ -5,6 +5,7 @@
 
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::Pose2;
+use crate::measurement::ensure_range;
 use serde::{Deserialize, Serialize};
 
 /// The largest bearing magnitude a log or a scan may hold, radians (2π).
@@ -160,8 +161,11 @@ pub struct SensorLog {
 impl SensorLog {
     /// Checks that times are finite and non-decreasing, that every number
     /// in every event is finite, that every bearing lies within
-    /// ±[`MAX_ABS_BEARING_RAD`] and that every velocity command covers a
-    /// positive `dt`; names the first offending value.
+    /// ±[`MAX_ABS_BEARING_RAD`], that every range is positive and at most
+    /// [`MAX_RANGE`](crate::measurement::MAX_RANGE) (the filter's own bound,
+    /// so a log is refused when it is loaded, not at its first update) and
+    /// that every velocity command covers a positive `dt`; names the first
+    /// offending value.
     pub fn validate(&self) -> Result<()> {
         let mut previous = f64::NEG_INFINITY;
         for event in &self.events {
@@ -194,7 +198,7 @@ impl SensorLog {
                     for o in obs {
                         ensure_bearing(o.bearing)?;
                         if let Some(r) = o.range {
-                            ensure_finite("range", r)?;
+                            ensure_range(r)?;
                         }
                     }
                 }

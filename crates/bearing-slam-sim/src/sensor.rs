@@ -12,7 +12,7 @@
 //! (−π, π]; a noisy bearing that falls outside a cone-shaped field of view is
 //! not reported (the sensor cannot report what is outside its field). The range
 //! is the true one plus `N(0, (range_sigma_m + range_sigma_rel·d)²)`, clamped
-//! at zero.
+//! at [`MIN_REPORTED_RANGE`].
 
 use crate::error::{Result, check_non_negative, check_positive, check_probability, invalid};
 use bearing_slam_core::log::{BearingObservation, LandmarkTruth};
@@ -21,6 +21,10 @@ use rand::{Rng, RngExt};
 use rand_distr::{Distribution, StandardNormal};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, TAU};
+
+/// The smallest range the simulated sensor reports, metres: a noisy reading
+/// below it is reported as it, since a log's ranges must be positive ([`SensorLog::validate`](bearing_slam_core::log::SensorLog::validate)).
+pub const MIN_REPORTED_RANGE: f64 = 1e-3;
 
 /// Noise, field of view and reach of the bearing sensor.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -216,7 +220,8 @@ impl BearingSensor {
                     wrap_angle(true_bearing + p.bearing_sigma_rad * z)
                 };
             let zr: f64 = StandardNormal.sample(rng);
-            let noisy_range = (range + (p.range_sigma_m + p.range_sigma_rel * range) * zr).max(0.0);
+            let noisy_range = (range + (p.range_sigma_m + p.range_sigma_rel * range) * zr)
+                .max(MIN_REPORTED_RANGE);
             if !p.in_fov(bearing) {
                 continue;
             }
@@ -300,5 +305,30 @@ mod tests {
             obs.iter().map(|o| o.landmark_id).collect::<Vec<_>>(),
             vec![1, 3]
         );
+    }
+
+    #[test]
+    fn a_noisy_range_is_never_below_the_smallest_reported_range() {
+        // A landmark 0.1 m away with a 1 m range σ: about half the draws
+        // fall below zero.
+        let sensor = BearingSensor::new(SensorParams {
+            range_sigma_m: 1.0,
+            min_range_m: 0.0,
+            ..SensorParams::default()
+        });
+        let near = [LandmarkTruth {
+            id: 7,
+            x: 0.1,
+            y: 0.0,
+        }];
+        let mut rng = StdRng::seed_from_u64(11);
+        let ranges: Vec<f64> = (0..200)
+            .flat_map(|_| sensor.scan(&Pose2::default(), &near, |_, _, _| false, &mut rng))
+            .filter_map(|o| o.range)
+            .collect();
+        assert_eq!(ranges.len(), 200);
+        let clamped = ranges.iter().filter(|&&r| r == MIN_REPORTED_RANGE).count();
+        assert!(clamped > 50, "{clamped} of 200 clamped");
+        assert!(ranges.iter().all(|&r| r >= MIN_REPORTED_RANGE));
     }
 }

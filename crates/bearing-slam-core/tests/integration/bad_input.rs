@@ -1,7 +1,8 @@
 //! Bad input refused with a clear error instead of a silently wrong run
-//! (issue 20): bearings beyond one turn, velocity commands held for no time,
-//! a log whose odometry the configured model cannot use, and a filter that
-//! diverges flagged in its trace and summary.
+//! (issue 20): bearings beyond one turn, ranges the filter would refuse,
+//! velocity commands held for no time, a log whose odometry the configured
+//! model cannot use, and a filter that diverges flagged in its trace and
+//! summary.
 
 // Tests may unwrap: a panic is a test failure with a message.
 #![allow(clippy::unwrap_used)]
@@ -58,6 +59,36 @@ fn a_bearing_beyond_one_turn_is_refused_by_validation_and_by_run() {
     // Bearings within one turn either way (sensors in [0, 2π) too) stay valid.
     for good in [6.2, -6.2, std::f64::consts::PI, -std::f64::consts::TAU] {
         with_bearing(fig4_log(), 10, good).validate().unwrap();
+    }
+}
+
+/// The log with the range of the first observation of the `scan`-th scan set to `range`.
+fn with_range(mut log: SensorLog, scan: usize, range: f64) -> SensorLog {
+    let event = log
+        .events
+        .iter_mut()
+        .filter(|e| matches!(e.kind, EventKind::Bearings(ref s) if !s.is_empty()))
+        .nth(scan)
+        .unwrap();
+    let EventKind::Bearings(obs) = &mut event.kind else {
+        unreachable!()
+    };
+    obs[0].range = Some(range);
+    log
+}
+
+#[test]
+fn a_range_the_filter_would_refuse_is_refused_when_the_log_is_validated() {
+    use bearing_slam_core::measurement::MAX_RANGE;
+    for bad in [0.0, -2.0, 1.5 * MAX_RANGE, f64::INFINITY, f64::NAN] {
+        let err = with_range(fig4_log(), 10, bad).validate().unwrap_err();
+        assert!(
+            matches!(err, SlamError::InvalidParameter { name: "range", .. }),
+            "{bad}: {err}"
+        );
+    }
+    for good in [1e-3, 4.0, MAX_RANGE] {
+        with_range(fig4_log(), 10, good).validate().unwrap();
     }
 }
 
