@@ -640,6 +640,52 @@ fn augment_grows_the_storage_geometrically() {
     assert_eq!(ekf.covariance().nrows(), 9);
 }
 
+/// Each growth of the storage is exactly the documented one, `max(N + extra,
+/// 1.5 cap)`: geometric, so the copies amortize, and never more than that,
+/// so a long run does not hold more memory than 1.5× its state needs (the
+/// mutation run of the session-13 half found the upper bound unchecked).
+#[test]
+fn each_growth_of_the_storage_is_max_of_the_need_and_one_and_a_half_times() {
+    let mut ekf = random_filter(3, 70);
+    for extra in [2usize, 2, 7, 1, 30, 2, 2, 2] {
+        for _ in 0..12 {
+            let (n, ld) = (ekf.dim(), ekf.cov.nrows());
+            ekf.augment(
+                &DVector::zeros(extra),
+                &[BlockJacobian {
+                    offset: 0,
+                    jacobian: DMatrix::from_element(extra, 3, 0.1),
+                }],
+                &DMatrix::identity(extra, extra),
+            )
+            .expect("augments");
+            let expected = if n + extra <= ld {
+                ld
+            } else {
+                (n + extra).max(ld + ld / 2)
+            };
+            assert_eq!(ekf.cov.nrows(), expected, "n {n}, extra {extra}, ld {ld}");
+        }
+    }
+}
+
+/// `Ekf::new` keeps the symmetric part of a covariance that is symmetric
+/// only to rounding, not one of its triangles (a mutation run found the
+/// averaging unchecked).
+#[test]
+fn a_covariance_symmetric_to_rounding_enters_as_its_symmetric_part() {
+    let mut cov = DMatrix::<f64>::identity(4, 4) * 2.0;
+    cov[(1, 0)] = 0.3;
+    cov[(0, 1)] = 0.3 + 1e-12;
+    cov[(3, 2)] = -0.5 - 4e-12;
+    cov[(2, 3)] = -0.5;
+    let ekf = Ekf::new(DVector::zeros(4), cov.clone()).expect("symmetric to 1e-9");
+    let symmetric = 0.5 * (&cov + cov.transpose());
+    assert_eq!(ekf.covariance(), symmetric);
+    assert_eq!(ekf.covariance_entry(0, 1), symmetric[(1, 0)]);
+    assert_eq!(ekf.covariance_entry(2, 3), symmetric[(3, 2)]);
+}
+
 /// Equality ignores the unspecified upper triangle of the storage.
 #[test]
 fn equality_ignores_the_stored_upper_triangle() {
