@@ -522,10 +522,20 @@ mod tests {
         assert_eq!((prior.rho_ini, prior.sigma_rho), (0.25, 0.125));
         assert_eq!(prior.rho_ini + 2.0 * prior.sigma_rho, 0.5);
         assert_eq!(prior.rho_ini - 2.0 * prior.sigma_rho, 0.0);
+        // Refused by the depth's own name, not by whatever prior it would
+        // give (a zero depth would give ρ_ini = ∞; a mutation run found the
+        // name unchecked).
         for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+            let err = InverseDepthPrior::covering_depths_from(bad).expect_err("refused");
             assert!(
-                InverseDepthPrior::covering_depths_from(bad).is_err(),
-                "{bad}"
+                matches!(
+                    err,
+                    SlamError::InvalidParameter {
+                        name: "min_depth",
+                        ..
+                    }
+                ),
+                "{bad}: {err}"
             );
         }
     }
