@@ -269,7 +269,7 @@ pub struct TriangulationConfig {
     pub beta_min: f64,
     /// Candidates not seen for this long are dropped, seconds.
     pub candidate_timeout: f64,
-    /// A triangulated landmark nearer than this to the sensor is not believed
+    /// A triangulated landmark at or nearer than this to the sensor is not believed
     /// (rays crossing almost at the robot: ρ and its Jacobian blow up as the
     /// first ray aligns with the baseline); the candidate restarts. Metres.
     pub min_depth: f64,
@@ -481,7 +481,7 @@ pub enum CandidateDecision {
     Triangulate,
     /// Long baseline, still no parallax, not straight ahead: a far landmark (24).
     Far,
-    /// `α > α_min` but the rays diverge, or cross nearer than `min_depth` (an
+    /// `α > α_min` but the rays diverge, or cross at or nearer than `min_depth` (an
     /// outlier or a wrong first bearing): restart the candidate from this sighting.
     Restart,
 }
@@ -511,32 +511,5 @@ pub fn decide(
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn prior_covering_depths_follows_the_heuristic() {
-        // d_min = 2 m: ρ_max = 0.5, so ρ_ini = 0.25 and σ_ρ = 0.125; the 95 %
-        // region ρ_ini ± 2σ_ρ is exactly [0, ρ_max], i.e. depths [2 m, ∞).
-        let prior = InverseDepthPrior::covering_depths_from(2.0).expect("valid depth");
-        assert_eq!((prior.rho_ini, prior.sigma_rho), (0.25, 0.125));
-        assert_eq!(prior.rho_ini + 2.0 * prior.sigma_rho, 0.5);
-        assert_eq!(prior.rho_ini - 2.0 * prior.sigma_rho, 0.0);
-        // Refused by the depth's own name, not by whatever prior it would
-        // give (a zero depth would give ρ_ini = ∞; a mutation run found the
-        // name unchecked).
-        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
-            let err = InverseDepthPrior::covering_depths_from(bad).expect_err("refused");
-            assert!(
-                matches!(
-                    err,
-                    SlamError::InvalidParameter {
-                        name: "min_depth",
-                        ..
-                    }
-                ),
-                "{bad}: {err}"
-            );
-        }
-    }
-}
+#[path = "init_tests.rs"]
+mod tests;
