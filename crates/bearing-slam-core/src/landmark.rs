@@ -103,3 +103,35 @@ pub fn linearity_index(
     let cos_alpha = unit_direction(landmark[2]).dot(&sight) / d1;
     Ok(4.0 * sigma_d * cos_alpha.abs() / d1)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `L = 4 σ_d |cos α| / d₁` for a point 10 m out along its ray with
+    /// σ_d = 1 m, seen along the ray, at 53° to it and side-on (a mutation
+    /// run found the `|cos α|` factor untested).
+    #[test]
+    fn the_linearity_index_follows_civera_s_formula() {
+        // Anchor at the origin, ray along +x, ρ = 0.1: the point (10, 0);
+        // σ_ρ = 0.01 gives σ_d = σ_ρ/ρ² = 1 m.
+        let landmark = Vector4::new(0.0, 0.0, 0.0, 0.1);
+        let index =
+            |sensor: Vector2<f64>| linearity_index(&landmark, 1e-4, &sensor).expect("valid");
+        // From the anchor: d₁ = 10, cos α = 1.
+        assert!((index(Vector2::new(0.0, 0.0)) - 0.4).abs() < 1e-12);
+        // From (4, −8): sight (6, 8), d₁ = 10, cos α = 0.6.
+        assert!((index(Vector2::new(4.0, -8.0)) - 0.24).abs() < 1e-12);
+        // Side-on from (10, −10): cos α = 0, the depth error does not matter.
+        assert!(index(Vector2::new(10.0, -10.0)).abs() < 1e-12);
+
+        assert!(matches!(
+            linearity_index(&landmark, -1e-4, &Vector2::zeros()),
+            Err(SlamError::InvalidNoise { .. })
+        ));
+        assert!(matches!(
+            linearity_index(&landmark, 1e-4, &Vector2::new(10.0, 0.0)),
+            Err(SlamError::Degenerate(_))
+        ));
+    }
+}
