@@ -19,12 +19,14 @@
 //! speed scale `a` and turn slowdown `b` (each speed becomes
 //! `v·max(0, a − b·|ω|)`; `TURN_SPEED=0.93,0` is the constant scale used
 //! until 2026-11-25). `SIGMA_V_MIN` (a what-if) replaces the velocity
-//! noise's speed floor `σ_v_min` (m/s per one-second hold).
+//! noise's speed floor `σ_v_min` (m/s per one-second hold). `ONLINE=1`
+//! adds the online smoother (`filter+smoother`) with its two windows: the
+//! per-scan default and the keyframe window of `KeyframeRule::default()`.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
-use bearing_slam_core::smoother::UnmappedTriangulation;
+use bearing_slam_core::smoother::{KeyframeRule, UnmappedTriangulation};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
     Anchor, CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, evaluate_run_anchored,
@@ -83,11 +85,18 @@ fn main() -> Result<(), BoxError> {
         });
         e
     };
-    let estimators = [
+    let mut estimators = vec![
         ("filter", EstimatorConfig::default()),
         ("smoother, filter's landmarks", smoother(false)),
         ("smoother + triangulated", smoother(true)),
     ];
+    if std::env::var_os("ONLINE").is_some() {
+        let online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+        let mut keyframes = online;
+        keyframes.smoother.keyframes = Some(KeyframeRule::default());
+        estimators.push(("filter+smoother, per-scan window", online));
+        estimators.push(("filter+smoother, keyframe window", keyframes));
+    }
     println!(
         "| dataset | robot | estimator | ATE m | landmarks | raw / aligned landmark RMSE m | NEES in 95 % |"
     );
