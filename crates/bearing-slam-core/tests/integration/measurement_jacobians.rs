@@ -2,6 +2,7 @@
 //! the inverse-depth conversion against central differences, over random
 //! inputs and the hard regions (heading near ±π, ρ → 0, small parallax).
 
+use bearing_slam_core::SlamError;
 use bearing_slam_core::init::{
     Candidate, pi_sr, triangulate_candidate, triangulated_inverse_depth,
 };
@@ -208,4 +209,28 @@ fn degenerate_geometry_is_an_error_not_a_panic() {
     assert!(inverse_range_bearing(&v, -1.0, 0.0).is_err());
     assert!(inverse_range_bearing(&v, 1.0, f64::NAN).is_err());
     assert!(pi_sr(&v, f64::INFINITY, 0.5).is_err());
+}
+
+/// Two-bearing triangulation (10) refuses rays that meet behind either
+/// sensor, not only behind both (a mutation run found `||` → `&&`
+/// unnoticed).
+#[test]
+fn triangulation_refuses_rays_meeting_behind_one_sensor() {
+    let first = Vector3::new(0.0, 0.0, 0.0);
+    let second = Vector3::new(4.0, 0.0, 0.0);
+    // In front of both: the point (2, 2).
+    let t = triangulate(&first, PI / 4.0, &second, 3.0 * PI / 4.0).expect("meets in front");
+    assert!((t.point - Vector2::new(2.0, 2.0)).norm() < 1e-12);
+    // The point (6, 2) is ahead of the first pose's ray, but the second
+    // ray points away from it, so the lines cross behind the second pose.
+    let away = (2.0f64).atan2(2.0) + PI;
+    assert!(matches!(
+        triangulate(&first, (2.0f64).atan2(6.0), &second, away),
+        Err(SlamError::Degenerate(_))
+    ));
+    // The same rays with the poses swapped: behind the first pose only.
+    assert!(matches!(
+        triangulate(&second, away, &first, (2.0f64).atan2(6.0)),
+        Err(SlamError::Degenerate(_))
+    ));
 }

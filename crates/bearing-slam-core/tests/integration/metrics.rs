@@ -621,3 +621,16 @@ fn pose_nees_scoring_starts_at_the_floor_and_keeps_later_collapses() {
     let none = NeesSummary::from_series(&[f64::NAN]).unwrap();
     assert!(none.n_scored == 0 && none.mean.is_nan() && none.fraction_within_bound.is_nan());
 }
+
+/// An estimate turned by exactly a quarter turn (`Σ e·g = 0` to the last
+/// bit) is aligned by that quarter turn, not taken as undetermined (a
+/// mutation run found the `cross == 0 && dot == 0` special case untested).
+#[test]
+fn a_quarter_turn_is_recovered_exactly() {
+    let truth = vec![Pose2::new(1.0, 0.0, 0.0), Pose2::new(-1.0, 0.0, 0.0)];
+    let est = vec![Pose2::new(0.0, 1.0, 0.0), Pose2::new(0.0, -1.0, 0.0)];
+    let a = align_se2(&est, &truth).unwrap();
+    assert_relative_eq!(a.theta, -std::f64::consts::FRAC_PI_2, epsilon = 1e-15);
+    let r = ate(&est, &truth, Alignment::Se2).unwrap();
+    assert_relative_eq!(r.rmse_m, 0.0, epsilon = 1e-12);
+}
