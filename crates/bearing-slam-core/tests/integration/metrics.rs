@@ -564,6 +564,10 @@ fn bad_inputs_are_errors() {
     let s = ConsistencyStats::from_averaged(&[0.5, 1.5, 2.5, 1.0, 2.0], 1.0, 2.0).unwrap();
     assert_eq!((s.inside, s.below, s.above), (3, 1, 1));
     assert_relative_eq!(s.fraction_inside(), 0.6);
+    // Below means strictly below the lower bound, however far (a mutation
+    // run found `v < lower` → `v == lower` unnoticed by the case above).
+    let s = ConsistencyStats::from_averaged(&[0.2, 0.5, 1.0, 3.0], 1.0, 2.0).unwrap();
+    assert_eq!((s.inside, s.below, s.above), (1, 2, 1));
 }
 
 /// The scoring rule of a run's pose NEES: nothing is scored before the
@@ -606,6 +610,15 @@ fn pose_nees_scoring_starts_at_the_floor_and_keeps_later_collapses() {
         0.9 * NEES_MIN_HEADING_SIGMA_RAD.powi(2),
     ));
     assert!(pose_nees_series(&[Some((off, thin_heading, truth))])[0].is_nan());
+    // Nor does a position ellipse thin along a diagonal: each variance is
+    // 1e-4 m², but x and y are correlated so that the smallest eigenvalue is
+    // 5e-7 m², under the (1 mm)² floor (a mutation run found the
+    // off-diagonal term of the eigenvalue unchecked).
+    let mut correlated = normal;
+    correlated[(0, 1)] = 1e-4 - 5e-7;
+    correlated[(1, 0)] = 1e-4 - 5e-7;
+    assert!(5e-7 < NEES_MIN_POSITION_SIGMA_M.powi(2));
+    assert!(pose_nees_series(&[Some((off, correlated, truth))])[0].is_nan());
 
     let s = NeesSummary::from_series(&[1.0, f64::NAN, 2.0, 3.0, 10.0]).unwrap();
     assert_eq!(s.n_scored, 4);
