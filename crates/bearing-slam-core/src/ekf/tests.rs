@@ -37,8 +37,12 @@ fn bearing_batch(ekf: &Ekf, n: usize, rng: &mut StdRng) -> Vec<LinearizedMeasure
         .collect()
 }
 
-/// The textbook dense update, `H` built in full.
-fn dense_reference(ekf: &Ekf, batch: &[LinearizedMeasurement]) -> (DVector<f64>, DMatrix<f64>) {
+/// The textbook dense update, `H` built in full: the posterior mean and
+/// covariance and the batch's NIS `νᵀ S⁻¹ ν`.
+fn dense_reference(
+    ekf: &Ekf,
+    batch: &[LinearizedMeasurement],
+) -> (DVector<f64>, DMatrix<f64>, f64) {
     let dim = ekf.dim();
     let rows: usize = batch.iter().map(|m| m.innovation.len()).sum();
     let mut h = DMatrix::zeros(rows, dim);
@@ -58,10 +62,11 @@ fn dense_reference(ekf: &Ekf, batch: &[LinearizedMeasurement]) -> (DVector<f64>,
     let p = ekf.covariance();
     let s = &h * &p * h.transpose() + &r;
     let s_inv = s.try_inverse().expect("S invertible");
-    let k = &p * h.transpose() * s_inv;
+    let k = &p * h.transpose() * &s_inv;
     let i_kh = DMatrix::identity(dim, dim) - &k * &h;
     let cov = &i_kh * &p * i_kh.transpose() + &k * r * k.transpose();
-    (ekf.mean() + k * nu, cov)
+    let nis = nu.dot(&(&s_inv * &nu));
+    (ekf.mean() + k * nu, cov, nis)
 }
 
 #[test]
@@ -70,10 +75,14 @@ fn update_matches_dense_joseph_in_both_forms() {
         let mut rng = StdRng::seed_from_u64(100 + seed);
         let ekf = random_filter(n, seed);
         let batch = bearing_batch(&ekf, n, &mut rng);
-        let (mean, cov) = dense_reference(&ekf, &batch);
+        let (mean, cov, nis) = dense_reference(&ekf, &batch);
         for form in [CovarianceUpdate::Joseph, CovarianceUpdate::Symmetric] {
             let mut f = ekf.clone().with_covariance_update(form);
-            f.update(&batch).expect("updates");
+            let stats = f.update(&batch).expect("updates");
+            // The NIS it reports is the batch's (a mutation run found it
+            // unchecked: `dot` could return 0).
+            assert!((stats.nis - nis).abs() < 1e-9 * nis, "{form:?} n={n}");
+            assert_eq!(stats.dof, batch.len());
             let scale = cov.amax();
             assert!(
                 (f.mean() - &mean).amax() < 1e-9 * mean.amax(),
