@@ -214,8 +214,14 @@ mod tests {
             );
             let mut ekf = filter(n);
             let err = ekf.reparameterize(4, 4, &new_mean, &jacobian).unwrap_err();
+            // It reports the sizes it wanted and got (a mutation run found
+            // them unchecked).
             assert!(
-                matches!(err, crate::error::SlamError::DimensionMismatch { .. }),
+                matches!(
+                    err,
+                    crate::error::SlamError::DimensionMismatch { expected, got, .. }
+                        if expected == new_len * 4 && got == rows * cols
+                ),
                 "{err:?}"
             );
             assert_eq!(ekf, filter(n));
@@ -296,5 +302,22 @@ mod tests {
             },
         ];
         assert!(f.reparameterize_blocks(&overlap).is_err());
+        // Adjacent blocks do not overlap, in either order (a mutation run
+        // found `<` → `<=` in the overlap test unnoticed).
+        let next = Reparameterization {
+            offset: 11,
+            ..items[3].clone()
+        };
+        for adjacent in [
+            [items[1].clone(), next.clone()],
+            [next.clone(), items[1].clone()],
+        ] {
+            let mut f = filter(20);
+            assert_eq!(
+                f.reparameterize_blocks(&adjacent).unwrap(),
+                vec![true, true]
+            );
+            assert_eq!(f.dim(), 20 - 3 - 2);
+        }
     }
 }

@@ -107,7 +107,17 @@ fn update_matches_dense_joseph_in_both_forms() {
 #[test]
 fn wide_triangle_kernel_matches_baseline_exactly() {
     let mut rng = StdRng::seed_from_u64(31);
-    for (n, depth) in [(1, 1), (5, 3), (63, 10), (64, 20), (130, 10), (203, 20)] {
+    // 530 spans three KB = 256 blocks, so the blocked loops start past 0
+    // (a mutation run found the block offsets unchecked below 256).
+    for (n, depth) in [
+        (1, 1),
+        (5, 3),
+        (63, 10),
+        (64, 20),
+        (130, 10),
+        (203, 20),
+        (530, 3),
+    ] {
         let f = DMatrix::<f64>::from_fn(n, depth, |_, _| StandardNormal.sample(&mut rng));
         let g = DMatrix::<f64>::from_fn(n, depth, |_, _| StandardNormal.sample(&mut rng));
         let p0 = DMatrix::<f64>::from_fn(n, n, |_, _| StandardNormal.sample(&mut rng));
