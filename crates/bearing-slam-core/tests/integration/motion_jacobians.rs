@@ -596,6 +596,9 @@ fn the_sinc_derivative_series_is_within_one_ulp_of_exact() {
 fn diff_drive_paper_values() {
     // Straight: both wheels 0.5 m, heading π/2 → move 0.5 m along +y.
     let m = diff_drive(0.2);
+    // The model reports the wheel base it was built with (a mutation run
+    // found the accessor unchecked).
+    assert_eq!(m.wheel_base_m(), 0.2);
     let out = m
         .propagate(
             &Vector3::new(1.0, 2.0, PI / 2.0),
