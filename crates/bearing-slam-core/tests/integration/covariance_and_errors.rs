@@ -321,3 +321,46 @@ fn bad_input_gives_clear_errors_and_leaves_the_filter_unchanged() {
         Err(SlamError::DimensionMismatch { .. })
     ));
 }
+
+/// A landmark straight behind a robot that drives straight away gives no
+/// triangle for the far prior (24) (`sin β ≈ 0`: ρ_far beyond the largest
+/// inverse depth); the candidate keeps waiting instead of failing the step.
+/// Found by a random seed of `covariance_stays_symmetric_psd` during the
+/// mutation run (the step returned "invalid parameter rho_ini = 1044").
+#[test]
+fn driving_straight_away_from_a_candidate_waits_instead_of_failing() {
+    use bearing_slam_core::init::TriangulationConfig;
+    use bearing_slam_core::slam::InitializerConfig;
+    for initializer in [
+        InitializerConfig::Triangulation(TriangulationConfig::default()),
+        InitializerConfig::TriangulationWithClone(TriangulationConfig::default()),
+    ] {
+        let config = SlamConfig {
+            initializer,
+            ..SlamConfig::default()
+        };
+        let mut slam = BearingSlam::new(config).expect("valid config");
+        // Landmark 3 at (−10, 0), behind the robot at the origin facing +x.
+        slam.update_bearings(0.0, &[(3, std::f64::consts::PI)])
+            .expect("first sighting");
+        for k in 1..=20 {
+            let time = f64::from(k);
+            slam.predict(
+                time,
+                &model(),
+                &WheelOdometry {
+                    left_m: 0.2,
+                    right_m: 0.2,
+                },
+            )
+            .expect("straight ahead");
+            slam.update_bearings(time, &[(3, std::f64::consts::PI)])
+                .expect("still straight behind: waits");
+            check_covariance(&slam.ekf().covariance()).expect("PSD");
+        }
+        assert!(
+            slam.landmark_ids().is_empty(),
+            "no landmark without a triangle"
+        );
+    }
+}
