@@ -23,7 +23,8 @@ use serde::{Deserialize, Serialize};
 use std::f64::consts::{PI, TAU};
 
 /// The smallest range the simulated sensor reports, metres: a noisy reading
-/// below it is reported as it, since a log's ranges must be positive ([`SensorLog::validate`](bearing_slam_core::log::SensorLog::validate)).
+/// below it is reported as it, since a log's ranges must be positive
+/// ([`SensorLog::validate`](bearing_slam_core::log::SensorLog::validate)).
 pub const MIN_REPORTED_RANGE: f64 = 1e-3;
 
 /// Noise, field of view and reach of the bearing sensor.
