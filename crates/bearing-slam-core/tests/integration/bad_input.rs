@@ -8,7 +8,9 @@
 #![allow(clippy::unwrap_used)]
 
 use bearing_slam_core::SlamError;
-use bearing_slam_core::log::{Event, EventKind, SensorLog, VelocityOdometry, WheelOdometry};
+use bearing_slam_core::log::{
+    BearingObservation, Event, EventKind, SensorLog, VelocityOdometry, WheelOdometry,
+};
 use bearing_slam_core::motion::VelocityModel;
 use bearing_slam_core::runner::{DEFAULT_VELOCITY_NOISE, OdometryConfig, default_run_config, run};
 use bearing_slam_core::score::summarize;
@@ -20,8 +22,8 @@ fn fig4_log() -> SensorLog {
     KinematicScenario::paper_fig4(false).simulate(7)
 }
 
-/// The log with the bearing of the first observation of the `scan`-th scan set to `bearing`.
-fn with_bearing(mut log: SensorLog, scan: usize, bearing: f64) -> SensorLog {
+/// The first observation of the `scan`-th non-empty scan of `log`.
+fn first_observation(log: &mut SensorLog, scan: usize) -> &mut BearingObservation {
     let event = log
         .events
         .iter_mut()
@@ -31,7 +33,12 @@ fn with_bearing(mut log: SensorLog, scan: usize, bearing: f64) -> SensorLog {
     let EventKind::Bearings(obs) = &mut event.kind else {
         unreachable!()
     };
-    obs[0].bearing = bearing;
+    &mut obs[0]
+}
+
+/// The log with the bearing of the first observation of the `scan`-th scan set to `bearing`.
+fn with_bearing(mut log: SensorLog, scan: usize, bearing: f64) -> SensorLog {
+    first_observation(&mut log, scan).bearing = bearing;
     log
 }
 
@@ -64,16 +71,7 @@ fn a_bearing_beyond_one_turn_is_refused_by_validation_and_by_run() {
 
 /// The log with the range of the first observation of the `scan`-th scan set to `range`.
 fn with_range(mut log: SensorLog, scan: usize, range: f64) -> SensorLog {
-    let event = log
-        .events
-        .iter_mut()
-        .filter(|e| matches!(e.kind, EventKind::Bearings(ref s) if !s.is_empty()))
-        .nth(scan)
-        .unwrap();
-    let EventKind::Bearings(obs) = &mut event.kind else {
-        unreachable!()
-    };
-    obs[0].range = Some(range);
+    first_observation(&mut log, scan).range = Some(range);
     log
 }
 
