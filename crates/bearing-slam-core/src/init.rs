@@ -479,7 +479,8 @@ pub enum CandidateDecision {
     Wait,
     /// `α > α_min` and the rays meet in front: triangulate, (21)–(23).
     Triangulate,
-    /// Long baseline, still no parallax, not straight ahead: a far landmark (24).
+    /// Long baseline, still no parallax, not straight ahead or away (the
+    /// far prior exists): a far landmark (24).
     Far,
     /// `α > α_min` but the rays diverge, or cross at or nearer than `min_depth` (an
     /// outlier or a wrong first bearing): restart the candidate from this sighting.
@@ -502,7 +503,13 @@ pub fn decide(
             }
             _ => CandidateDecision::Restart,
         }
-    } else if p.baseline > config.baseline_min && p.beta > config.beta_min {
+    } else if p.baseline > config.baseline_min
+        && p.beta > config.beta_min
+        && config.far_prior(&p).is_ok()
+    {
+        // (24) needs a triangle: with the first ray almost along the
+        // baseline, pointing away (sin β ≈ 0), the far prior passes the
+        // largest inverse depth and says nothing, so the candidate waits.
         CandidateDecision::Far
     } else {
         CandidateDecision::Wait

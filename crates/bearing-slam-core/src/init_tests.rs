@@ -264,3 +264,33 @@ fn decide_at_the_min_depth_and_baseline_boundaries() {
         CandidateDecision::Far
     );
 }
+
+/// A candidate straight behind a robot that drove straight away has no
+/// triangle for the far prior (24): `decide` keeps it waiting, for every
+/// filter that uses it (the EKF, FastSLAM, anonymous tracks).
+#[test]
+fn decide_waits_when_the_far_prior_has_no_triangle() {
+    let config = TriangulationConfig::default();
+    let candidate = Candidate {
+        pose: Vector3::new(0.0, 0.0, 0.0),
+        bearing: std::f64::consts::PI,
+        pose_variances: Vector3::zeros(),
+        created: 0.0,
+        last_seen: 0.0,
+    };
+    let away = Vector3::new(4.0, 0.0, 0.0);
+    assert!(
+        config
+            .far_prior(&parallax(
+                &candidate.pose,
+                candidate.bearing,
+                &away,
+                std::f64::consts::PI
+            ))
+            .is_err()
+    );
+    assert_eq!(
+        decide(&config, &candidate, &away, std::f64::consts::PI).0,
+        CandidateDecision::Wait
+    );
+}

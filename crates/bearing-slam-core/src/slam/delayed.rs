@@ -11,7 +11,7 @@
 use super::replay::WaitingBearing;
 use super::{BearingSlam, InitializerConfig, VEHICLE_DIM};
 use crate::ekf::BlockJacobian;
-use crate::error::{Result, SlamError};
+use crate::error::Result;
 use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
 use crate::trace::{DiscardReason, InitMethod, SlamEvent};
 use nalgebra::{DMatrix, Matrix3, Vector3};
@@ -103,18 +103,6 @@ impl BearingSlam {
         // the offset estimated now, like the current one.
         pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
-        // (24) needs a triangle: with the first ray almost along the
-        // baseline, pointing away from the robot (sin β ≈ 0), the far prior
-        // passes the largest inverse depth and says nothing. Keep waiting
-        // rather than fail the step (found by a random proptest seed).
-        let far_prior = match decision {
-            CandidateDecision::Far => config.far_prior(&parallax).ok(),
-            _ => None,
-        };
-        let decision = match (decision, far_prior) {
-            (CandidateDecision::Far, None) => CandidateDecision::Wait,
-            (decision, _) => decision,
-        };
         match decision {
             CandidateDecision::Wait => {
                 let keeping = cloning && config.history > 0;
@@ -139,8 +127,12 @@ impl BearingSlam {
                 Ok(false)
             }
             CandidateDecision::Far => {
-                let prior = far_prior.ok_or(SlamError::Degenerate("far prior"))?;
-                let inserted = self.initialize_with_prior(id, z, prior, InitMethod::Far)?;
+                let inserted = self.initialize_with_prior(
+                    id,
+                    z,
+                    config.far_prior(&parallax)?,
+                    InitMethod::Far,
+                )?;
                 self.replay_history(id, &pending.history, &config.correlation)?;
                 self.record(SlamEvent::BearingsDiscarded {
                     id,
