@@ -115,7 +115,9 @@ impl Ekf {
         let rows = j_new_old * self.sym_block(offset, old_len, 0, n); // new_len × n
         let diag = rows.columns(offset, old_len) * j_new_old.transpose();
         // A block that overflows (a point 1/ρ ≈ 1e116 m away has a variance
-        // beyond f64) is refused before anything is written.
+        // beyond f64) is refused before anything is written. The rows are
+        // checked too: a cross term can overflow (∞ − ∞) where the block's
+        // own covariance cancels to a finite value.
         let live = |j: &usize| !dropped.iter().any(|&(s, l)| (s..s + l).contains(j));
         for j in (0..n).filter(live) {
             for &v in rows.column(j).iter() {
@@ -319,5 +321,54 @@ mod tests {
             );
             assert_eq!(f.dim(), 20 - 3 - 2);
         }
+    }
+
+    /// A converted row can be lost (`∞ − ∞`) where the converted block's own
+    /// covariance is finite: `P = v vᵀ` with `v = (…, 1e150, 1, 1)` and the
+    /// Jacobian `(1e200, −1e200)` on the last two entries cancel to 0 inside
+    /// the block, but overflow against the entry of variance 1e300 beside
+    /// it. Each block whose rows are checked only through its diagonal
+    /// would write that NaN; the batch refuses it and writes nothing. The
+    /// first block of the batch shrinks `[0, 5)` to 2 entries, so the
+    /// entries `[2, 5)` are dropped and entry 5 (the lost row's column) is
+    /// live; a mutation run found the live-column test unchecked.
+    #[test]
+    fn a_row_lost_to_cancellation_is_refused_even_when_the_block_is_finite() {
+        let n = 8;
+        let mut v = DVector::zeros(n);
+        v[5] = 1e150;
+        v[6] = 1.0;
+        v[7] = 1.0;
+        let mut cov = &v * v.transpose();
+        for i in 0..5 {
+            cov[(i, i)] = 1.0;
+        }
+        let mean = DVector::from_fn(n, |i, _| i as f64);
+        let fresh = || Ekf::new(mean.clone(), cov.clone()).unwrap();
+        let shrink_first = Reparameterization {
+            offset: 0,
+            old_len: 5,
+            new_mean: DVector::from_vec(vec![0.5, 1.5]),
+            jacobian: DMatrix::from_fn(2, 5, |i, j| if i == j { 1.0 } else { 0.0 }),
+        };
+        let lossy = Reparameterization {
+            offset: 6,
+            old_len: 2,
+            new_mean: DVector::from_vec(vec![0.0]),
+            jacobian: DMatrix::from_row_slice(1, 2, &[1e200, -1e200]),
+        };
+        let mut alone = fresh();
+        assert_eq!(
+            alone.reparameterize_blocks(std::slice::from_ref(&lossy)).unwrap(),
+            vec![false]
+        );
+        assert_eq!(alone, fresh());
+
+        let mut batch = fresh();
+        let done = batch.reparameterize_blocks(&[shrink_first, lossy]).unwrap();
+        assert_eq!(done, vec![true, false]);
+        assert_eq!(batch.dim(), n - 3);
+        assert!(batch.covariance().iter().all(|x| x.is_finite()));
+        assert!(batch.mean().iter().all(|x| x.is_finite()));
     }
 }
