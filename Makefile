@@ -39,7 +39,7 @@ help:
 	@echo "make fuzz-py     - atheris on SensorLog.from_json, read_mcap, Config(**kwargs) (FUZZ_SECONDS, default 60)"
 	@echo "make clean       - remove build outputs: target/, .venv/, demo_output/, caches"
 	@echo "make mutants     - cargo-mutants on the estimator's core modules (hours; MUTANTS_ARGS='--shard 0/20')"
-	@echo "make soak        - long runs: 1e6 filter steps (RSS), 1e6 random operations (PSD), 6 h simulated"
+	@echo "make soak        - long runs: 1e6 filter steps (RSS), 1e6 random operations (PSD), 6 h simulated (Rust, then the CLI)"
 	@echo "make mono-montecarlo - the 6-DOF monocular filter, delayed vs undelayed, 50 synthetic seeds (docs/results/mono-synthetic-table.md)"
 
 rust-setup:
@@ -262,16 +262,19 @@ mutants:
 
 # Long runs (not in CI): 1e6 filter steps at a fixed state size with the
 # resident memory sampled, 1e6 random operations with the covariance checked
-# symmetric PSD after each, and 6 hours of simulated time through physics,
-# filter, scoring and MCAP. SOAK_STEPS, SOAK_OPS, SOAK_HOURS shorten them.
+# symmetric PSD after each, 6 hours of simulated time through physics,
+# filter, scoring and MCAP in Rust, and the same 6 hours through the CLI
+# (`simulate`, then `run`) with every output it writes checked
+# (benches/soak_cli.py). SOAK_STEPS, SOAK_OPS, SOAK_HOURS shorten them.
 SOAK_STEPS ?= 1000000
 SOAK_OPS ?= 1000000
 SOAK_HOURS ?= 6
-soak:
+soak: develop
 	nice -n 10 $(CARGO) build --release -p bearing-slam-benches --example soak
 	nice -n 10 target/release/examples/soak steps $(SOAK_STEPS)
 	nice -n 10 target/release/examples/soak ops $(SOAK_OPS)
 	nice -n 10 target/release/examples/soak sim $(SOAK_HOURS)
+	nice -n 10 $(VPY) benches/soak_cli.py $(SOAK_HOURS)
 
 # Issue 17 (estimator half): Monte Carlo of the 6-DOF monocular filter on the
 # synthetic desk scene, delayed (MTE, MTE-clone) vs undelayed initialization,

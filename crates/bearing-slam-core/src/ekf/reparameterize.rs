@@ -359,7 +359,9 @@ mod tests {
         };
         let mut alone = fresh();
         assert_eq!(
-            alone.reparameterize_blocks(std::slice::from_ref(&lossy)).unwrap(),
+            alone
+                .reparameterize_blocks(std::slice::from_ref(&lossy))
+                .unwrap(),
             vec![false]
         );
         assert_eq!(alone, fresh());

@@ -315,6 +315,30 @@ fn delayed_rules_on_3d_rays_wait_triangulate_place_far_and_restart() {
     assert!(parallax.alpha > config.alpha_min);
     let far = Vector3::new(0.0, 0.0, 60.0);
     assert_eq!(decide(far, 0.6).0, CandidateDecision::Far);
+    // Backing straight away from that feature: the first ray points along
+    // −baseline (sin β ≈ 0), so (24)'s prior would pass the largest inverse
+    // depth (the filter step failed with it); the candidate waits.
+    let straight_ahead = Candidate3 {
+        position: Vector3::zeros(),
+        quaternion: identity,
+        px: pixel(0.0, far),
+        pose_covariance: nalgebra::SMatrix::zeros(),
+    };
+    let backed_off = camera_state(
+        &Vector3::new(0.0, 0.0, -0.6),
+        &identity,
+        &Vector3::zeros(),
+        &Vector3::zeros(),
+    );
+    let seen = XyzPixel { camera }
+        .predict(&backed_off, &far)
+        .expect("visible")
+        .value;
+    let (decision, parallax) =
+        decide_3d(&config, &camera, &straight_ahead, &backed_off, &seen).expect("decision");
+    assert!(parallax.baseline > config.baseline_min && parallax.beta > config.beta_min);
+    assert!(config.far_prior(&parallax).is_err());
+    assert_eq!(decision, CandidateDecision::Wait);
     // The second ray crosses the first behind the first camera.
     let candidate = Candidate3 {
         position: Vector3::zeros(),
