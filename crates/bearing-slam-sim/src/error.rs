@@ -42,7 +42,7 @@ pub enum SimError {
         known: String,
     },
     /// A number outside its valid range (negative mass, μ < 0, σ ≤ 0, NaN, …).
-    #[error("invalid parameter {name} = {value}: {reason}")]
+    #[error("invalid parameter {name} = {}: {reason}", readable(*value))]
     InvalidParameter {
         /// Where the parameter lives, e.g. `robot.mass_kg`.
         name: String,
@@ -53,7 +53,7 @@ pub enum SimError {
     },
     /// A size, rate, count or duration beyond the bounds of
     /// [`crate::limits`] (a run that would take hours or exhaust memory).
-    #[error("{name} = {value} is out of range: {allowed}")]
+    #[error("{name} = {} is out of range: {allowed}", readable(*value))]
     OutOfRange {
         /// Where the parameter lives, e.g. `controller.repeat`.
         name: String,
@@ -125,5 +125,53 @@ pub(crate) fn invalid(name: &str, value: f64, reason: &'static str) -> SimError 
         name: name.to_owned(),
         value,
         reason,
+    }
+}
+
+/// A value as a message shows it: plain decimals for everyday sizes, and
+/// scientific notation beyond them (`1e300`, not three hundred digits).
+fn readable(value: f64) -> String {
+    let magnitude = value.abs();
+    if magnitude != 0.0 && magnitude.is_finite() && !(1e-6..1e15).contains(&magnitude) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A fuzzer's value reads as `1e300`, an everyday one as it was typed.
+    #[test]
+    fn messages_show_huge_and_tiny_values_in_scientific_notation() {
+        let out = |value: f64| {
+            SimError::OutOfRange {
+                name: "duration_s".into(),
+                value,
+                allowed: "0 to 86400".into(),
+            }
+            .to_string()
+        };
+        assert_eq!(out(1e300), "duration_s = 1e300 is out of range: 0 to 86400");
+        assert_eq!(
+            out(-2.5e-9),
+            "duration_s = -2.5e-9 is out of range: 0 to 86400"
+        );
+        assert_eq!(
+            out(1e9),
+            "duration_s = 1000000000 is out of range: 0 to 86400"
+        );
+        assert_eq!(out(0.25), "duration_s = 0.25 is out of range: 0 to 86400");
+        assert_eq!(
+            out(f64::INFINITY),
+            "duration_s = inf is out of range: 0 to 86400"
+        );
+        let invalid = invalid("robot.mass_kg", -1e20, "must be positive").to_string();
+        assert_eq!(
+            invalid,
+            "invalid parameter robot.mass_kg = -1e20: must be positive"
+        );
     }
 }
