@@ -17,6 +17,8 @@
 mod compressed;
 #[cfg(test)]
 mod compressed_tests;
+#[cfg(test)]
+mod contract_tests;
 #[doc(hidden)]
 pub mod kernel;
 mod reparameterize;

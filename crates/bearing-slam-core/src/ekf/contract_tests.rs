@@ -1,0 +1,54 @@
+//! The input contract of [`Ekf`]'s operations: arguments of the wrong shape
+//! or out of the state are refused with the sizes they had, and leave the
+//! filter as it was. Each test here was prompted by a mutation run
+//! (`make mutants`) that found the check or the size it reports unpinned.
+
+use super::tests::random_filter;
+use super::*;
+
+/// The error's `expected` and `got`, or a failure naming the error.
+fn sizes(err: &SlamError) -> (&'static str, usize, usize) {
+    match err {
+        SlamError::DimensionMismatch {
+            what,
+            expected,
+            got,
+        } => (*what, *expected, *got),
+        other => panic!("not a dimension mismatch: {other:?}"),
+    }
+}
+
+/// The noise of a new block must be `k × k`: wrong rows or wrong columns
+/// alone are each refused, and the filter is unchanged.
+#[test]
+fn augment_refuses_a_noise_of_the_wrong_shape() {
+    let before = random_filter(2, 7);
+    let mean = DVector::from_vec(vec![1.0, 2.0]);
+    let jacobians = [BlockJacobian {
+        offset: 0,
+        jacobian: DMatrix::from_element(2, 3, 0.1),
+    }];
+    for (rows, cols) in [(2, 3), (3, 2), (1, 1)] {
+        let mut ekf = before.clone();
+        let noise = DMatrix::identity(rows, cols);
+        let err = ekf.augment(&mean, &jacobians, &noise).unwrap_err();
+        assert_eq!(sizes(&err).0, "augmentation noise", "{rows}×{cols}");
+        assert_eq!(ekf, before);
+    }
+}
+
+/// A block reaching past the state reports where it would end
+/// (`offset + len`), not some other size.
+#[test]
+fn a_block_past_the_state_reports_where_it_ends() {
+    let mut ekf = random_filter(2, 7); // dim 7
+    let jacobians = [BlockJacobian {
+        offset: 5,
+        jacobian: DMatrix::from_element(1, 3, 0.1),
+    }];
+    let noise = DMatrix::identity(1, 1);
+    let err = ekf
+        .augment(&DVector::from_element(1, 0.0), &jacobians, &noise)
+        .unwrap_err();
+    assert_eq!(sizes(&err), ("augmentation Jacobian block", 7, 8));
+}
