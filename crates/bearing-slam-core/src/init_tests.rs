@@ -294,3 +294,32 @@ fn decide_waits_when_the_far_prior_has_no_triangle() {
         CandidateDecision::Wait
     );
 }
+
+/// Rays that meet behind the sensors give (21) a negative inverse depth:
+/// `triangulate_candidate` refuses them itself, whatever its caller checked
+/// (a mutation run found the refusal of a finite ρ ≤ 0 unpinned).
+#[test]
+fn triangulation_refuses_rays_that_meet_behind_the_sensors() {
+    let candidate = Candidate {
+        pose: Vector3::new(0.0, 0.0, 0.0),
+        bearing: 0.5,
+        pose_variances: Vector3::zeros(),
+        created: 0.0,
+        last_seen: 0.0,
+    };
+    // From (1, 0), a ray less steep than the first one: the two
+    // lines cross behind both poses.
+    let (rho, _, _) =
+        triangulated_inverse_depth(&candidate.pose, 0.5, &Vector3::new(1.0, 0.0, 0.0), 0.3)
+            .expect("a triangle");
+    assert!(rho.is_finite() && rho < 0.0, "ρ = {rho}");
+    let err = triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 0.3).unwrap_err();
+    assert!(
+        matches!(err, SlamError::Degenerate(m) if m.contains("behind")),
+        "{err:?}"
+    );
+    // The mirror case in front of both poses is accepted.
+    let init =
+        triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 1.2).expect("in front");
+    assert!(init.landmark[3] > 0.0);
+}
