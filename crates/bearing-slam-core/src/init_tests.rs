@@ -323,3 +323,111 @@ fn triangulation_refuses_rays_that_meet_behind_the_sensors() {
         triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 1.2).expect("in front");
     assert!(init.landmark[3] > 0.0);
 }
+
+/// (24)'s prior needs a triangle with height: a zero or NaN `b sin β` is
+/// refused as degenerate, by that reason, not by the infinite or NaN
+/// inverse depth it would give (a mutation run found the reason unpinned).
+#[test]
+fn the_far_prior_without_a_triangle_is_refused_as_degenerate() {
+    let config = TriangulationConfig::default();
+    for (baseline, beta) in [(0.0, 1.0), (2.0, 0.0), (f64::NAN, 1.0), (2.0, f64::NAN)] {
+        let p = Parallax {
+            baseline,
+            beta,
+            gamma: 0.5,
+            alpha: 0.0,
+        };
+        let err = config.far_prior(&p).unwrap_err();
+        assert!(
+            matches!(err, SlamError::Degenerate(m) if m.contains("baseline off the first ray")),
+            "b = {baseline}, β = {beta}: {err:?}"
+        );
+    }
+}
+
+/// `decide` triangulates only with a parallax strictly above `alpha_min`,
+/// and places a landmark far only with `β` strictly above `beta_min`: at
+/// each bound exactly, the next rule applies (a mutation run found both
+/// boundaries unpinned).
+#[test]
+fn decide_at_the_parallax_and_beta_boundaries() {
+    let candidate = Candidate {
+        pose: Vector3::new(0.0, 0.0, 0.0),
+        bearing: 0.9,
+        pose_variances: Vector3::zeros(),
+        created: 0.0,
+        last_seen: 0.0,
+    };
+    let (pose, bearing) = (Vector3::new(3.0, 0.5, 0.2), 1.7);
+    let p = parallax(&candidate.pose, candidate.bearing, &pose, bearing);
+    let at_alpha = TriangulationConfig {
+        alpha_min: p.alpha,
+        min_depth: 0.01,
+        baseline_min: 2.0 * p.baseline,
+        ..TriangulationConfig::default()
+    };
+    assert_eq!(
+        decide(&at_alpha, &candidate, &pose, bearing).0,
+        CandidateDecision::Wait
+    );
+    let below_alpha = TriangulationConfig {
+        alpha_min: p.alpha.next_down(),
+        ..at_alpha
+    };
+    assert_eq!(
+        decide(&below_alpha, &candidate, &pose, bearing).0,
+        CandidateDecision::Triangulate
+    );
+
+    // Parallel rays seen off the baseline: too little parallax, so far or wait.
+    let parallel = candidate.bearing - pose.z;
+    let p = parallax(&candidate.pose, candidate.bearing, &pose, parallel);
+    assert!(p.alpha < 1e-9 && p.beta > 0.1);
+    let at_beta = TriangulationConfig {
+        alpha_min: 0.01,
+        beta_min: p.beta,
+        baseline_min: 0.5 * p.baseline,
+        ..TriangulationConfig::default()
+    };
+    assert_eq!(
+        decide(&at_beta, &candidate, &pose, parallel).0,
+        CandidateDecision::Wait
+    );
+    let below_beta = TriangulationConfig {
+        beta_min: p.beta.next_down(),
+        ..at_beta
+    };
+    assert_eq!(
+        decide(&below_beta, &candidate, &pose, parallel).0,
+        CandidateDecision::Far
+    );
+}
+
+/// Exactly opposite rays (α = π) make (21)'s ρ exactly 0: no point, so
+/// the candidate restarts instead of entering the map at infinity (a
+/// mutation run found `ρ > 0` unpinned). Such angles are found by search:
+/// those whose opposite direction rounds to the exact negation.
+#[test]
+fn exactly_opposite_rays_restart() {
+    let config = TriangulationConfig::default();
+    let found = (0..20_000).find_map(|k| {
+        let a = -3.0 + 3e-4 * f64::from(k);
+        let first = Vector3::new(0.0, 0.0, 0.0);
+        // The second pose off the first ray, so the baseline is not parallel to it.
+        let pose = Vector3::new(-2.0 * a.sin(), 2.0 * a.cos(), 0.0);
+        let bearing = a + std::f64::consts::PI;
+        let (rho, _, _) = triangulated_inverse_depth(&first, a, &pose, bearing).ok()?;
+        (rho == 0.0).then_some((a, pose, bearing))
+    });
+    let (a, pose, bearing) = found.expect("an angle whose opposite ray gives ρ = 0 exactly");
+    let candidate = Candidate {
+        pose: Vector3::zeros(),
+        bearing: a,
+        pose_variances: Vector3::zeros(),
+        created: 0.0,
+        last_seen: 0.0,
+    };
+    let (decision, p) = decide(&config, &candidate, &pose, bearing);
+    assert!(p.alpha > config.alpha_min, "α = {}", p.alpha);
+    assert_eq!(decision, CandidateDecision::Restart);
+}

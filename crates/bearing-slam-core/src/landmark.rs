@@ -134,4 +134,20 @@ mod tests {
             Err(SlamError::Degenerate(_))
         ));
     }
+
+    /// ρ = 0 is a point at infinity: refused, as a negative or non-finite ρ
+    /// is, rather than returned as an infinite point (a mutation run found
+    /// the boundary unpinned).
+    #[test]
+    fn only_a_positive_finite_inverse_depth_gives_a_point() {
+        for rho in [0.0, -0.0, -0.5, f64::INFINITY, f64::NAN] {
+            let err = inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.3, rho)).unwrap_err();
+            assert!(
+                matches!(err, SlamError::Degenerate(_)),
+                "ρ = {rho}: {err:?}"
+            );
+        }
+        let p = inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.0, 0.5)).unwrap();
+        assert_eq!(p.point, Vector2::new(3.0, 2.0));
+    }
 }
