@@ -234,3 +234,22 @@ fn triangulation_refuses_rays_meeting_behind_one_sensor() {
         Err(SlamError::Degenerate(_))
     ));
 }
+
+/// Rays within 1e-12 of parallel are refused as parallel even when they
+/// would meet in front (here ~2e12 m out): two bearings that close carry
+/// no depth (a mutation run found `< 1e-12` → `== 0` unnoticed).
+#[test]
+fn nearly_parallel_rays_are_refused_as_parallel() {
+    let first = Vector3::new(0.0, 0.0, 0.0);
+    let second = Vector3::new(1.0, 0.0, 0.0);
+    for gap in [0.0, 2e-13, 5e-13] {
+        let err = triangulate(&first, 0.5, &second, 0.5 + gap).unwrap_err();
+        assert!(
+            matches!(err, SlamError::Degenerate(m) if m.contains("parallel")),
+            "gap {gap}: {err:?}"
+        );
+    }
+    // Past the threshold the rays meet, far out in front.
+    let t = triangulate(&first, 0.5, &second, 0.5 + 1e-9).expect("meets in front");
+    assert!(t.point.norm() > 1e8);
+}
