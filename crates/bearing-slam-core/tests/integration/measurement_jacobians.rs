@@ -252,4 +252,13 @@ fn nearly_parallel_rays_are_refused_as_parallel() {
     // Past the threshold the rays meet, far out in front.
     let t = triangulate(&first, 0.5, &second, 0.5 + 1e-9).expect("meets in front");
     assert!(t.point.norm() > 1e8);
+    // Exactly at it (sin 1e-12 = 1e-12 in f64, from a pose off the first
+    // ray) they still meet: the threshold is strict.
+    let below = Vector3::new(0.0, -1.0, 0.0);
+    let t = triangulate(&first, 0.0, &below, 1e-12).expect("meets at the threshold");
+    assert!(
+        (t.point.x - 1e12).abs() < 1.0 && t.point.y.abs() < 1e-3,
+        "{}",
+        t.point
+    );
 }
