@@ -243,13 +243,21 @@ fuzz-smoke: fuzz-setup
 # parameterizations and the metrics. Each mutant is built and the core's
 # tests run against it: hours for all ~2300 on two cores. MUTANTS_JOBS
 # builds and tests that many mutants at once; MUTANTS_ARGS passes more options (`--sharding round-robin
-# --shard 0/40` for a sample, `--list` to count).
+# --shard 0/40` for a sample, `--list` to count). MUTANTS_SCOPE=estimators
+# mutates the peer estimators instead (the smoother and the particle
+# filters, ~3000 mutants).
+MUTANTS_SCOPE ?= core
+ifeq ($(MUTANTS_SCOPE),estimators)
+MUTANTS_FILES := -f 'crates/bearing-slam-core/src/smoother/*.rs' \
+	-f 'crates/bearing-slam-core/src/particle/*.rs'
+else
 MUTANTS_FILES := -f 'crates/bearing-slam-core/src/ekf/*.rs' \
 	-f crates/bearing-slam-core/src/init.rs \
 	-f crates/bearing-slam-core/src/measurement.rs \
 	-f 'crates/bearing-slam-core/src/motion/*.rs' \
 	-f crates/bearing-slam-core/src/landmark.rs \
 	-f crates/bearing-slam-core/src/metrics.rs
+endif
 MUTANTS_JOBS ?= 1
 MUTANTS_ARGS ?=
 
