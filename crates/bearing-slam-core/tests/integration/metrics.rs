@@ -647,3 +647,68 @@ fn a_quarter_turn_is_recovered_exactly() {
     let r = ate(&est, &truth, Alignment::Se2).unwrap();
     assert_relative_eq!(r.rmse_m, 0.0, epsilon = 1e-12);
 }
+
+/// An estimate that is the truth turned by exactly half a turn (`Σ e × g`
+/// cancels to 0 exactly, `Σ e·g < 0`) is aligned by that half turn: only
+/// `cross = dot = 0` is undetermined (a mutation run found `dot == 0`
+/// unpinned).
+#[test]
+fn a_half_turn_is_recovered_exactly() {
+    let truth = vec![
+        Pose2::new(1.0, 0.5, 0.0),
+        Pose2::new(-2.0, 1.0, 0.0),
+        Pose2::new(0.5, -3.0, 0.0),
+    ];
+    let est: Vec<Pose2> = truth.iter().map(|p| Pose2::new(-p.x, -p.y, 0.0)).collect();
+    let a = align_se2(&est, &truth).unwrap();
+    assert_relative_eq!(a.theta.abs(), PI, epsilon = 1e-15);
+    let r = ate(&est, &truth, Alignment::Se2).unwrap();
+    assert_relative_eq!(r.rmse_m, 0.0, epsilon = 1e-12);
+}
+
+/// A band of zero width (`lower == upper`) is a valid band: a value on it
+/// is inside (a mutation run found `lower > upper` → `>=` unnoticed).
+#[test]
+fn a_band_of_zero_width_is_accepted() {
+    let s = ConsistencyStats::from_averaged(&[1.0, 2.0, 0.5], 1.0, 1.0).unwrap();
+    assert_eq!((s.inside, s.below, s.above), (1, 1, 1));
+}
+
+/// The symmetry check of a NEES/NIS covariance is relative to its scale
+/// (`1e-9 · max|P|`), with the bound itself allowed: an asymmetry of
+/// 1e-9 at scale 1 passes, 1e-6 at scale 1e4 passes, 1e-12 at scale 1e-4
+/// is refused (a mutation run found the bound and its scaling unpinned).
+#[test]
+fn the_symmetry_check_is_relative_to_the_scale() {
+    let error = DVector::from_vec(vec![0.1, 0.2]);
+    let skewed = |scale: f64, asymmetry: f64| {
+        let mut p = DMatrix::identity(2, 2) * scale;
+        p[(0, 1)] = asymmetry;
+        p
+    };
+    assert!(nees(&error, &skewed(1.0, 1e-9)).is_ok());
+    assert!(nis(&error, &skewed(1e4, 1e-6)).is_ok());
+    assert!(matches!(
+        nees(&error, &skewed(1e-4, 1e-12)),
+        Err(SlamError::NotPositiveDefinite { .. })
+    ));
+}
+
+/// A correlated position ellipse whose smallest eigenvalue (1.2e-6 m²) is
+/// just above the (1 mm)² floor starts the scoring, though its minor axis
+/// is well under either variance (a mutation run found the sign of the
+/// off-diagonal term in the eigenvalue unpinned).
+#[test]
+fn a_correlated_ellipse_above_the_floor_starts_the_scoring() {
+    use bearing_slam_core::metrics::{NEES_MIN_POSITION_SIGMA_M, pose_nees_series};
+    let floor = NEES_MIN_POSITION_SIGMA_M.powi(2);
+    let mut cov = Matrix3::from_diagonal(&nalgebra::Vector3::new(4.0 * floor, 2.0 * floor, 1e-4));
+    cov[(0, 1)] = 1.5 * floor;
+    cov[(1, 0)] = 1.5 * floor;
+    let smallest = 3.0 * floor - (floor * floor + 2.25 * floor * floor).sqrt();
+    assert!(smallest > floor && smallest < 1.25 * floor);
+    let truth = Pose2::new(1.0, 2.0, 0.3);
+    let off = Pose2::new(1.001, 2.0, 0.3);
+    let series = pose_nees_series(&[Some((off, cov, truth))]);
+    assert!(series[0].is_finite() && series[0] > 0.0, "{series:?}");
+}
