@@ -298,3 +298,35 @@ fn equality_in_a_local_phase_compares_the_folded_filter() {
     let full = folded.clone().with_update_mode(UpdateMode::Full);
     assert_ne!(phased, full);
 }
+
+/// A measurement of a single state entry outside the active set (a
+/// one-column block, as a scalar bias state would have) brings that entry
+/// into the local phase: the update equals the full filter's (a mutation
+/// run found the coverage test of a range unpinned for one-entry ranges).
+#[test]
+fn a_one_entry_block_outside_the_phase_joins_it() {
+    let n = 10;
+    let mut full = random_filter(n, 81).with_covariance_update(CovarianceUpdate::Symmetric);
+    let mut comp = full.clone().with_update_mode(UpdateMode::Compressed);
+    let scalar = |entry: usize| LinearizedMeasurement {
+        innovation: DVector::from_element(1, 0.3),
+        noise: DMatrix::from_element(1, 1, 0.01),
+        blocks: vec![BlockJacobian {
+            offset: entry,
+            jacobian: DMatrix::from_element(1, 1, 1.0),
+        }],
+    };
+    for ekf in [&mut full, &mut comp] {
+        predict(ekf);
+        let b = batch(ekf, &[0], &[0.02]);
+        ekf.update(&b).expect("updates");
+    }
+    let before = comp.active_len();
+    let entry = 3 + 2 * 6 + 1; // the y of landmark 6, not active
+    for ekf in [&mut full, &mut comp] {
+        ekf.update(&[scalar(entry)]).expect("updates");
+    }
+    assert!(comp.active_len() > before, "the entry joined the phase");
+    let (dx, dp) = rel_diff(&full, &comp);
+    assert!(dx < 1e-12 && dp < 1e-12, "{dx:e} {dp:e}");
+}
