@@ -268,17 +268,17 @@ impl Ekf {
             DMatrix::from_fn(k, k, |r, c| stored(added[r], added[c])) - &c_j_psi * c_j.transpose();
         let p_ja = &c_j * local.phi.transpose();
         // P_{·J}(0) from storage, read in storage order; rows of A' zeroed.
+        // The lower entry (r, c) belongs to the added state of the slot
+        // `s` it comes with: to its column's row `r` when that row is not
+        // an added state, else to row `c` (an entry between two added
+        // states lands in a row of A', zeroed below either way).
         let mut slot_j = vec![INACTIVE; n];
         for (s, &j) in added.iter().enumerate() {
             slot_j[j] = s;
         }
         let mut new_cols = DMatrix::zeros(n, k);
         for_each_lower_cross(added, &slot_j, n, |c, r, s| {
-            let row = if slot_j[r] == INACTIVE || added[s] == c {
-                r
-            } else {
-                c
-            };
+            let row = if slot_j[r] == INACTIVE { r } else { c };
             new_cols[(row, s)] = p[c * ld + r];
         });
         // Unsorted extended matrices: old slots first, then the added ones.
