@@ -254,3 +254,43 @@ fn lower_update<const MR: usize>(
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A zero pivot is not positive definite: `[[1, 1], [1, 1]]` fails at
+    /// its second pivot, exactly 0 (a mutation run found `d > 0` → `d ≥ 0`
+    /// unnoticed, which would divide by that zero).
+    #[test]
+    fn a_zero_pivot_is_refused() {
+        let mut singular = [1.0, 1.0, 1.0, 1.0];
+        assert!(!cholesky_in_place(&mut singular, 2));
+        let mut spd = [4.0, 2.0, 2.0, 5.0];
+        assert!(cholesky_in_place(&mut spd, 2));
+        assert_eq!(spd, [2.0, 1.0, 0.0, 2.0]);
+    }
+
+    /// The wide kernel runs exactly when the CPU has every feature of
+    /// x86-64-v3 that it uses (pulp's `V3`), so a machine with them gets
+    /// it (a mutation run found the detection unpinned).
+    #[test]
+    fn the_wide_kernel_is_detected_from_the_cpu() {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let v3 = [
+                std::is_x86_feature_detected!("sse4.2"),
+                std::is_x86_feature_detected!("popcnt"),
+                std::is_x86_feature_detected!("avx"),
+                std::is_x86_feature_detected!("avx2"),
+                std::is_x86_feature_detected!("bmi1"),
+                std::is_x86_feature_detected!("bmi2"),
+                std::is_x86_feature_detected!("fma"),
+                std::is_x86_feature_detected!("lzcnt"),
+            ];
+            assert_eq!(wide_kernel(), v3.iter().all(|&f| f), "{v3:?}");
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        assert!(!wide_kernel());
+    }
+}
