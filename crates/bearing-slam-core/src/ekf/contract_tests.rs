@@ -52,3 +52,33 @@ fn a_block_past_the_state_reports_where_it_ends() {
         .unwrap_err();
     assert_eq!(sizes(&err), ("augmentation Jacobian block", 7, 8));
 }
+
+/// A measurement's noise must be `rows × rows`: wrong rows or wrong columns
+/// alone are each refused before anything is written.
+#[test]
+fn update_refuses_a_noise_of_the_wrong_shape() {
+    let before = random_filter(2, 9);
+    for (rows, cols) in [(1, 2), (2, 1)] {
+        let mut ekf = before.clone();
+        let m = LinearizedMeasurement {
+            innovation: DVector::from_element(1, 0.1),
+            noise: DMatrix::identity(rows, cols),
+            blocks: vec![BlockJacobian {
+                offset: 0,
+                jacobian: DMatrix::from_element(1, 3, 0.5),
+            }],
+        };
+        let err = ekf.update(&[m]).unwrap_err();
+        assert_eq!(sizes(&err).0, "measurement noise", "{rows}×{cols}");
+        assert_eq!(ekf, before);
+    }
+}
+
+/// The shrink guard refuses a variance shrunk by *more* than 1e12: shrunk
+/// by exactly 1e12 (1e12 → 1, exact in f64) passes, by 2e12 does not.
+#[test]
+fn a_variance_shrunk_by_exactly_the_limit_passes() {
+    use super::update::check_variance_shrink;
+    assert!(check_variance_shrink(1e12, 1e12 - 1.0).is_ok());
+    assert!(check_variance_shrink(1e12, 1e12 - 0.5).is_err());
+}
