@@ -313,7 +313,8 @@ fn triangulation_refuses_rays_that_meet_behind_the_sensors() {
         triangulated_inverse_depth(&candidate.pose, 0.5, &Vector3::new(1.0, 0.0, 0.0), 0.3)
             .expect("a triangle");
     assert!(rho.is_finite() && rho < 0.0, "ρ = {rho}");
-    let err = triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 0.3).unwrap_err();
+    let err =
+        triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 0.3).expect_err("refused");
     assert!(
         matches!(err, SlamError::Degenerate(m) if m.contains("behind")),
         "{err:?}"
@@ -337,7 +338,7 @@ fn the_far_prior_without_a_triangle_is_refused_as_degenerate() {
             gamma: 0.5,
             alpha: 0.0,
         };
-        let err = config.far_prior(&p).unwrap_err();
+        let err = config.far_prior(&p).expect_err("refused");
         assert!(
             matches!(err, SlamError::Degenerate(m) if m.contains("baseline off the first ray")),
             "b = {baseline}, β = {beta}: {err:?}"

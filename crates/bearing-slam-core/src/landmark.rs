@@ -141,13 +141,14 @@ mod tests {
     #[test]
     fn only_a_positive_finite_inverse_depth_gives_a_point() {
         for rho in [0.0, -0.0, -0.5, f64::INFINITY, f64::NAN] {
-            let err = inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.3, rho)).unwrap_err();
+            let err =
+                inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.3, rho)).expect_err("refused");
             assert!(
                 matches!(err, SlamError::Degenerate(_)),
                 "ρ = {rho}: {err:?}"
             );
         }
-        let p = inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.0, 0.5)).unwrap();
+        let p = inverse_depth_to_point(&Vector4::new(1.0, 2.0, 0.0, 0.5)).expect("valid");
         assert_eq!(p.point, Vector2::new(3.0, 2.0));
     }
 }

@@ -3,6 +3,9 @@
 //! filter as it was. Each test here was prompted by a mutation run
 //! (`make mutants`) that found the check or the size it reports unpinned.
 
+// Tests may unwrap: a panic is a test failure with a message.
+#![allow(clippy::unwrap_used)]
+
 use super::tests::random_filter;
 use super::*;
 

@@ -231,12 +231,6 @@ impl Clone for Workspace {
     }
 }
 
-impl std::fmt::Debug for Workspace {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("Workspace")
-    }
-}
-
 impl Workspace {
     /// Step 1, the innovation and its covariance: stacks the batch's `ν`
     /// and `R` (block diagonal, into `S`), forms `C = P Hᵀ` from the touched
