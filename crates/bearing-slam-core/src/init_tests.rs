@@ -319,7 +319,7 @@ fn triangulation_refuses_rays_that_meet_behind_the_sensors() {
         matches!(err, SlamError::Degenerate(m) if m.contains("behind")),
         "{err:?}"
     );
-    // The mirror case in front of both poses is accepted.
+    // A steeper second ray meets the first in front of both poses: accepted.
     let init =
         triangulate_candidate(&candidate, &Vector3::new(1.0, 0.0, 0.0), 1.2).expect("in front");
     assert!(init.landmark[3] > 0.0);
