@@ -194,15 +194,31 @@ fn the_triangulation_and_history_checks_refuse_each_boundary_by_name() {
 /// `decide` at its two boundaries: rays that meet exactly at `min_depth`
 /// restart (only a *farther* crossing triangulates), and a baseline
 /// exactly at `baseline_min` still waits (only a *longer* one is far).
-#[test]
-fn decide_at_the_min_depth_and_baseline_boundaries() {
-    let candidate = Candidate {
-        pose: Vector3::new(0.0, 0.0, 0.0),
-        bearing: 0.9,
+/// A candidate first seen from the origin, heading 0, with bearing `bearing`.
+fn candidate_at_origin(bearing: f64) -> Candidate {
+    Candidate {
+        pose: Vector3::zeros(),
+        bearing,
         pose_variances: Vector3::zeros(),
         created: 0.0,
         last_seen: 0.0,
-    };
+    }
+}
+
+/// `decide`'s decisions for the same triangle under two configurations
+/// (a bound exactly at the triangle's value, and just past it).
+fn decisions(
+    configs: [&TriangulationConfig; 2],
+    candidate: &Candidate,
+    pose: &Vector3<f64>,
+    bearing: f64,
+) -> [CandidateDecision; 2] {
+    configs.map(|c| decide(c, candidate, pose, bearing).0)
+}
+
+#[test]
+fn decide_at_the_min_depth_and_baseline_boundaries() {
+    let candidate = candidate_at_origin(0.9);
     // Rays meeting in front with plenty of parallax.
     let pose = Vector3::new(3.0, 0.5, 0.2);
     let bearing = 1.7;
@@ -228,17 +244,13 @@ fn decide_at_the_min_depth_and_baseline_boundaries() {
         min_depth: at,
         ..TriangulationConfig::default()
     };
-    assert_eq!(
-        decide(&config, &candidate, &pose, bearing).0,
-        CandidateDecision::Restart
-    );
     let farther = TriangulationConfig {
         min_depth: 0.99 * at,
         ..config
     };
     assert_eq!(
-        decide(&farther, &candidate, &pose, bearing).0,
-        CandidateDecision::Triangulate
+        decisions([&config, &farther], &candidate, &pose, bearing),
+        [CandidateDecision::Restart, CandidateDecision::Triangulate]
     );
 
     // Parallel rays (no parallax), seen off the baseline.
@@ -251,17 +263,13 @@ fn decide_at_the_min_depth_and_baseline_boundaries() {
         baseline_min: p.baseline,
         ..TriangulationConfig::default()
     };
-    assert_eq!(
-        decide(&config, &candidate, &pose, bearing).0,
-        CandidateDecision::Wait
-    );
     let shorter = TriangulationConfig {
         baseline_min: p.baseline.next_down(),
         ..config
     };
     assert_eq!(
-        decide(&shorter, &candidate, &pose, bearing).0,
-        CandidateDecision::Far
+        decisions([&config, &shorter], &candidate, &pose, bearing),
+        [CandidateDecision::Wait, CandidateDecision::Far]
     );
 }
 
@@ -271,13 +279,7 @@ fn decide_at_the_min_depth_and_baseline_boundaries() {
 #[test]
 fn decide_waits_when_the_far_prior_has_no_triangle() {
     let config = TriangulationConfig::default();
-    let candidate = Candidate {
-        pose: Vector3::new(0.0, 0.0, 0.0),
-        bearing: std::f64::consts::PI,
-        pose_variances: Vector3::zeros(),
-        created: 0.0,
-        last_seen: 0.0,
-    };
+    let candidate = candidate_at_origin(std::f64::consts::PI);
     let away = Vector3::new(4.0, 0.0, 0.0);
     assert!(
         config
@@ -300,13 +302,7 @@ fn decide_waits_when_the_far_prior_has_no_triangle() {
 /// (a mutation run found the refusal of a finite ρ ≤ 0 unpinned).
 #[test]
 fn triangulation_refuses_rays_that_meet_behind_the_sensors() {
-    let candidate = Candidate {
-        pose: Vector3::new(0.0, 0.0, 0.0),
-        bearing: 0.5,
-        pose_variances: Vector3::zeros(),
-        created: 0.0,
-        last_seen: 0.0,
-    };
+    let candidate = candidate_at_origin(0.5);
     // From (1, 0), a ray less steep than the first one: the two
     // lines cross behind both poses.
     let (rho, _, _) =
@@ -352,13 +348,7 @@ fn the_far_prior_without_a_triangle_is_refused_as_degenerate() {
 /// boundaries unpinned).
 #[test]
 fn decide_at_the_parallax_and_beta_boundaries() {
-    let candidate = Candidate {
-        pose: Vector3::new(0.0, 0.0, 0.0),
-        bearing: 0.9,
-        pose_variances: Vector3::zeros(),
-        created: 0.0,
-        last_seen: 0.0,
-    };
+    let candidate = candidate_at_origin(0.9);
     let (pose, bearing) = (Vector3::new(3.0, 0.5, 0.2), 1.7);
     let p = parallax(&candidate.pose, candidate.bearing, &pose, bearing);
     let at_alpha = TriangulationConfig {
@@ -367,17 +357,13 @@ fn decide_at_the_parallax_and_beta_boundaries() {
         baseline_min: 2.0 * p.baseline,
         ..TriangulationConfig::default()
     };
-    assert_eq!(
-        decide(&at_alpha, &candidate, &pose, bearing).0,
-        CandidateDecision::Wait
-    );
     let below_alpha = TriangulationConfig {
         alpha_min: p.alpha.next_down(),
         ..at_alpha
     };
     assert_eq!(
-        decide(&below_alpha, &candidate, &pose, bearing).0,
-        CandidateDecision::Triangulate
+        decisions([&at_alpha, &below_alpha], &candidate, &pose, bearing),
+        [CandidateDecision::Wait, CandidateDecision::Triangulate]
     );
 
     // Parallel rays seen off the baseline: too little parallax, so far or wait.
@@ -390,17 +376,13 @@ fn decide_at_the_parallax_and_beta_boundaries() {
         baseline_min: 0.5 * p.baseline,
         ..TriangulationConfig::default()
     };
-    assert_eq!(
-        decide(&at_beta, &candidate, &pose, parallel).0,
-        CandidateDecision::Wait
-    );
     let below_beta = TriangulationConfig {
         beta_min: p.beta.next_down(),
         ..at_beta
     };
     assert_eq!(
-        decide(&below_beta, &candidate, &pose, parallel).0,
-        CandidateDecision::Far
+        decisions([&at_beta, &below_beta], &candidate, &pose, parallel),
+        [CandidateDecision::Wait, CandidateDecision::Far]
     );
 }
 
@@ -421,13 +403,7 @@ fn exactly_opposite_rays_restart() {
         (rho == 0.0).then_some((a, pose, bearing))
     });
     let (a, pose, bearing) = found.expect("an angle whose opposite ray gives ρ = 0 exactly");
-    let candidate = Candidate {
-        pose: Vector3::zeros(),
-        bearing: a,
-        pose_variances: Vector3::zeros(),
-        created: 0.0,
-        last_seen: 0.0,
-    };
+    let candidate = candidate_at_origin(a);
     let (decision, p) = decide(&config, &candidate, &pose, bearing);
     assert!(p.alpha > config.alpha_min, "α = {}", p.alpha);
     assert_eq!(decision, CandidateDecision::Restart);
