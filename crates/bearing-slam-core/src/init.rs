@@ -327,6 +327,24 @@ impl TriangulationConfig {
         self.correlation.validate()
     }
 
+    /// The decision for a triangle with too little parallax to triangulate
+    /// (2-D and 3-D alike): a far landmark (24) when the baseline and the
+    /// angle β are long enough and (24)'s prior exists, else wait. With the
+    /// first ray almost along the baseline, pointing away (sin β ≈ 0), the
+    /// far prior would pass the largest inverse depth and say nothing, so
+    /// the candidate waits.
+    #[must_use]
+    pub fn without_parallax(&self, parallax: &Parallax) -> CandidateDecision {
+        if parallax.baseline > self.baseline_min
+            && parallax.beta > self.beta_min
+            && self.far_prior(parallax).is_ok()
+        {
+            CandidateDecision::Far
+        } else {
+            CandidateDecision::Wait
+        }
+    }
+
     /// The far-landmark prior of (24) for the triangle actually observed.
     ///
     /// The paper bounds the inverse depth by `ρ_far = 2 sin(α_min/2) / b_min`,
@@ -503,16 +521,8 @@ pub fn decide(
             }
             _ => CandidateDecision::Restart,
         }
-    } else if p.baseline > config.baseline_min
-        && p.beta > config.beta_min
-        && config.far_prior(&p).is_ok()
-    {
-        // (24) needs a triangle: with the first ray almost along the
-        // baseline, pointing away (sin β ≈ 0), the far prior passes the
-        // largest inverse depth and says nothing, so the candidate waits.
-        CandidateDecision::Far
     } else {
-        CandidateDecision::Wait
+        config.without_parallax(&p)
     };
     (decision, p)
 }

@@ -300,15 +300,8 @@ pub fn decide_3d(
             Ok(t) if t.landmark[5] * config.min_depth < 1.0 => CandidateDecision::Triangulate,
             _ => CandidateDecision::Restart,
         }
-    } else if p.baseline > config.baseline_min
-        && p.beta > config.beta_min
-        && config.far_prior(&p).is_ok()
-    {
-        // As in 2-D ([`crate::init::decide`]): backing straight away from a
-        // feature (sin β ≈ 0) gives (24) no triangle, so it waits.
-        CandidateDecision::Far
     } else {
-        CandidateDecision::Wait
+        config.without_parallax(&p)
     };
     Ok((decision, p))
 }
