@@ -87,4 +87,16 @@ mod tests {
             vec![-1.0, -2.0]
         );
     }
+
+    #[test]
+    fn the_credit_weights_the_mappers_by_their_weights_not_equally() {
+        // Mappers of weights 0.1 and 0.3 with likelihoods 1 and 3: the
+        // weighted mean is (0.1 + 0.9)/0.4 = 2.5, the plain mean would be 2.
+        let terms = vec![vec![(7, 1.0f64.ln())], vec![(7, 3.0f64.ln())], vec![]];
+        let out = credited_log_likelihoods(&[0.1, 0.3, 0.6], &terms);
+        assert!((out[2] - 2.5f64.ln()).abs() < 1e-12, "{out:?}");
+        // Mappers whose weights underflowed to 0: the plain mean.
+        let out = credited_log_likelihoods(&[0.0, 0.0, 1.0], &terms);
+        assert!((out[2] - 2.0f64.ln()).abs() < 1e-12, "{out:?}");
+    }
 }

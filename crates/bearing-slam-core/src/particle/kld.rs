@@ -143,4 +143,25 @@ mod tests {
         assert!((4600..4750).contains(&m400), "{m400}");
         assert_eq!(required_particles(&config, 1, z), 1);
     }
+
+    #[test]
+    fn poses_fall_in_the_grid_cell_that_contains_them() {
+        let config = KldConfig {
+            bin_xy_m: 0.5,
+            bin_theta_rad: 0.1,
+            ..KldConfig::default()
+        };
+        assert_eq!(config.bin(&Vector3::new(1.2, -0.3, 0.25)), (2, -1, 2));
+        assert_eq!(config.bin(&Vector3::new(-1.2, 0.3, -0.25)), (-3, 0, -3));
+        // Far-off poses saturate into an edge bin rather than wrapping.
+        assert_eq!(
+            config.bin(&Vector3::new(1e300, -1e300, 0.0)),
+            (i64::MAX, i64::MIN, 0)
+        );
+        let mut counter = BinCounter::default();
+        assert_eq!(counter.add(&config, &Vector3::new(0.1, 0.1, 0.0)), 1);
+        assert_eq!(counter.add(&config, &Vector3::new(0.2, 0.4, 0.05)), 1);
+        assert_eq!(counter.add(&config, &Vector3::new(0.6, 0.1, 0.0)), 2);
+        assert_eq!(counter.add(&config, &Vector3::new(0.1, 0.1, 0.1)), 3);
+    }
 }

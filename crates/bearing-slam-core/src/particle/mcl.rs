@@ -574,3 +574,27 @@ fn gcd(mut a: usize, mut b: usize) -> usize {
     }
     a
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_stride_is_coprime_and_near_the_golden_ratio() {
+        assert_eq!(stride_for(1), 1);
+        assert_eq!(stride_for(2), 1);
+        // 100 · 0.618 = 61, coprime with 100; 10 · 0.618 = 6 → 7.
+        assert_eq!(stride_for(100), 61);
+        assert_eq!(stride_for(10), 7);
+        for n in [3, 7, 64, 1000, 1500] {
+            let s = stride_for(n);
+            let mut seen: Vec<usize> = (0..n).map(|k| (k * s) % n).collect();
+            seen.sort_unstable();
+            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "n = {n}, stride {s}");
+            // The first visits are spread: the second index is far from the first.
+            if n > 3 {
+                assert!(s > n / 3 && s < n - n / 3, "n = {n}, stride {s}");
+            }
+        }
+    }
+}

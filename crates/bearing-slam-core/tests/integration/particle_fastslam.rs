@@ -10,11 +10,12 @@
 //! particle within seconds (measured in the report, not hidden).
 
 use bearing_slam_core::init::InverseDepthPrior;
-use bearing_slam_core::log::{EventKind, SensorLog};
+use bearing_slam_core::log::{BearingObservation, EventKind, SensorLog, WheelOdometry};
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::particle::landmark_ekf::SensorNoise;
 use bearing_slam_core::particle::{
-    FastSlamConfig, FastSlamVariant, ParticleInitializer, ParticleRunConfig, run_fastslam,
+    FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer, ParticleRunConfig,
+    ParticleUpdateReport, run_fastslam,
 };
 use bearing_slam_core::runner::OdometryConfig;
 use bearing_slam_core::score::{RunSummary, summarize};
@@ -166,4 +167,93 @@ fn range_bearing_fastslam1_converges() {
         201,
         "one track point per ground-truth time"
     );
+}
+
+/// Range-bearing FastSLAM 1.0 with 20 particles: one scan maps two
+/// landmarks, a noisy prediction spreads the particles, and a second scan
+/// weighs them. Returns the filter and the second scan's report.
+fn weighed_twice(resample_threshold: f64) -> (FastSlam, ParticleUpdateReport) {
+    let mut filter = FastSlam::new(FastSlamConfig {
+        variant: FastSlamVariant::FastSlam1,
+        particles: 20,
+        seed: 4,
+        initial_pose_sigma: [0.02, 0.02, 0.01],
+        resample_threshold,
+        ..FastSlamConfig::default()
+    })
+    .expect("valid");
+    let seen = |id, x: f64, y: f64, from_x: f64| BearingObservation {
+        landmark_id: id,
+        bearing: y.atan2(x - from_x),
+        range: Some((x - from_x).hypot(y)),
+    };
+    let wheels = DiffDriveModel::new(
+        0.2,
+        WheelNoise {
+            floor_sigma_m: 0.01,
+            scale_sqrt_m: 0.0,
+        },
+    )
+    .expect("valid");
+    filter
+        .update(
+            0.0,
+            &[seen(1, 2.0, 1.0, 0.0), seen(2, 3.0, -1.5, 0.0)],
+            true,
+        )
+        .expect("maps");
+    let roll = WheelOdometry {
+        left_m: 0.1,
+        right_m: 0.1,
+    };
+    filter.predict(0.1, &wheels, &roll).expect("predicts");
+    let report = filter
+        .update(
+            0.1,
+            &[seen(1, 2.0, 1.0, 0.1), seen(2, 3.0, -1.5, 0.1)],
+            true,
+        )
+        .expect("weighs");
+    (filter, report)
+}
+
+#[test]
+fn the_reported_particle_is_the_heaviest() {
+    // A threshold no N_eff falls below: the weights are kept.
+    let (filter, report) = weighed_twice(1e-9);
+    assert!(!report.resampled, "{report:?}");
+    let weights = filter.weights().expect("weights");
+    let heaviest = (0..weights.len())
+        .max_by(|&a, &b| weights[a].total_cmp(&weights[b]))
+        .expect("particles");
+    assert!(
+        weights[heaviest] > 1.5 / weights.len() as f64,
+        "the scan separates the particles: {weights:?}"
+    );
+    assert_ne!(heaviest, 0, "seed 4 puts the heaviest elsewhere than first");
+    assert_eq!(filter.best_index(), heaviest);
+    assert_eq!(
+        filter.best_particle().pose,
+        filter.particles()[heaviest].pose
+    );
+}
+
+#[test]
+fn a_threshold_of_one_resamples_after_every_weighing_scan() {
+    let (filter, report) = weighed_twice(1.0);
+    assert!(report.resampled, "{report:?}");
+    assert!(report.effective_sample_size < 20.0, "{report:?}");
+    let weights = filter.weights().expect("weights");
+    assert!(
+        weights.iter().all(|w| (w - 0.05).abs() < 1e-12),
+        "{weights:?}"
+    );
+    // The reported particle survived: it is a copy of a heavy parent.
+    let best = filter.best_particle();
+    let copies = filter
+        .particles()
+        .iter()
+        .filter(|p| p.pose == best.pose)
+        .count();
+    assert!(copies >= 2, "the heaviest particle is drawn more than once");
 }

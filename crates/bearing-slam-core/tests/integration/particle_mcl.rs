@@ -11,7 +11,9 @@
 
 use bearing_slam_core::Pose2;
 use bearing_slam_core::geometry::wrap_angle;
-use bearing_slam_core::log::{EventKind, LandmarkTruth, SensorLog};
+use bearing_slam_core::log::{
+    BearingObservation, EventKind, LandmarkTruth, SensorLog, WheelOdometry,
+};
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::particle::kld::KldConfig;
 use bearing_slam_core::particle::mcl::{AugmentedConfig, Bounds};
@@ -129,5 +131,176 @@ fn kld_sampling_shrinks_the_cloud_after_convergence() {
         counts[0] > last,
         "the uniform prior needs more: {}",
         counts[0]
+    );
+}
+
+/// One particle, no adaptation: each test below sees exactly one mechanism.
+fn single(seed: u64) -> MclConfig {
+    MclConfig {
+        particles: 1,
+        augmented: None,
+        roughening: 0.0,
+        ..config(seed, None)
+    }
+}
+
+fn bearing(landmark_id: u64, bearing: f64) -> BearingObservation {
+    BearingObservation {
+        landmark_id,
+        bearing,
+        range: None,
+    }
+}
+
+#[test]
+fn a_bearing_scores_the_outlier_mixture_density() {
+    let map = [LandmarkTruth {
+        id: 1,
+        x: 1.0,
+        y: 0.0,
+    }];
+    let c = single(0);
+    let (sigma, eps) = (c.bearing_sigma, c.outlier_probability);
+    let mixture = |nu: f64| {
+        (1.0 - eps) * (-0.5 * nu * nu).exp() / (sigma * std::f64::consts::TAU.sqrt())
+            + eps / std::f64::consts::TAU
+    };
+    for nu in [0.0, 1.0, 3.0] {
+        let mut mcl = Mcl::new_at(c.clone(), &map, Pose2::default(), [0.0; 3]).expect("valid");
+        // A bearing to an unknown landmark is not scored.
+        let scan = [bearing(1, nu * sigma), bearing(99, 0.3)];
+        let report = mcl.update(&scan).expect("updates");
+        let want = mixture(nu);
+        assert!(
+            (report.mean_likelihood - want).abs() <= 1e-12 * want,
+            "ν = {nu}σ: {} against {want}",
+            report.mean_likelihood
+        );
+    }
+}
+
+#[test]
+fn each_prediction_draws_from_its_own_step_s_stream() {
+    let model = DiffDriveModel::new(
+        0.2,
+        WheelNoise {
+            floor_sigma_m: 0.01,
+            scale_sqrt_m: 0.0,
+        },
+    )
+    .expect("valid");
+    let roll = WheelOdometry {
+        left_m: 0.1,
+        right_m: 0.12,
+    };
+    // Filter A predicts twice; filter B starts where A was after its first
+    // prediction and predicts once. B's draw is A's first step's stream, so
+    // it must differ from A's second (a stream reused across steps would
+    // give both the same noise).
+    let mut a = Mcl::new_at(single(3), &[], Pose2::default(), [0.0; 3]).expect("valid");
+    a.predict(&model, &roll).expect("predicts");
+    let after_one = a.poses()[0];
+    a.predict(&model, &roll).expect("predicts");
+    let mut b =
+        Mcl::new_at(single(3), &[], Pose2::from_vector(&after_one), [0.0; 3]).expect("valid");
+    b.predict(&model, &roll).expect("predicts");
+    let gap = (a.poses()[0] - b.poses()[0]).norm();
+    assert!(gap > 1e-6, "two steps drew the same noise: gap {gap}");
+}
+
+/// Fast likelihood averages, so that a few dozen scans fill them.
+const QUICK: AugmentedConfig = AugmentedConfig {
+    alpha_slow: 0.1,
+    alpha_fast: 0.5,
+};
+
+/// A tight cloud at the room's start pose sees forty consistent scans, then
+/// three scans from a robot turned a quarter-turn (a kidnap): the short-term
+/// likelihood average falls below the long-term one. Returns the filter and
+/// the reports of all forty-three scans.
+fn kidnapped(kld: Option<KldConfig>) -> (Mcl, Vec<bearing_slam_core::particle::mcl::MclReport>) {
+    let scenario = room();
+    let start = scenario.initial_pose;
+    let config = MclConfig {
+        particles: 200,
+        roughening: 0.0,
+        augmented: Some(QUICK),
+        ..config(5, kld)
+    };
+    let mut mcl =
+        Mcl::new_at(config, &scenario.landmarks, start, [0.01, 0.01, 0.005]).expect("valid");
+    let scan = |turn: f64| -> Vec<BearingObservation> {
+        scenario
+            .landmarks
+            .iter()
+            .map(|l| {
+                let b = (l.y - start.y).atan2(l.x - start.x) - start.theta + turn;
+                bearing(l.id, wrap_angle(b))
+            })
+            .collect()
+    };
+    let mut reports = Vec::new();
+    for k in 0..43 {
+        let turn = if k < 40 {
+            0.0
+        } else {
+            std::f64::consts::FRAC_PI_2
+        };
+        reports.push(mcl.update(&scan(turn)).expect("updates"));
+    }
+    (mcl, reports)
+}
+
+#[test]
+fn a_kidnap_raises_the_injection_probability_of_augmented_mcl() {
+    let (_, reports) = kidnapped(None);
+    let a = QUICK;
+    // Thrun et al. Table 8.3, recomputed from the reported averages.
+    let (mut slow, mut fast) = (0.0, 0.0);
+    for (k, r) in reports.iter().enumerate() {
+        slow += a.alpha_slow * (r.mean_likelihood - slow);
+        fast += a.alpha_fast * (r.mean_likelihood - fast);
+        let want = (1.0f64 - fast / slow).max(0.0);
+        assert!(
+            (r.injection_probability - want).abs() < 1e-12,
+            "scan {k}: {} against {want}",
+            r.injection_probability
+        );
+    }
+    let last = reports.last().expect("scans");
+    assert!(last.injection_probability > 0.1, "{last:?}");
+    assert!(last.resampled && last.injected > 0, "{last:?}");
+    // The long-term average lags the short-term one while both fill up.
+    assert!(reports[..40].iter().all(|r| r.injection_probability == 0.0));
+}
+
+#[test]
+fn kld_sampling_injects_random_particles_after_a_kidnap() {
+    let kld = KldConfig {
+        min_particles: 100,
+        max_particles: 2000,
+        ..KldConfig::default()
+    };
+    let (mut mcl, reports) = kidnapped(Some(kld));
+    let p = reports.last().expect("scans").injection_probability;
+    assert!(p > 0.1, "{p}");
+    let model = room().wheel_model().expect("valid");
+    let still = WheelOdometry {
+        left_m: 0.0,
+        right_m: 0.0,
+    };
+    mcl.predict(&model, &still).expect("predicts");
+    let start = room().initial_pose;
+    let far = mcl
+        .poses()
+        .iter()
+        .filter(|q| (q.x - start.x).hypot(q.y - start.y) > 0.5)
+        .count();
+    let n = mcl.poses().len();
+    // Drawn from the room with probability p, each lands over 0.5 m away
+    // with probability ≥ 0.7 here.
+    assert!(
+        far as f64 > 0.25 * p * n as f64,
+        "{far} of {n} particles away from the cloud, p = {p}"
     );
 }
