@@ -156,12 +156,13 @@ impl FixedLagSmoother {
             &self.config.solver,
         )?;
         if self.window.len() > self.config.lag {
-            let leaving: Vec<Key> = self
+            let leaving_ids: Vec<u64> = self
                 .window
                 .iter()
                 .take(self.window.len() - self.config.lag)
-                .map(|id| Key::Pose(*id))
+                .copied()
                 .collect();
+            let leaving: Vec<Key> = leaving_ids.iter().map(|id| Key::Pose(*id)).collect();
             // A solve stopped on the Newton decrement returns H at an
             // estimate within the tolerance of the solution: its
             // covariance without a new linearization.
@@ -177,10 +178,7 @@ impl FixedLagSmoother {
                     &leaving,
                 )?
             };
-            while self.window.len() > self.config.lag {
-                let Some(oldest) = self.window.front().copied() else {
-                    break;
-                };
+            for oldest in leaving_ids {
                 self.finalized.insert(
                     oldest,
                     FinalizedPose {

@@ -407,6 +407,18 @@ pub fn batch_problem(
     build_batch_problem(log, run_config, config, &filter)
 }
 
+/// The weak prior of [`SmootherConfig::landmark_prior_sigma_m`] on the
+/// landmark `id` at `point`, if the configuration asks for one.
+fn landmark_prior(config: &SmootherConfig, id: u64, point: Vector2<f64>) -> Result<Option<Factor>> {
+    config
+        .landmark_prior_sigma_m
+        .map(|s| {
+            let prior = LandmarkPriorFactor::new(id, point, Matrix2::identity() * (s * s))?;
+            Ok(Factor::LandmarkPrior(prior))
+        })
+        .transpose()
+}
+
 fn build_batch_problem(
     log: &SensorLog,
     run_config: &RunConfig,
@@ -462,12 +474,8 @@ fn build_batch_problem(
     }
     for (id, p) in &landmarks.last {
         values.insert_landmark(*id, *p)?;
-        if let Some(s) = config.landmark_prior_sigma_m {
-            graph.add(Factor::LandmarkPrior(LandmarkPriorFactor::new(
-                *id,
-                *p,
-                Matrix2::identity() * (s * s),
-            )?))?;
+        if let Some(prior) = landmark_prior(config, *id, *p)? {
+            graph.add(prior)?;
         }
     }
     for (k, scan) in skeleton.scans.iter().enumerate() {
@@ -525,13 +533,7 @@ fn add_unmapped_landmarks(
             continue;
         };
         problem.initial.insert_landmark(*id, found.point)?;
-        if let Some(s) = config.landmark_prior_sigma_m {
-            factors.push(Factor::LandmarkPrior(LandmarkPriorFactor::new(
-                *id,
-                found.point,
-                Matrix2::identity() * (s * s),
-            )?));
-        }
+        factors.extend(landmark_prior(config, *id, found.point)?);
         // The bearings the point explains; the others (a misread barcode,
         // a reflection) stay dropped.
         for ((k, o), _) in sightings.iter().zip(&found.is_inlier).filter(|(_, i)| **i) {

@@ -278,6 +278,23 @@ mod tests {
     }
 
     #[test]
+    fn a_misread_bearing_from_afar_does_not_move_the_point_either() {
+        // At 20 m the range weight 1/r² is small, and the Cauchy factor
+        // must still multiply it for the misread ray to lose its pull.
+        let target = Vector2::new(3.0, 20.0);
+        let sensors: Vec<(f64, f64, f64)> =
+            (0..9).map(|k| (f64::from(k) * 0.5, 0.0, 1.2)).collect();
+        let mut noise = vec![0.0; 9];
+        noise[4] = 0.5;
+        let got = triangulate_rays(&rays_at(target, &sensors, &noise), &rule())
+            .unwrap()
+            .unwrap();
+        assert!((got.point - target).norm() < 1e-3, "{got:?}");
+        assert_eq!(got.inliers, 8);
+        assert!(!got.is_inlier[4]);
+    }
+
+    #[test]
     fn rays_without_parallax_or_behind_the_sensor_fix_nothing() {
         let target = Vector2::new(30.0, 0.0);
         // 0.2 m of baseline at 30 m: about 0.4° of parallax.

@@ -4,7 +4,6 @@
 
 #![allow(clippy::unwrap_used)]
 
-use bearing_slam_core::Pose2;
 use bearing_slam_core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam_core::measurement::bearing_to_point;
 use bearing_slam_core::model::{MotionModel, MotionPrediction};
@@ -14,6 +13,7 @@ use bearing_slam_core::smoother::{
     PreintegratedOdometry, RangeBearingFactor, Values,
 };
 use bearing_slam_core::testing::{compare_jacobians, numeric_jacobian};
+use bearing_slam_core::{Pose2, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
 use proptest::prelude::*;
 use std::f64::consts::PI;
@@ -240,4 +240,23 @@ fn integrate_uses_the_model() {
         .is_err()
     );
     assert_eq!(pre.steps, 1);
+}
+
+#[test]
+fn a_non_finite_covariance_is_refused_naming_the_bad_entry() {
+    let mut covariance = Matrix2::identity();
+    covariance[(1, 1)] = f64::INFINITY;
+    match LandmarkPriorFactor::new(3, Vector2::zeros(), covariance) {
+        Err(SlamError::NonFinite { what, value }) => {
+            assert_eq!(what, "landmark prior covariance");
+            assert_eq!(value, f64::INFINITY, "the entry reported is the bad one");
+        }
+        other => panic!("expected NonFinite, got {other:?}"),
+    }
+    let mut covariance = Matrix3::identity();
+    covariance[(0, 2)] = f64::NAN;
+    match PosePriorFactor::new(0, Vector3::zeros(), covariance) {
+        Err(SlamError::NonFinite { value, .. }) => assert!(value.is_nan()),
+        other => panic!("expected NonFinite, got {other:?}"),
+    }
 }

@@ -78,6 +78,9 @@ fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
         let m = summarize(&log, &out.output).unwrap();
         assert!(m.finite);
         assert_eq!(m.n_landmarks_initialized, f.n_landmarks_initialized);
+        // Every landmark the filter mapped is in the graph (none is removed
+        // on this run, and every one is seen from several places).
+        assert_eq!(report.n_landmarks, f.n_landmarks_initialized);
         filter_ate += f.ate_rmse_m / seeds as f64;
         smoother_ate += m.ate_rmse_m / seeds as f64;
         filter_map += f.landmark_rmse_m.unwrap() / seeds as f64;
@@ -132,6 +135,12 @@ fn fixed_lag_smoother_runs_online_close_to_the_batch() {
     assert!(o.finite);
     assert!(o.ate_rmse_m <= f.ate_rmse_m, "{o:?} vs filter {f:?}");
     assert!(o.ate_rmse_m <= 1.3 * b.ate_rmse_m, "{o:?} vs batch {b:?}");
+    // The log's own start pose wins over the configured one: a configured
+    // start far off changes nothing.
+    let mut elsewhere = config.clone();
+    elsewhere.slam.initial_pose = bearing_slam_core::Pose2::new(5.0, -4.0, 2.0);
+    let moved = run_from_log(&log, &elsewhere, &online_config).unwrap();
+    assert_eq!(moved.output.track, online.output.track);
 }
 
 /// A filter that never triangulates (it waits for 170° of parallax and has
@@ -198,4 +207,83 @@ fn batch_smoother_maps_the_landmarks_the_filter_never_initialized() {
         .iter()
         .position(|snap| snap.landmarks.iter().any(|l| l.id == added[0]));
     assert!(first.is_some_and(|k| k < with.output.trace.snapshots.len() - 1));
+    // A tight landmark prior (σ = 1 cm) bounds the posterior variance of
+    // every landmark by σ²: information only adds. (It pins the one landmark
+    // the filter mapped, at the filter's estimate.)
+    let sigma = 0.01;
+    let tight = run_from_log(
+        &log,
+        &config,
+        &SmootherConfig {
+            landmark_prior_sigma_m: Some(sigma),
+            ..on
+        },
+    )
+    .unwrap();
+    let pinned = final_map(&tight);
+    assert!(!pinned.is_empty());
+    for l in &pinned {
+        for k in 0..2 {
+            assert!(
+                l.covariance[k][k] <= sigma * sigma * (1.0 + 1e-9),
+                "landmark {}: variance {} above the prior's {}",
+                l.id,
+                l.covariance[k][k],
+                sigma * sigma
+            );
+        }
+    }
+}
+
+/// The same straight run with its wheel readings given as velocity commands
+/// `(v, ω)` held for each step: the batch smoother preintegrates them.
+#[test]
+fn batch_smoother_integrates_velocity_commands() {
+    use bearing_slam_core::log::{Event, EventKind, VelocityOdometry};
+    use bearing_slam_core::motion::{VelocityModel, VelocityNoise};
+    use bearing_slam_core::runner::OdometryConfig;
+
+    let s = KinematicScenario::paper_fig4(false);
+    let wheels = s.simulate(5);
+    let mut log = wheels.clone();
+    log.events.clear();
+    for e in &wheels.events {
+        if let EventKind::Wheels(w) = e.kind {
+            // The command that rolled these distances over the step ending now.
+            log.events.push(Event {
+                time: e.time - s.dt,
+                kind: EventKind::Velocity(VelocityOdometry {
+                    v: 0.5 * (w.left_m + w.right_m) / s.dt,
+                    omega: (w.right_m - w.left_m) / s.wheel_base_m / s.dt,
+                    dt: s.dt,
+                }),
+            });
+        } else {
+            log.events.push(e.clone());
+        }
+    }
+    log.events.sort_by(|a, b| a.time.total_cmp(&b.time));
+    let mut config = run_config(&s);
+    // The wheels' noise as command noise: per step each wheel has
+    // σ² = floor² + scale²·|d| (d = 5 cm), so σ_v² = σ²/(2 dt²) and
+    // σ_ω² = 2σ²/(b² dt²).
+    let wheel_var = s.encoder_floor_sigma_m.powi(2) + s.encoder_scale_sqrt_m.powi(2) * 0.05;
+    let noise = VelocityNoise {
+        alpha: [0.0; 6],
+        sigma_v_min: (wheel_var / 2.0).sqrt() / s.dt,
+        sigma_omega_min: (2.0 * wheel_var).sqrt() / s.wheel_base_m / s.dt,
+    };
+    config.odometry = OdometryConfig::Velocity(VelocityModel::new(noise).unwrap());
+    let smoothed = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    let reference = run_from_log(&wheels, &run_config(&s), &SmootherConfig::default()).unwrap();
+    assert_eq!(smoothed.report.n_poses, reference.report.n_poses);
+    let m = summarize(&log, &smoothed.output).unwrap();
+    let f = summarize(&log, &smoothed.filter).unwrap();
+    let w = summarize(&wheels, &reference.output).unwrap();
+    println!(
+        "velocity: filter {:.4} m, smoother {:.4} m; wheels smoother {:.4} m",
+        f.ate_rmse_m, m.ate_rmse_m, w.ate_rmse_m
+    );
+    assert!(m.finite && m.ate_rmse_m < f.ate_rmse_m, "{m:?} vs {f:?}");
+    assert!(m.ate_rmse_m < 2.0 * w.ate_rmse_m, "{m:?} vs wheels {w:?}");
 }

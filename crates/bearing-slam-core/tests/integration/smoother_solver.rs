@@ -290,3 +290,39 @@ fn bad_input_is_an_error_not_a_panic() {
         Ok(m) => assert!(m.pose(0).unwrap()[(0, 0)] > 1e3, "{:?}", m.pose(0)),
     }
 }
+
+/// One landmark seen from three pinned poses, started 50 m off on the wrong
+/// side: the nearly undamped first steps overshoot and are rejected several
+/// times in a row, so LM must keep raising `λ` (by `ν`, doubling `ν` each
+/// time: Nielsen's rule) until a step lowers the cost.
+#[test]
+fn levenberg_marquardt_raises_its_damping_until_a_step_is_accepted() {
+    let truth = Vector2::new(1.0, 5.0);
+    let poses = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.3), (2.0, 0.0, -0.2)];
+    let mut graph = FactorGraph::new();
+    let mut values = Values::new();
+    for (k, &(x, y, t)) in poses.iter().enumerate() {
+        let pose = Vector3::new(x, y, t);
+        let pinned = PosePriorFactor::new(k as u64, pose, Matrix3::identity() * 1e-6).unwrap();
+        graph.add(Factor::PosePrior(pinned)).unwrap();
+        let z = (truth.y - y).atan2(truth.x - x) - t;
+        graph
+            .add_bearing(BearingFactor::new(k as u64, 1, z, 0.01).unwrap())
+            .unwrap();
+        values.insert_pose(k as u64, pose).unwrap();
+    }
+    values.insert_landmark(1, Vector2::new(50.0, 1.0)).unwrap();
+    let config = SolverConfig {
+        initial_lambda: 1e-9,
+        ..SolverConfig::default()
+    };
+    let report = optimize(&graph, &mut values, &config).unwrap();
+    assert!(report.converged, "{report:?}");
+    assert!(
+        report.factorizations > report.iterations,
+        "some steps were rejected: {report:?}"
+    );
+    assert!(report.factorizations <= 40, "{report:?}");
+    let found = values.landmarks()[&1];
+    assert!((found - truth).norm() < 1e-6, "{found}");
+}
