@@ -75,6 +75,12 @@ mod tests {
         let cov = weighted_covariance(&poses, &[1.0, 1.0], &mean).expect("valid");
         assert!((cov[(2, 2)] - 0.01).abs() < 1e-12, "{cov}");
         assert!(weighted_mean(&poses, &[1.0]).is_err());
+        // Away from the cut: the weighted mean of 0.3 and 0.6 (weights 2:1)
+        // is near 0.4, on the positive side.
+        let near = [Vector3::new(0.0, 1.0, 0.3), Vector3::new(3.0, 4.0, 0.6)];
+        let mean = weighted_mean(&near, &[2.0, 1.0]).expect("valid");
+        assert!((mean.x - 1.0).abs() < 1e-12 && (mean.y - 2.0).abs() < 1e-12);
+        assert!((mean.z - 0.4).abs() < 1e-3, "{mean}");
         assert!(weighted_mean(&poses, &[0.0, 0.0]).is_err());
     }
 }

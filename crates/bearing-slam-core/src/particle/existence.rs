@@ -159,6 +159,16 @@ mod tests {
     }
 
     #[test]
+    fn a_sensor_that_sees_nothing_is_refused() {
+        assert!(ExistenceConfig::default().validate().is_ok());
+        let blind = ExistenceConfig {
+            max_range_m: 0.0,
+            ..ExistenceConfig::default()
+        };
+        assert!(blind.validate().is_err());
+    }
+
+    #[test]
     fn missed_landmark_is_removed_after_enough_misses() {
         let config = ExistenceConfig::default();
         let mut c = ExistenceCounter::first_sighting(&config);

@@ -145,6 +145,17 @@ mod tests {
     }
 
     #[test]
+    fn delta_must_stay_below_one_half() {
+        // δ = 0.5 puts z at 0: the bound would ignore the confidence.
+        let at = |delta| KldConfig {
+            delta,
+            ..KldConfig::default()
+        };
+        assert!(at(0.49).validate().is_ok());
+        assert!(at(0.5).validate().is_err());
+    }
+
+    #[test]
     fn poses_fall_in_the_grid_cell_that_contains_them() {
         let config = KldConfig {
             bin_xy_m: 0.5,

@@ -410,6 +410,20 @@ mod tests {
     }
 
     #[test]
+    fn a_range_bearing_landmark_starts_with_the_noise_mapped_through_7() {
+        let noise = SensorNoise {
+            bearing_sigma: 0.01,
+            range_sigma: 0.05,
+        };
+        // Straight ahead at 5 m: along the ray σ_r, across it r σ_z.
+        let lm =
+            LandmarkEkf::from_range_bearing(&Vector3::zeros(), 5.0, 0.0, &noise).expect("valid");
+        let (_, cov) = lm.point().expect("euclidean");
+        let want = Matrix2::new(0.05 * 0.05, 0.0, 0.0, 25.0 * 0.01 * 0.01);
+        assert!((cov - want).amax() < 1e-15, "{cov}");
+    }
+
+    #[test]
     fn gaussian_log_density_matches_the_closed_form() {
         let ll = gaussian_log_density(&Vector1::new(0.5), &Matrix1::new(4.0)).expect("pd");
         let expected = -0.5 * (0.25 / 4.0) - 0.5 * (TAU * 4.0).ln();

@@ -373,9 +373,9 @@ impl Mcl {
         if let Some(a) = &self.config.augmented {
             self.w_slow += a.alpha_slow * (mean_likelihood - self.w_slow);
             self.w_fast += a.alpha_fast * (mean_likelihood - self.w_fast);
-            if self.w_slow > 0.0 {
-                report.injection_probability = (1.0 - self.w_fast / self.w_slow).max(0.0);
-            }
+            // Before any likelihood (or with α_slow = 0) w_slow is 0: the
+            // ratio is ∞ or NaN, and `max` returns 0 for both.
+            report.injection_probability = (1.0 - self.w_fast / self.w_slow).max(0.0);
         }
         let weights = normalize_log_weights(&self.log_weights)?;
         report.effective_sample_size = effective_sample_size(&weights)?;

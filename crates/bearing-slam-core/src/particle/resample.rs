@@ -161,6 +161,15 @@ mod tests {
     }
 
     #[test]
+    fn a_last_tooth_rounded_onto_the_total_stays_on_the_last_particle() {
+        // Three steps of 0.7333…/3 from the largest u below 1 add up to
+        // exactly the total, which no particle's interval contains.
+        let w = [0.3, 0.1, 1.0 / 3.0];
+        let u = 1.0 - f64::EPSILON / 2.0;
+        assert_eq!(systematic_resample(&w, u).expect("valid"), vec![0, 2, 2]);
+    }
+
+    #[test]
     fn zero_weight_particles_are_never_chosen() {
         let w = [0.0, 0.5, 0.0, 0.5, 0.0];
         for k in 0..100 {

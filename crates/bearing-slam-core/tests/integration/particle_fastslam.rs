@@ -11,6 +11,7 @@
 
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::{BearingObservation, EventKind, SensorLog, WheelOdometry};
+use bearing_slam_core::model::MotionModel;
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::particle::landmark_ekf::SensorNoise;
 use bearing_slam_core::particle::{
@@ -256,4 +257,36 @@ fn a_threshold_of_one_resamples_after_every_weighing_scan() {
         .filter(|p| p.pose == best.pose)
         .count();
     assert!(copies >= 2, "the heaviest particle is drawn more than once");
+}
+
+#[test]
+fn fastslam2_reports_the_pending_motion_covariance_before_a_scan() {
+    // Every particle at the same pose: after a prediction the cloud's means
+    // coincide, and the reported covariance is the motion model's own.
+    let mut filter = FastSlam::new(FastSlamConfig {
+        particles: 5,
+        initial_pose_sigma: [0.0; 3],
+        ..FastSlamConfig::default()
+    })
+    .expect("valid");
+    let wheels = DiffDriveModel::new(
+        0.2,
+        WheelNoise {
+            floor_sigma_m: 0.01,
+            scale_sqrt_m: 0.02,
+        },
+    )
+    .expect("valid");
+    let roll = WheelOdometry {
+        left_m: 0.1,
+        right_m: 0.15,
+    };
+    filter.predict(0.1, &wheels, &roll).expect("predicts");
+    let (_, cov) = filter.pose_estimate().expect("weights");
+    let q = wheels
+        .predict(&nalgebra::Vector3::zeros(), &roll)
+        .expect("predicts")
+        .process_noise;
+    assert!((cov - q).amax() < 1e-15 * q.amax().max(1.0), "{cov} vs {q}");
+    assert!(q.amax() > 1e-5);
 }

@@ -304,3 +304,25 @@ fn kld_sampling_injects_random_particles_after_a_kidnap() {
         "{far} of {n} particles away from the cloud, p = {p}"
     );
 }
+
+#[test]
+fn without_a_long_term_average_nothing_is_injected() {
+    // α_slow = 0 keeps w_slow at 0: the ratio w_fast/w_slow is infinite.
+    let map = [LandmarkTruth {
+        id: 1,
+        x: 1.0,
+        y: 0.0,
+    }];
+    let c = MclConfig {
+        augmented: Some(AugmentedConfig {
+            alpha_slow: 0.0,
+            alpha_fast: 0.5,
+        }),
+        ..single(0)
+    };
+    let mut mcl = Mcl::new_at(c, &map, Pose2::default(), [0.0; 3]).expect("valid");
+    for b in [0.0, 1.0, -2.0] {
+        let report = mcl.update(&[bearing(1, b)]).expect("updates");
+        assert_eq!(report.injection_probability, 0.0, "{report:?}");
+    }
+}

@@ -11,6 +11,17 @@ use bearing_slam_core::smoother::{
 };
 use smoother_common::{Problem, max_difference, problem};
 
+/// The latest pose a factor involves: it joins the smoother with that pose.
+fn newest_pose(f: &Factor) -> Option<u64> {
+    f.keys()
+        .iter()
+        .filter_map(|key| match key {
+            Key::Pose(id) => Some(*id),
+            Key::Landmark(_) => None,
+        })
+        .max()
+}
+
 /// Feeds `p` pose by pose (each pose's factors once all their variables
 /// exist) and updates after each.
 fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
@@ -36,15 +47,7 @@ fn run_online_config(p: &Problem, config: FixedLagConfig) -> (FixedLagSmoother, 
     for k in 0..p.n_poses {
         s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
         for f in p.graph.factors() {
-            let newest = f
-                .keys()
-                .iter()
-                .filter_map(|key| match key {
-                    Key::Pose(id) => Some(*id),
-                    Key::Landmark(_) => None,
-                })
-                .max();
-            if newest == Some(k) {
+            if newest_pose(f) == Some(k) {
                 s.add_factor(f.clone()).unwrap();
             }
         }
@@ -201,4 +204,59 @@ fn bad_use_is_an_error() {
         s.add_landmark(1, nalgebra::Vector2::new(f64::NAN, 0.0))
             .is_err()
     );
+}
+
+#[test]
+fn several_poses_added_between_updates_all_leave_at_once() {
+    let p = problem(14, 12, true, false);
+    let lag = 4;
+    let mut s = FixedLagSmoother::new(FixedLagConfig {
+        lag,
+        ..FixedLagConfig::default()
+    })
+    .unwrap();
+    for i in 0..p.n_landmarks {
+        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
+    }
+    // Poses arrive three at a time (a burst of keyframes), one update each.
+    for k in 0..p.n_poses {
+        s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
+        for f in p.graph.factors() {
+            if newest_pose(f) == Some(k) {
+                s.add_factor(f.clone()).unwrap();
+            }
+        }
+        if k % 3 == 2 {
+            s.update().unwrap();
+            let in_window = (0..=k).filter(|id| s.in_window(*id)).count();
+            assert_eq!(in_window, lag.min(k as usize + 1), "after pose {k}");
+            assert_eq!(s.finalized().len(), (k as usize + 1).saturating_sub(lag));
+        }
+    }
+}
+
+#[test]
+fn a_marginalized_outlier_stays_down_weighted() {
+    // A bearing 0.5 rad off (50σ) from pose 1, which leaves the window early:
+    // the marginal prior it leaves must carry the Cauchy-weighted gradient,
+    // as the batch solve weighs it.
+    let mut p = problem(15, 16, true, false);
+    let landmark = p.bearings.iter().find(|b| b.0 == 1).unwrap().1;
+    p.graph = smoother_common::with_outlier(&p, 1, landmark, 0.5);
+    let solver = SolverConfig {
+        robust: RobustKernel::Cauchy(2.0),
+        ..SolverConfig::default()
+    };
+    let mut batch = p.initial.clone();
+    optimize(&p.graph, &mut batch, &solver).unwrap();
+    let config = FixedLagConfig {
+        lag: 4,
+        first_estimates: false,
+        solver,
+    };
+    let (online, _) = run_online_config(&p, config);
+    let gap = max_difference(online.values(), &batch);
+    let error = max_difference(&batch, &p.truth);
+    println!("robust lag 4 vs batch: {gap:.3e} (batch error {error:.3e})");
+    assert!(gap < 0.5 * error, "{gap} vs the batch's own error {error}");
 }

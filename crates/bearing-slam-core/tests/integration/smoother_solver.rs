@@ -12,7 +12,7 @@ use bearing_slam_core::smoother::{
     SolverConfig, Termination, Values, cost, marginal_covariances, optimize,
 };
 use nalgebra::{DMatrix, Matrix3, Vector2, Vector3};
-use smoother_common::{BEARING_SIGMA, max_difference, problem};
+use smoother_common::{max_difference, problem};
 use std::collections::BTreeMap;
 
 #[test]
@@ -100,22 +100,10 @@ fn a_converged_problem_stops_after_one_solve() {
     assert_ne!(default.termination, Termination::SmallDecrement);
 }
 
-/// The graph of `p` with the bearing from pose 5 to landmark 2 replaced by
-/// one `offset` radians off.
+/// The graph of `p` with the bearing from pose 5 to landmark 2 `offset`
+/// radians off.
 fn with_outlier(p: &smoother_common::Problem, offset: f64) -> FactorGraph {
-    let mut g = FactorGraph::new();
-    for f in p.graph.factors() {
-        if let Factor::Bearing(_) = f
-            && f.keys() == vec![Key::Pose(5), Key::Landmark(2)]
-        {
-            let z = p.bearings.iter().find(|b| b.0 == 5 && b.1 == 2).unwrap().2;
-            g.add_bearing(BearingFactor::new(5, 2, z + offset, BEARING_SIGMA).unwrap())
-                .unwrap();
-        } else {
-            g.add(f.clone()).unwrap();
-        }
-    }
-    g
+    smoother_common::with_outlier(p, 5, 2, offset)
 }
 
 #[test]

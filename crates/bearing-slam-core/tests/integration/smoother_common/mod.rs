@@ -7,7 +7,8 @@
 use bearing_slam_core::Pose2;
 use bearing_slam_core::measurement::bearing_to_point;
 use bearing_slam_core::smoother::{
-    BearingFactor, FactorGraph, OdometryFactor, PosePriorFactor, RangeBearingFactor, Values,
+    BearingFactor, Factor, FactorGraph, Key, OdometryFactor, PosePriorFactor, RangeBearingFactor,
+    Values,
 };
 use nalgebra::{Matrix3, Vector2, Vector3};
 use rand::SeedableRng;
@@ -129,4 +130,27 @@ pub fn max_difference(a: &Values, b: &Values) -> f64 {
         m = m.max((p - b.landmark(*id).unwrap()).norm());
     }
     m
+}
+
+/// The graph of `p` with the bearing from `pose` to `landmark` replaced by
+/// one `offset` radians off (a misread bearing).
+pub fn with_outlier(p: &Problem, pose: u64, landmark: u64, offset: f64) -> FactorGraph {
+    let mut g = FactorGraph::new();
+    for f in p.graph.factors() {
+        if let Factor::Bearing(_) = f
+            && f.keys() == vec![Key::Pose(pose), Key::Landmark(landmark)]
+        {
+            let z = p
+                .bearings
+                .iter()
+                .find(|b| b.0 == pose && b.1 == landmark)
+                .unwrap()
+                .2;
+            g.add_bearing(BearingFactor::new(pose, landmark, z + offset, BEARING_SIGMA).unwrap())
+                .unwrap();
+        } else {
+            g.add(f.clone()).unwrap();
+        }
+    }
+    g
 }
