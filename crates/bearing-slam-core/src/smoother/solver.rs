@@ -291,8 +291,10 @@ pub(crate) fn optimize_on(
                     0.5 * step[i] * (lambda * eq.hessian[d].max(1e-9) * step[i] - eq.gradient[i])
                 })
                 .sum();
+            // The prediction is ½ δᵀ(H + 2λD)δ ≥ 0 (clamped above 0 against
+            // rounding), so ρ > 0 exactly when the step lowered the cost.
             let rho = (eq.cost - new_cost) / predicted.max(f64::MIN_POSITIVE);
-            if rho > 0.0 && new_cost <= eq.cost {
+            if rho > 0.0 {
                 lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 lambda = lambda.max(1e-12);
                 nu = 2.0;

@@ -295,6 +295,21 @@ mod tests {
     }
 
     #[test]
+    fn exactly_the_fewest_inliers_fix_a_point() {
+        let target = Vector2::new(3.0, 4.0);
+        let sensors = [(0.0, 0.0, 0.3), (1.0, 0.0, -1.0), (2.0, 0.5, 2.0)];
+        let three = triangulate_rays(&rays_at(target, &sensors, &[0.0]), &rule())
+            .unwrap()
+            .unwrap();
+        assert_eq!(three.inliers, rule().min_inliers);
+        // Two misread bearings of four: two inliers, one short.
+        let four = [sensors[0], sensors[1], sensors[2], (0.0, 1.0, 0.0)];
+        let misread = rays_at(target, &four, &[0.0, 0.0, 0.3, 0.7]);
+        let got = triangulate_rays(&misread, &rule()).unwrap();
+        assert!(got.is_none(), "{got:?}");
+    }
+
+    #[test]
     fn rays_without_parallax_or_behind_the_sensor_fix_nothing() {
         let target = Vector2::new(30.0, 0.0);
         // 0.2 m of baseline at 30 m: about 0.4° of parallax.

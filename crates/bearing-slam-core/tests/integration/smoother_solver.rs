@@ -314,3 +314,27 @@ fn levenberg_marquardt_raises_its_damping_until_a_step_is_accepted() {
     let found = values.landmarks()[&1];
     assert!((found - truth).norm() < 1e-6, "{found}");
 }
+
+/// With every stopping test off, an estimate at the minimum can only stop
+/// when no damping finds a lower cost: LM gives up once `λ` passes 1e16
+/// (about a dozen retries with `ν` doubling), not when `λ` overflows.
+#[test]
+fn at_the_minimum_lm_gives_up_once_the_damping_is_huge() {
+    let p = problem(2, 15, true, false);
+    let mut v = p.initial.clone();
+    optimize(&p.graph, &mut v, &SolverConfig::default()).unwrap();
+    let config = SolverConfig {
+        max_iterations: 500,
+        relative_tolerance: 0.0,
+        absolute_tolerance: 0.0,
+        step_tolerance: 0.0,
+        gradient_tolerance: 0.0,
+        decrement_tolerance: 0.0,
+        ..SolverConfig::default()
+    };
+    let report = optimize(&p.graph, &mut v, &config).unwrap();
+    assert_eq!(report.termination, Termination::NoDecrease, "{report:?}");
+    assert!(report.iterations < 20, "{report:?}");
+    let retries = report.factorizations - report.iterations;
+    assert!(retries <= 30, "{retries} damped retries: {report:?}");
+}
