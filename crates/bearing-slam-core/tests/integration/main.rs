@@ -8,6 +8,7 @@
 mod association_run;
 mod bad_input;
 mod covariance_and_errors;
+mod estimator_config_bounds;
 mod estimators;
 mod fuzz_regressions;
 mod measurement_jacobians;
