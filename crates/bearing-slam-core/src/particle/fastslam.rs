@@ -172,12 +172,14 @@ impl FastSlam {
     /// weighting (after resampling, its first copy).
     #[must_use]
     pub fn best_particle(&self) -> &Particle {
-        &self.particles[self.best.min(self.particles.len() - 1)]
+        &self.particles[self.best_index()]
     }
 
     /// Index of [`FastSlam::best_particle`] in [`FastSlam::particles`].
     #[must_use]
     pub fn best_index(&self) -> usize {
+        // `best` is always a valid index (the count never changes); the
+        // clamp only keeps an index panic out should that ever break.
         self.best.min(self.particles.len() - 1)
     }
 

@@ -424,6 +424,28 @@ mod tests {
     }
 
     #[test]
+    fn an_inverse_depth_landmark_converts_once_its_depth_is_linear() {
+        // ρ = 0.2 seen head-on from the anchor: L = 4 σ_ρ/ρ² / d = 20 σ_ρ.
+        let at = |sigma_rho: f64| LandmarkEkf::InverseDepth {
+            mean: Vector4::new(0.0, 0.0, 0.0, 0.2),
+            cov: Matrix4::from_diagonal(&Vector4::new(1e-6, 1e-6, 1e-6, sigma_rho * sigma_rho)),
+        };
+        let sensor = Vector2::zeros();
+        match at(0.001).converted_if_linear(&sensor, 0.1) {
+            Some(LandmarkEkf::Euclidean { mean, .. }) => {
+                assert!((mean - Vector2::new(5.0, 0.0)).norm() < 1e-12, "{mean}");
+            }
+            other => panic!("L = 0.02 < 0.1 converts: {other:?}"),
+        }
+        assert_eq!(at(0.01).converted_if_linear(&sensor, 0.1), None, "L = 0.2");
+        let euclidean = LandmarkEkf::Euclidean {
+            mean: Vector2::new(5.0, 0.0),
+            cov: Matrix2::identity(),
+        };
+        assert_eq!(euclidean.converted_if_linear(&sensor, 0.1), None);
+    }
+
+    #[test]
     fn gaussian_log_density_matches_the_closed_form() {
         let ll = gaussian_log_density(&Vector1::new(0.5), &Matrix1::new(4.0)).expect("pd");
         let expected = -0.5 * (0.25 / 4.0) - 0.5 * (TAU * 4.0).ln();

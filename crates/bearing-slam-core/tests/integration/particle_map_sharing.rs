@@ -100,3 +100,21 @@ fn filter_steps_copy_only_the_observed_landmarks() {
         }
     }
 }
+
+#[test]
+fn a_candidate_waits_until_removed_once() {
+    let mut map = big_map();
+    let candidate = bearing_slam_core::init::Candidate {
+        pose: bearing_slam_core::nalgebra::Vector3::new(1.0, 2.0, 0.3),
+        bearing: 0.4,
+        pose_variances: bearing_slam_core::nalgebra::Vector3::repeat(1e-4),
+        created: 0.0,
+        last_seen: 0.0,
+    };
+    map.set_candidate(K + 1, candidate.clone());
+    assert_eq!(map.candidate(K + 1), Some(&candidate));
+    assert_eq!(map.candidate_count(), 1);
+    assert!(map.remove_candidate(K + 1));
+    assert!(!map.remove_candidate(K + 1), "already gone");
+    assert_eq!((map.candidate(K + 1), map.candidate_count()), (None, 0));
+}
