@@ -111,7 +111,7 @@ fn a_candidate_waits_until_removed_once() {
         created: 0.0,
         last_seen: 0.0,
     };
-    map.set_candidate(K + 1, candidate.clone());
+    map.set_candidate(K + 1, candidate);
     assert_eq!(map.candidate(K + 1), Some(&candidate));
     assert_eq!(map.candidate_count(), 1);
     assert!(map.remove_candidate(K + 1));
