@@ -63,3 +63,33 @@ impl RobustKernel {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn losses_and_weights_match_their_closed_forms() {
+        let none = RobustKernel::None;
+        assert_eq!((none.loss(9.0), none.weight(9.0)), (9.0, 1.0));
+        // Huber(1): quadratic up to |e| = 1, then 2k|e| − k².
+        let huber = RobustKernel::Huber(1.0);
+        assert_eq!((huber.loss(0.25), huber.weight(0.25)), (0.25, 1.0));
+        assert_eq!((huber.loss(4.0), huber.weight(4.0)), (3.0, 0.5));
+        // Cauchy(2): c² ln(1 + s/c²), weight 1/(1 + s/c²).
+        let cauchy = RobustKernel::Cauchy(2.0);
+        assert!((cauchy.loss(4.0) - 4.0 * 2f64.ln()).abs() < 1e-15);
+        assert_eq!(cauchy.weight(4.0), 0.5);
+        // The weight is ρ'(s), and both kernels are continuous at their knee.
+        for kernel in [huber, cauchy, RobustKernel::Huber(2.5)] {
+            for s in [0.3, 1.0 + 1e-3, 4.0, 30.0] {
+                let h = 1e-6 * s;
+                let slope = (kernel.loss(s + h) - kernel.loss(s - h)) / (2.0 * h);
+                assert!((slope - kernel.weight(s)).abs() < 1e-6, "{kernel:?} at {s}");
+            }
+        }
+        let k = 2.5;
+        let knee = RobustKernel::Huber(k);
+        assert!((knee.loss(k * k * (1.0 + 1e-12)) - knee.loss(k * k)).abs() < 1e-9);
+    }
+}

@@ -154,11 +154,18 @@ fn bearing(landmark_id: u64, bearing: f64) -> BearingObservation {
 
 #[test]
 fn a_bearing_scores_the_outlier_mixture_density() {
-    let map = [LandmarkTruth {
-        id: 1,
-        x: 1.0,
-        y: 0.0,
-    }];
+    let map = [
+        LandmarkTruth {
+            id: 1,
+            x: 1.0,
+            y: 0.0,
+        },
+        LandmarkTruth {
+            id: 2,
+            x: 0.0,
+            y: 3.0,
+        },
+    ];
     let c = single(0);
     let (sigma, eps) = (c.bearing_sigma, c.outlier_probability);
     let mixture = |nu: f64| {
@@ -167,8 +174,13 @@ fn a_bearing_scores_the_outlier_mixture_density() {
     };
     for nu in [0.0, 1.0, 3.0] {
         let mut mcl = Mcl::new_at(c.clone(), &map, Pose2::default(), [0.0; 3]).expect("valid");
-        // A bearing to an unknown landmark is not scored.
-        let scan = [bearing(1, nu * sigma), bearing(99, 0.3)];
+        // A bearing to an unknown landmark is not scored; the reported
+        // likelihood is per bearing (the geometric mean over the scan).
+        let scan = [
+            bearing(1, nu * sigma),
+            bearing(2, std::f64::consts::FRAC_PI_2 - nu * sigma),
+            bearing(99, 0.3),
+        ];
         let report = mcl.update(&scan).expect("updates");
         let want = mixture(nu);
         assert!(
@@ -325,4 +337,65 @@ fn without_a_long_term_average_nothing_is_injected() {
         let report = mcl.update(&[bearing(1, b)]).expect("updates");
         assert_eq!(report.injection_probability, 0.0, "{report:?}");
     }
+}
+
+#[test]
+fn roughening_jitters_a_cloud_heading_along_x_only_a_little() {
+    // A cloud around heading 0 (where a mirrored circular mean would put
+    // the reference at π and wrap the residuals around the whole circle).
+    let scenario = room();
+    let start = Pose2::new(3.0, 3.0, 0.0);
+    let config = MclConfig {
+        particles: 300,
+        resample_threshold: 1.0,
+        augmented: None,
+        ..config(9, None)
+    };
+    let mut mcl =
+        Mcl::new_at(config, &scenario.landmarks, start, [0.05, 0.05, 0.03]).expect("valid");
+    let spread = |m: &Mcl| {
+        m.poses()
+            .iter()
+            .map(|p| wrap_angle(p.z).abs())
+            .fold(0.0, f64::max)
+    };
+    let before = spread(&mcl);
+    let scan: Vec<BearingObservation> = scenario
+        .landmarks
+        .iter()
+        .map(|l| bearing(l.id, (l.y - start.y).atan2(l.x - start.x)))
+        .collect();
+    let report = mcl.update(&scan).expect("updates");
+    assert!(report.resampled);
+    let after = spread(&mcl);
+    assert!(
+        after < before + 0.05,
+        "headings within {before} before, {after} after"
+    );
+}
+
+#[test]
+fn the_estimate_averages_the_whole_mode_not_one_grid_cell() {
+    // A unimodal cloud 0.2 m wide spans several 0.5 m cells: the estimate
+    // is the weighted mean of the particles near the heaviest cell, which
+    // here is the whole cloud.
+    let start = Pose2::new(2.0, 1.8, 0.4);
+    let config = MclConfig {
+        particles: 2000,
+        ..config(11, None)
+    };
+    let mcl = Mcl::new_at(config, &room().landmarks, start, [0.2, 0.2, 0.05]).expect("valid");
+    let near: Vec<_> = mcl
+        .poses()
+        .iter()
+        .filter(|p| (p.x - start.x).hypot(p.y - start.y) < 0.45)
+        .collect();
+    let mean_x = near.iter().map(|p| p.x).sum::<f64>() / near.len() as f64;
+    let mean_y = near.iter().map(|p| p.y).sum::<f64>() / near.len() as f64;
+    let est = mcl.estimate().expect("weights");
+    let gap = (est.x - mean_x).hypot(est.y - mean_y);
+    assert!(
+        gap < 0.03,
+        "estimate {est:?} vs the mode's mean ({mean_x}, {mean_y})"
+    );
 }

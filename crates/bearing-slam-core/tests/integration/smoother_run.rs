@@ -49,6 +49,7 @@ fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
         let out = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
         let report = &out.report;
         assert!(report.solve.unwrap().converged, "{report:?}");
+        assert!(report.filter_time_s > 0.0 && report.smoother_time_s > 0.0);
         assert_eq!(report.n_poses, 1 + s.wheel_steps.len());
         if seed == 0 {
             // `batch_problem` is the graph `run_from_log` solves (what the
@@ -286,4 +287,67 @@ fn batch_smoother_integrates_velocity_commands() {
     );
     assert!(m.finite && m.ate_rmse_m < f.ate_rmse_m, "{m:?} vs {f:?}");
     assert!(m.ate_rmse_m < 2.0 * w.ate_rmse_m, "{m:?} vs wheels {w:?}");
+}
+
+/// A track point taken between two scans (after a wheel step, before the
+/// next scan) is the previous scan's smoothed pose composed with that step,
+/// with the first-order covariance `J_n Σ_n J_nᵀ + J_Δ Σ_Δ J_Δᵀ`; checked
+/// against central differences of the composition along the loop (every
+/// heading, so every term of the Jacobians matters).
+#[test]
+fn smoothed_track_points_between_scans_propagate_the_node_covariance() {
+    use bearing_slam_core::Pose2;
+    use bearing_slam_core::log::EventKind;
+    use bearing_slam_core::smoother::PreintegratedOdometry;
+    use bearing_slam_core::testing::numeric_jacobian;
+    use nalgebra::{DVector, Matrix3, Vector3};
+
+    let s = scenario();
+    let log = s.simulate(4);
+    let out = run_from_log(&log, &run_config(&s), &SmootherConfig::default()).unwrap();
+    let model = s.wheel_model().unwrap();
+    let wheels: Vec<_> = log
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Wheels(w) => Some(w),
+            _ => None,
+        })
+        .collect();
+    let (track, snaps) = (&out.output.track, &out.output.trace.snapshots);
+    let compose = |x: &DVector<f64>| {
+        let base = Pose2::new(x[0], x[1], x[2]);
+        let step = Pose2::new(x[3], x[4], x[5]);
+        DVector::from_column_slice(base.compose(&step).to_vector().as_slice())
+    };
+    // Track point k (k ≥ 2) follows wheel step k; scan k − 1 is snapshot k − 2.
+    for k in [2, 120, 230, 262, 300, 450] {
+        let node = &snaps[k - 2];
+        assert!(node.time < track[k].time);
+        let mut motion = PreintegratedOdometry::new();
+        motion.integrate(&model, &wheels[k - 1]).unwrap();
+        let x = DVector::from_iterator(
+            6,
+            node.pose
+                .to_vector()
+                .iter()
+                .chain(motion.delta.iter())
+                .copied(),
+        );
+        let j = numeric_jacobian(compose, &x, &[2]);
+        let j_n: Matrix3<f64> = j.fixed_view::<3, 3>(0, 0).into_owned();
+        let j_d: Matrix3<f64> = j.fixed_view::<3, 3>(0, 3).into_owned();
+        let sigma_n = Matrix3::from(node.pose_covariance).transpose();
+        let want = j_n * sigma_n * j_n.transpose() + j_d * motion.covariance * j_d.transpose();
+        let got = Matrix3::from(track[k].covariance).transpose();
+        let expected_pose = Vector3::from_column_slice(compose(&x).as_slice());
+        assert!(
+            (track[k].estimate.to_vector() - expected_pose).amax() < 1e-12,
+            "point {k}"
+        );
+        assert!(
+            (got - want).amax() <= 1e-7 * want.amax(),
+            "point {k}: {got} vs {want}"
+        );
+    }
 }

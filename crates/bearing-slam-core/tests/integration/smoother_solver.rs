@@ -338,3 +338,29 @@ fn at_the_minimum_lm_gives_up_once_the_damping_is_huge() {
     let retries = report.factorizations - report.iterations;
     assert!(retries <= 30, "{retries} damped retries: {report:?}");
 }
+
+/// One landmark seen once from a pinned pose: its depth is unobservable, so
+/// the undamped normal matrix is singular. Started with no damping at all,
+/// LM must raise `λ` after the failed factorization and go on.
+#[test]
+fn a_singular_normal_matrix_is_damped_until_it_factorizes() {
+    let mut graph = FactorGraph::new();
+    let pinned = PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-6).unwrap();
+    graph.add(Factor::PosePrior(pinned)).unwrap();
+    graph
+        .add_bearing(BearingFactor::new(0, 1, 0.3, 0.01).unwrap())
+        .unwrap();
+    assert_eq!(graph.len(), 2);
+    let mut values = Values::new();
+    values.insert_pose(0, Vector3::zeros()).unwrap();
+    values.insert_landmark(1, Vector2::new(2.0, 0.0)).unwrap();
+    let config = SolverConfig {
+        initial_lambda: 0.0,
+        ..SolverConfig::default()
+    };
+    let report = optimize(&graph, &mut values, &config).unwrap();
+    assert!(report.converged, "{report:?}");
+    assert!(report.final_cost < 1e-6 * report.initial_cost, "{report:?}");
+    let p = values.landmarks()[&1];
+    assert!((p.y.atan2(p.x) - 0.3).abs() < 1e-4, "{p}");
+}
