@@ -294,6 +294,46 @@ mod tests {
         assert!(!got.is_inlier[4]);
     }
 
+    /// The point minimizing the squared angular errors `Σ eᵢ²` (Gauss–Newton
+    /// from `start`): what the bearing factors would settle on.
+    fn angular_least_squares(rays: &[(Vector3<f64>, f64)], start: Vector2<f64>) -> Vector2<f64> {
+        let mut p = start;
+        for _ in 0..50 {
+            let (mut a, mut b) = (Matrix2::zeros(), Vector2::zeros());
+            for (pose, bearing) in rays {
+                let (e, _) = ray_error(pose, *bearing, &p);
+                let d = p - Vector2::new(pose.x, pose.y);
+                let j = Vector2::new(-d.y, d.x) / d.norm_squared();
+                a += j * j.transpose();
+                b -= j * e;
+            }
+            p += a.lu().solve(&b).unwrap();
+        }
+        p
+    }
+
+    #[test]
+    fn rays_count_by_their_angular_error_near_or_far() {
+        // Sensors from 1 m to 20 m away, each bearing off by up to 1σ: the
+        // point is the angular least-squares one (a near ray's metre of
+        // miss is worth a far ray's twenty), not the metric one.
+        let target = Vector2::new(3.0, 4.0);
+        let sensors = [
+            (3.0, 3.0, 0.2),
+            (2.2, 3.5, 0.0),
+            (-12.0, -8.0, 0.5),
+            (15.0, -10.0, 2.0),
+            (3.5, -15.0, 1.5),
+        ];
+        let noise = [0.01, -0.008, 0.01, -0.01, 0.006];
+        let rays = rays_at(target, &sensors, &noise);
+        let got = triangulate_rays(&rays, &rule()).unwrap().unwrap();
+        let best = angular_least_squares(&rays, target);
+        assert_eq!(got.inliers, 5);
+        // (1.8e-5 m apart: the last weights use the previous point's depths.)
+        assert!((got.point - best).norm() < 1e-4, "{} vs {best}", got.point);
+    }
+
     #[test]
     fn exactly_the_fewest_inliers_fix_a_point() {
         let target = Vector2::new(3.0, 4.0);
