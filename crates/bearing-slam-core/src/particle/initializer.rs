@@ -96,3 +96,45 @@ pub fn initialize(
         Err(e) => Err(e),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::init::TriangulationConfig;
+
+    /// The bearing of the point (3, 4) from a sensor at `(x, 0)` facing +x.
+    fn sighting(x: f64) -> (Vector3<f64>, Observation) {
+        (
+            Vector3::new(x, 0.0, 0.0),
+            Observation::Bearing(4f64.atan2(3.0 - x)),
+        )
+    }
+
+    #[test]
+    fn a_stale_candidate_is_restarted_not_triangulated() {
+        let initializer = ParticleInitializer::Triangulation(TriangulationConfig::default());
+        let noise = SensorNoise {
+            bearing_sigma: 0.01,
+            range_sigma: 0.1,
+        };
+        let timeout = TriangulationConfig::default().candidate_timeout;
+        let run = |second_time: f64| {
+            let mut map = ParticleMap::new();
+            let (pose, z) = sighting(0.0);
+            let first = initialize(&mut map, 7, &z, &pose, 0.0, &initializer, &noise);
+            assert_eq!(first.expect("valid"), InitStep::Waiting);
+            // 2 m further on, 23° of parallax: enough to triangulate.
+            let (pose, z) = sighting(2.0);
+            let second = initialize(&mut map, 7, &z, &pose, second_time, &initializer, &noise);
+            (second.expect("valid"), map)
+        };
+        let (fresh, map) = run(0.5 * timeout);
+        assert!(matches!(fresh, InitStep::Landmark(_)), "{fresh:?}");
+        assert_eq!(map.candidate(7), None);
+        let (stale, map) = run(2.0 * timeout);
+        assert_eq!(stale, InitStep::Waiting);
+        let restarted = map.candidate(7).expect("a new candidate");
+        assert_eq!(restarted.created, 2.0 * timeout);
+        assert_eq!(restarted.pose, Vector3::new(2.0, 0.0, 0.0));
+    }
+}

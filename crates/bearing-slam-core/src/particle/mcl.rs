@@ -429,7 +429,7 @@ impl Mcl {
             let start = if p_inject > 0.0 && uniform(&mut draw) < p_inject {
                 bounds.sample(&mut draw)
             } else {
-                self.poses[order[(n * stride) % order.len()]]
+                self.poses[order[spread(n, stride, order.len())]]
             };
             let pred = model.predict(&start, control)?;
             let mut pose = sample_gaussian(&pred.state, &pred.process_noise, &mut draw)?;
@@ -568,6 +568,11 @@ fn stride_for(n: usize) -> usize {
     s
 }
 
+/// The `k`-th index of the stride order over `0..n`.
+fn spread(k: usize, stride: usize, n: usize) -> usize {
+    (k * stride) % n
+}
+
 fn gcd(mut a: usize, mut b: usize) -> usize {
     while b != 0 {
         (a, b) = (b, a % b);
@@ -588,7 +593,8 @@ mod tests {
         assert_eq!(stride_for(10), 7);
         for n in [3, 7, 64, 1000, 1500] {
             let s = stride_for(n);
-            let mut seen: Vec<usize> = (0..n).map(|k| (k * s) % n).collect();
+            assert_eq!((spread(0, s, n), spread(1, s, n)), (0, s));
+            let mut seen: Vec<usize> = (0..n).map(|k| spread(k, s, n)).collect();
             seen.sort_unstable();
             assert_eq!(seen, (0..n).collect::<Vec<_>>(), "n = {n}, stride {s}");
             // The first visits are spread: the second index is far from the first.

@@ -182,6 +182,8 @@ fn a_bearing_scores_the_outlier_mixture_density() {
             bearing(99, 0.3),
         ];
         let report = mcl.update(&scan).expect("updates");
+        // One particle: N_eff = 1 ≥ ½ · 1, no resampling.
+        assert!(!report.resampled, "{report:?}");
         let want = mixture(nu);
         assert!(
             (report.mean_likelihood - want).abs() <= 1e-12 * want,
