@@ -167,6 +167,13 @@ mod tests {
         let w = [0.3, 0.1, 1.0 / 3.0];
         let u = 1.0 - f64::EPSILON / 2.0;
         assert_eq!(systematic_resample(&w, u).expect("valid"), vec![0, 2, 2]);
+        // When the last particle has no weight, the tooth steps back to the
+        // last one that has.
+        let trailing_zero = [0.1, 1.0, 0.0];
+        assert_eq!(
+            systematic_resample(&trailing_zero, u).expect("valid"),
+            vec![1, 1, 1]
+        );
     }
 
     #[test]
