@@ -335,6 +335,24 @@ mod tests {
     }
 
     #[test]
+    fn a_parallax_of_exactly_the_minimum_fixes_a_point() {
+        let target = Vector2::new(3.0, 4.0);
+        let sensors = [(0.0, 0.0, 0.3), (1.0, 0.0, -1.0), (2.0, 0.5, 2.0)];
+        let rays = rays_at(target, &sensors, &[0.0]);
+        let spread = triangulate_rays(&rays, &rule()).unwrap().unwrap().parallax;
+        let at = |min_parallax| RayTriangulationRule {
+            min_parallax,
+            ..rule()
+        };
+        assert!(triangulate_rays(&rays, &at(spread)).unwrap().is_some());
+        assert!(
+            triangulate_rays(&rays, &at(spread * (1.0 + 1e-12)))
+                .unwrap()
+                .is_none()
+        );
+    }
+
+    #[test]
     fn exactly_the_fewest_inliers_fix_a_point() {
         let target = Vector2::new(3.0, 4.0);
         let sensors = [(0.0, 0.0, 0.3), (1.0, 0.0, -1.0), (2.0, 0.5, 2.0)];

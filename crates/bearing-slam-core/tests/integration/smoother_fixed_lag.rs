@@ -6,9 +6,10 @@
 use super::smoother_common;
 
 use bearing_slam_core::smoother::{
-    Factor, FixedLagConfig, FixedLagSmoother, Key, RobustKernel, SolveReport, SolverConfig,
-    Termination, Values, marginal_covariances, optimize,
+    Factor, FixedLagConfig, FixedLagSmoother, Key, OdometryFactor, PosePriorFactor, RobustKernel,
+    SolveReport, SolverConfig, Termination, Values, marginal_covariances, optimize,
 };
+use nalgebra::{Matrix3, Vector3};
 use smoother_common::{Problem, max_difference, problem};
 
 /// The latest pose a factor involves: it joins the smoother with that pose.
@@ -259,4 +260,50 @@ fn a_marginalized_outlier_stays_down_weighted() {
     let error = max_difference(&batch, &p.truth);
     println!("robust lag 4 vs batch: {gap:.3e} (batch error {error:.3e})");
     assert!(gap < 0.5 * error, "{gap} vs the batch's own error {error}");
+}
+
+#[test]
+fn a_weak_direction_of_information_survives_marginalization() {
+    // A prior that knows y only to 100 km (information 1e-10 against 1e-4
+    // for x and θ): the marginal prior it leaves on the next pose is weak
+    // in y but not empty. Only eigenvalues that are rounding relative to
+    // the largest (below 1e-12 of it) are dropped.
+    let mut s = FixedLagSmoother::new(FixedLagConfig {
+        lag: 2,
+        ..FixedLagConfig::default()
+    })
+    .unwrap();
+    let prior = PosePriorFactor::new(
+        0,
+        Vector3::zeros(),
+        Matrix3::from_diagonal(&Vector3::new(1e4, 1e10, 1e4)),
+    )
+    .unwrap();
+    let step = |k: u64| {
+        OdometryFactor::new(
+            k - 1,
+            k,
+            Vector3::new(1.0, 0.0, 0.0),
+            Matrix3::identity() * 1e-4,
+        )
+        .unwrap()
+    };
+    s.add_pose(0, Vector3::zeros()).unwrap();
+    s.add_factor(Factor::PosePrior(prior)).unwrap();
+    s.update().unwrap();
+    for k in 1..=2 {
+        s.add_pose(k, Vector3::new(k as f64, 0.0, 0.0)).unwrap();
+        s.add_factor(Factor::Odometry(step(k))).unwrap();
+        s.update().unwrap();
+    }
+    assert_eq!(s.marginalizations(), 1);
+    let linear: Vec<_> = s
+        .graph()
+        .factors()
+        .iter()
+        .filter(|f| matches!(f, Factor::Linear(_)))
+        .collect();
+    assert_eq!(linear.len(), 1);
+    let rows = linear[0].linearize(s.values()).unwrap().residual.len();
+    assert_eq!(rows, 3, "the marginal prior keeps x, y and θ");
 }

@@ -351,3 +351,24 @@ fn smoothed_track_points_between_scans_propagate_the_node_covariance() {
         );
     }
 }
+
+/// A log without ground truth (a real robot's): the runner takes a track
+/// point at every scan, and each is its scan's smoothed pose.
+#[test]
+fn without_ground_truth_the_track_follows_the_scans() {
+    use bearing_slam_core::log::EventKind;
+
+    let s = KinematicScenario::paper_fig4(false);
+    let mut log = s.simulate(6);
+    log.events
+        .retain(|e| !matches!(e.kind, EventKind::GroundTruth(_)));
+    let out = run_from_log(&log, &run_config(&s), &SmootherConfig::default()).unwrap();
+    let (track, snaps) = (&out.output.track, &out.output.trace.snapshots);
+    assert_eq!(track.len(), snaps.len());
+    assert_eq!(track.len(), s.wheel_steps.len());
+    for (point, snap) in track.iter().zip(snaps) {
+        assert_eq!(point.time, snap.time);
+        let gap = (point.estimate.to_vector() - snap.pose.to_vector()).amax();
+        assert!(gap < 1e-12, "{} s: {gap}", point.time);
+    }
+}

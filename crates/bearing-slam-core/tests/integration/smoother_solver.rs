@@ -351,8 +351,10 @@ fn at_the_minimum_lm_gives_up_once_the_damping_is_huge() {
 #[test]
 fn a_singular_normal_matrix_is_damped_until_it_factorizes() {
     let mut graph = FactorGraph::new();
+    assert!(graph.is_empty());
     let pinned = PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-6).unwrap();
     graph.add(Factor::PosePrior(pinned)).unwrap();
+    assert!(!graph.is_empty());
     graph
         .add_bearing(BearingFactor::new(0, 1, 0.3, 0.01).unwrap())
         .unwrap();
