@@ -63,9 +63,28 @@ impl<C: Clone> Edges<C> {
     }
 }
 
+/// Both particle filters resample when `N_eff < threshold · M`, the
+/// threshold in `(0, 1]`.
+fn resample_threshold_edges<C: Clone>(edges: &Edges<C>, threshold: fn(&mut C) -> &mut f64) {
+    edges
+        .ok("resample always", |c| *threshold(c) = 1.0)
+        .refused(
+            "resample never",
+            |c| *threshold(c) = 0.0,
+            "resample_threshold",
+        )
+        .refused(
+            "threshold > 1",
+            |c| *threshold(c) = 1.01,
+            "resample_threshold",
+        );
+}
+
 #[test]
 fn fastslam_configuration_edges() {
-    Edges::new(FastSlamConfig::default(), FastSlamConfig::validate)
+    let edges = Edges::new(FastSlamConfig::default(), FastSlamConfig::validate);
+    resample_threshold_edges(&edges, |c| &mut c.resample_threshold);
+    edges
         .ok("one particle", |c| c.particles = 1)
         .refused("no particle", |c| c.particles = 0, "particles")
         .refused("NaN x", |c| c.initial_pose.x = f64::NAN, "initial x")
@@ -99,17 +118,6 @@ fn fastslam_configuration_edges() {
             "convert above 1",
             |c| c.conversion_threshold = Some(1.0 + 1e-12),
             "conversion_threshold",
-        )
-        .ok("resample always", |c| c.resample_threshold = 1.0)
-        .refused(
-            "resample never",
-            |c| c.resample_threshold = 0.0,
-            "resample_threshold",
-        )
-        .refused(
-            "threshold > 1",
-            |c| c.resample_threshold = 1.5,
-            "resample_threshold",
         )
         .ok("2.0 resampling first", |c| {
             c.resample_before_proposal = true
@@ -222,7 +230,9 @@ fn mcl_base() -> MclConfig {
 
 #[test]
 fn mcl_configuration_edges() {
-    Edges::new(mcl_base(), MclConfig::validate)
+    let edges = Edges::new(mcl_base(), MclConfig::validate);
+    resample_threshold_edges(&edges, |c| &mut c.resample_threshold);
+    edges
         .refused("no particle", |c| c.particles = 0, "particles")
         .refused("a flat room", |c| c.bounds.x_max = c.bounds.x_min, "bounds")
         .refused("an upside-down room", |c| c.bounds.y_max = -1.0, "bounds")
@@ -238,17 +248,6 @@ fn mcl_configuration_edges() {
             "negative outliers",
             |c| c.outlier_probability = -0.01,
             "outlier_probability",
-        )
-        .ok("resample always", |c| c.resample_threshold = 1.0)
-        .refused(
-            "resample never",
-            |c| c.resample_threshold = 0.0,
-            "resample_threshold",
-        )
-        .refused(
-            "threshold > 1",
-            |c| c.resample_threshold = 1.01,
-            "resample_threshold",
         )
         .ok("no augmentation", |c| c.augmented = None)
         .ok("α_slow = 0, α_fast = 1", |c| {

@@ -23,6 +23,16 @@ fn newest_pose(f: &Factor) -> Option<u64> {
         .max()
 }
 
+/// Adds pose `k` of `p` and every factor it completes.
+fn add_pose_with_factors(s: &mut FixedLagSmoother, p: &Problem, k: u64) {
+    s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
+    for f in p.graph.factors() {
+        if newest_pose(f) == Some(k) {
+            s.add_factor(f.clone()).unwrap();
+        }
+    }
+}
+
 /// Feeds `p` pose by pose (each pose's factors once all their variables
 /// exist) and updates after each.
 fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
@@ -46,12 +56,7 @@ fn run_online_config(p: &Problem, config: FixedLagConfig) -> (FixedLagSmoother, 
         s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
     }
     for k in 0..p.n_poses {
-        s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
-        for f in p.graph.factors() {
-            if newest_pose(f) == Some(k) {
-                s.add_factor(f.clone()).unwrap();
-            }
-        }
+        add_pose_with_factors(&mut s, p, k);
         reports.push(s.update().unwrap());
     }
     (s, reports)
@@ -221,12 +226,7 @@ fn several_poses_added_between_updates_all_leave_at_once() {
     }
     // Poses arrive three at a time (a burst of keyframes), one update each.
     for k in 0..p.n_poses {
-        s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
-        for f in p.graph.factors() {
-            if newest_pose(f) == Some(k) {
-                s.add_factor(f.clone()).unwrap();
-            }
-        }
+        add_pose_with_factors(&mut s, &p, k);
         if k % 3 == 2 {
             s.update().unwrap();
             let in_window = (0..=k).filter(|id| s.in_window(*id)).count();
