@@ -33,10 +33,8 @@ pub struct PoseGaussian {
 pub struct Proposal {
     /// The Gaussian to draw the pose from.
     pub gaussian: PoseGaussian,
-    /// `ln` of the marginal likelihood of the measurements used.
-    pub log_likelihood: f64,
-    /// The log-likelihood term of each landmark used, in order (their sum
-    /// is `log_likelihood`).
+    /// The log-likelihood term of each landmark used, in order: their sum
+    /// is `ln` of the marginal likelihood of the measurements used.
     pub terms: Vec<(u64, f64)>,
 }
 
@@ -69,7 +67,6 @@ pub fn propose(
     noise: &SensorNoise,
 ) -> Result<Proposal> {
     let mut g = *prior;
-    let mut log_likelihood = 0.0;
     let mut terms = Vec::with_capacity(known.len());
     for (id, observation) in known {
         let Some(landmark) = map.get(*id) else {
@@ -86,17 +83,10 @@ pub fn propose(
                 .and_then(|lin| condition(&mut g, &lin)),
         };
         match step {
-            Ok(ll) => {
-                log_likelihood += ll;
-                terms.push((*id, ll));
-            }
+            Ok(ll) => terms.push((*id, ll)),
             Err(SlamError::Degenerate(_)) => {}
             Err(e) => return Err(e),
         }
     }
-    Ok(Proposal {
-        gaussian: g,
-        log_likelihood,
-        terms,
-    })
+    Ok(Proposal { gaussian: g, terms })
 }

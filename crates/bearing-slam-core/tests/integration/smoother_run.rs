@@ -50,6 +50,17 @@ fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
         let report = &out.report;
         assert!(report.solve.unwrap().converged, "{report:?}");
         assert!(report.filter_time_s > 0.0 && report.smoother_time_s > 0.0);
+        // Every bearing of the log is either a factor or dropped.
+        let bearings: usize = log
+            .events
+            .iter()
+            .map(|e| match &e.kind {
+                bearing_slam_core::log::EventKind::Bearings(scan) => scan.len(),
+                _ => 0,
+            })
+            .sum();
+        assert!(report.n_measurements > bearings / 2, "{report:?}");
+        assert_eq!(report.n_measurements + report.n_dropped, bearings);
         assert_eq!(report.n_poses, 1 + s.wheel_steps.len());
         if seed == 0 {
             // `batch_problem` is the graph `run_from_log` solves (what the
