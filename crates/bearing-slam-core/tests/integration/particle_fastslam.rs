@@ -174,7 +174,7 @@ fn range_bearing_fastslam1_converges() {
 /// landmarks, a noisy prediction spreads the particles, and a second scan
 /// weighs them. Returns the filter and the second scan's report.
 fn weighed_twice(resample_threshold: f64) -> (FastSlam, ParticleUpdateReport) {
-    let mut filter = FastSlam::new(FastSlamConfig {
+    weighed_twice_by(FastSlamConfig {
         variant: FastSlamVariant::FastSlam1,
         particles: 20,
         seed: 4,
@@ -182,7 +182,11 @@ fn weighed_twice(resample_threshold: f64) -> (FastSlam, ParticleUpdateReport) {
         resample_threshold,
         ..FastSlamConfig::default()
     })
-    .expect("valid");
+}
+
+/// [`weighed_twice`] with any configuration.
+fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) {
+    let mut filter = FastSlam::new(config).expect("valid");
     let seen = |id, x: f64, y: f64, from_x: f64| BearingObservation {
         landmark_id: id,
         bearing: y.atan2(x - from_x),
@@ -233,6 +237,9 @@ fn the_reported_particle_is_the_heaviest() {
     );
     assert_ne!(heaviest, 0, "seed 4 puts the heaviest elsewhere than first");
     assert_eq!(filter.best_index(), heaviest);
+    // Kept weights are rescaled so that the heaviest log-weight is 0.
+    assert_eq!(filter.particles()[heaviest].log_weight, 0.0);
+    assert!(filter.particles().iter().all(|p| p.log_weight <= 0.0));
     assert_eq!(
         filter.best_particle().pose,
         filter.particles()[heaviest].pose
@@ -289,4 +296,60 @@ fn fastslam2_reports_the_pending_motion_covariance_before_a_scan() {
         .process_noise;
     assert!((cov - q).amax() < 1e-15 * q.amax().max(1.0), "{cov} vs {q}");
     assert!(q.amax() > 1e-5);
+}
+
+#[test]
+fn fastslam2_resampling_before_the_proposal_weighs_first() {
+    // Bailey's ordering: the 2.0 weight is computed (and the particles
+    // resampled on it) before the proposal is drawn. Particles spread around
+    // the true start, sharing a known map, earn different weights from one
+    // scan taken at the start.
+    use bearing_slam_core::nalgebra::{Matrix2, Vector2};
+    use bearing_slam_core::particle::existence::ExistenceCounter;
+    use bearing_slam_core::particle::landmark_ekf::LandmarkEkf;
+    use bearing_slam_core::particle::map::{MappedLandmark, ParticleMap};
+
+    let points = [(1, 2.0, 1.0), (2, 3.0, -1.5), (3, -1.0, 2.5)];
+    let mut map = ParticleMap::new();
+    for &(id, x, y) in &points {
+        map.insert(
+            id,
+            MappedLandmark {
+                filter: LandmarkEkf::Euclidean {
+                    mean: Vector2::new(x, y),
+                    cov: Matrix2::identity() * 1e-4,
+                },
+                existence: ExistenceCounter {
+                    seen: 1,
+                    missed: 0,
+                    evidence: 1.0,
+                },
+            },
+        );
+    }
+    let config = FastSlamConfig {
+        particles: 20,
+        seed: 4,
+        initial_pose_sigma: [0.05, 0.05, 0.02],
+        resample_threshold: 1e-9,
+        resample_before_proposal: true,
+        ..FastSlamConfig::default()
+    };
+    let mut filter = FastSlam::with_map(config, map).expect("valid");
+    let scan: Vec<BearingObservation> = points
+        .iter()
+        .map(|&(id, x, y)| BearingObservation {
+            landmark_id: id,
+            bearing: f64::atan2(y, x),
+            range: None,
+        })
+        .collect();
+    let report = filter.update(0.0, &scan, false).expect("weighs");
+    assert!(!report.resampled, "{report:?}");
+    let weights = filter.weights().expect("weights");
+    let heaviest = weights.iter().fold(0.0f64, |m, w| m.max(*w));
+    assert!(
+        heaviest * weights.len() as f64 > 1.5,
+        "the scan weighs the particles: {weights:?}"
+    );
 }
