@@ -162,8 +162,8 @@ mod tests {
             bin_theta_rad: 0.1,
             ..KldConfig::default()
         };
-        assert_eq!(config.bin(&Vector3::new(1.2, -0.3, 0.25)), (2, -1, 2));
-        assert_eq!(config.bin(&Vector3::new(-1.2, 0.3, -0.25)), (-3, 0, -3));
+        assert_eq!(config.bin(&Vector3::new(1.2, -1.3, 0.25)), (2, -3, 2));
+        assert_eq!(config.bin(&Vector3::new(-1.2, 1.3, -0.25)), (-3, 2, -3));
         // Far-off poses saturate into an edge bin rather than wrapping.
         assert_eq!(
             config.bin(&Vector3::new(1e300, -1e300, 0.0)),
