@@ -103,7 +103,9 @@ fn filter_steps_copy_only_the_observed_landmarks() {
 
 #[test]
 fn a_candidate_waits_until_removed_once() {
+    assert!(ParticleMap::new().is_empty());
     let mut map = big_map();
+    assert!(!map.is_empty());
     let candidate = bearing_slam_core::init::Candidate {
         pose: bearing_slam_core::nalgebra::Vector3::new(1.0, 2.0, 0.3),
         bearing: 0.4,

@@ -401,3 +401,37 @@ fn the_estimate_averages_the_whole_mode_not_one_grid_cell() {
         "estimate {est:?} vs the mode's mean ({mean_x}, {mean_y})"
     );
 }
+
+#[test]
+fn the_uniform_prior_fills_the_bounds_and_only_them() {
+    let bounds = Bounds {
+        x_min: -3.0,
+        x_max: -1.0,
+        y_min: 2.0,
+        y_max: 3.0,
+    };
+    let mcl = Mcl::new(
+        MclConfig {
+            bounds,
+            particles: 500,
+            ..config(2, None)
+        },
+        &room().landmarks,
+    )
+    .expect("valid");
+    let inside = |q: &&nalgebra::Vector3<f64>| {
+        (bounds.x_min..=bounds.x_max).contains(&q.x)
+            && (bounds.y_min..=bounds.y_max).contains(&q.y)
+            && q.z.abs() <= std::f64::consts::PI
+    };
+    assert!(mcl.poses().iter().all(|q| inside(&q)));
+    // It fills them: every quarter of the rectangle holds particles.
+    for (qx, qy) in [(-2.5, 2.25), (-1.5, 2.25), (-2.5, 2.75), (-1.5, 2.75)] {
+        let n = mcl
+            .poses()
+            .iter()
+            .filter(|q| (q.x - qx).abs() < 0.5 && (q.y - qy).abs() < 0.25)
+            .count();
+        assert!(n > 80, "{n} particles near ({qx}, {qy})");
+    }
+}
