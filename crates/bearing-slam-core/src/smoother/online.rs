@@ -18,12 +18,12 @@
 //! are rewritten with each pose as it was when it left the window (and the
 //! poses still in it as they are at the end), with marginal covariances.
 
-use super::factors::{
-    BearingFactor, Factor, LandmarkPriorFactor, OdometryFactor, PosePriorFactor, RangeBearingFactor,
-};
+use super::factors::{BearingFactor, Factor, OdometryFactor, PosePriorFactor, RangeBearingFactor};
 use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
 use super::preintegration::PreintegratedOdometry;
-use super::run::{SmootherConfig, SmootherReport, apply_smoothed, compose, measurement_factor};
+use super::run::{
+    SmootherConfig, SmootherReport, apply_smoothed, compose, landmark_prior, measurement_factor,
+};
 use super::values::Key;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
@@ -298,13 +298,8 @@ impl OnlineSmoother {
     /// filter's estimate, with the observations that waited for it.
     fn enter_landmark(&mut self, id: u64, p: Vector2<f64>) -> Result<()> {
         self.smoother.add_landmark(id, p)?;
-        if let Some(s) = self.landmark_prior_sigma_m {
-            self.smoother
-                .add_factor(Factor::LandmarkPrior(LandmarkPriorFactor::new(
-                    id,
-                    p,
-                    Matrix2::identity() * (s * s),
-                )?))?;
+        if let Some(prior) = landmark_prior(self.landmark_prior_sigma_m, id, p)? {
+            self.smoother.add_factor(prior)?;
         }
         self.report.n_landmarks += 1;
         for (node, offset, o) in self.waiting.remove(&id).unwrap_or_default() {

@@ -407,11 +407,14 @@ pub fn batch_problem(
     build_batch_problem(log, run_config, config, &filter)
 }
 
-/// The weak prior of [`SmootherConfig::landmark_prior_sigma_m`] on the
-/// landmark `id` at `point`, if the configuration asks for one.
-fn landmark_prior(config: &SmootherConfig, id: u64, point: Vector2<f64>) -> Result<Option<Factor>> {
-    config
-        .landmark_prior_sigma_m
+/// The weak prior of [`SmootherConfig::landmark_prior_sigma_m`] (`sigma_m`)
+/// on the landmark `id` at `point`, if the configuration asks for one.
+pub(super) fn landmark_prior(
+    sigma_m: Option<f64>,
+    id: u64,
+    point: Vector2<f64>,
+) -> Result<Option<Factor>> {
+    sigma_m
         .map(|s| {
             let prior = LandmarkPriorFactor::new(id, point, Matrix2::identity() * (s * s))?;
             Ok(Factor::LandmarkPrior(prior))
@@ -474,7 +477,7 @@ fn build_batch_problem(
     }
     for (id, p) in &landmarks.last {
         values.insert_landmark(*id, *p)?;
-        if let Some(prior) = landmark_prior(config, *id, *p)? {
+        if let Some(prior) = landmark_prior(config.landmark_prior_sigma_m, *id, *p)? {
             graph.add(prior)?;
         }
     }
@@ -533,7 +536,11 @@ fn add_unmapped_landmarks(
             continue;
         };
         problem.initial.insert_landmark(*id, found.point)?;
-        factors.extend(landmark_prior(config, *id, found.point)?);
+        factors.extend(landmark_prior(
+            config.landmark_prior_sigma_m,
+            *id,
+            found.point,
+        )?);
         // The bearings the point explains; the others (a misread barcode,
         // a reflection) stay dropped.
         for ((k, o), _) in sightings.iter().zip(&found.is_inlier).filter(|(_, i)| **i) {

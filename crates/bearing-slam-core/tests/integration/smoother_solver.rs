@@ -8,10 +8,11 @@ use super::smoother_common;
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::smoother::{
-    BearingFactor, Factor, FactorGraph, Key, Method, OdometryFactor, PosePriorFactor, RobustKernel,
-    SolverConfig, Termination, Values, cost, marginal_covariances, optimize,
+    BearingFactor, Factor, FactorGraph, Key, LandmarkPriorFactor, Method, OdometryFactor,
+    PosePriorFactor, RobustKernel, SolverConfig, Termination, Values, cost, marginal_covariances,
+    optimize,
 };
-use nalgebra::{DMatrix, Matrix3, Vector2, Vector3};
+use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{max_difference, problem};
 use std::collections::BTreeMap;
 
@@ -371,4 +372,41 @@ fn a_singular_normal_matrix_is_damped_until_it_factorizes() {
     assert!(report.final_cost < 1e-6 * report.initial_cost, "{report:?}");
     let p = values.landmarks()[&1];
     assert!((p.y.atan2(p.x) - 0.3).abs() < 1e-4, "{p}");
+}
+
+/// A Gauss–Newton step that lands a landmark on the sensor (a bearing
+/// there is undefined) is an error naming the geometry; Levenberg–Marquardt
+/// rejects the step and damps instead.
+#[test]
+fn gauss_newton_refuses_a_step_onto_the_sensor() {
+    let mut graph = FactorGraph::new();
+    let pinned = PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-6).unwrap();
+    graph.add(Factor::PosePrior(pinned)).unwrap();
+    // A (wrong) prior that puts the landmark exactly at the sensor.
+    let onto = LandmarkPriorFactor::new(1, Vector2::zeros(), Matrix2::identity() * 1e-24).unwrap();
+    graph.add(Factor::LandmarkPrior(onto)).unwrap();
+    graph
+        .add_bearing(BearingFactor::new(0, 1, 0.0, 0.01).unwrap())
+        .unwrap();
+    let start = || {
+        let mut v = Values::new();
+        v.insert_pose(0, Vector3::zeros()).unwrap();
+        v.insert_landmark(1, Vector2::new(1.0, 0.0)).unwrap();
+        v
+    };
+    // Even as its last iteration: the step is refused, not returned.
+    let gauss_newton = SolverConfig {
+        method: Method::GaussNewton,
+        max_iterations: 1,
+        ..SolverConfig::default()
+    };
+    match optimize(&graph, &mut start(), &gauss_newton) {
+        Err(SlamError::Degenerate(what)) => assert!(what.contains("sensor"), "{what}"),
+        other => panic!("expected a degenerate-geometry error, got {other:?}"),
+    }
+    let lm = optimize(&graph, &mut start(), &SolverConfig::default()).unwrap();
+    assert!(
+        lm.final_cost.is_finite() && lm.final_cost <= lm.initial_cost,
+        "{lm:?}"
+    );
 }
