@@ -335,7 +335,8 @@ fn fastslam2_resampling_before_the_proposal_weighs_first() {
         resample_before_proposal: true,
         ..FastSlamConfig::default()
     };
-    let mut filter = FastSlam::with_map(config, map).expect("valid");
+    let mut filter = FastSlam::with_map(config.clone(), map).expect("valid");
+    assert_eq!(filter.config(), &config);
     let scan: Vec<BearingObservation> = points
         .iter()
         .map(|&(id, x, y)| BearingObservation {
