@@ -292,11 +292,12 @@ impl FixedLagSmoother {
         let schur_g = g.rows(m, r).into_owned() - &hrm * &hmm_inv * g.rows(0, m);
         let schur_h = 0.5 * (&schur_h + schur_h.transpose());
         // Square root of the information: H' = V Λ Vᵀ, R = Λ^{1/2} Vᵀ over
-        // the positive eigenvalues, r₀ = Λ^{-1/2} Vᵀ g'.
+        // the eigenvalues above 1e-12 of the largest (so positive; the rest
+        // is rounding), r₀ = Λ^{-1/2} Vᵀ g'.
         let eig = schur_h.symmetric_eigen();
         let max = eig.eigenvalues.max().max(0.0);
         let kept: Vec<usize> = (0..r)
-            .filter(|&i| eig.eigenvalues[i] > 1e-12 * max && eig.eigenvalues[i] > 0.0)
+            .filter(|&i| eig.eigenvalues[i] > 1e-12 * max)
             .collect();
         if kept.is_empty() {
             return Ok(());

@@ -80,6 +80,10 @@ mod tests {
         let cauchy = RobustKernel::Cauchy(2.0);
         assert!((cauchy.loss(4.0) - 4.0 * 2f64.ln()).abs() < 1e-15);
         assert_eq!(cauchy.weight(4.0), 0.5);
+        // (c = 3, where c·c and c + c differ.)
+        let cauchy3 = RobustKernel::Cauchy(3.0);
+        assert!((cauchy3.loss(9.0) - 9.0 * 2f64.ln()).abs() < 1e-14);
+        assert_eq!(cauchy3.weight(9.0), 0.5);
         // The weight is ρ'(s), and both kernels are continuous at their knee.
         for kernel in [huber, cauchy, RobustKernel::Huber(2.5)] {
             for s in [0.3, 1.0 + 1e-3, 4.0, 30.0] {

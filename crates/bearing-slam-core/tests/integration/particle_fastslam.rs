@@ -103,6 +103,12 @@ fn fastslam2_converges_bearing_only_with_inverse_depth() {
         &summarize(&log, &output).expect("truth"),
         0.5,
     );
+    // The log states its start pose: a configured start elsewhere changes
+    // nothing.
+    let mut elsewhere = c.clone();
+    elsewhere.filter.initial_pose = bearing_slam_core::Pose2::new(4.0, -3.0, 1.0);
+    let moved = run_fastslam(&log, &elsewhere).expect("runs");
+    assert_eq!(moved.track, output.track);
 }
 
 /// Per-particle MTE runs and maps every landmark; its accuracy needs more
