@@ -335,6 +335,35 @@ mod tests {
     }
 
     #[test]
+    fn a_misread_far_ray_is_found_among_near_and_far_ones() {
+        // Two sensors 0.5 m from the point, six about 18 m away, one of
+        // those misread by 0.29 rad: the reweighting by 1/r² and the
+        // Cauchy factor together single it out (in the scene this was drawn
+        // from, weighting by 1/r instead let it pull the point 0.29 m and
+        // dropped the two near rays).
+        let target = Vector2::new(3.35, 8.83);
+        let sensors = [
+            (0.127, -8.978, 0.17),
+            (3.668, 8.51, 2.76),
+            (8.656, -9.2, 2.51),
+            (12.585, -9.469, -0.1),
+            (3.836, 8.396, 2.38),
+            (3.062, -8.604, 1.23),
+            (-4.096, -9.356, -0.33),
+            (-1.117, -9.29, 0.63),
+        ];
+        let noise = [
+            0.0063, -0.0043, 0.2923, 0.0097, 0.0072, 0.0012, -0.0037, -0.0033,
+        ];
+        let got = triangulate_rays(&rays_at(target, &sensors, &noise), &rule())
+            .unwrap()
+            .unwrap();
+        let good: Vec<bool> = noise.iter().map(|n| n.abs() < 0.1).collect();
+        assert_eq!(got.is_inlier, good, "{got:?}");
+        assert!((got.point - target).norm() < 0.05, "{got:?}");
+    }
+
+    #[test]
     fn a_parallax_of_exactly_the_minimum_fixes_a_point() {
         let target = Vector2::new(3.0, 4.0);
         let sensors = [(0.0, 0.0, 0.3), (1.0, 0.0, -1.0), (2.0, 0.5, 2.0)];
