@@ -156,6 +156,12 @@ mod tests {
             "out of view"
         );
         assert!(!config.expects(&pose, &Vector2::new(f64::NAN, 1.0)));
+        // The range is measured from the pose, not from the origin: 9.5 m
+        // ahead of the pose but 11.7 m from (−1, −1) mirrored through it.
+        assert!(
+            config.expects(&pose, &Vector2::new(1.0, 10.5)),
+            "in range of the pose"
+        );
     }
 
     #[test]

@@ -9,6 +9,7 @@
 //! odometry that is noisier than the 1° bearings, it collapses to one
 //! particle within seconds (measured in the report, not hidden).
 
+use bearing_slam_core::error::SlamError;
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::{BearingObservation, EventKind, SensorLog, WheelOdometry};
 use bearing_slam_core::model::MotionModel;
@@ -359,4 +360,34 @@ fn fastslam2_resampling_before_the_proposal_weighs_first() {
         heaviest * weights.len() as f64 > 1.5,
         "the scan weighs the particles: {weights:?}"
     );
+}
+
+#[test]
+fn a_time_before_the_last_is_refused_and_moves_nothing() {
+    let (mut filter, _) = weighed_twice(1e-9);
+    let poses: Vec<_> = filter.particles().iter().map(|p| p.pose).collect();
+    let wheels = DiffDriveModel::new(
+        0.2,
+        WheelNoise {
+            floor_sigma_m: 0.01,
+            scale_sqrt_m: 0.0,
+        },
+    )
+    .expect("valid");
+    let roll = WheelOdometry {
+        left_m: 0.1,
+        right_m: 0.1,
+    };
+    let back = filter.predict(0.05, &wheels, &roll);
+    assert!(
+        matches!(back, Err(SlamError::TimeOrder { previous, current })
+            if previous == 0.1 && current == 0.05),
+        "{back:?}"
+    );
+    let back = filter.update(0.05, &[], true);
+    assert!(matches!(back, Err(SlamError::TimeOrder { .. })), "{back:?}");
+    let after: Vec<_> = filter.particles().iter().map(|p| p.pose).collect();
+    assert_eq!(poses, after, "a refused step moves no particle");
+    // The refused time was not kept: the next step in order still runs.
+    filter.predict(0.2, &wheels, &roll).expect("in order");
 }
