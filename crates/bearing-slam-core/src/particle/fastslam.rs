@@ -531,6 +531,7 @@ impl FastSlam {
     }
 }
 
+/// The index of the largest weight; among equal weights, the first.
 fn argmax(weights: &[f64]) -> usize {
     let mut best = 0;
     for (i, w) in weights.iter().enumerate() {

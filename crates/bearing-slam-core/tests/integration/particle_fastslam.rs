@@ -229,6 +229,106 @@ fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) 
     (filter, report)
 }
 
+/// A map every particle shares: Euclidean landmarks at `points` (id, x, y),
+/// each known to 1 cm, seen once.
+fn known_map(points: &[(u64, f64, f64)]) -> bearing_slam_core::particle::map::ParticleMap {
+    use bearing_slam_core::nalgebra::{Matrix2, Vector2};
+    use bearing_slam_core::particle::existence::ExistenceCounter;
+    use bearing_slam_core::particle::landmark_ekf::LandmarkEkf;
+    use bearing_slam_core::particle::map::{MappedLandmark, ParticleMap};
+
+    let mut map = ParticleMap::new();
+    for &(id, x, y) in points {
+        map.insert(
+            id,
+            MappedLandmark {
+                filter: LandmarkEkf::Euclidean {
+                    mean: Vector2::new(x, y),
+                    cov: Matrix2::identity() * 1e-4,
+                },
+                existence: ExistenceCounter {
+                    seen: 1,
+                    missed: 0,
+                    evidence: 1.0,
+                },
+            },
+        );
+    }
+    map
+}
+
+#[test]
+fn a_landmark_at_the_sensor_is_rejected_and_ties_go_to_the_first_particle() {
+    // Every particle starts exactly at the origin, where landmark 1 sits: its
+    // bearing is undefined and the correction is refused as degenerate, not
+    // used. Identical particles earn identical weights from landmark 2.
+    let config = FastSlamConfig {
+        variant: FastSlamVariant::FastSlam1,
+        particles: 5,
+        initial_pose_sigma: [0.0; 3],
+        ..FastSlamConfig::default()
+    };
+    let mut filter =
+        FastSlam::with_map(config, known_map(&[(1, 0.0, 0.0), (2, 2.0, 1.0)])).expect("valid");
+    let scan = [
+        BearingObservation {
+            landmark_id: 1,
+            bearing: 0.3,
+            range: None,
+        },
+        BearingObservation {
+            landmark_id: 2,
+            bearing: f64::atan2(1.0, 2.0),
+            range: None,
+        },
+    ];
+    let report = filter
+        .update(0.0, &scan, false)
+        .expect("one bearing is used");
+    assert_eq!((report.used, report.rejected), (1, 1), "{report:?}");
+    assert_eq!(
+        filter.best_index(),
+        0,
+        "the first of equally heavy particles"
+    );
+}
+
+#[test]
+fn the_report_counts_the_landmarks_that_enter_the_map() {
+    let mut filter = FastSlam::new(FastSlamConfig {
+        particles: 4,
+        ..FastSlamConfig::default()
+    })
+    .expect("valid");
+    let scan =
+        [(1, 2.0, 1.0), (2, 3.0, -1.5)].map(|(id, x, y): (u64, f64, f64)| BearingObservation {
+            landmark_id: id,
+            bearing: y.atan2(x),
+            range: Some(x.hypot(y)),
+        });
+    let report = filter.update(0.0, &scan, true).expect("maps");
+    assert_eq!((report.initialized, report.used), (2, 0), "{report:?}");
+    assert_eq!(filter.best_particle().map.len(), 2);
+}
+
+#[test]
+fn after_resampling_the_reported_particle_is_a_copy_of_the_heaviest() {
+    // The same seed draws the same particles up to the weighing; only the
+    // threshold decides whether they are then resampled.
+    let (kept, kept_report) = weighed_twice(1e-9);
+    assert!(!kept_report.resampled);
+    let weights = kept.weights().expect("weights");
+    let heaviest = (0..weights.len())
+        .max_by(|&a, &b| weights[a].total_cmp(&weights[b]))
+        .expect("particles");
+    let (resampled, report) = weighed_twice(1.0);
+    assert!(report.resampled, "{report:?}");
+    assert_eq!(
+        resampled.best_particle().pose,
+        kept.particles()[heaviest].pose
+    );
+}
+
 #[test]
 fn the_reported_particle_is_the_heaviest() {
     // A threshold no N_eff falls below: the weights are kept.
@@ -311,29 +411,8 @@ fn fastslam2_resampling_before_the_proposal_weighs_first() {
     // resampled on it) before the proposal is drawn. Particles spread around
     // the true start, sharing a known map, earn different weights from one
     // scan taken at the start.
-    use bearing_slam_core::nalgebra::{Matrix2, Vector2};
-    use bearing_slam_core::particle::existence::ExistenceCounter;
-    use bearing_slam_core::particle::landmark_ekf::LandmarkEkf;
-    use bearing_slam_core::particle::map::{MappedLandmark, ParticleMap};
-
     let points = [(1, 2.0, 1.0), (2, 3.0, -1.5), (3, -1.0, 2.5)];
-    let mut map = ParticleMap::new();
-    for &(id, x, y) in &points {
-        map.insert(
-            id,
-            MappedLandmark {
-                filter: LandmarkEkf::Euclidean {
-                    mean: Vector2::new(x, y),
-                    cov: Matrix2::identity() * 1e-4,
-                },
-                existence: ExistenceCounter {
-                    seen: 1,
-                    missed: 0,
-                    evidence: 1.0,
-                },
-            },
-        );
-    }
+    let map = known_map(&points);
     let config = FastSlamConfig {
         particles: 20,
         seed: 4,
