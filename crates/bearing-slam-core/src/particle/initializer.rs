@@ -137,4 +137,30 @@ mod tests {
         assert_eq!(restarted.created, 2.0 * timeout);
         assert_eq!(restarted.pose, Vector3::new(2.0, 0.0, 0.0));
     }
+
+    #[test]
+    fn waiting_sightings_keep_a_candidate_alive_past_the_timeout() {
+        let initializer = ParticleInitializer::Triangulation(TriangulationConfig::default());
+        let noise = SensorNoise {
+            bearing_sigma: 0.01,
+            range_sigma: 0.1,
+        };
+        let timeout = TriangulationConfig::default().candidate_timeout;
+        let mut map = ParticleMap::new();
+        let mut see = |x: f64, time: f64| {
+            let (pose, z) = sighting(x);
+            initialize(&mut map, 7, &z, &pose, time, &initializer, &noise).expect("valid")
+        };
+        assert_eq!(see(0.0, 0.0), InitStep::Waiting);
+        // Each sighting comes within the timeout of the one before, with too
+        // little parallax to decide: the candidate waits and stays the same.
+        for k in 1..=3 {
+            assert_eq!(see(0.01, 0.6 * timeout * f64::from(k)), InitStep::Waiting);
+        }
+        let triangulated = see(2.0, 2.4 * timeout);
+        assert!(
+            matches!(triangulated, InitStep::Landmark(_)),
+            "the candidate begun at t = 0 triangulates: {triangulated:?}"
+        );
+    }
 }

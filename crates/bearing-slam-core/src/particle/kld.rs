@@ -142,6 +142,12 @@ mod tests {
         let m400 = required_particles(&config, 400, z);
         assert!((4600..4750).contains(&m400), "{m400}");
         assert_eq!(required_particles(&config, 1, z), 1);
+        assert_eq!(required_particles(&config, 0, z), 1, "no bin yet");
+        // Two bins already have a bound: (1 − 2/9 + √(2/9) z)³ / 2ε ≈ 66.
+        let a: f64 = 2.0 / 9.0;
+        let want = ((1.0 - a + a.sqrt() * z).powi(3) / 0.1).ceil() as usize;
+        assert_eq!(required_particles(&config, 2, z), want);
+        assert!((60..70).contains(&want), "{want}");
     }
 
     #[test]

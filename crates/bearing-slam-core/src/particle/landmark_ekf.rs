@@ -424,6 +424,37 @@ mod tests {
     }
 
     #[test]
+    fn an_undelayed_landmark_carries_the_prior_depth_variance() {
+        let noise = SensorNoise {
+            bearing_sigma: 0.01,
+            range_sigma: 0.05,
+        };
+        let prior = InverseDepthPrior {
+            rho_ini: 0.2,
+            sigma_rho: 0.5,
+        };
+        let lm = LandmarkEkf::undelayed(&Vector3::new(1.0, 2.0, 0.3), 0.1, &prior, &noise)
+            .expect("valid");
+        assert!(lm.is_inverse_depth());
+        let LandmarkEkf::InverseDepth { mean, cov } = &lm else {
+            unreachable!("checked above")
+        };
+        assert_eq!(mean[3], 0.2);
+        // The bearing does not move ρ: its variance is the prior's alone.
+        assert!((cov[(3, 3)] - 0.25).abs() < 1e-15, "{cov}");
+        let euclidean =
+            LandmarkEkf::from_range_bearing(&Vector3::zeros(), 5.0, 0.0, &noise).expect("valid");
+        assert!(!euclidean.is_inverse_depth());
+        // Of a range-bearing measurement, inverse depth uses the bearing only.
+        let both = Observation::RangeBearing {
+            range: 4.0,
+            bearing: 0.1,
+        };
+        assert_eq!(lm.usable(&both), Observation::Bearing(0.1));
+        assert_eq!(euclidean.usable(&both), both);
+    }
+
+    #[test]
     fn an_inverse_depth_landmark_converts_once_its_depth_is_linear() {
         // ρ = 0.2 seen head-on from the anchor: L = 4 σ_ρ/ρ² / d = 20 σ_ρ.
         let at = |sigma_rho: f64| LandmarkEkf::InverseDepth {

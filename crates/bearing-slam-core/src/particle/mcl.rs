@@ -58,8 +58,8 @@ impl Bounds {
         if !(self.x_max > self.x_min && self.y_max > self.y_min) {
             return Err(SlamError::InvalidParameter {
                 name: "bounds",
-                value: self.x_max - self.x_min,
-                reason: "the rectangle must have a positive area",
+                value: (self.x_max - self.x_min).min(self.y_max - self.y_min),
+                reason: "both sides of the rectangle must be positive (the shorter is shown)",
             });
         }
         Ok(())

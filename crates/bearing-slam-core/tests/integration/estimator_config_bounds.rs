@@ -4,7 +4,7 @@
 //! samples of issue 20: a bound off by one comparison went unnoticed.)
 
 use bearing_slam_core::Pose2;
-use bearing_slam_core::error::Result;
+use bearing_slam_core::error::{Result, SlamError};
 use bearing_slam_core::particle::existence::ExistenceConfig;
 use bearing_slam_core::particle::kld::KldConfig;
 use bearing_slam_core::particle::landmark_ekf::SensorNoise;
@@ -229,6 +229,18 @@ fn mcl_base() -> MclConfig {
 }
 
 #[test]
+fn mcl_bounds_report_their_shorter_side() {
+    let mut config = mcl_base();
+    config.bounds.y_max = -0.5;
+    match config.validate() {
+        Err(SlamError::InvalidParameter { name, value, .. }) => {
+            assert_eq!((name, value), ("bounds", -0.5));
+        }
+        other => panic!("a 1 × −0.5 m room: {other:?}"),
+    }
+}
+
+#[test]
 fn mcl_configuration_edges() {
     let edges = Edges::new(mcl_base(), MclConfig::validate);
     resample_threshold_edges(&edges, |c| &mut c.resample_threshold);
@@ -236,6 +248,11 @@ fn mcl_configuration_edges() {
         .refused("no particle", |c| c.particles = 0, "particles")
         .refused("a flat room", |c| c.bounds.x_max = c.bounds.x_min, "bounds")
         .refused("an upside-down room", |c| c.bounds.y_max = -1.0, "bounds")
+        .refused(
+            "a room without depth",
+            |c| c.bounds.y_max = c.bounds.y_min,
+            "bounds",
+        )
         .refused("NaN bounds", |c| c.bounds.y_min = f64::NAN, "bounds y_min")
         .refused("σ_z = 0", |c| c.bearing_sigma = 0.0, "bearing sigma")
         .ok("no outliers", |c| c.outlier_probability = 0.0)

@@ -191,6 +191,16 @@ fn a_bearing_scores_the_outlier_mixture_density() {
             report.mean_likelihood
         );
     }
+    // A landmark at the particle has no bearing: only the outlier density
+    // scores it.
+    let mut mcl = Mcl::new_at(c.clone(), &map, Pose2::new(1.0, 0.0, 0.0), [0.0; 3]).expect("valid");
+    let report = mcl.update(&[bearing(1, 0.2)]).expect("updates");
+    let want = eps / std::f64::consts::TAU;
+    assert!(
+        (report.mean_likelihood - want).abs() <= 1e-12 * want,
+        "at the landmark: {} against {want}",
+        report.mean_likelihood
+    );
 }
 
 #[test]
@@ -433,5 +443,30 @@ fn the_uniform_prior_fills_the_bounds_and_only_them() {
             .filter(|q| (q.x - qx).abs() < 0.5 && (q.y - qy).abs() < 0.25)
             .count();
         assert!(n > 80, "{n} particles near ({qx}, {qy})");
+    }
+}
+
+#[test]
+fn the_uniform_prior_spreads_headings_evenly_over_the_circle() {
+    // 4000 headings in eight 45° sectors: 12.5 % each, ±0.52 % one σ. A
+    // heading drawn over a span that is not a whole number of turns (say
+    // 3.14 turns) puts a third more particles in the sectors it covers
+    // once more (≈ 16.7 %).
+    let mcl = Mcl::new(
+        MclConfig {
+            particles: 4000,
+            ..config(3, None)
+        },
+        &room().landmarks,
+    )
+    .expect("valid");
+    let mut sectors = [0usize; 8];
+    for q in mcl.poses() {
+        let k = ((q.z + std::f64::consts::PI) / std::f64::consts::FRAC_PI_4).floor() as usize;
+        sectors[k.min(7)] += 1;
+    }
+    for n in sectors {
+        let share = n as f64 / 4000.0;
+        assert!((0.105..0.145).contains(&share), "{sectors:?}");
     }
 }
