@@ -418,7 +418,8 @@ impl Mcl {
         let mut bins = BinCounter::default();
         let mut needed = kld.min_particles;
         let mut next = Vec::with_capacity(needed);
-        while next.len() < needed && next.len() < order.len() {
+        // `needed` never passes `max_particles`, the length of `order`.
+        while next.len() < needed {
             let n = next.len();
             let mut draw = stream(
                 self.config.seed,
@@ -504,7 +505,8 @@ impl Mcl {
     /// The pose estimate: the weighted mean of the particles near the
     /// heaviest cell of a `0.5 m × 0.5 m × 10°` grid (within 0.5 m and 0.3 rad
     /// of that cell's weighted mean), so that a multi-modal cloud reports its
-    /// strongest mode rather than the average of all modes.
+    /// strongest mode rather than the average of all modes. Between equally
+    /// heavy cells, the first in `(x, y, θ)` order.
     ///
     /// # Errors
     /// As [`normalize_log_weights`].
@@ -581,26 +583,5 @@ fn gcd(mut a: usize, mut b: usize) -> usize {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_stride_is_coprime_and_near_the_golden_ratio() {
-        assert_eq!(stride_for(1), 1);
-        assert_eq!(stride_for(2), 1);
-        // 100 · 0.618 = 61, coprime with 100; 10 · 0.618 = 6 → 7.
-        assert_eq!(stride_for(100), 61);
-        assert_eq!(stride_for(10), 7);
-        for n in [3, 7, 64, 1000, 1500] {
-            let s = stride_for(n);
-            assert_eq!((spread(0, s, n), spread(1, s, n)), (0, s));
-            let mut seen: Vec<usize> = (0..n).map(|k| spread(k, s, n)).collect();
-            seen.sort_unstable();
-            assert_eq!(seen, (0..n).collect::<Vec<_>>(), "n = {n}, stride {s}");
-            // The first visits are spread: the second index is far from the first.
-            if n > 3 {
-                assert!(s > n / 3 && s < n - n / 3, "n = {n}, stride {s}");
-            }
-        }
-    }
-}
+#[path = "mcl_tests.rs"]
+mod tests;

@@ -15,7 +15,7 @@ use bearing_slam_core::log::{
     BearingObservation, EventKind, LandmarkTruth, SensorLog, WheelOdometry,
 };
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
-use bearing_slam_core::particle::kld::KldConfig;
+use bearing_slam_core::particle::kld::{KldConfig, required_particles};
 use bearing_slam_core::particle::mcl::{AugmentedConfig, Bounds};
 use bearing_slam_core::particle::{Mcl, MclConfig};
 use bearing_slam_core::testing::kinematic::KinematicScenario;
@@ -294,6 +294,15 @@ fn a_kidnap_raises_the_injection_probability_of_augmented_mcl() {
     let last = reports.last().expect("scans");
     assert!(last.injection_probability > 0.1, "{last:?}");
     assert!(last.resampled && last.injected > 0, "{last:?}");
+    // Each of the 200 particles is replaced with probability p: a binomial
+    // count, within four standard deviations of its mean.
+    let (n, p) = (last.particles as f64, last.injection_probability);
+    let sd = (n * p * (1.0 - p)).sqrt();
+    assert!(
+        (last.injected as f64 - n * p).abs() < 4.0 * sd,
+        "{} injected of {n} at p = {p}",
+        last.injected
+    );
     // The long-term average lags the short-term one while both fill up.
     assert!(reports[..40].iter().all(|r| r.injection_probability == 0.0));
 }
@@ -326,6 +335,22 @@ fn kld_sampling_injects_random_particles_after_a_kidnap() {
     assert!(
         far as f64 > 0.25 * p * n as f64,
         "{far} of {n} particles away from the cloud, p = {p}"
+    );
+    // Only those drawn from the room (a binomial count) are away.
+    let sd = (n as f64 * p * (1.0 - p)).sqrt();
+    assert!(
+        (far as f64) < p * n as f64 + 4.0 * sd,
+        "{far} of {n} particles away from the cloud, p = {p}"
+    );
+    // KLD-sampling stops at the bound of the bins it has filled (no
+    // roughening here moves them after).
+    let bins: std::collections::HashSet<_> = mcl.poses().iter().map(|q| kld.bin(q)).collect();
+    let z = kld.z_quantile().expect("valid δ");
+    assert_eq!(
+        n,
+        required_particles(&kld, bins.len(), z),
+        "{} bins",
+        bins.len()
     );
 }
 
