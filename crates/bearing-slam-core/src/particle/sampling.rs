@@ -130,4 +130,22 @@ mod tests {
         let nan = Matrix3::from_diagonal(&Vector3::new(f64::NAN, 1.0, 1.0));
         assert!(sample_gaussian(&mean, &nan, &mut rng).is_err());
     }
+
+    #[test]
+    fn rounding_below_zero_is_judged_against_the_largest_eigenvalue() {
+        let mean = Vector3::new(1.0, 2.0, 3.0);
+        let mut rng = stream(5, 0, 0, StreamPurpose::Prior);
+        // A point mass: every eigenvalue 0, the draw is the mean.
+        let d = sample_gaussian(&mean, &Matrix3::zeros(), &mut rng).expect("a point mass");
+        assert_eq!(d, mean);
+        // −10⁻⁶ beside 10⁴ is rounding (below 10⁻⁹ of the scale) ...
+        let rounded = Matrix3::from_diagonal(&Vector3::new(1e4, 1e4, -1e-6));
+        assert!(sample_gaussian(&mean, &rounded, &mut rng).is_ok());
+        // Exactly 10⁻⁹ of the scale below zero is still rounding ...
+        let edge = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1e-9));
+        assert!(sample_gaussian(&mean, &edge, &mut rng).is_ok());
+        // ... 10⁻⁶ beside 1 is not.
+        let negative = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1e-6));
+        assert!(sample_gaussian(&mean, &negative, &mut rng).is_err());
+    }
 }

@@ -260,3 +260,17 @@ fn a_non_finite_covariance_is_refused_naming_the_bad_entry() {
         other => panic!("expected NonFinite, got {other:?}"),
     }
 }
+
+#[test]
+fn an_odometry_floor_must_be_a_finite_sigma() {
+    let mut pre = PreintegratedOdometry::new();
+    pre.covariance = Matrix3::identity() * 1e-4;
+    let floor = |s: f64| OdometryFactor::from_preintegrated(0, 1, &pre, [0.01, s, 0.01]);
+    assert!(floor(0.0).is_ok(), "no floor on one axis is allowed");
+    for bad in [-0.01, f64::INFINITY, f64::NAN] {
+        match floor(bad) {
+            Err(SlamError::InvalidNoise { what, .. }) => assert_eq!(what, "odometry floor sigma"),
+            other => panic!("floor σ = {bad}: {other:?}"),
+        }
+    }
+}
