@@ -282,10 +282,16 @@ fn a_prior_s_residual_is_the_whitened_offset_from_its_mean() {
         LandmarkPriorFactor::new(3, Vector2::new(3.0, -1.5), Matrix2::identity() * 0.25).unwrap(),
     );
     let r = landmark.linearize(&values).unwrap().residual;
-    assert!((&r - DVector::from_column_slice(&[2.0, 1.0])).amax() < 1e-12, "{r}");
+    assert!(
+        (&r - DVector::from_column_slice(&[2.0, 1.0])).amax() < 1e-12,
+        "{r}"
+    );
     let pose = Factor::PosePrior(
         PosePriorFactor::new(0, Vector3::new(1.0, 2.5, 0.1), Matrix3::identity() * 0.01).unwrap(),
     );
     let r = pose.linearize(&values).unwrap().residual;
-    assert!((&r - DVector::from_column_slice(&[5.0, -5.0, 1.0])).amax() < 1e-9, "{r}");
+    assert!(
+        (&r - DVector::from_column_slice(&[5.0, -5.0, 1.0])).amax() < 1e-9,
+        "{r}"
+    );
 }

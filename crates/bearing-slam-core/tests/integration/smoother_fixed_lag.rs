@@ -6,10 +6,11 @@
 use super::smoother_common;
 
 use bearing_slam_core::smoother::{
-    Factor, FixedLagConfig, FixedLagSmoother, Key, OdometryFactor, PosePriorFactor, RobustKernel,
-    SolveReport, SolverConfig, Termination, Values, marginal_covariances, optimize,
+    BearingFactor, Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor,
+    OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig, Termination, Values,
+    marginal_covariances, optimize,
 };
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{Problem, max_difference, problem};
 
 /// The latest pose a factor involves: it joins the smoother with that pose.
@@ -306,4 +307,112 @@ fn a_weak_direction_of_information_survives_marginalization() {
     assert_eq!(linear.len(), 1);
     let rows = linear[0].linearize(s.values()).unwrap().residual.len();
     assert_eq!(rows, 3, "the marginal prior keeps x, y and θ");
+}
+
+/// `Σ Jₐᵀ J_b · w` of `factors` at `values`, per pair of keys.
+fn information(
+    factors: &[(Factor, f64)],
+    values: &Values,
+) -> std::collections::BTreeMap<(Key, Key), DMatrix<f64>> {
+    let mut blocks = std::collections::BTreeMap::new();
+    for (f, w) in factors {
+        let lin = f.linearize(values).unwrap();
+        for (a, ja) in f.keys().iter().zip(&lin.jacobians) {
+            for (b, jb) in f.keys().iter().zip(&lin.jacobians) {
+                let block = blocks
+                    .entry((*a, *b))
+                    .or_insert_with(|| DMatrix::zeros(a.dim(), b.dim()));
+                *block += ja.tr_mul(jb) * *w;
+            }
+        }
+    }
+    blocks
+}
+
+#[test]
+fn a_marginal_prior_holds_the_robustly_weighted_information() {
+    // Pose 0, pinned by a 10⁻⁶ m prior, sees landmark 7 with a bearing
+    // 0.5 rad (50σ) off; poses 1 and 2 follow by odometry. A window of two
+    // poses marginalizes pose 0, which leaves on (pose 1, landmark 7) the
+    // Schur complement of the Hessian in which the outlier's JᵀJ is scaled
+    // by its Cauchy weight; with pose 0 pinned, that complement is the
+    // factors' blocks on pose 1 and on the landmark.
+    let kernel = RobustKernel::Cauchy(2.0);
+    let mut s = FixedLagSmoother::new(FixedLagConfig {
+        lag: 2,
+        first_estimates: false,
+        solver: SolverConfig {
+            robust: kernel,
+            ..SolverConfig::default()
+        },
+    })
+    .unwrap();
+    let landmark = Vector2::new(3.0, 1.0);
+    let outlier = Factor::Bearing(BearingFactor::new(0, 7, 1f64.atan2(3.0) + 0.5, 0.01).unwrap());
+    let odometry = Factor::Odometry(
+        OdometryFactor::new(
+            0,
+            1,
+            Vector3::new(1.0, 0.0, 0.0),
+            Matrix3::identity() * 1e-4,
+        )
+        .unwrap(),
+    );
+    s.add_pose(0, Vector3::zeros()).unwrap();
+    s.add_pose(1, Vector3::new(1.0, 0.0, 0.0)).unwrap();
+    s.add_pose(2, Vector3::new(2.0, 0.0, 0.0)).unwrap();
+    s.add_landmark(7, landmark).unwrap();
+    for f in [
+        Factor::PosePrior(
+            PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-12).unwrap(),
+        ),
+        Factor::LandmarkPrior(LandmarkPriorFactor::new(7, landmark, Matrix2::identity()).unwrap()),
+        outlier.clone(),
+        odometry.clone(),
+        Factor::Bearing(BearingFactor::new(1, 7, 1f64.atan2(2.0), 0.01).unwrap()),
+        Factor::Odometry(
+            OdometryFactor::new(
+                1,
+                2,
+                Vector3::new(1.0, 0.0, 0.0),
+                Matrix3::identity() * 1e-4,
+            )
+            .unwrap(),
+        ),
+        Factor::Bearing(BearingFactor::new(2, 7, 1f64.atan2(1.0), 0.01).unwrap()),
+    ] {
+        s.add_factor(f).unwrap();
+    }
+    s.update().unwrap();
+    assert_eq!(s.marginalizations(), 1);
+    let prior = s
+        .graph()
+        .factors()
+        .iter()
+        .find(|f| matches!(f, Factor::Linear(_)))
+        .unwrap()
+        .clone();
+    let mut at = s.values().clone();
+    at.insert_pose(0, Vector3::zeros()).unwrap();
+    let s_outlier = outlier.linearize(&at).unwrap().residual.norm_squared();
+    let w = kernel.weight(s_outlier);
+    assert!(w < 0.01, "the bearing is an outlier: weight {w}");
+    let want = information(&[(outlier, w), (odometry, 1.0)], &at);
+    let got = information(&[(prior, 1.0)], &at);
+    for (keys, block) in &got {
+        // Pose 1 and the landmark share no factor with each other: their
+        // cross block is only the (vanishing) correction through pose 0.
+        let zero = DMatrix::zeros(block.nrows(), block.ncols());
+        let expected = want.get(keys).unwrap_or(&zero);
+        let scale = expected.amax().max(1.0);
+        assert!(
+            (block - expected).amax() < 1e-6 * scale,
+            "{keys:?}: {block} against {expected}"
+        );
+    }
+    assert_eq!(
+        got.len(),
+        4,
+        "pose 1 and the landmark, and their cross terms"
+    );
 }

@@ -9,8 +9,8 @@ use super::smoother_common;
 use bearing_slam_core::SlamError;
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FactorGraph, Key, LandmarkPriorFactor, Method, OdometryFactor,
-    PosePriorFactor, RobustKernel, SolverConfig, Termination, Values, cost, marginal_covariances,
-    optimize,
+    PosePriorFactor, RangeBearingFactor, RobustKernel, SolverConfig, Termination, Values, cost,
+    marginal_covariances, optimize,
 };
 use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{max_difference, problem};
@@ -408,5 +408,44 @@ fn gauss_newton_refuses_a_step_onto_the_sensor() {
     assert!(
         lm.final_cost.is_finite() && lm.final_cost <= lm.initial_cost,
         "{lm:?}"
+    );
+}
+
+#[test]
+fn each_typed_add_puts_its_factor_in_the_graph() {
+    let mut g = FactorGraph::new();
+    g.add_pose_prior(PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity()).unwrap())
+        .unwrap();
+    g.add_landmark_prior(
+        LandmarkPriorFactor::new(1, Vector2::zeros(), Matrix2::identity()).unwrap(),
+    )
+    .unwrap();
+    g.add_odometry(OdometryFactor::new(0, 2, Vector3::zeros(), Matrix3::identity()).unwrap())
+        .unwrap();
+    g.add_bearing(BearingFactor::new(2, 1, 0.3, 0.01).unwrap())
+        .unwrap();
+    g.add_range_bearing(RangeBearingFactor::new(0, 1, 2.0, 0.3, 0.01, 0.01).unwrap())
+        .unwrap();
+    let kinds: Vec<_> = g
+        .factors()
+        .iter()
+        .map(|f| match f {
+            Factor::PosePrior(_) => "pose prior",
+            Factor::LandmarkPrior(_) => "landmark prior",
+            Factor::Odometry(_) => "odometry",
+            Factor::Bearing(_) => "bearing",
+            Factor::RangeBearing(_) => "range-bearing",
+            Factor::Linear(_) => "linear",
+        })
+        .collect();
+    assert_eq!(
+        kinds,
+        [
+            "pose prior",
+            "landmark prior",
+            "odometry",
+            "bearing",
+            "range-bearing"
+        ]
     );
 }
