@@ -7,6 +7,7 @@
 #![allow(clippy::unwrap_used)]
 
 use bearing_slam_core::estimator::default_fixed_lag;
+use bearing_slam_core::log::EventKind;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
     FixedLagConfig, KeyframeRule, PreintegratedOdometry, SmootherConfig, SmootherMode,
@@ -144,4 +145,23 @@ fn a_rule_without_scans_is_refused() {
     };
     let err = run_online_smoother(&log, &config, &online(Some(negative)), default_fixed_lag());
     assert!(err.is_err());
+}
+
+#[test]
+fn the_online_smoother_counts_its_scans_and_landmarks() {
+    let s = short_fig4(60);
+    let config = s.run_config().unwrap();
+    let log = s.simulate(5);
+    let run = run_online_smoother(&log, &config, &online(None), default_fixed_lag()).unwrap();
+    let online = &run.estimator;
+    let scans = log
+        .events
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
+        .count();
+    assert!(scans > 1);
+    assert_eq!(online.scans(), scans);
+    let landmarks = online.smoother().values().landmarks().len();
+    assert!(landmarks > 0);
+    assert_eq!(online.report().n_landmarks, landmarks);
 }

@@ -449,3 +449,26 @@ fn each_typed_add_puts_its_factor_in_the_graph() {
         ]
     );
 }
+
+#[test]
+fn a_landmark_seen_once_has_marginals_unbounded_along_its_ray() {
+    // One bearing fixes the landmark's direction from a pinned pose, not its
+    // depth: the information is singular along the ray. The marginals retry
+    // with the diagonal scaled by 1 + 10⁻⁹, which bounds that direction at
+    // a variance far beyond any real one and leaves the cross-ray variance
+    // as the bearing gives it, (r σ)² = (5 m · 0.01)².
+    let mut v = Values::new();
+    v.insert_pose(0, Vector3::zeros()).unwrap();
+    v.insert_landmark(1, Vector2::new(5.0, 0.0)).unwrap();
+    let mut g = FactorGraph::new();
+    g.add_pose_prior(
+        PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-8).unwrap(),
+    )
+    .unwrap();
+    g.add_bearing(BearingFactor::new(0, 1, 0.0, 0.01).unwrap())
+        .unwrap();
+    let m = marginal_covariances(&g, &v, &RobustKernel::None).unwrap();
+    let c = m.landmark(1).unwrap();
+    assert!(c[(0, 0)] > 1e6, "along the ray: {c}");
+    assert!((c[(1, 1)] / 2.5e-3 - 1.0).abs() < 0.01, "across it: {c}");
+}
