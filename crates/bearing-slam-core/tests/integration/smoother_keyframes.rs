@@ -8,10 +8,11 @@
 
 use bearing_slam_core::estimator::default_fixed_lag;
 use bearing_slam_core::log::EventKind;
+use bearing_slam_core::online::OnlineEstimator;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
-    FixedLagConfig, KeyframeRule, PreintegratedOdometry, SmootherConfig, SmootherMode,
-    run_from_log, run_online_smoother,
+    FixedLagConfig, KeyframeRule, OnlineSmoother, OnlineStart, PreintegratedOdometry,
+    SmootherConfig, SmootherMode, run_from_log, run_online_smoother,
 };
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 use nalgebra::Vector3;
@@ -164,4 +165,83 @@ fn the_online_smoother_counts_its_scans_and_landmarks() {
     let landmarks = online.smoother().values().landmarks().len();
     assert!(landmarks > 0);
     assert_eq!(online.report().n_landmarks, landmarks);
+}
+
+#[test]
+fn the_odometry_start_places_each_pose_by_its_preintegrated_motion() {
+    let s = short_fig4(60);
+    let config = s.run_config().unwrap();
+    let log = s.simulate(5);
+    let start = |online_start| SmootherConfig {
+        online_start,
+        ..online(None)
+    };
+    let filter = run_from_log(&log, &config, &start(OnlineStart::Filter)).unwrap();
+    let odometry = run_from_log(&log, &config, &start(OnlineStart::Odometry)).unwrap();
+    assert_eq!(filter.report.n_poses, odometry.report.n_poses);
+    let f = summarize(&log, &filter.output).unwrap();
+    let o = summarize(&log, &odometry.output).unwrap();
+    println!(
+        "ATE filter start {:.4} m, odometry start {:.4} m",
+        f.ate_rmse_m, o.ate_rmse_m
+    );
+    assert!(
+        o.finite && o.ate_rmse_m < 2.0 * f.ate_rmse_m + 0.05,
+        "{o:?} vs {f:?}"
+    );
+}
+
+#[test]
+fn a_rule_by_scan_count_alone_puts_a_pose_every_max_scans() {
+    let s = short_fig4(60);
+    let config = s.run_config().unwrap();
+    let log = s.simulate(5);
+    let every_third = KeyframeRule {
+        min_translation_m: 1e9,
+        min_rotation_rad: 1e9,
+        max_scans: 3,
+        solve_every_scan: false,
+    };
+    let run = run_from_log(&log, &config, &online(Some(every_third))).unwrap();
+    let scans = log
+        .events
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
+        .count();
+    let poses = run.report.n_poses;
+    assert!(
+        poses.abs_diff(scans / 3) <= 2,
+        "{poses} poses for {scans} scans"
+    );
+}
+
+#[test]
+fn scans_without_motion_between_them_share_a_pose() {
+    let s = short_fig4(60);
+    let config = s.run_config().unwrap();
+    let mut online = OnlineSmoother::new(
+        config.slam.clone(),
+        &config,
+        &online(None),
+        default_fixed_lag(),
+    )
+    .unwrap();
+    let log = s.simulate(5);
+    let scan = log
+        .events
+        .iter()
+        .find_map(|e| match &e.kind {
+            EventKind::Bearings(b) if !b.is_empty() => Some(b.clone()),
+            _ => None,
+        })
+        .unwrap();
+    for time in [0.0, 0.1, 0.2] {
+        OnlineEstimator::update(&mut online, time, &scan, false).unwrap();
+    }
+    assert_eq!(online.scans(), 3);
+    assert_eq!(
+        online.smoother().values().poses().len(),
+        1,
+        "no motion, no new pose"
+    );
 }
