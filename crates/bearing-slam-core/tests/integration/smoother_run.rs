@@ -4,6 +4,7 @@
 
 #![allow(clippy::unwrap_used)]
 
+use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
@@ -247,45 +248,70 @@ fn batch_smoother_maps_the_landmarks_the_filter_never_initialized() {
     }
 }
 
-/// The same straight run with its wheel readings given as velocity commands
-/// `(v, ω)` held for each step: the batch smoother preintegrates them.
-#[test]
-fn batch_smoother_integrates_velocity_commands() {
+/// The Fig. 4 run with its wheel readings given as velocity commands
+/// `(v, ω)`, each held for `per_command` steps (the mean of their
+/// readings): with more than one step a command outlasts the next scan, so
+/// the skeleton splits it there.
+fn as_velocity_commands(
+    s: &KinematicScenario,
+    wheels: &SensorLog,
+    per_command: usize,
+) -> (SensorLog, RunConfig) {
     use bearing_slam_core::log::{Event, EventKind, VelocityOdometry};
     use bearing_slam_core::motion::{VelocityModel, VelocityNoise};
     use bearing_slam_core::runner::OdometryConfig;
 
-    let s = KinematicScenario::paper_fig4(false);
-    let wheels = s.simulate(5);
     let mut log = wheels.clone();
-    log.events.clear();
-    for e in &wheels.events {
-        if let EventKind::Wheels(w) = e.kind {
-            // The command that rolled these distances over the step ending now.
-            log.events.push(Event {
-                time: e.time - s.dt,
-                kind: EventKind::Velocity(VelocityOdometry {
-                    v: 0.5 * (w.left_m + w.right_m) / s.dt,
-                    omega: (w.right_m - w.left_m) / s.wheel_base_m / s.dt,
-                    dt: s.dt,
-                }),
-            });
-        } else {
-            log.events.push(e.clone());
-        }
+    log.events
+        .retain(|e| !matches!(e.kind, EventKind::Wheels(_)));
+    let steps: Vec<_> = wheels
+        .events
+        .iter()
+        .filter_map(|e| match e.kind {
+            EventKind::Wheels(w) => Some((e.time, w)),
+            _ => None,
+        })
+        .collect();
+    let span = per_command as f64 * s.dt;
+    for group in steps.chunks(per_command) {
+        let (left, right) = group
+            .iter()
+            .fold((0.0, 0.0), |(l, r), (_, w)| (l + w.left_m, r + w.right_m));
+        let dt = group.len() as f64 * s.dt;
+        log.events.push(Event {
+            // The command that rolled these distances over the steps ending
+            // with the group's last.
+            time: group[group.len() - 1].0 - dt,
+            kind: EventKind::Velocity(VelocityOdometry {
+                v: 0.5 * (left + right) / dt,
+                omega: (right - left) / s.wheel_base_m / dt,
+                dt,
+            }),
+        });
     }
     log.events.sort_by(|a, b| a.time.total_cmp(&b.time));
-    let mut config = run_config(&s);
+    let mut config = run_config(s);
     // The wheels' noise as command noise: per step each wheel has
     // σ² = floor² + scale²·|d| (d = 5 cm), so σ_v² = σ²/(2 dt²) and
-    // σ_ω² = 2σ²/(b² dt²).
+    // σ_ω² = 2σ²/(b² dt²) for one step, 1/n of that for a command held n.
     let wheel_var = s.encoder_floor_sigma_m.powi(2) + s.encoder_scale_sqrt_m.powi(2) * 0.05;
+    let n = (span / s.dt).sqrt();
     let noise = VelocityNoise {
         alpha: [0.0; 6],
-        sigma_v_min: (wheel_var / 2.0).sqrt() / s.dt,
-        sigma_omega_min: (2.0 * wheel_var).sqrt() / s.wheel_base_m / s.dt,
+        sigma_v_min: (wheel_var / 2.0).sqrt() / s.dt / n,
+        sigma_omega_min: (2.0 * wheel_var).sqrt() / s.wheel_base_m / s.dt / n,
     };
     config.odometry = OdometryConfig::Velocity(VelocityModel::new(noise).unwrap());
+    (log, config)
+}
+
+/// The same straight run with its wheel readings given as velocity commands
+/// `(v, ω)` held for each step: the batch smoother preintegrates them.
+#[test]
+fn batch_smoother_integrates_velocity_commands() {
+    let s = KinematicScenario::paper_fig4(false);
+    let wheels = s.simulate(5);
+    let (log, config) = as_velocity_commands(&s, &wheels, 1);
     let smoothed = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
     let reference = run_from_log(&wheels, &run_config(&s), &SmootherConfig::default()).unwrap();
     assert_eq!(smoothed.report.n_poses, reference.report.n_poses);
@@ -298,6 +324,23 @@ fn batch_smoother_integrates_velocity_commands() {
     );
     assert!(m.finite && m.ate_rmse_m < f.ate_rmse_m, "{m:?} vs {f:?}");
     assert!(m.ate_rmse_m < 2.0 * w.ate_rmse_m, "{m:?} vs wheels {w:?}");
+}
+
+/// Commands held over two steps, so each is cut by the scan between them:
+/// each part is integrated for its own span, not the whole command's.
+#[test]
+fn batch_smoother_splits_a_command_at_the_scan_inside_it() {
+    let s = KinematicScenario::paper_fig4(false);
+    let wheels = s.simulate(5);
+    let (log, config) = as_velocity_commands(&s, &wheels, 2);
+    let smoothed = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    let m = summarize(&log, &smoothed.output).unwrap();
+    let f = summarize(&log, &smoothed.filter).unwrap();
+    println!(
+        "two-step commands: filter {:.4} m, smoother {:.4} m",
+        f.ate_rmse_m, m.ate_rmse_m
+    );
+    assert!(m.finite && m.ate_rmse_m < f.ate_rmse_m, "{m:?} vs {f:?}");
 }
 
 /// A track point taken between two scans (after a wheel step, before the
@@ -382,4 +425,31 @@ fn without_ground_truth_the_track_follows_the_scans() {
         let gap = (point.estimate.to_vector() - snap.pose.to_vector()).amax();
         assert!(gap < 1e-12, "{} s: {gap}", point.time);
     }
+}
+
+/// A second scan before any new odometry observes from the same pose.
+#[test]
+fn batch_scans_without_motion_between_them_share_a_pose() {
+    use bearing_slam_core::log::EventKind;
+
+    let s = KinematicScenario::paper_fig4(false);
+    let log = s.simulate(5);
+    let mut twice = log.clone();
+    twice.events.clear();
+    for e in &log.events {
+        twice.events.push(e.clone());
+        if matches!(e.kind, EventKind::Bearings(_)) {
+            let mut again = e.clone();
+            again.time += 1e-3;
+            twice.events.push(again);
+        }
+    }
+    let config = run_config(&s);
+    let once = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    let repeated = run_from_log(&twice, &config, &SmootherConfig::default()).unwrap();
+    assert_eq!(once.report.n_poses, repeated.report.n_poses);
+    assert_eq!(
+        2 * once.report.n_measurements,
+        repeated.report.n_measurements
+    );
 }
