@@ -453,3 +453,23 @@ fn batch_scans_without_motion_between_them_share_a_pose() {
         repeated.report.n_measurements
     );
 }
+
+/// The first pose's prior is the filter's initial σ (floored), as a
+/// variance: the smoothed start is known no worse than that.
+#[test]
+fn the_batch_start_is_held_by_the_initial_variance() {
+    let s = KinematicScenario::paper_fig4(false);
+    let log = s.simulate(5);
+    let config = run_config(&s);
+    let smoother = SmootherConfig::default();
+    let smoothed = run_from_log(&log, &config, &smoother).unwrap();
+    let first = smoothed.output.track.first().unwrap();
+    for (k, sigma) in config.slam.initial_pose_sigma.iter().enumerate() {
+        let variance = sigma.max(smoother.min_initial_sigma).powi(2);
+        assert!(
+            first.covariance[k][k] <= variance * (1.0 + 1e-6),
+            "axis {k}: {} above the prior's {variance}",
+            first.covariance[k][k]
+        );
+    }
+}
