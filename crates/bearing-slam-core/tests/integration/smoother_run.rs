@@ -197,7 +197,21 @@ fn batch_smoother_maps_the_landmarks_the_filter_never_initialized() {
         with.report
     );
     assert!(with.report.n_dropped < without.report.n_dropped);
+    // Every bearing is still a factor or dropped; every landmark is counted.
+    let total = |r: &bearing_slam_core::smoother::SmootherReport| r.n_measurements + r.n_dropped;
+    assert_eq!(total(&with.report), total(&without.report));
+    assert_eq!(with.report.n_landmarks, after.len());
     assert!(with.report.solve.unwrap().converged);
+    // A rule no landmark's rays can meet adds none.
+    let strict = SmootherConfig {
+        triangulate_unmapped: Some(UnmappedTriangulation {
+            min_inliers: 100_000,
+            ..UnmappedTriangulation::default()
+        }),
+        ..SmootherConfig::default()
+    };
+    let none = run_from_log(&log, &config, &strict).unwrap();
+    assert_eq!(none.report.n_triangulated, 0);
     // Every landmark the smoother maps is within 0.3 m of the truth (the
     // scenario's bearings have σ = 1°, ranges under 10 m).
     for l in &after {
