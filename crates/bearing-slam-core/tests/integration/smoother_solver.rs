@@ -99,6 +99,19 @@ fn a_converged_problem_stops_after_one_solve() {
     let mut same = before.clone();
     let default = optimize(&p.graph, &mut same, &SolverConfig::default()).unwrap();
     assert_ne!(default.termination, Termination::SmallDecrement);
+    // At the minimum the gradient is below a loose tolerance before any
+    // factorization.
+    let loose = SolverConfig {
+        gradient_tolerance: 1e-3,
+        ..SolverConfig::default()
+    };
+    let at_minimum = optimize(&p.graph, &mut before.clone(), &loose).unwrap();
+    assert_eq!(
+        at_minimum.termination,
+        Termination::SmallGradient,
+        "{at_minimum:?}"
+    );
+    assert_eq!(at_minimum.factorizations, 0);
 }
 
 /// The graph of `p` with the bearing from pose 5 to landmark 2 `offset`
