@@ -86,6 +86,21 @@ fn a_converged_problem_stops_after_one_solve() {
     );
     assert!(max_difference(&v, &before) < 1e-6);
     assert!(again.final_cost <= again.initial_cost);
+    // Near the minimum (a landmark 0.1 mm off) the same test stops after
+    // one step, and takes that step since it lowers the cost.
+    let mut nudged = before.clone();
+    let (id, p0) = nudged
+        .landmarks()
+        .iter()
+        .next()
+        .map(|(k, p)| (*k, *p))
+        .unwrap();
+    nudged
+        .insert_landmark(id, p0 + Vector2::new(1e-4, 0.0))
+        .unwrap();
+    let back = optimize(&p.graph, &mut nudged, &config).unwrap();
+    assert_eq!(back.termination, Termination::SmallDecrement, "{back:?}");
+    assert!(back.final_cost < back.initial_cost, "{back:?}");
     // From the far start it still iterates to the minimum.
     let mut far = p.initial.clone();
     let first = optimize(&p.graph, &mut far, &config).unwrap();
