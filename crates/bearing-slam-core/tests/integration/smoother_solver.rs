@@ -504,3 +504,32 @@ fn a_landmark_seen_once_has_marginals_unbounded_along_its_ray() {
     assert!(c[(0, 0)] > 1e6, "along the ray: {c}");
     assert!((c[(1, 1)] / 2.5e-3 - 1.0).abs() < 0.01, "across it: {c}");
 }
+
+/// With the step and gradient tests off, LM stops on the relative decrease
+/// of the cost: once an accepted step lowers it by at most that fraction,
+/// which near the minimum leaves the cost within that fraction of it.
+#[test]
+fn levenberg_marquardt_stops_when_the_cost_stalls() {
+    let p = problem(2, 15, true, false);
+    let mut minimum = p.initial.clone();
+    let tight = optimize(&p.graph, &mut minimum, &SolverConfig::default()).unwrap();
+    let config = SolverConfig {
+        relative_tolerance: 1e-6,
+        step_tolerance: 0.0,
+        gradient_tolerance: 0.0,
+        ..SolverConfig::default()
+    };
+    let mut v = p.initial.clone();
+    let report = optimize(&p.graph, &mut v, &config).unwrap();
+    assert_eq!(
+        report.termination,
+        Termination::RelativeDecrease,
+        "{report:?}"
+    );
+    assert!(report.converged && report.iterations < 30, "{report:?}");
+    let gap = report.final_cost - tight.final_cost;
+    assert!(
+        gap.abs() <= 1e-5 * tight.final_cost,
+        "{report:?} vs {tight:?}"
+    );
+}
