@@ -278,14 +278,6 @@ pub(crate) struct SparseCholesky {
     buffer: MemBuffer,
 }
 
-impl std::fmt::Debug for SparseCholesky {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.debug_struct("SparseCholesky")
-            .field("len_values", &self.values.len())
-            .finish_non_exhaustive()
-    }
-}
-
 fn faer_error(_: impl std::fmt::Debug) -> SlamError {
     SlamError::Degenerate("sparse symbolic factorization failed")
 }

@@ -533,3 +533,25 @@ fn levenberg_marquardt_stops_when_the_cost_stalls() {
         "{report:?} vs {tight:?}"
     );
 }
+
+#[test]
+fn the_cost_is_half_the_sum_of_squared_whitened_residuals() {
+    // Whitened residuals (5, −5, 1) and (2, 1): ½ (51 + 5) = 28.
+    let mut values = Values::new();
+    values.insert_pose(0, Vector3::new(1.5, 2.0, 0.2)).unwrap();
+    values.insert_landmark(3, Vector2::new(4.0, -1.0)).unwrap();
+    let mut g = FactorGraph::new();
+    g.add_pose_prior(
+        PosePriorFactor::new(0, Vector3::new(1.0, 2.5, 0.1), Matrix3::identity() * 0.01).unwrap(),
+    )
+    .unwrap();
+    g.add_landmark_prior(
+        LandmarkPriorFactor::new(3, Vector2::new(3.0, -1.5), Matrix2::identity() * 0.25).unwrap(),
+    )
+    .unwrap();
+    let c = cost(&g, &values, &RobustKernel::None).unwrap();
+    assert!((c - 28.0).abs() < 1e-9, "{c}");
+    let report = optimize(&g, &mut values, &SolverConfig::default()).unwrap();
+    assert!((report.initial_cost - 28.0).abs() < 1e-9, "{report:?}");
+    assert!(report.final_cost < 1e-12, "{report:?}");
+}
