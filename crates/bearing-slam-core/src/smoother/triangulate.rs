@@ -226,6 +226,24 @@ pub fn triangulate_rays(
 mod tests {
     use super::*;
 
+    #[test]
+    fn nearly_parallel_rays_fix_no_point_whatever_their_weight() {
+        // Two rays 10⁻⁷ rad apart from 1 m apart meet 10⁷ m away: the
+        // normal matrix is singular but for rounding (det ≈ w² · 10⁻¹⁴, far
+        // below 10⁻¹² of its squared trace) at any weight; rays 0.1 rad
+        // apart fix a point.
+        let rays = |spread: f64| {
+            [
+                (Vector3::zeros(), 0.0),
+                (Vector3::new(0.0, 1.0, 0.0), spread),
+            ]
+        };
+        for w in [1e-3, 1.0, 1e6] {
+            assert_eq!(intersect(&rays(1e-7), &[w, w]), None, "weight {w}");
+            assert!(intersect(&rays(0.1), &[w, w]).is_some(), "weight {w}");
+        }
+    }
+
     fn rays_at(
         target: Vector2<f64>,
         sensors: &[(f64, f64, f64)],
