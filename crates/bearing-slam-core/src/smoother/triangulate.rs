@@ -259,6 +259,48 @@ mod tests {
             .collect()
     }
 
+    #[test]
+    fn the_parallax_is_the_spread_of_world_directions_from_turned_sensors() {
+        // Sensors turned 0, 1 and −0.5 rad see (3, 4): the world directions
+        // θ + z are atan2(4, 3 − x); their spread does not depend on θ.
+        let target = Vector2::new(3.0, 4.0);
+        let rays = rays_at(
+            target,
+            &[(0.0, 0.0, 0.0), (1.0, 0.0, 1.0), (2.0, 0.0, -0.5)],
+            &[0.0],
+        );
+        let found = triangulate_rays(&rays, &RayTriangulationRule::new(0.01, 0.1))
+            .unwrap()
+            .unwrap();
+        let want = 4f64.atan2(1.0) - 4f64.atan2(3.0);
+        assert!(
+            (found.parallax - want).abs() < 1e-9,
+            "{} vs {want}",
+            found.parallax
+        );
+        assert!((found.point - target).norm() < 1e-9);
+    }
+
+    #[test]
+    fn exactly_the_smallest_inlier_fraction_is_enough() {
+        // Three rays at (1.5, 5) and one misread: three quarters are
+        // inliers, exactly the fraction asked for.
+        let target = Vector2::new(1.5, 5.0);
+        let mut rays = rays_at(
+            target,
+            &[(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (2.0, 0.0, 0.0)],
+            &[0.0],
+        );
+        rays.push((Vector3::new(3.0, 0.0, 0.0), -1.0));
+        let rule = RayTriangulationRule {
+            min_inlier_fraction: 0.75,
+            ..RayTriangulationRule::new(0.01, 0.1)
+        };
+        let found = triangulate_rays(&rays, &rule).unwrap().unwrap();
+        assert_eq!(found.inliers, 3);
+        assert!((found.point - target).norm() < 1e-6, "{}", found.point);
+    }
+
     fn rule() -> RayTriangulationRule {
         RayTriangulationRule::new(0.01, 10f64.to_radians())
     }
