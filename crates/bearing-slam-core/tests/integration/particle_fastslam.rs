@@ -191,14 +191,8 @@ fn weighed_twice(resample_threshold: f64) -> (FastSlam, ParticleUpdateReport) {
     })
 }
 
-/// [`weighed_twice`] with any configuration.
-fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) {
-    let mut filter = FastSlam::new(config).expect("valid");
-    let seen = |id, x: f64, y: f64, from_x: f64| BearingObservation {
-        landmark_id: id,
-        bearing: y.atan2(x - from_x),
-        range: Some((x - from_x).hypot(y)),
-    };
+/// Wheels 0.2 m apart with a 1 cm floor of noise, and both rolling 10 cm.
+fn rolling_10_cm() -> (DiffDriveModel, WheelOdometry) {
     let wheels = DiffDriveModel::new(
         0.2,
         WheelNoise {
@@ -207,6 +201,22 @@ fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) 
         },
     )
     .expect("valid");
+    let roll = WheelOdometry {
+        left_m: 0.1,
+        right_m: 0.1,
+    };
+    (wheels, roll)
+}
+
+/// [`weighed_twice`] with any configuration.
+fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) {
+    let mut filter = FastSlam::new(config).expect("valid");
+    let seen = |id, x: f64, y: f64, from_x: f64| BearingObservation {
+        landmark_id: id,
+        bearing: y.atan2(x - from_x),
+        range: Some((x - from_x).hypot(y)),
+    };
+    let (wheels, roll) = rolling_10_cm();
     filter
         .update(
             0.0,
@@ -214,10 +224,6 @@ fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) 
             true,
         )
         .expect("maps");
-    let roll = WheelOdometry {
-        left_m: 0.1,
-        right_m: 0.1,
-    };
     filter.predict(0.1, &wheels, &roll).expect("predicts");
     let report = filter
         .update(
@@ -445,18 +451,7 @@ fn fastslam2_resampling_before_the_proposal_weighs_first() {
 fn a_time_before_the_last_is_refused_and_moves_nothing() {
     let (mut filter, _) = weighed_twice(1e-9);
     let poses: Vec<_> = filter.particles().iter().map(|p| p.pose).collect();
-    let wheels = DiffDriveModel::new(
-        0.2,
-        WheelNoise {
-            floor_sigma_m: 0.01,
-            scale_sqrt_m: 0.0,
-        },
-    )
-    .expect("valid");
-    let roll = WheelOdometry {
-        left_m: 0.1,
-        right_m: 0.1,
-    };
+    let (wheels, roll) = rolling_10_cm();
     let back = filter.predict(0.05, &wheels, &roll);
     assert!(
         matches!(back, Err(SlamError::TimeOrder { previous, current })

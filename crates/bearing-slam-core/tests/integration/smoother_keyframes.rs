@@ -148,6 +148,14 @@ fn a_rule_without_scans_is_refused() {
     assert!(err.is_err());
 }
 
+/// The scans (bearing events) of `log`.
+fn scan_count(log: &bearing_slam_core::log::SensorLog) -> usize {
+    log.events
+        .iter()
+        .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
+        .count()
+}
+
 #[test]
 fn the_online_smoother_counts_its_scans_and_landmarks() {
     let s = short_fig4(60);
@@ -155,11 +163,7 @@ fn the_online_smoother_counts_its_scans_and_landmarks() {
     let log = s.simulate(5);
     let run = run_online_smoother(&log, &config, &online(None), default_fixed_lag()).unwrap();
     let online = &run.estimator;
-    let scans = log
-        .events
-        .iter()
-        .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
-        .count();
+    let scans = scan_count(&log);
     assert!(scans > 1);
     assert_eq!(online.scans(), scans);
     let landmarks = online.smoother().values().landmarks().len();
@@ -203,11 +207,7 @@ fn a_rule_by_scan_count_alone_puts_a_pose_every_max_scans() {
         solve_every_scan: false,
     };
     let run = run_from_log(&log, &config, &online(Some(every_third))).unwrap();
-    let scans = log
-        .events
-        .iter()
-        .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
-        .count();
+    let scans = scan_count(&log);
     let poses = run.report.n_poses;
     assert!(
         poses.abs_diff(scans / 3) <= 2,
