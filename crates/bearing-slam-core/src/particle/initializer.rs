@@ -110,14 +110,21 @@ mod tests {
         )
     }
 
-    #[test]
-    fn a_stale_candidate_is_restarted_not_triangulated() {
-        let initializer = ParticleInitializer::Triangulation(TriangulationConfig::default());
+    /// The default triangulating initializer, 0.01 rad bearings, and its
+    /// candidate timeout.
+    fn triangulating() -> (ParticleInitializer, SensorNoise, f64) {
+        let config = TriangulationConfig::default();
         let noise = SensorNoise {
             bearing_sigma: 0.01,
             range_sigma: 0.1,
         };
-        let timeout = TriangulationConfig::default().candidate_timeout;
+        let timeout = config.candidate_timeout;
+        (ParticleInitializer::Triangulation(config), noise, timeout)
+    }
+
+    #[test]
+    fn a_stale_candidate_is_restarted_not_triangulated() {
+        let (initializer, noise, timeout) = triangulating();
         let run = |second_time: f64| {
             let mut map = ParticleMap::new();
             let (pose, z) = sighting(0.0);
@@ -140,12 +147,7 @@ mod tests {
 
     #[test]
     fn waiting_sightings_keep_a_candidate_alive_past_the_timeout() {
-        let initializer = ParticleInitializer::Triangulation(TriangulationConfig::default());
-        let noise = SensorNoise {
-            bearing_sigma: 0.01,
-            range_sigma: 0.1,
-        };
-        let timeout = TriangulationConfig::default().candidate_timeout;
+        let (initializer, noise, timeout) = triangulating();
         let mut map = ParticleMap::new();
         let mut see = |x: f64, time: f64| {
             let (pose, z) = sighting(x);

@@ -7,8 +7,9 @@
 #![allow(clippy::unwrap_used)]
 
 use bearing_slam_core::estimator::default_fixed_lag;
-use bearing_slam_core::log::EventKind;
+use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::online::OnlineEstimator;
+use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
     FixedLagConfig, KeyframeRule, OnlineSmoother, OnlineStart, PreintegratedOdometry,
@@ -24,6 +25,12 @@ fn short_fig4(steps: usize) -> KinematicScenario {
     s
 }
 
+/// The first 60 steps of Fig. 4, seed 5: its run configuration and log.
+fn sixty_steps() -> (RunConfig, SensorLog) {
+    let s = short_fig4(60);
+    (s.run_config().unwrap(), s.simulate(5))
+}
+
 fn online(keyframes: Option<KeyframeRule>) -> SmootherConfig {
     SmootherConfig {
         mode: SmootherMode::FixedLag(FixedLagConfig {
@@ -37,9 +44,7 @@ fn online(keyframes: Option<KeyframeRule>) -> SmootherConfig {
 
 #[test]
 fn a_rule_keeping_every_scan_is_the_per_scan_window() {
-    let s = short_fig4(60);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(5);
+    let (config, log) = sixty_steps();
     let every = KeyframeRule {
         min_translation_m: 0.0,
         min_rotation_rad: 0.0,
@@ -149,7 +154,7 @@ fn a_rule_without_scans_is_refused() {
 }
 
 /// The scans (bearing events) of `log`.
-fn scan_count(log: &bearing_slam_core::log::SensorLog) -> usize {
+fn scan_count(log: &SensorLog) -> usize {
     log.events
         .iter()
         .filter(|e| matches!(e.kind, EventKind::Bearings(_)))
@@ -158,9 +163,7 @@ fn scan_count(log: &bearing_slam_core::log::SensorLog) -> usize {
 
 #[test]
 fn the_online_smoother_counts_its_scans_and_landmarks() {
-    let s = short_fig4(60);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(5);
+    let (config, log) = sixty_steps();
     let run = run_online_smoother(&log, &config, &online(None), default_fixed_lag()).unwrap();
     let online = &run.estimator;
     let scans = scan_count(&log);
@@ -173,9 +176,7 @@ fn the_online_smoother_counts_its_scans_and_landmarks() {
 
 #[test]
 fn the_odometry_start_places_each_pose_by_its_preintegrated_motion() {
-    let s = short_fig4(60);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(5);
+    let (config, log) = sixty_steps();
     let start = |online_start| SmootherConfig {
         online_start,
         ..online(None)
@@ -197,9 +198,7 @@ fn the_odometry_start_places_each_pose_by_its_preintegrated_motion() {
 
 #[test]
 fn a_rule_by_scan_count_alone_puts_a_pose_every_max_scans() {
-    let s = short_fig4(60);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(5);
+    let (config, log) = sixty_steps();
     let every_third = KeyframeRule {
         min_translation_m: 1e9,
         min_rotation_rad: 1e9,
@@ -217,8 +216,7 @@ fn a_rule_by_scan_count_alone_puts_a_pose_every_max_scans() {
 
 #[test]
 fn scans_without_motion_between_them_share_a_pose() {
-    let s = short_fig4(60);
-    let config = s.run_config().unwrap();
+    let (config, log) = sixty_steps();
     let mut online = OnlineSmoother::new(
         config.slam.clone(),
         &config,
@@ -226,7 +224,6 @@ fn scans_without_motion_between_them_share_a_pose() {
         default_fixed_lag(),
     )
     .unwrap();
-    let log = s.simulate(5);
     let scan = log
         .events
         .iter()
