@@ -21,12 +21,15 @@
 //! until 2026-11-25). `SIGMA_V_MIN` (a what-if) replaces the velocity
 //! noise's speed floor `σ_v_min` (m/s per one-second hold). `ONLINE=1`
 //! adds the online smoother (`filter+smoother`) with its two windows: the
-//! per-scan default and the keyframe window of `KeyframeRule::default()`.
+//! per-scan default and the keyframe window of `KeyframeRule::default()`,
+//! the latter also with its landmarks' increments in inverse depth
+//! (`LandmarkChart::InverseDepth`). `ESTIMATORS=a,b` keeps only the rows
+//! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
-use bearing_slam_core::smoother::{KeyframeRule, UnmappedTriangulation};
+use bearing_slam_core::smoother::{KeyframeRule, LandmarkChart, UnmappedTriangulation};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
     Anchor, CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataResult, evaluate_run_anchored,
@@ -94,16 +97,36 @@ fn main() -> Result<(), BoxError> {
         let online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
         let mut keyframes = online;
         keyframes.smoother.keyframes = Some(KeyframeRule::default());
+        let in_chart = |mut e: EstimatorConfig, chart| {
+            e.smoother.landmark_chart = chart;
+            e
+        };
         estimators.push(("filter+smoother, per-scan window", online));
+        estimators.push((
+            "filter+smoother, per-scan window, inverse depth",
+            in_chart(online, LandmarkChart::InverseDepth),
+        ));
         estimators.push(("filter+smoother, keyframe window", keyframes));
+        estimators.push((
+            "filter+smoother, keyframe window, inverse depth",
+            in_chart(keyframes, LandmarkChart::InverseDepth),
+        ));
     }
+    // `ESTIMATORS=a,b`: only the estimators whose names contain one of them.
+    if let Ok(only) = std::env::var("ESTIMATORS") {
+        estimators.retain(|(name, _)| only.split(',').any(|o| name.contains(o)));
+    }
+    let robots: Vec<u8> = match std::env::var("ROBOTS") {
+        Ok(list) => list.split(',').map(str::parse).collect::<Result<_, _>>()?,
+        Err(_) => (1..=5).collect(),
+    };
     println!(
         "| dataset | robot | estimator | ATE m | landmarks | raw / aligned landmark RMSE m | NEES in 95 % |"
     );
     println!("|---|---|---|---|---|---|---|");
     for d in datasets.split(',') {
         let dir = data.join(format!("MRCLAM_Dataset{d}"));
-        for robot in 1..=5u8 {
+        for &robot in &robots {
             let run = load_mrclam_with(&dir, robot, &options.load)?;
             let anchor = if run.report.has_ground_truth {
                 anchor

@@ -9,7 +9,7 @@
 //! ([`super::PreintegratedOdometry`]).
 
 use super::preintegration::PreintegratedOdometry;
-use super::values::{Key, Values, local_difference};
+use super::values::{Key, Values};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::measurement::{BearingToPoint, RangeBearing};
@@ -397,8 +397,27 @@ impl Factor {
         matches!(self, Factor::Bearing(_) | Factor::RangeBearing(_))
     }
 
-    /// The whitened residual and its Jacobians at `values`.
+    /// The whitened residual and its Jacobians at `values`, each Jacobian
+    /// in its variable's chart: a landmark anchored in inverse depth
+    /// ([`Values::anchor_landmark`]) gets `J_p ∂p/∂[θ, ρ]`. A linear
+    /// factor's Jacobian is already in the charts it was formed in.
     pub fn linearize(&self, values: &Values) -> Result<Linearization> {
+        let mut lin = self.linearize_at_points(values)?;
+        if values.has_anchors() && !matches!(self, Factor::Linear(_)) {
+            for (key, jacobian) in self.keys().iter().zip(&mut lin.jacobians) {
+                if let Key::Landmark(id) = key
+                    && let Some(chart) = values.landmark_chart_jacobian(*id)?
+                {
+                    *jacobian = &*jacobian * dm(&chart);
+                }
+            }
+        }
+        Ok(lin)
+    }
+
+    /// [`Factor::linearize`] with every landmark Jacobian taken with
+    /// respect to its point.
+    fn linearize_at_points(&self, values: &Values) -> Result<Linearization> {
         match self {
             Factor::PosePrior(f) => {
                 let x = values.pose(f.pose)?;
@@ -472,7 +491,7 @@ impl Factor {
             Factor::Linear(f) => {
                 let mut delta = Vec::with_capacity(f.jacobian.ncols());
                 for (k, x0) in f.keys.iter().zip(&f.linearization_point) {
-                    delta.extend(local_difference(*k, &values.get(*k)?, x0).iter());
+                    delta.extend(values.local_difference(*k, &values.get(*k)?, x0).iter());
                 }
                 let residual = &f.jacobian * DVector::from_vec(delta) + &f.offset;
                 let mut jacobians = Vec::with_capacity(f.keys.len());

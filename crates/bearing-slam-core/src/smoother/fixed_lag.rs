@@ -124,6 +124,14 @@ impl FixedLagSmoother {
         self.values.insert_landmark(id, initial)
     }
 
+    /// Takes landmark `id`'s increments in inverse depth about `anchor`
+    /// ([`Values::anchor_landmark`]). Call it right after
+    /// [`FixedLagSmoother::add_landmark`], before any factor on it is
+    /// marginalized (a marginalization prior keeps the chart it was formed in).
+    pub fn anchor_landmark(&mut self, id: u64, anchor: Vector2<f64>) -> Result<()> {
+        self.values.anchor_landmark(id, anchor)
+    }
+
     /// Adds a factor over variables in the window.
     pub fn add_factor(&mut self, factor: Factor) -> Result<()> {
         for k in factor.keys() {
@@ -167,7 +175,7 @@ impl FixedLagSmoother {
             // estimate within the tolerance of the solution: its
             // covariance without a new linearization.
             let marginals = if let Some(hessian) = converged_hessian {
-                marginals_from_hessian(&pattern, &mut cholesky, hessian, &leaving)?
+                marginals_from_hessian(&pattern, &mut cholesky, hessian, &self.values, &leaving)?
             } else {
                 marginals_of(
                     &pattern,

@@ -18,7 +18,9 @@ use faer::sparse::linalg::cholesky::SymbolicCholeskyRaw;
 use nalgebra::{DMatrix, Matrix2, Matrix3};
 use std::collections::BTreeMap;
 
-/// Marginal covariances of the variables of a graph at an estimate.
+/// Marginal covariances of the variables of a graph at an estimate, each in
+/// its variable's own coordinates (an anchored landmark's in its point's,
+/// whatever chart its increments were taken in).
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Marginals {
     blocks: BTreeMap<Key, DMatrix<f64>>,
@@ -131,16 +133,34 @@ pub(crate) fn marginals_of(
     keys: &[Key],
 ) -> Result<Marginals> {
     let eq = assemble(pattern, graph, values, kernel)?;
-    marginals_from_hessian(pattern, cholesky, eq.hessian, keys)
+    marginals_from_hessian(pattern, cholesky, eq.hessian, values, keys)
+}
+
+/// A block of `H⁻¹` (in `key`'s chart at `values`) as the covariance of the
+/// variable itself: an anchored landmark's `[θ, ρ]` covariance becomes its
+/// point's, `J Σ Jᵀ` with `J = ∂p/∂[θ, ρ]` of (11).
+fn in_variable_coordinates(key: Key, block: DMatrix<f64>, values: &Values) -> Result<DMatrix<f64>> {
+    let Key::Landmark(id) = key else {
+        return Ok(block);
+    };
+    Ok(match values.landmark_chart_jacobian(id)? {
+        Some(chart) => {
+            let j = DMatrix::from_column_slice(2, 2, chart.as_slice());
+            let cov = &j * block * j.transpose();
+            0.5 * (&cov + cov.transpose())
+        }
+        None => block,
+    })
 }
 
 /// The blocks of `H⁻¹` of `keys` for `hessian` (lower triangle in
-/// `pattern`'s layout, already assembled): one factorization on
+/// `pattern`'s layout, already assembled at `values`): one factorization on
 /// `cholesky`'s symbolic analysis, one solve per column of each block.
 pub(crate) fn marginals_from_hessian(
     pattern: &Pattern,
     cholesky: &mut SparseCholesky,
     hessian: Vec<f64>,
+    values: &Values,
     keys: &[Key],
 ) -> Result<Marginals> {
     factorize_or_nudge(pattern, cholesky, hessian)?;
@@ -169,7 +189,7 @@ pub(crate) fn marginals_from_hessian(
                 value: f64::NAN,
             });
         }
-        blocks.insert(key, block);
+        blocks.insert(key, in_variable_coordinates(key, block, values)?);
     }
     Ok(Marginals { blocks })
 }
@@ -229,7 +249,7 @@ pub fn marginal_covariances(
                 "marginal covariance outside the factor pattern",
             ));
         }
-        blocks.insert(*k, block);
+        blocks.insert(*k, in_variable_coordinates(*k, block, values)?);
     }
     Ok(Marginals { blocks })
 }

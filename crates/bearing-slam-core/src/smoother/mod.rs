@@ -2,7 +2,7 @@
 //! and measurement models and refines the whole trajectory and map at once.
 //!
 //! * [`values`]: the variables, SE(2) poses at the measurement times and 2-D
-//!   point landmarks;
+//!   point landmarks (increments in the point or in inverse depth);
 //! * [`preintegration`]: odometry between two poses integrated through the
 //!   filter's motion model, covariance included;
 //! * [`factors`] and [`graph`]: priors, preintegrated odometry, bearing
@@ -52,4 +52,4 @@ pub use run::{
 };
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
 pub use triangulate::{RayPoint, RayTriangulationRule, triangulate_rays};
-pub use values::{Key, Values};
+pub use values::{Key, LandmarkChart, Values};

@@ -24,7 +24,7 @@ use super::preintegration::PreintegratedOdometry;
 use super::run::{
     SmootherConfig, SmootherReport, apply_smoothed, compose, landmark_prior, measurement_factor,
 };
-use super::values::Key;
+use super::values::{Key, LandmarkChart};
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::{BearingObservation, SensorLog};
@@ -137,6 +137,7 @@ impl KeyframeRule {
 pub struct OnlineSmoother {
     start: OnlineStart,
     keyframes: Option<KeyframeRule>,
+    landmark_chart: LandmarkChart,
     /// Scans observing from the latest pose variable.
     scans_on_node: usize,
     filter: BearingSlam,
@@ -192,6 +193,7 @@ impl OnlineSmoother {
         let mut this = Self {
             start: config.online_start,
             keyframes: config.keyframes,
+            landmark_chart: config.landmark_chart,
             scans_on_node: 0,
             filter,
             smoother,
@@ -295,9 +297,19 @@ impl OnlineSmoother {
     }
 
     /// A landmark the filter just initialized enters the graph at the
-    /// filter's estimate, with the observations that waited for it.
+    /// filter's estimate, with the observations that waited for it. In the
+    /// inverse-depth chart ([`SmootherConfig::landmark_chart`]) it is
+    /// anchored where the robot first saw it, unless it lies within 1 mm of
+    /// there (then it keeps the point chart).
     fn enter_landmark(&mut self, id: u64, p: Vector2<f64>) -> Result<()> {
         self.smoother.add_landmark(id, p)?;
+        if self.landmark_chart == LandmarkChart::InverseDepth {
+            let anchor = self.first_sighting_position(id)?;
+            if (p - anchor).norm() >= 1e-3 {
+                self.smoother.anchor_landmark(id, anchor)?;
+                self.report.n_inverse_depth += 1;
+            }
+        }
         if let Some(prior) = landmark_prior(self.landmark_prior_sigma_m, id, p)? {
             self.smoother.add_factor(prior)?;
         }
@@ -310,6 +322,28 @@ impl OnlineSmoother {
             }
         }
         Ok(())
+    }
+
+    /// Where the robot was when it first saw landmark `id`, by the
+    /// smoother's estimate of that scan's pose (as it left the window, if it
+    /// has), composed with the odometry since; the latest pose when no
+    /// sighting waited.
+    fn first_sighting_position(&self, id: u64) -> Result<Vector2<f64>> {
+        let first = self.waiting.get(&id).and_then(|w| w.first());
+        let (node, offset) = match first {
+            Some((node, offset, _)) => (*node as u64, offset.as_ref()),
+            None => (self.nodes as u64 - 1, None),
+        };
+        let mut pose = match self.smoother.finalized().get(&node) {
+            Some(f) => f.pose,
+            None => self.smoother.values().pose(node)?,
+        };
+        if let Some(motion) = offset {
+            pose = Pose2::from_vector(&pose)
+                .compose(&Pose2::from_vector(&motion.delta))
+                .to_vector();
+        }
+        Ok(Vector2::new(pose.x, pose.y))
     }
 
     /// Every pose variable's estimate and covariance and every landmark's,

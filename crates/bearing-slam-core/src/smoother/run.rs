@@ -20,7 +20,7 @@ use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
 use super::triangulate::{RayTriangulationRule, triangulate_rays};
-use super::values::Values;
+use super::values::{LandmarkChart, Values};
 use crate::error::{Result, SlamError};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::log::{BearingObservation, EventKind, SensorLog, VelocityOdometry};
@@ -69,6 +69,11 @@ pub struct SmootherConfig {
     /// (`None`: every scan that follows motion, the window then holding
     /// the last `lag` scans; `Some`: keyframes by motion, [`KeyframeRule`]).
     pub keyframes: Option<KeyframeRule>,
+    /// Fixed-lag mode: the chart of a landmark's increments. With
+    /// [`LandmarkChart::InverseDepth`] a landmark is anchored where the
+    /// robot is when it enters the window, and the solver and the
+    /// marginalization prior work in its `[θ, ρ]`.
+    pub landmark_chart: LandmarkChart,
 }
 
 /// How the batch smoother triangulates the landmarks the filter never
@@ -108,6 +113,7 @@ impl Default for SmootherConfig {
             triangulate_unmapped: Some(UnmappedTriangulation::default()),
             online_start: OnlineStart::Filter,
             keyframes: None,
+            landmark_chart: LandmarkChart::Point,
         }
     }
 }
@@ -128,6 +134,9 @@ pub struct SmootherReport {
     /// Landmarks the filter never initialized that the batch triangulated
     /// from its smoothed poses and added ([`SmootherConfig::triangulate_unmapped`]).
     pub n_triangulated: usize,
+    /// Landmarks whose increments the online window takes in inverse depth
+    /// ([`SmootherConfig::landmark_chart`]).
+    pub n_inverse_depth: usize,
     /// The batch solve (batch mode).
     pub solve: Option<SolveReport>,
     /// Seconds spent running the filter that starts the smoother.

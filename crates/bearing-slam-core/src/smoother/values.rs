@@ -1,9 +1,20 @@
 //! The variables of the smoother's factor graph and their current estimate:
 //! planar poses `[x, y, θ]` at the measurement times and 2-D point landmarks.
+//!
+//! A landmark is always *stored* as its point `[x, y]`, but its increments
+//! (the solver's step, the marginalization prior's coordinates, its
+//! marginal before conversion) may be taken in one of two charts: the
+//! point itself, or the inverse depth `[θ, ρ]` of Munguía & Grau (11)
+//! about a fixed anchor `a`, `p = a + m(θ)/ρ`
+//! ([`Values::anchor_landmark`]). The second is the chart for a landmark
+//! whose ray is known and whose depth is not: the bearing is nearly linear
+//! in `ρ`, and a step cannot carry the point past infinity or behind the
+//! anchor.
 
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::wrap_angle;
-use nalgebra::{DVector, Vector2, Vector3};
+use crate::landmark::inverse_depth_to_point;
+use nalgebra::{DVector, Matrix2, Vector2, Vector3, Vector4};
 use serde::Serialize;
 use std::collections::BTreeMap;
 
@@ -39,11 +50,51 @@ pub(crate) fn unknown_key(key: Key) -> SlamError {
     }
 }
 
+/// The chart a landmark's increments are taken in (the smoother's
+/// [`super::SmootherConfig::landmark_chart`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum LandmarkChart {
+    /// `[x, y]`: plain addition.
+    #[default]
+    Point,
+    /// `[θ, ρ]` about an anchor where the landmark entered the graph
+    /// (Munguía & Grau (11), the anchor held fixed).
+    InverseDepth,
+}
+
+/// Smallest inverse depth a step may reach: 1 km from the anchor. A step
+/// past it is clamped there, so a landmark with no depth information
+/// stays on its ray at a finite distance instead of crossing infinity.
+pub const MIN_INVERSE_DEPTH: f64 = 1e-3;
+
+/// The inverse-depth coordinates `[θ, ρ]` of `point` about `anchor`.
+fn inverse_depth_of(anchor: &Vector2<f64>, point: &Vector2<f64>) -> Vector2<f64> {
+    let ray = point - anchor;
+    Vector2::new(ray.y.atan2(ray.x), 1.0 / ray.norm())
+}
+
+/// `∂p/∂[θ, ρ]` at `point` of the inverse-depth chart about `anchor`: the
+/// last two columns of the Jacobian of (11) ([`inverse_depth_to_point`]).
+fn inverse_depth_chart_jacobian(
+    anchor: &Vector2<f64>,
+    point: &Vector2<f64>,
+) -> Result<Matrix2<f64>> {
+    let [theta, rho] = inverse_depth_of(anchor, point).into();
+    let converted = inverse_depth_to_point(&Vector4::new(anchor.x, anchor.y, theta, rho))?;
+    Ok(converted
+        .j_point_landmark
+        .fixed_columns::<2>(2)
+        .into_owned())
+}
+
 /// The estimate of every variable: poses by number, landmarks by id.
 #[derive(Clone, Debug, Default, PartialEq, Serialize)]
 pub struct Values {
     poses: BTreeMap<u64, Vector3<f64>>,
     landmarks: BTreeMap<u64, Vector2<f64>>,
+    /// The anchors of the landmarks whose increments are inverse depth.
+    anchors: BTreeMap<u64, Vector2<f64>>,
 }
 
 impl Values {
@@ -70,6 +121,47 @@ impl Values {
         ensure_finite("landmark y", point.y)?;
         self.landmarks.insert(id, point);
         Ok(())
+    }
+
+    /// Takes landmark `id`'s increments in inverse depth `[θ, ρ]` about
+    /// `anchor` from now on (its point is unchanged). Errors on an unknown
+    /// landmark, a non-finite anchor, or an anchor within 1 mm of the
+    /// point (no ray to measure the azimuth along).
+    pub fn anchor_landmark(&mut self, id: u64, anchor: Vector2<f64>) -> Result<()> {
+        ensure_finite("anchor x", anchor.x)?;
+        ensure_finite("anchor y", anchor.y)?;
+        let point = self.landmark(id)?;
+        if (point - anchor).norm() < 1e-3 {
+            return Err(SlamError::Degenerate(
+                "a landmark's inverse-depth anchor must lie away from the landmark",
+            ));
+        }
+        self.anchors.insert(id, anchor);
+        Ok(())
+    }
+
+    /// The inverse-depth anchor of landmark `id`, if it has one.
+    #[must_use]
+    pub fn landmark_anchor(&self, id: u64) -> Option<Vector2<f64>> {
+        self.anchors.get(&id).copied()
+    }
+
+    /// Whether any landmark takes its increments in inverse depth.
+    #[must_use]
+    pub fn has_anchors(&self) -> bool {
+        !self.anchors.is_empty()
+    }
+
+    /// `∂p/∂[θ, ρ]` of landmark `id` at its estimate when its increments
+    /// are inverse depth; `None` for a point chart.
+    pub fn landmark_chart_jacobian(&self, id: u64) -> Result<Option<Matrix2<f64>>> {
+        match self.anchors.get(&id) {
+            Some(anchor) => Ok(Some(inverse_depth_chart_jacobian(
+                anchor,
+                &self.landmark(id)?,
+            )?)),
+            None => Ok(None),
+        }
     }
 
     /// Pose `id`, or an error naming it.
@@ -121,7 +213,9 @@ impl Values {
     }
 
     /// Adds the increment `delta` (tangent of `key`) to `key`: plain addition,
-    /// the heading wrapped back to (−π, π].
+    /// the heading wrapped back to (−π, π]; for an anchored landmark, added
+    /// to its `[θ, ρ]` (`ρ` kept ≥ [`MIN_INVERSE_DEPTH`]) and converted back
+    /// by (11).
     pub fn retract(&mut self, key: Key, delta: &[f64]) -> Result<()> {
         let mut v = self.get(key)?;
         if delta.len() != v.len() {
@@ -130,6 +224,16 @@ impl Values {
                 expected: v.len(),
                 got: delta.len(),
             });
+        }
+        if let Key::Landmark(id) = key
+            && let Some(anchor) = self.anchors.get(&id).copied()
+        {
+            let old = inverse_depth_of(&anchor, &Vector2::new(v[0], v[1]));
+            let theta = old.x + delta[0];
+            let rho = (old.y + delta[1]).max(MIN_INVERSE_DEPTH);
+            let point =
+                inverse_depth_to_point(&Vector4::new(anchor.x, anchor.y, theta, rho))?.point;
+            return self.insert_landmark(id, point);
         }
         for (x, d) in v.iter_mut().zip(delta) {
             *x += d;
@@ -145,6 +249,7 @@ impl Values {
             }
             Key::Landmark(id) => {
                 self.landmarks.remove(&id);
+                self.anchors.remove(&id);
             }
         }
     }
@@ -160,13 +265,26 @@ impl Values {
     pub fn landmarks(&self) -> &BTreeMap<u64, Vector2<f64>> {
         &self.landmarks
     }
-}
 
-/// `x ⊟ x0` for a variable: the difference with the heading wrapped.
-pub(crate) fn local_difference(key: Key, x: &DVector<f64>, x0: &DVector<f64>) -> DVector<f64> {
-    let mut d = x - x0;
-    if matches!(key, Key::Pose(_)) {
-        d[2] = wrap_angle(d[2]);
+    /// `x ⊟ x0` for values `x`, `x0` of `key` (the inverse of
+    /// [`Values::retract`]), in its chart: the
+    /// difference with the heading wrapped; for an anchored landmark, the
+    /// difference of their `[θ, ρ]` (azimuth wrapped).
+    pub fn local_difference(&self, key: Key, x: &DVector<f64>, x0: &DVector<f64>) -> DVector<f64> {
+        match key {
+            Key::Pose(_) => {
+                let mut d = x - x0;
+                d[2] = wrap_angle(d[2]);
+                d
+            }
+            Key::Landmark(id) => match self.anchors.get(&id) {
+                None => x - x0,
+                Some(anchor) => {
+                    let a = inverse_depth_of(anchor, &Vector2::new(x[0], x[1]));
+                    let b = inverse_depth_of(anchor, &Vector2::new(x0[0], x0[1]));
+                    DVector::from_column_slice(&[wrap_angle(a.x - b.x), a.y - b.y])
+                }
+            },
+        }
     }
-    d
 }

@@ -80,6 +80,47 @@ fn check(factor: &Factor, values: &Values) -> Result<(), String> {
     compare_jacobians("factor", &analytic, &numeric, TOL)
 }
 
+/// Checks the stacked analytic Jacobian of `factor` at `values` against
+/// central differences of `δ ↦ e(values ⊞ δ)`, each variable moved by its
+/// own chart's retraction (an anchored landmark's in `[θ, ρ]`).
+fn check_in_charts(factor: &Factor, values: &Values) -> Result<(), String> {
+    let keys = factor.keys();
+    let lin = factor.linearize(values).map_err(|e| e.to_string())?;
+    let analytic = DMatrix::from_fn(
+        lin.residual.len(),
+        keys.iter().map(Key::dim).sum(),
+        |r, c| {
+            let mut c = c;
+            for (k, b) in keys.iter().zip(&lin.jacobians) {
+                if c < k.dim() {
+                    return b[(r, c)];
+                }
+                c -= k.dim();
+            }
+            f64::NAN
+        },
+    );
+    let retracted = |delta: &DVector<f64>| {
+        let mut v = values.clone();
+        let mut off = 0;
+        for k in &keys {
+            v.retract(*k, &delta.as_slice()[off..off + k.dim()])
+                .unwrap();
+            off += k.dim();
+        }
+        factor
+            .error(&v)
+            .unwrap_or_else(|_| DVector::from_element(lin.residual.len(), f64::NAN))
+    };
+    let zero = DVector::zeros(analytic.ncols());
+    compare_jacobians(
+        "factor in charts",
+        &analytic,
+        &numeric_jacobian(retracted, &zero, &[]),
+        TOL,
+    )
+}
+
 fn values_with(pose_id: u64, x: Vector3<f64>, lm: u64, p: Vector2<f64>) -> Values {
     let mut v = Values::new();
     v.insert_pose(pose_id, x).unwrap();
@@ -157,6 +198,37 @@ proptest! {
         let f = Factor::Linear(LinearFactor::new(keys, x0, jac, DVector::from_vec(vec![0.1, -0.2, 0.3, 0.0])).unwrap());
         let v = values_with(1, x + Vector3::new(0.05, -0.02, 0.01), 2, Vector2::from(p));
         check(&f, &v).map_err(TestCaseError::fail)?;
+    }
+
+    /// With the landmark's increments in inverse depth about an anchor
+    /// (`Values::anchor_landmark`), every factor's landmark Jacobian is the
+    /// derivative along the chart: `J_p ∂p/∂[θ, ρ]`. And a linear factor
+    /// formed in that chart measures `x ⊟ x₀` in `[θ, ρ]`.
+    #[test]
+    fn factors_in_the_inverse_depth_chart(
+        x in pose(),
+        (r, a, noise) in (0.3..30.0f64, -PI..PI, -0.05..0.05f64),
+        (anchor_r, anchor_a) in (0.5..5.0f64, -PI..PI),
+        d in prop::array::uniform3(-0.5..0.5f64),
+    ) {
+        let p = x.fixed_rows::<2>(0) + r * Vector2::new(a.cos(), a.sin());
+        let anchor = p + anchor_r * Vector2::new(anchor_a.cos(), anchor_a.sin());
+        let mut v = values_with(4, x, 9, p);
+        v.anchor_landmark(9, anchor).unwrap();
+        let z = bearing_to_point(&x, &p).unwrap() + noise;
+        let factors = [
+            Factor::Bearing(BearingFactor::new(4, 9, z, 0.02).unwrap()),
+            Factor::Bearing(BearingFactor::new(4, 9, z, 0.02).unwrap().with_offset(Vector3::from(d))),
+            Factor::RangeBearing(RangeBearingFactor::new(4, 9, r + noise, z, 0.1, 0.02).unwrap()),
+            Factor::LandmarkPrior(LandmarkPriorFactor::new(9, p + Vector2::new(noise, -noise), Matrix2::new(0.1, 0.02, 0.02, 0.3)).unwrap()),
+        ];
+        for f in &factors {
+            check_in_charts(f, &v).map_err(TestCaseError::fail)?;
+        }
+        let x0 = vec![DVector::from_column_slice(x.as_slice()), DVector::from_vec(vec![p.x + 0.1, p.y - 0.2])];
+        let jac = DMatrix::from_fn(4, 5, |r, c| ((7 * r + 3 * c) % 11) as f64 - 5.0);
+        let linear = Factor::Linear(LinearFactor::new(vec![Key::Pose(4), Key::Landmark(9)], x0, jac, DVector::zeros(4)).unwrap());
+        check_in_charts(&linear, &v).map_err(TestCaseError::fail)?;
     }
 
     /// Preintegrating from the origin gives the relative pose and covariance

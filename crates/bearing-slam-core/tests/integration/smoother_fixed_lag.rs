@@ -5,12 +5,13 @@
 
 use super::smoother_common;
 
+use bearing_slam_core::smoother::values::MIN_INVERSE_DEPTH;
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor,
     OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig, Termination, Values,
     marginal_covariances, optimize,
 };
-use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{Problem, max_difference, problem};
 
 /// The latest pose a factor involves: it joins the smoother with that pose.
@@ -51,10 +52,28 @@ fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSm
 
 /// [`run_online_with`] at any configuration, with each update's report.
 fn run_online_config(p: &Problem, config: FixedLagConfig) -> (FixedLagSmoother, Vec<SolveReport>) {
+    run_online_charted(p, config, false)
+}
+
+/// The first pose's true position: an anchor away from every landmark.
+fn anchor(p: &Problem) -> Vector2<f64> {
+    p.truth.pose(0).unwrap().fixed_rows::<2>(0).into_owned()
+}
+
+/// [`run_online_config`], every landmark's increments in inverse depth
+/// about [`anchor`] when `inverse_depth`.
+fn run_online_charted(
+    p: &Problem,
+    config: FixedLagConfig,
+    inverse_depth: bool,
+) -> (FixedLagSmoother, Vec<SolveReport>) {
     let mut reports = Vec::new();
     let mut s = FixedLagSmoother::new(config).unwrap();
     for i in 0..p.n_landmarks {
         s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
+        if inverse_depth {
+            s.anchor_landmark(i, anchor(p)).unwrap();
+        }
     }
     for k in 0..p.n_poses {
         add_pose_with_factors(&mut s, p, k);
@@ -132,6 +151,76 @@ fn exact_after_marginalization_on_noise_free_data() {
     assert_eq!(s.marginalizations(), 16);
     let diff = max_difference(s.values(), &p.truth);
     assert!(diff < 1e-7, "{diff}");
+}
+
+/// The chart moves the steps, not the minimum: in inverse depth the window
+/// ends at the batch's solution before anything is marginalized, and on
+/// consistent data at the truth after marginalization (its priors formed
+/// in `[θ, ρ]`). The landmarks' marginals come back as the points'
+/// covariances: the same as the point chart's at the same estimate.
+#[test]
+fn the_inverse_depth_chart_keeps_the_solution_and_the_marginals() {
+    let config = |lag| FixedLagConfig {
+        lag,
+        first_estimates: false,
+        solver: SolverConfig::default(),
+    };
+    let p = problem(11, 10, true, false);
+    let (charted, _) = run_online_charted(&p, config(10), true);
+    assert_eq!(charted.marginalizations(), 0);
+    let b = batch(&p);
+    let diff = max_difference(charted.values(), &b);
+    assert!(diff < 1e-6, "inverse depth vs batch: {diff}");
+    let points = marginal_covariances(&p.graph, &b, &RobustKernel::None).unwrap();
+    let mut anchored = b.clone();
+    for i in 0..p.n_landmarks {
+        assert_eq!(anchored.landmark_anchor(i), None);
+        anchored.anchor_landmark(i, anchor(&p)).unwrap();
+    }
+    let in_chart = marginal_covariances(&p.graph, &anchored, &RobustKernel::None).unwrap();
+    for (key, cov) in points.blocks() {
+        let other = in_chart.get(*key).unwrap();
+        assert!(
+            (cov - other).norm() <= 1e-6 * cov.norm(),
+            "{key:?}: {cov} vs {other}"
+        );
+    }
+
+    let exact = problem(12, 20, false, false);
+    let (charted, _) = run_online_charted(&exact, config(4), true);
+    assert_eq!(charted.marginalizations(), 16);
+    let diff = max_difference(charted.values(), &exact.truth);
+    assert!(diff < 1e-7, "{diff}");
+    // A landmark the map has no anchor for, or an anchor on the landmark.
+    let mut v = exact.truth.clone();
+    assert!(v.anchor_landmark(99, Vector2::zeros()).is_err());
+    let on_it = v.landmark(0).unwrap();
+    assert!(v.anchor_landmark(0, on_it).is_err());
+    assert!(v.anchor_landmark(0, Vector2::new(f64::NAN, 0.0)).is_err());
+}
+
+/// A step in inverse depth past infinity (`ρ + δρ ≤ 0`) stops at
+/// `MIN_INVERSE_DEPTH`, on the landmark's ray; and `⊟` undoes `⊞`.
+#[test]
+fn an_inverse_depth_step_stays_on_the_ray_and_is_undone_by_the_difference() {
+    let mut v = Values::new();
+    let anchor = Vector2::new(1.0, 2.0);
+    v.insert_landmark(3, Vector2::new(4.0, 6.0)).unwrap();
+    v.anchor_landmark(3, anchor).unwrap();
+    let key = Key::Landmark(3);
+    let before = v.get(key).unwrap();
+    v.retract(key, &[0.05, -0.03]).unwrap();
+    let after = v.get(key).unwrap();
+    let back = v.local_difference(key, &after, &before);
+    assert!(
+        (&back - DVector::from_vec(vec![0.05, -0.03])).norm() < 1e-12,
+        "{back}"
+    );
+    v.retract(key, &[0.0, -10.0]).unwrap();
+    let far = v.landmark(3).unwrap() - anchor;
+    assert!((far.norm() - 1.0 / MIN_INVERSE_DEPTH).abs() < 1e-6, "{far}");
+    let ray = after.fixed_rows::<2>(0) - anchor;
+    assert!((far.y.atan2(far.x) - ray.y.atan2(ray.x)).abs() < 1e-12);
 }
 
 #[test]
