@@ -1,0 +1,98 @@
+//! The online smoother's window and landmark chart in simulation (issue
+//! 14): for each of `experiment smoother`'s scenarios (`paper_fig4`,
+//! `paper_fig8`, `slip_patch`; MTE, seeds 0…RUNS−1 as the experiment draws
+//! them), the per-scan and the keyframe window, each with point and
+//! inverse-depth landmarks, beside the batch smoother. Prints one markdown
+//! row per scenario and configuration: mean ATE, mean pose NEES, runs that
+//! failed.
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example online_window_sim [RUNS]
+//! ```
+
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
+use bearing_slam_core::smoother::{KeyframeRule, LandmarkChart};
+use bearing_slam_eval::montecarlo::{InitializerSpec, MonteCarloSpec, run_config, score_run};
+use bearing_slam_sim::simulate;
+use rayon::prelude::*;
+
+type BoxError = Box<dyn std::error::Error + Send + Sync>;
+
+/// The online smoother with `keyframes` and `chart`.
+fn online(keyframes: Option<KeyframeRule>, chart: LandmarkChart) -> EstimatorConfig {
+    let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    e.smoother.keyframes = keyframes;
+    e.smoother.landmark_chart = chart;
+    e
+}
+
+/// `(ATE m, mean NEES)` of run `index` of `scenario` with `estimator`.
+fn one(scenario: &str, index: usize, estimator: &EstimatorConfig) -> Result<(f64, f64), BoxError> {
+    let spec = MonteCarloSpec::new(scenario, InitializerSpec::Mte, index + 1);
+    let built = spec.scenario.build(index)?;
+    let log = simulate(&built)?;
+    let config = run_config(&spec, &log, &built.far_landmark_ids)?;
+    let seed = spec.scenario.seed0.wrapping_add(index as u64);
+    let estimator = EstimatorConfig { seed, ..*estimator };
+    let output = run_estimator(&log, &config, &estimator)?.output;
+    let record = score_run(
+        &log,
+        &output,
+        &built.far_landmark_ids,
+        index,
+        seed,
+        &spec.thresholds,
+    );
+    let m = record.metrics;
+    Ok((m.ate_rmse_m.ok_or("no ATE")?, m.mean_nees.ok_or("no NEES")?))
+}
+
+fn main() -> Result<(), BoxError> {
+    let runs: usize = std::env::args()
+        .nth(1)
+        .map(|r| r.parse())
+        .transpose()?
+        .unwrap_or(10);
+    let configs = [
+        (
+            "batch smoother",
+            EstimatorConfig::of(EstimatorKind::Smoother),
+        ),
+        ("per-scan, point", online(None, LandmarkChart::Point)),
+        (
+            "per-scan, inverse depth",
+            online(None, LandmarkChart::InverseDepth),
+        ),
+        (
+            "keyframes, point",
+            online(Some(KeyframeRule::default()), LandmarkChart::Point),
+        ),
+        (
+            "keyframes, inverse depth",
+            online(Some(KeyframeRule::default()), LandmarkChart::InverseDepth),
+        ),
+    ];
+    println!("| scenario | estimator | mean ATE m | mean NEES | failed |");
+    println!("|---|---|---|---|---|");
+    for scenario in ["paper_fig4", "paper_fig8", "slip_patch"] {
+        for (name, estimator) in &configs {
+            let results: Vec<_> = (0..runs)
+                .into_par_iter()
+                .map(|i| one(scenario, i, estimator))
+                .collect();
+            let ok: Vec<(f64, f64)> = results
+                .iter()
+                .filter_map(|r| r.as_ref().ok())
+                .copied()
+                .collect();
+            let n = ok.len().max(1) as f64;
+            println!(
+                "| {scenario} | {name} | {:.3} | {:.2} | {} |",
+                ok.iter().map(|r| r.0).sum::<f64>() / n,
+                ok.iter().map(|r| r.1).sum::<f64>() / n,
+                runs - ok.len()
+            );
+        }
+    }
+    Ok(())
+}
