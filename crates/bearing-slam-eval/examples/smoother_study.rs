@@ -20,10 +20,10 @@
 //! `v·max(0, a − b·|ω|)`; `TURN_SPEED=0.93,0` is the constant scale used
 //! until 2026-11-25). `SIGMA_V_MIN` (a what-if) replaces the velocity
 //! noise's speed floor `σ_v_min` (m/s per one-second hold). `ONLINE=1`
-//! adds the online smoother (`filter+smoother`) with its two windows: the
-//! per-scan default and the keyframe window of `KeyframeRule::default()`,
-//! the latter also with its landmarks' increments in inverse depth
-//! (`LandmarkChart::InverseDepth`). `ESTIMATORS=a,b` keeps only the rows
+//! adds the online smoother (`filter+smoother`) with its two windows (the
+//! per-scan default and the keyframe window of `KeyframeRule::default()`),
+//! each with point and inverse-depth landmarks (`LandmarkChart`; inverse
+//! depth is the default). `ESTIMATORS=a,b` keeps only the rows
 //! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
@@ -94,23 +94,31 @@ fn main() -> Result<(), BoxError> {
         ("smoother + triangulated", smoother(true)),
     ];
     if std::env::var_os("ONLINE").is_some() {
-        let online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-        let mut keyframes = online;
-        keyframes.smoother.keyframes = Some(KeyframeRule::default());
-        let in_chart = |mut e: EstimatorConfig, chart| {
-            e.smoother.landmark_chart = chart;
+        let online = |keyframes, landmark_chart| {
+            let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+            e.smoother.keyframes = keyframes;
+            e.smoother.landmark_chart = landmark_chart;
             e
         };
-        estimators.push(("filter+smoother, per-scan window", online));
-        estimators.push((
-            "filter+smoother, per-scan window, inverse depth",
-            in_chart(online, LandmarkChart::InverseDepth),
-        ));
-        estimators.push(("filter+smoother, keyframe window", keyframes));
-        estimators.push((
-            "filter+smoother, keyframe window, inverse depth",
-            in_chart(keyframes, LandmarkChart::InverseDepth),
-        ));
+        let rule = Some(KeyframeRule::default());
+        estimators.extend([
+            (
+                "filter+smoother, per-scan window, point",
+                online(None, LandmarkChart::Point),
+            ),
+            (
+                "filter+smoother, per-scan window, inverse depth",
+                online(None, LandmarkChart::InverseDepth),
+            ),
+            (
+                "filter+smoother, keyframe window, point",
+                online(rule, LandmarkChart::Point),
+            ),
+            (
+                "filter+smoother, keyframe window, inverse depth",
+                online(rule, LandmarkChart::InverseDepth),
+            ),
+        ]);
     }
     // `ESTIMATORS=a,b`: only the estimators whose names contain one of them.
     if let Ok(only) = std::env::var("ESTIMATORS") {
