@@ -132,6 +132,10 @@ class Config:
     # "fastslam1", "fastslam2"; particles of FastSLAM.
     estimator: str
     particles: int
+    # The online smoother ("filter+smoother" only): its window ("scans",
+    # "keyframes") and landmark chart ("inverse-depth", "point").
+    online_window: str
+    landmark_chart: str
     # Data association (issue 16): "known", "nn", "jcbb".
     association: str
     # Robustness on a real camera (issue 13 item 3): robust gating and the
@@ -361,6 +365,8 @@ def evaluate_mrclam(
     *,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
     association: str = "known",
+    online_window: str | None = None,
+    landmark_chart: str | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...
 def vocabulary() -> dict[str, Any]: ...
 

@@ -48,6 +48,7 @@ from bearing_slam.arg_types import (
 from bearing_slam.cli_batch import add_batch_parsers
 from bearing_slam.estimators import (
     add_estimator_options,
+    add_online_smoother_options,
     estimator_problem,
     with_estimator,
 )
@@ -374,6 +375,8 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
             args.particles,
             on_scan=live,
             association=args.association,
+            online_window=args.online_window,
+            landmark_chart=args.landmark_chart,
         )
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
@@ -540,6 +543,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(runp)
     add_estimator_options(runp)
+    add_online_smoother_options(runp)
     _add_association_option(runp)
     _add_robustness_options(runp)
     add_live_arguments(runp)  # --live
@@ -601,6 +605,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument("--quiet", action="store_true", help="no progress bar")
     _add_view_flags(mr)
     add_estimator_options(mr)
+    add_online_smoother_options(mr)
     _add_association_option(mr)
     add_live_arguments(mr)  # --live
     mr.set_defaults(func=_cmd_mrclam)

@@ -5,7 +5,10 @@ names of :data:`~bearing_slam.vocabulary.ESTIMATORS`, read from Rust's
 ``EstimatorKind``): ``filter`` (the EKF, the default), ``smoother`` (the
 batch graph smoother started from the filter's run), ``filter+smoother``
 (the online fixed-lag smoother run with the filter), ``fastslam1`` and
-``fastslam2`` (with ``--particles``). Every estimator's result has the shape
+``fastslam2`` (with ``--particles``); ``filter+smoother`` takes
+``--online-window`` (``scans``, the default, or ``keyframes``: the choice for
+real robots) and ``--landmark-chart`` (``inverse-depth``, the default, or
+``point``) on ``run`` and ``mrclam``. Every estimator's result has the shape
 of the filter's, so ``metrics.json``, the plots and ``estimate.mcap`` (the
 smoothed trajectory and map, or the particle cloud's pose with the best
 particle's map) are written the same way.
@@ -18,13 +21,16 @@ from typing import Any
 
 from bearing_slam._native import Config
 from bearing_slam.arg_types import positive_int
-from bearing_slam.vocabulary import ESTIMATORS
+from bearing_slam.vocabulary import ESTIMATORS, LANDMARK_CHARTS, ONLINE_WINDOWS
 
 __all__ = [
     "DEFAULT_ESTIMATOR",
+    "DEFAULT_LANDMARK_CHART",
+    "DEFAULT_ONLINE_WINDOW",
     "DEFAULT_PARTICLES",
     "PARTICLE_ESTIMATORS",
     "add_estimator_options",
+    "add_online_smoother_options",
     "estimator_problem",
     "estimator_spec",
     "with_estimator",
@@ -35,6 +41,11 @@ DEFAULT_ESTIMATOR: str = Config().estimator
 
 #: FastSLAM's particle count unless given (Rust: ``EstimatorConfig::default``).
 DEFAULT_PARTICLES: int = Config().particles
+
+#: The online smoother's window and landmark chart unless given (Rust:
+#: ``OnlineWindow::default``, ``SmootherConfig::default().landmark_chart``).
+DEFAULT_ONLINE_WINDOW: str = Config().online_window
+DEFAULT_LANDMARK_CHART: str = Config().landmark_chart
 
 #: The estimators that take ``--particles``.
 PARTICLE_ESTIMATORS: tuple[str, ...] = tuple(e for e in ESTIMATORS if e.startswith("fastslam"))
@@ -57,11 +68,33 @@ def add_estimator_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
+def add_online_smoother_options(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--online-window`` and ``--landmark-chart`` (``filter+smoother``)."""
+    parser.add_argument(
+        "--online-window",
+        choices=ONLINE_WINDOWS,
+        help=f"filter+smoother only: a pose per scan or keyframes by motion (0.5 m / "
+        f"0.5 rad / 20 scans; the choice for real robots) (default: {DEFAULT_ONLINE_WINDOW})",
+    )
+    parser.add_argument(
+        "--landmark-chart",
+        choices=LANDMARK_CHARTS,
+        help="filter+smoother only: the chart of the landmarks' increments "
+        f"(default: {DEFAULT_LANDMARK_CHART})",
+    )
+
+
 def estimator_problem(args: argparse.Namespace) -> str | None:
     """Why the estimator options cannot be used as given, or None."""
     if args.particles is not None and args.estimator not in PARTICLE_ESTIMATORS:
         return (
             f"--particles applies to --estimator {' and '.join(PARTICLE_ESTIMATORS)} only, "
+            f"not to --estimator {args.estimator}"
+        )
+    online = [getattr(args, "online_window", None), getattr(args, "landmark_chart", None)]
+    if any(o is not None for o in online) and args.estimator != "filter+smoother":
+        return (
+            "--online-window and --landmark-chart apply to --estimator filter+smoother only, "
             f"not to --estimator {args.estimator}"
         )
     live = getattr(args, "rerun", None) or getattr(args, "rerun_spawn", False)
@@ -74,10 +107,15 @@ def estimator_problem(args: argparse.Namespace) -> str | None:
 
 
 def with_estimator(config: Config, args: argparse.Namespace) -> Config:
-    """``config`` with the estimator (and particle count) of the command line."""
-    if args.particles is None:
-        return config.replace(estimator=args.estimator)
-    return config.replace(estimator=args.estimator, particles=args.particles)
+    """``config`` with the estimator (particle count, online window and
+    landmark chart) of the command line."""
+    given: dict[str, Any] = {"estimator": args.estimator}
+    if args.particles is not None:
+        given["particles"] = args.particles
+    for field in ("online_window", "landmark_chart"):
+        if getattr(args, field, None) is not None:
+            given[field] = getattr(args, field)
+    return config.replace(**given)
 
 
 def estimator_spec(args: argparse.Namespace) -> dict[str, Any]:

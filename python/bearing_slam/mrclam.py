@@ -109,6 +109,8 @@ def evaluate(
     particles: int | None = None,
     on_scan: Callable[[dict[str, Any]], object] | None = None,
     association: str = "known",
+    online_window: str | None = None,
+    landmark_chart: str | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
@@ -118,7 +120,10 @@ def evaluate(
     goes (as in :func:`bearing_slam.run`, e.g. a
     :class:`bearing_slam.rerun.RerunLogger`). ``association``: ``"known"``
     (the barcodes' ids), or ``"nn"``/``"jcbb"`` with the barcodes hidden from
-    the filter (they then only score it: ``result.association``)."""
+    the filter (they then only score it: ``result.association``).
+    ``online_window`` (``"scans"``, ``"keyframes"``) and ``landmark_chart``
+    (``"inverse-depth"``, ``"point"``): the online smoother's
+    (``estimator="filter+smoother"`` only; None: the defaults)."""
     t0 = time.perf_counter()
     result, metrics, log = evaluate_mrclam(
         dataset_dir,
@@ -130,6 +135,8 @@ def evaluate(
         particles=particles,
         on_scan=on_scan,
         association=association,
+        online_window=online_window,
+        landmark_chart=landmark_chart,
     )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 

@@ -29,11 +29,13 @@ __all__ = [
     "FAR_PRIOR",
     "HISTORY_CORRELATIONS",
     "INIT_NAMES",
+    "LANDMARK_CHARTS",
     "METRICS",
     "MRCLAM_METHODS",
     "MRCLAM_METHOD_LABELS",
     "MTE_HISTORY",
     "ODOMETRIES",
+    "ONLINE_WINDOWS",
     "POSE_NEES",
     "PRIOR_INITS",
     "RUN_INITS",
@@ -75,6 +77,14 @@ ODOMETRIES: tuple[str, ...] = tuple(_RUST["odometries"])
 #: The estimators, the EKF first (Rust: ``estimator::EstimatorKind::ALL``):
 #: ``Config(estimator=...)``, ``--estimator``.
 ESTIMATORS: tuple[str, ...] = tuple(_RUST["estimators"])
+
+#: The online smoother's windows (Rust: ``smoother::OnlineWindow::ALL``):
+#: ``Config(online_window=...)``, ``--online-window``.
+ONLINE_WINDOWS: tuple[str, ...] = tuple(_RUST["online_windows"])
+
+#: The online smoother's landmark charts (Rust: ``smoother::LandmarkChart::ALL``):
+#: ``Config(landmark_chart=...)``, ``--landmark-chart``.
+LANDMARK_CHARTS: tuple[str, ...] = tuple(_RUST["landmark_charts"])
 
 #: Data association (Rust: ``association::AssociationMethod::ALL``):
 #: ``Config(association=...)``, ``--association``.

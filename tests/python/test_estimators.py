@@ -102,3 +102,56 @@ def test_cli_estimators_write_metrics(tmp_path: Path) -> None:
     r = cli("run", log, "--estimator", "ekf2", "--out", tmp_path / "y")
     assert r.returncode != 0
     assert "invalid choice: 'ekf2'" in r.stderr
+
+
+def test_the_online_window_and_chart_reach_the_smoother(short_log: bs.SensorLog) -> None:
+    # One definition each, in Rust: the names and the defaults.
+    assert bs.vocabulary.ONLINE_WINDOWS == ("scans", "keyframes")
+    assert bs.vocabulary.LANDMARK_CHARTS == ("point", "inverse-depth")
+    assert (bs.Config().online_window, bs.Config().landmark_chart) == ("scans", "inverse-depth")
+    base = bs.Config.for_log(short_log, estimator="filter+smoother")
+    runs = {
+        (window, chart): bs.smooth(
+            short_log, base.replace(online_window=window, landmark_chart=chart)
+        )
+        for window in ("scans", "keyframes")
+        for chart in ("point", "inverse-depth")
+    }
+    for (window, chart), result in runs.items():
+        assert (result.config.online_window, result.config.landmark_chart) == (window, chart)
+        assert result.summary is not None
+        assert result.summary["finite"]
+    # The options change the estimate (each reaches the Rust smoother).
+    track = {k: r.estimate for k, r in runs.items()}
+    assert not np.allclose(track["scans", "point"], track["keyframes", "point"])
+    assert not np.allclose(track["scans", "point"], track["scans", "inverse-depth"])
+    with pytest.raises(ValueError, match='unknown online window "frames"'):
+        bs.Config(estimator="filter+smoother", online_window="frames")
+    with pytest.raises(bs.InvalidParameterError, match="online_window is not used here"):
+        bs.Config(online_window="keyframes")
+
+
+def test_cli_online_window_options(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    r = cli("simulate", "paper_fig4", "--seed", "3", "--duration", "25", "--out", log)
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "online"
+    r = cli(
+        "run",
+        log,
+        "--estimator",
+        "filter+smoother",
+        "--online-window",
+        "keyframes",
+        "--landmark-chart",
+        "point",
+        "--out",
+        out,
+        "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    config = json.loads((out / "metrics.json").read_text())["config"]
+    assert (config["online_window"], config["landmark_chart"]) == ("keyframes", "point")
+    r = cli("run", log, "--online-window", "keyframes", "--out", tmp_path / "x")
+    assert r.returncode != 0
+    assert "--online-window and --landmark-chart apply to --estimator filter+smoother" in r.stderr

@@ -16,6 +16,7 @@ use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
 use bearing_slam::core::slam::{BearingOffset, RobustGate};
 use bearing_slam::core::slam::{Consistency, InitializerConfig, InitializerKind, SlamConfig};
+use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow, SmootherConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
 use pyo3::exceptions::{PyOverflowError, PyTypeError, PyValueError};
 use pyo3::prelude::*;
@@ -151,6 +152,17 @@ pub(crate) struct PyConfig {
     /// Particles of FastSLAM (≥ 1).
     #[pyo3(get, set)]
     pub particles: usize,
+    /// The online smoother's window (`OnlineWindow`; `"filter+smoother"`
+    /// only): `"scans"` (a pose per scan, the default) or `"keyframes"`
+    /// (a pose per 0.5 m / 0.5 rad / 20 scans of odometry: the choice for
+    /// real robots, docs/results/estimators.md).
+    #[pyo3(get, set)]
+    pub online_window: String,
+    /// The online smoother's landmark chart (`LandmarkChart`;
+    /// `"filter+smoother"` only): `"inverse-depth"` (the default) or
+    /// `"point"`.
+    #[pyo3(get, set)]
+    pub landmark_chart: String,
     /// Data association (`AssociationMethod`): `"known"` (the log's ids,
     /// the default), `"nn"` or `"jcbb"` (ids hidden from the filter and
     /// used only to score it; the EKF `filter` only).
@@ -176,7 +188,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 39] = [
+const FIELDS: [&str; 41] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -211,6 +223,8 @@ const FIELDS: [&str; 39] = [
     "use_range",
     "estimator",
     "particles",
+    "online_window",
+    "landmark_chart",
     "association",
     // robustness on a real camera (issue #13 item 3)
     "readmit_after",
@@ -259,6 +273,8 @@ impl Default for PyConfig {
             use_range: false,
             estimator: EstimatorKind::default().to_string(),
             particles: EstimatorConfig::default().particles,
+            online_window: OnlineWindow::default().to_string(),
+            landmark_chart: SmootherConfig::default().landmark_chart.to_string(),
             association: slam.association.method.to_string(),
             readmit_after: None,
             huber_threshold: None,
@@ -464,10 +480,12 @@ impl PyConfig {
 
     /// The estimator and its parameters, validated.
     pub(crate) fn estimator_config(&self) -> PyResult<EstimatorConfig> {
-        let est = EstimatorConfig {
+        let mut est = EstimatorConfig {
             particles: self.particles,
             ..EstimatorConfig::of(parse_name::<EstimatorKind>(&self.estimator)?)
         };
+        est.smoother.keyframes = parse_name::<OnlineWindow>(&self.online_window)?.keyframes();
+        est.smoother.landmark_chart = parse_name::<LandmarkChart>(&self.landmark_chart)?;
         est.validate().py()?;
         Ok(est)
     }
@@ -585,6 +603,16 @@ impl PyConfig {
             {
                 Some(format!(
                     "it is a parameter of FastSLAM (estimator \"fastslam1\" or \"fastslam2\"), \
+                     and estimator is {:?}",
+                    self.estimator
+                ))
+            }
+            "online_window" | "landmark_chart"
+                if parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(|e| e != EstimatorKind::FilterSmoother) =>
+            {
+                Some(format!(
+                    "it is a parameter of the online smoother (estimator \"filter+smoother\"), \
                      and estimator is {:?}",
                     self.estimator
                 ))

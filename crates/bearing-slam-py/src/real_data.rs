@@ -14,11 +14,13 @@ use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
+use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow};
 use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
     evaluate_run_associated, evaluate_run_observed, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
+use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -49,12 +51,14 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// in `run`, a callable given each scan's step as the filter goes (the
 /// result is the same without it). `association` (`"known"`, `"nn"`,
 /// `"jcbb"`): with the last two the barcodes' ids are hidden from the
-/// filter and only score it (`result.association`).
+/// filter and only score it (`result.association`). `online_window` and
+/// `landmark_chart` (`"filter+smoother"` only; `None`: the defaults) choose
+/// the online smoother's window and landmark chart, as `Config`'s fields.
 // The Python signature: the dataset, the robot, the window, the estimator
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known"))]
+#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -66,14 +70,33 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     particles: Option<usize>,
     on_scan: Option<Py<PyAny>>,
     association: &str,
+    online_window: Option<&str>,
+    landmark_chart: Option<&str>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let method = parse_name::<Method>(method)?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
-    let estimator = EstimatorConfig {
+    let mut estimator = EstimatorConfig {
         particles: particles.unwrap_or(default.particles),
         ..default
     };
+    let window = online_window.map(parse_name::<OnlineWindow>).transpose()?;
+    let chart = landmark_chart
+        .map(parse_name::<LandmarkChart>)
+        .transpose()?;
+    if (window.is_some() || chart.is_some()) && estimator.kind != EstimatorKind::FilterSmoother {
+        return Err(PyValueError::new_err(format!(
+            "online_window and landmark_chart apply to estimator \"filter+smoother\" only, \
+             not to {:?}",
+            estimator.kind.name()
+        )));
+    }
+    if let Some(window) = window {
+        estimator.smoother.keyframes = window.keyframes();
+    }
+    if let Some(chart) = chart {
+        estimator.smoother.landmark_chart = chart;
+    }
     estimator.validate().map_err(errors::slam)?;
     let robot = u8::try_from(robot)
         .ok()
@@ -161,9 +184,17 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     config.estimator = estimator.kind.to_string();
     config.particles = estimator.particles;
     config.association = association.method.to_string();
+    if let Some(window) = window {
+        config.online_window = window.to_string();
+    }
+    config.landmark_chart = estimator.smoother.landmark_chart.to_string();
     metrics.set_item("estimator", estimator.kind.name())?;
     if estimator.kind.is_particle_filter() {
         metrics.set_item("particles", estimator.particles)?;
+    }
+    if estimator.kind == EstimatorKind::FilterSmoother {
+        metrics.set_item("online_window", &config.online_window)?;
+        metrics.set_item("landmark_chart", &config.landmark_chart)?;
     }
     Ok((
         PyRunResult {

@@ -12,6 +12,7 @@ use bearing_slam::core::metrics;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::OdometryKind;
 use bearing_slam::core::slam::{Consistency, InitializerKind};
+use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow};
 use bearing_slam::eval::experiments::Experiment;
 use bearing_slam::eval::montecarlo::{RunClass, RunMetrics, Thresholds};
 use bearing_slam::eval::real_data::Method;
@@ -49,6 +50,8 @@ pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     d.set_item("consistencies", names::<Consistency>())?;
     d.set_item("odometries", names::<OdometryKind>())?;
     d.set_item("estimators", names::<EstimatorKind>())?;
+    d.set_item("online_windows", names::<OnlineWindow>())?;
+    d.set_item("landmark_charts", names::<LandmarkChart>())?;
     d.set_item("associations", names::<AssociationMethod>())?;
     d.set_item("mrclam_methods", names::<Method>())?;
     let labels = PyDict::new(py);

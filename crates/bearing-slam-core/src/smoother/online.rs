@@ -98,6 +98,34 @@ impl Default for KeyframeRule {
     }
 }
 
+/// The online smoother's window as one named choice (the Python `Config`
+/// and the command line): a pose per scan, or keyframes by motion with
+/// [`KeyframeRule::default`] ([`SmootherConfig::keyframes`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum OnlineWindow {
+    /// Every scan that follows motion is a pose variable (`keyframes: None`).
+    #[default]
+    Scans,
+    /// Keyframes by [`KeyframeRule::default`].
+    Keyframes,
+}
+
+crate::named_enum!(OnlineWindow, "online window", [
+    Scans => "scans",
+    Keyframes => "keyframes",
+]);
+
+impl OnlineWindow {
+    /// The keyframe rule of this window (`None` for [`OnlineWindow::Scans`]).
+    #[must_use]
+    pub fn keyframes(self) -> Option<KeyframeRule> {
+        match self {
+            OnlineWindow::Scans => None,
+            OnlineWindow::Keyframes => Some(KeyframeRule::default()),
+        }
+    }
+}
+
 impl KeyframeRule {
     /// Whether a scan after `motion` since the latest pose variable, which
     /// `scans` scans already observe from, is a keyframe.

@@ -52,8 +52,7 @@ pub(crate) fn unknown_key(key: Key) -> SlamError {
 
 /// The chart a landmark's increments are taken in (the smoother's
 /// [`super::SmootherConfig::landmark_chart`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, Serialize)]
-#[serde(rename_all = "snake_case")]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum LandmarkChart {
     /// `[x, y]`: plain addition.
     #[default]
@@ -62,6 +61,11 @@ pub enum LandmarkChart {
     /// (Munguía & Grau (11), the anchor held fixed).
     InverseDepth,
 }
+
+crate::named_enum!(LandmarkChart, "landmark chart", [
+    Point => "point",
+    InverseDepth => "inverse-depth",
+]);
 
 /// Smallest inverse depth a step may reach: 1 km from the anchor. A step
 /// past it is clamped there, so a landmark with no depth information
