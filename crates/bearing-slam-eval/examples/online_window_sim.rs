@@ -2,7 +2,8 @@
 //! 14): for each of `experiment smoother`'s scenarios (`paper_fig4`,
 //! `paper_fig8`, `slip_patch`; MTE, seeds 0…RUNS−1 as the experiment draws
 //! them), the per-scan and the keyframe window, each with point and
-//! inverse-depth landmarks, beside the batch smoother. Prints one markdown
+//! inverse-depth landmarks, beside the batch smoother (started from the
+//! online keyframe window, the default, and from the filter). Prints one markdown
 //! row per scenario and configuration: mean ATE, mean pose NEES, runs that
 //! failed.
 //!
@@ -11,7 +12,7 @@
 //! ```
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
-use bearing_slam_core::smoother::{KeyframeRule, LandmarkChart};
+use bearing_slam_core::smoother::{BatchStart, KeyframeRule, LandmarkChart};
 use bearing_slam_eval::montecarlo::{InitializerSpec, MonteCarloSpec, run_config, score_run};
 use bearing_slam_sim::simulate;
 use rayon::prelude::*;
@@ -53,11 +54,14 @@ fn main() -> Result<(), BoxError> {
         .map(|r| r.parse())
         .transpose()?
         .unwrap_or(10);
+    let mut filter_start = EstimatorConfig::of(EstimatorKind::Smoother);
+    filter_start.smoother.batch_start = BatchStart::Filter;
     let configs = [
         (
             "batch smoother",
             EstimatorConfig::of(EstimatorKind::Smoother),
         ),
+        ("batch smoother, filter start", filter_start),
         ("per-scan, point", online(None, LandmarkChart::Point)),
         (
             "per-scan, inverse depth",

@@ -47,8 +47,8 @@ pub use online::{KeyframeRule, OnlineSmoother, OnlineStart, OnlineWindow, run_on
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
 pub use run::{
-    BatchProblem, SmoothedRun, SmootherConfig, SmootherMode, SmootherReport, UnmappedTriangulation,
-    batch_problem, run_from_log,
+    BatchProblem, BatchStart, SmoothedRun, SmootherConfig, SmootherMode, SmootherReport,
+    UnmappedTriangulation, batch_problem, run_from_log,
 };
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
 pub use triangulate::{RayPoint, RayTriangulationRule, triangulate_rays};

@@ -40,6 +40,24 @@ pub enum SmootherMode {
     FixedLag(FixedLagConfig),
 }
 
+/// Where the batch smoother's poses and landmarks start.
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
+pub enum BatchStart {
+    /// The filter's estimate after each scan and its final map.
+    #[default]
+    Filter,
+    /// The online smoother's, run first with this window and solver, this
+    /// keyframe rule and the configuration's landmark chart: each pose as
+    /// it left the window, the map as it ended. A filter run that diverged
+    /// then no longer decides where the batch starts.
+    OnlineSmoother {
+        /// The window and its solver.
+        window: FixedLagConfig,
+        /// Which scans get a pose variable ([`SmootherConfig::keyframes`]).
+        keyframes: Option<KeyframeRule>,
+    },
+}
+
 /// How [`run_from_log`] smooths.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SmootherConfig {
@@ -74,6 +92,8 @@ pub struct SmootherConfig {
     /// where the robot first saw it, and the solver and the marginalization
     /// prior work in its `[θ, ρ]`.
     pub landmark_chart: LandmarkChart,
+    /// Batch mode: where the solve starts.
+    pub batch_start: BatchStart,
 }
 
 /// How the batch smoother triangulates the landmarks the filter never
@@ -119,6 +139,7 @@ impl Default for SmootherConfig {
             // held-out maps it keeps the keyframe window from blowing up
             // (docs/results/estimators.md, 2026-11-28).
             landmark_chart: LandmarkChart::InverseDepth,
+            batch_start: BatchStart::Filter,
         }
     }
 }
@@ -335,7 +356,8 @@ pub fn run_from_log(
         });
     }
     let started = Instant::now();
-    let mut problem = build_batch_problem(log, run_config, config, &filter)?;
+    let start = batch_start(log, run_config, config, &filter)?;
+    let mut problem = build_batch_problem(log, run_config, config, &start)?;
     let mut solve = optimize(&problem.graph, &mut problem.initial, &config.solver)?;
     let mut first_scan = BTreeMap::new();
     if let Some(rule) = config.triangulate_unmapped {
@@ -363,7 +385,7 @@ pub fn run_from_log(
         lms.insert(*id, (*p, marginals.landmark(*id)?));
     }
     let skeleton = problem.skeleton;
-    let mut output = filter.clone();
+    let mut output = start.clone();
     apply_smoothed(
         &mut output,
         &skeleton.scan_node,
@@ -377,7 +399,7 @@ pub fn run_from_log(
     // snapshots leave out while its inverse depth is at or beyond infinity
     // (ρ ≤ 0) although the smoother has placed it.
     first_scan.extend(
-        filter_landmarks(&filter)
+        filter_landmarks(&start)
             .entry
             .iter()
             .map(|(id, (k, _))| (*id, *k)),
@@ -418,7 +440,28 @@ pub fn batch_problem(
     config: &SmootherConfig,
 ) -> Result<BatchProblem> {
     let filter = run(log, run_config)?;
-    build_batch_problem(log, run_config, config, &filter)
+    let start = batch_start(log, run_config, config, &filter)?;
+    build_batch_problem(log, run_config, config, &start)
+}
+
+/// The run the batch starts from ([`SmootherConfig::batch_start`]): the
+/// filter's `filter`, or the online smoother's on `log`.
+fn batch_start(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+    filter: &RunOutput,
+) -> Result<RunOutput> {
+    match config.batch_start {
+        BatchStart::Filter => Ok(filter.clone()),
+        BatchStart::OnlineSmoother { window, keyframes } => {
+            let online = SmootherConfig {
+                keyframes,
+                ..*config
+            };
+            Ok(run_online_smoother(log, run_config, &online, window)?.output)
+        }
+    }
 }
 
 /// The weak prior of [`SmootherConfig::landmark_prior_sigma_m`] (`sigma_m`)

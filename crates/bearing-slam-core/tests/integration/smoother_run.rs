@@ -487,3 +487,57 @@ fn the_batch_start_is_held_by_the_initial_variance() {
         );
     }
 }
+
+/// The batch started from the online keyframe window
+/// (`BatchStart::OnlineSmoother`, the estimator's default): its start is
+/// that window's output, not the filter's, and on a run where the filter
+/// starts it well the batch ends at the same minimum from either start.
+#[test]
+fn the_batch_started_from_the_online_window_ends_at_the_same_minimum() {
+    use bearing_slam_core::estimator::{EstimatorConfig, default_batch_start};
+    use bearing_slam_core::smoother::{BatchStart, run_online_smoother};
+
+    let s = scenario();
+    let config = run_config(&s);
+    let log = s.simulate(11);
+    let estimator = EstimatorConfig::default();
+    assert_eq!(estimator.smoother.batch_start, default_batch_start());
+    let BatchStart::OnlineSmoother { window, keyframes } = default_batch_start() else {
+        panic!("the estimator's batch starts from the online smoother");
+    };
+    assert!(keyframes.is_some());
+    let from_window = batch_problem(&log, &config, &estimator.smoother).unwrap();
+    let filter_start = SmootherConfig {
+        batch_start: BatchStart::Filter,
+        ..estimator.smoother
+    };
+    let from_filter = batch_problem(&log, &config, &filter_start).unwrap();
+    // The start: the keyframe window's last snapshot, not the filter's.
+    let online = run_online_smoother(
+        &log,
+        &config,
+        &SmootherConfig {
+            keyframes,
+            ..estimator.smoother
+        },
+        window,
+    )
+    .unwrap();
+    let last = online.output.trace.snapshots.last().unwrap().pose.to_vector();
+    let node = *from_window.initial.poses().keys().last().unwrap();
+    assert!((from_window.initial.pose(node).unwrap() - last).norm() < 1e-12);
+    assert!((from_filter.initial.pose(node).unwrap() - last).norm() > 1e-6);
+    assert_eq!(from_window.graph.len(), from_filter.graph.len());
+    let solve = |p: &bearing_slam_core::smoother::BatchProblem| {
+        let mut v = p.initial.clone();
+        let r = optimize(&p.graph, &mut v, &estimator.smoother.solver).unwrap();
+        (v, r.final_cost)
+    };
+    let (a, cost_a) = solve(&from_window);
+    let (b, cost_b) = solve(&from_filter);
+    assert!((cost_a - cost_b).abs() <= 1e-6 * cost_b, "{cost_a} vs {cost_b}");
+    for (id, p) in a.poses() {
+        let q = b.pose(*id).unwrap();
+        assert!((p - q).norm() < 1e-4, "pose {id}: {p} vs {q}");
+    }
+}
