@@ -2,10 +2,11 @@
 //! 14): for each of `experiment smoother`'s scenarios (`paper_fig4`,
 //! `paper_fig8`, `slip_patch`; MTE, seeds 0…RUNS−1 as the experiment draws
 //! them), the per-scan and the keyframe window, each with point and
-//! inverse-depth landmarks, beside the batch smoother (started from the
-//! online keyframe window, the default, and from the filter). Prints one markdown
-//! row per scenario and configuration: mean ATE, mean pose NEES, runs that
-//! failed.
+//! inverse-depth landmarks (and in inverse depth with the window's own
+//! triangulation of the landmarks the filter has not initialized), beside
+//! the batch smoother (started from the online keyframe window, the
+//! default, and from the filter). Prints one markdown row per scenario and
+//! configuration: mean ATE, mean pose NEES, runs that failed.
 //!
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example online_window_sim [RUNS]
@@ -19,11 +20,19 @@ use rayon::prelude::*;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
-/// The online smoother with `keyframes` and `chart`.
-fn online(keyframes: Option<KeyframeRule>, chart: LandmarkChart) -> EstimatorConfig {
+/// The online smoother with `keyframes` and `chart`, triangulating the
+/// landmarks the filter has not initialized from its window or not.
+fn online(
+    keyframes: Option<KeyframeRule>,
+    chart: LandmarkChart,
+    triangulate: bool,
+) -> EstimatorConfig {
     let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
     e.smoother.keyframes = keyframes;
     e.smoother.landmark_chart = chart;
+    if !triangulate {
+        e.smoother.triangulate_unmapped = None;
+    }
     e
 }
 
@@ -56,24 +65,25 @@ fn main() -> Result<(), BoxError> {
         .unwrap_or(10);
     let mut filter_start = EstimatorConfig::of(EstimatorKind::Smoother);
     filter_start.smoother.batch_start = BatchStart::Filter;
+    let rule = Some(KeyframeRule::default());
+    let (point, inverse_depth) = (LandmarkChart::Point, LandmarkChart::InverseDepth);
     let configs = [
         (
             "batch smoother",
             EstimatorConfig::of(EstimatorKind::Smoother),
         ),
         ("batch smoother, filter start", filter_start),
-        ("per-scan, point", online(None, LandmarkChart::Point)),
+        ("per-scan, point", online(None, point, false)),
+        ("per-scan, inverse depth", online(None, inverse_depth, false)),
         (
-            "per-scan, inverse depth",
-            online(None, LandmarkChart::InverseDepth),
+            "per-scan, inverse depth, triangulated",
+            online(None, inverse_depth, true),
         ),
+        ("keyframes, point", online(rule, point, false)),
+        ("keyframes, inverse depth", online(rule, inverse_depth, false)),
         (
-            "keyframes, point",
-            online(Some(KeyframeRule::default()), LandmarkChart::Point),
-        ),
-        (
-            "keyframes, inverse depth",
-            online(Some(KeyframeRule::default()), LandmarkChart::InverseDepth),
+            "keyframes, inverse depth, triangulated",
+            online(rule, inverse_depth, true),
         ),
     ];
     println!("| scenario | estimator | mean ATE m | mean NEES | failed |");

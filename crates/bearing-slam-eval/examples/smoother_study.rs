@@ -25,7 +25,9 @@
 //! adds the online smoother (`filter+smoother`) with its two windows (the
 //! per-scan default and the keyframe window of `KeyframeRule::default()`),
 //! each with point and inverse-depth landmarks (`LandmarkChart`; inverse
-//! depth is the default). `ESTIMATORS=a,b` keeps only the rows
+//! depth is the default), and in inverse depth with the window's own
+//! triangulation of the landmarks the filter has not initialized
+//! (`triangulate_unmapped`). `ESTIMATORS=a,b` keeps only the rows
 //! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
@@ -101,29 +103,41 @@ fn main() -> Result<(), BoxError> {
         ("smoother + triangulated, filter start", filter_start),
     ];
     if std::env::var_os("ONLINE").is_some() {
-        let online = |keyframes, landmark_chart| {
+        let online = |keyframes, landmark_chart, triangulate: bool| {
             let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
             e.smoother.keyframes = keyframes;
             e.smoother.landmark_chart = landmark_chart;
+            if !triangulate {
+                e.smoother.triangulate_unmapped = None;
+            }
             e
         };
         let rule = Some(KeyframeRule::default());
+        let (point, inverse_depth) = (LandmarkChart::Point, LandmarkChart::InverseDepth);
         estimators.extend([
             (
                 "filter+smoother, per-scan window, point",
-                online(None, LandmarkChart::Point),
+                online(None, point, false),
             ),
             (
                 "filter+smoother, per-scan window, inverse depth",
-                online(None, LandmarkChart::InverseDepth),
+                online(None, inverse_depth, false),
+            ),
+            (
+                "filter+smoother, per-scan window, inverse depth, triangulated",
+                online(None, inverse_depth, true),
             ),
             (
                 "filter+smoother, keyframe window, point",
-                online(rule, LandmarkChart::Point),
+                online(rule, point, false),
             ),
             (
                 "filter+smoother, keyframe window, inverse depth",
-                online(rule, LandmarkChart::InverseDepth),
+                online(rule, inverse_depth, false),
+            ),
+            (
+                "filter+smoother, keyframe window, inverse depth, triangulated",
+                online(rule, inverse_depth, true),
             ),
         ]);
     }

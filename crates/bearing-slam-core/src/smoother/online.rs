@@ -21,6 +21,7 @@
 use super::factors::{BearingFactor, Factor, OdometryFactor, PosePriorFactor, RangeBearingFactor};
 use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
 use super::preintegration::PreintegratedOdometry;
+use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::run::{
     SmootherConfig, SmootherReport, apply_smoothed, compose, landmark_prior, measurement_factor,
 };
@@ -166,6 +167,9 @@ pub struct OnlineSmoother {
     start: OnlineStart,
     keyframes: Option<KeyframeRule>,
     landmark_chart: LandmarkChart,
+    /// Landmarks the filter has not initialized enter from the window's
+    /// own poses when their sightings there triangulate by this rule.
+    triangulation: Option<RayTriangulationRule>,
     /// Scans observing from the latest pose variable.
     scans_on_node: usize,
     filter: BearingSlam,
@@ -222,6 +226,10 @@ impl OnlineSmoother {
             start: config.online_start,
             keyframes: config.keyframes,
             landmark_chart: config.landmark_chart,
+            triangulation: config.triangulate_unmapped.map(|rule| RayTriangulationRule {
+                min_inliers: rule.min_inliers,
+                ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
+            }),
             scans_on_node: 0,
             filter,
             smoother,
@@ -348,6 +356,41 @@ impl OnlineSmoother {
             } else {
                 self.report.n_dropped += 1;
             }
+        }
+        Ok(())
+    }
+
+    /// Every landmark the filter has not initialized whose sightings from
+    /// poses still in the window fix a point by the triangulation rule
+    /// ([`SmootherConfig::triangulate_unmapped`], as the batch's) enters the
+    /// window there, with those sightings.
+    fn triangulate_waiting(&mut self) -> Result<()> {
+        let Some(rule) = self.triangulation else {
+            return Ok(());
+        };
+        let mut found = Vec::new();
+        for (id, sightings) in &self.waiting {
+            let mut rays = Vec::with_capacity(sightings.len());
+            for (node, offset, o) in sightings {
+                if !self.smoother.in_window(*node as u64) {
+                    continue;
+                }
+                let mut pose = Pose2::from_vector(&self.smoother.values().pose(*node as u64)?);
+                if let Some(motion) = offset {
+                    pose = pose.compose(&Pose2::from_vector(&motion.delta));
+                }
+                rays.push((pose.to_vector(), o.bearing));
+            }
+            if rays.len() < rule.min_inliers {
+                continue;
+            }
+            if let Some(point) = triangulate_rays(&rays, &rule)? {
+                found.push((*id, point.point));
+            }
+        }
+        for (id, point) in found {
+            self.enter_landmark(id, point)?;
+            self.report.n_triangulated += 1;
         }
         Ok(())
     }
@@ -485,6 +528,9 @@ impl OnlineEstimator for OnlineSmoother {
             }
         }
         self.latest = Some(snapshot);
+        if new_pose {
+            self.triangulate_waiting()?;
+        }
         if new_pose || self.keyframes.is_none_or(|rule| rule.solve_every_scan) {
             self.solve()?;
         }

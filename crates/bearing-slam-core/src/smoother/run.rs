@@ -75,11 +75,13 @@ pub struct SmootherConfig {
     /// Floor of the first pose's prior standard deviations (the filter may
     /// start from an exactly known pose).
     pub min_initial_sigma: f64,
-    /// Batch mode: after the first solve, landmarks the filter never
-    /// initialized are triangulated from the smoothed poses by this rule
-    /// ([`triangulate_rays`]; the bearing σ is the run's), added with the
-    /// bearings they explain, and the graph is solved again (`None`: they stay out,
-    /// as their bearings did before).
+    /// Landmarks the filter never initialized, triangulated from the
+    /// smoothed poses by this rule ([`triangulate_rays`]; the bearing σ is
+    /// the run's). Batch mode: after the first solve, added with the
+    /// bearings they explain, and the graph is solved again. Fixed-lag mode:
+    /// at each new pose, a landmark the filter has not initialized yet
+    /// enters the window when its sightings from the window's poses fix it
+    /// (`None`: they stay out, as their bearings did before).
     pub triangulate_unmapped: Option<UnmappedTriangulation>,
     /// Fixed-lag mode: where a new pose and a new landmark start.
     pub online_start: OnlineStart,
