@@ -30,9 +30,7 @@ fn online(
     let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
     e.smoother.keyframes = keyframes;
     e.smoother.landmark_chart = chart;
-    if !triangulate {
-        e.smoother.triangulate_unmapped = None;
-    }
+    e.smoother.triangulate_online = triangulate;
     e
 }
 
@@ -74,13 +72,19 @@ fn main() -> Result<(), BoxError> {
         ),
         ("batch smoother, filter start", filter_start),
         ("per-scan, point", online(None, point, false)),
-        ("per-scan, inverse depth", online(None, inverse_depth, false)),
+        (
+            "per-scan, inverse depth",
+            online(None, inverse_depth, false),
+        ),
         (
             "per-scan, inverse depth, triangulated",
             online(None, inverse_depth, true),
         ),
         ("keyframes, point", online(rule, point, false)),
-        ("keyframes, inverse depth", online(rule, inverse_depth, false)),
+        (
+            "keyframes, inverse depth",
+            online(rule, inverse_depth, false),
+        ),
         (
             "keyframes, inverse depth, triangulated",
             online(rule, inverse_depth, true),

@@ -27,7 +27,7 @@
 //! each with point and inverse-depth landmarks (`LandmarkChart`; inverse
 //! depth is the default), and in inverse depth with the window's own
 //! triangulation of the landmarks the filter has not initialized
-//! (`triangulate_unmapped`). `ESTIMATORS=a,b` keeps only the rows
+//! (`triangulate_online`). `ESTIMATORS=a,b` keeps only the rows
 //! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
@@ -107,9 +107,7 @@ fn main() -> Result<(), BoxError> {
             let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
             e.smoother.keyframes = keyframes;
             e.smoother.landmark_chart = landmark_chart;
-            if !triangulate {
-                e.smoother.triangulate_unmapped = None;
-            }
+            e.smoother.triangulate_online = triangulate;
             e
         };
         let rule = Some(KeyframeRule::default());

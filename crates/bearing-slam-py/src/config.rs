@@ -154,8 +154,9 @@ pub(crate) struct PyConfig {
     pub particles: usize,
     /// The online smoother's window (`OnlineWindow`; `"filter+smoother"`
     /// only): `"scans"` (a pose per scan, the default) or `"keyframes"`
-    /// (a pose per 0.5 m / 0.5 rad / 20 scans of odometry: the choice for
-    /// real robots, docs/results/estimators.md).
+    /// (a pose per 0.5 m / 0.5 rad / 20 scans of odometry, and landmarks
+    /// the filter has not initialized triangulated in the window: the
+    /// choice for real robots, docs/results/estimators.md).
     #[pyo3(get, set)]
     pub online_window: String,
     /// The online smoother's landmark chart (`LandmarkChart`;
@@ -484,7 +485,7 @@ impl PyConfig {
             particles: self.particles,
             ..EstimatorConfig::of(parse_name::<EstimatorKind>(&self.estimator)?)
         };
-        est.smoother.keyframes = parse_name::<OnlineWindow>(&self.online_window)?.keyframes();
+        est.smoother = parse_name::<OnlineWindow>(&self.online_window)?.apply(est.smoother);
         est.smoother.landmark_chart = parse_name::<LandmarkChart>(&self.landmark_chart)?;
         est.validate().py()?;
         Ok(est)

@@ -92,7 +92,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         )));
     }
     if let Some(window) = window {
-        estimator.smoother.keyframes = window.keyframes();
+        estimator.smoother = window.apply(estimator.smoother);
     }
     if let Some(chart) = chart {
         estimator.smoother.landmark_chart = chart;

@@ -21,10 +21,11 @@
 use super::factors::{BearingFactor, Factor, OdometryFactor, PosePriorFactor, RangeBearingFactor};
 use super::fixed_lag::{FixedLagConfig, FixedLagSmoother};
 use super::preintegration::PreintegratedOdometry;
-use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::run::{
-    SmootherConfig, SmootherReport, apply_smoothed, compose, landmark_prior, measurement_factor,
+    SmootherConfig, SmootherReport, add_to_snapshots, apply_smoothed, compose, landmark_prior,
+    measurement_factor,
 };
+use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::values::{Key, LandmarkChart};
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
@@ -101,13 +102,14 @@ impl Default for KeyframeRule {
 
 /// The online smoother's window as one named choice (the Python `Config`
 /// and the command line): a pose per scan, or keyframes by motion with
-/// [`KeyframeRule::default`] ([`SmootherConfig::keyframes`]).
+/// [`KeyframeRule::default`] ([`SmootherConfig::keyframes`]) and the
+/// window's own triangulation ([`SmootherConfig::triangulate_online`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum OnlineWindow {
     /// Every scan that follows motion is a pose variable (`keyframes: None`).
     #[default]
     Scans,
-    /// Keyframes by [`KeyframeRule::default`].
+    /// Keyframes by [`KeyframeRule::default`], triangulating in the window.
     Keyframes,
 }
 
@@ -117,12 +119,15 @@ crate::named_enum!(OnlineWindow, "online window", [
 ]);
 
 impl OnlineWindow {
-    /// The keyframe rule of this window (`None` for [`OnlineWindow::Scans`]).
+    /// `config` with this window: its keyframe rule (`None` for
+    /// [`OnlineWindow::Scans`]) and whether it triangulates.
     #[must_use]
-    pub fn keyframes(self) -> Option<KeyframeRule> {
-        match self {
-            OnlineWindow::Scans => None,
-            OnlineWindow::Keyframes => Some(KeyframeRule::default()),
+    pub fn apply(self, config: SmootherConfig) -> SmootherConfig {
+        let keyframes = self == OnlineWindow::Keyframes;
+        SmootherConfig {
+            keyframes: keyframes.then(KeyframeRule::default),
+            triangulate_online: keyframes,
+            ..config
         }
     }
 }
@@ -170,6 +175,8 @@ pub struct OnlineSmoother {
     /// Landmarks the filter has not initialized enter from the window's
     /// own poses when their sightings there triangulate by this rule.
     triangulation: Option<RayTriangulationRule>,
+    /// The landmarks the window triangulated, with the scan they entered on.
+    triangulated: BTreeMap<u64, usize>,
     /// Scans observing from the latest pose variable.
     scans_on_node: usize,
     filter: BearingSlam,
@@ -226,10 +233,14 @@ impl OnlineSmoother {
             start: config.online_start,
             keyframes: config.keyframes,
             landmark_chart: config.landmark_chart,
-            triangulation: config.triangulate_unmapped.map(|rule| RayTriangulationRule {
-                min_inliers: rule.min_inliers,
-                ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
-            }),
+            triangulation: config
+                .triangulate_unmapped
+                .filter(|_| config.triangulate_online)
+                .map(|rule| RayTriangulationRule {
+                    min_inliers: rule.min_inliers,
+                    ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
+                }),
+            triangulated: BTreeMap::new(),
             scans_on_node: 0,
             filter,
             smoother,
@@ -362,8 +373,8 @@ impl OnlineSmoother {
 
     /// Every landmark the filter has not initialized whose sightings from
     /// poses still in the window fix a point by the triangulation rule
-    /// ([`SmootherConfig::triangulate_unmapped`], as the batch's) enters the
-    /// window there, with those sightings.
+    /// ([`SmootherConfig::triangulate_online`], the batch's rule) enters
+    /// the window there, with those sightings.
     fn triangulate_waiting(&mut self) -> Result<()> {
         let Some(rule) = self.triangulation else {
             return Ok(());
@@ -391,6 +402,8 @@ impl OnlineSmoother {
         for (id, point) in found {
             self.enter_landmark(id, point)?;
             self.report.n_triangulated += 1;
+            self.triangulated
+                .insert(id, self.scan_node.len().saturating_sub(1));
         }
         Ok(())
     }
@@ -555,6 +568,8 @@ impl OnlineEstimator for OnlineSmoother {
         self.waiting.clear();
         let (poses, covs, lms) = self.estimates()?;
         apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
+        // The landmarks the window triangulated, from the scan they entered on.
+        add_to_snapshots(output, &self.triangulated, &lms);
         // A scan between keyframes is its pose composed with the odometry since.
         for ((snap, node), offset) in output
             .trace

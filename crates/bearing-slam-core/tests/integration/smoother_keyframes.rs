@@ -289,3 +289,66 @@ fn scans_without_motion_between_them_share_a_pose() {
         "no motion, no new pose"
     );
 }
+
+/// A filter that never triangulates (it waits for 170° of parallax) maps
+/// one of Fig. 4's landmarks late. With `triangulate_online`
+/// the keyframe window triangulates the others from its own poses by the
+/// batch's rule, each within 0.3 m of the truth with a positive definite
+/// covariance; without it, or with a rule no landmark meets, the window
+/// maps only the filter's and drops the others' bearings.
+#[test]
+fn the_keyframe_window_triangulates_what_the_filter_never_initialized() {
+    use bearing_slam_core::init::TriangulationConfig;
+    use bearing_slam_core::slam::InitializerConfig;
+    use bearing_slam_core::smoother::{OnlineWindow, UnmappedTriangulation};
+
+    let s = short_fig4(200);
+    let mut config = s.run_config().unwrap();
+    config.slam.initializer = InitializerConfig::Triangulation(TriangulationConfig {
+        alpha_min: 170f64.to_radians(),
+        baseline_min: 1e6,
+        ..TriangulationConfig::default()
+    });
+    let log = s.simulate(3);
+    let keyframes = OnlineWindow::Keyframes.apply(online(None));
+    assert!(keyframes.triangulate_online && keyframes.keyframes.is_some());
+    let off = SmootherConfig {
+        triangulate_online: false,
+        ..keyframes
+    };
+    let strict = SmootherConfig {
+        triangulate_unmapped: Some(UnmappedTriangulation {
+            min_inliers: 100_000,
+            ..UnmappedTriangulation::default()
+        }),
+        ..keyframes
+    };
+    let with = run_from_log(&log, &config, &keyframes).unwrap();
+    let without = run_from_log(&log, &config, &off).unwrap();
+    let none = run_from_log(&log, &config, &strict).unwrap();
+    let final_map = |out: &bearing_slam_core::smoother::SmoothedRun| {
+        out.output.trace.snapshots.last().unwrap().landmarks.clone()
+    };
+    assert_eq!(without.report.n_triangulated, 0);
+    assert_eq!(none.report.n_triangulated, 0);
+    let filters = final_map(&without);
+    assert_eq!(final_map(&none).len(), filters.len());
+    assert!(without.report.n_dropped > 0);
+    let map = final_map(&with);
+    assert!(with.report.n_triangulated >= 2, "{:?}", with.report);
+    // The window's own landmarks (one may be the filter's, triangulated
+    // before the filter initialized it) and the filter's.
+    assert!(map.len() >= with.report.n_triangulated && map.len() > filters.len());
+    assert!(filters.iter().all(|f| map.iter().any(|l| l.id == f.id)));
+    assert_eq!(with.report.n_landmarks, map.len());
+    assert!(with.report.n_dropped < without.report.n_dropped);
+    for l in &map {
+        let truth = log.landmarks.iter().find(|t| t.id == l.id).unwrap();
+        let err = ((l.x - truth.x).powi(2) + (l.y - truth.y).powi(2)).sqrt();
+        assert!(err < 0.3, "landmark {}: {err:.3} m off", l.id);
+        let [[a, b], [c, d]] = l.covariance;
+        assert!(a > 0.0 && d > 0.0 && a * d - b * c > 0.0, "{l:?}");
+    }
+    assert_eq!(OnlineWindow::Scans.apply(keyframes).keyframes, None);
+    assert!(!OnlineWindow::Scans.apply(keyframes).triangulate_online);
+}

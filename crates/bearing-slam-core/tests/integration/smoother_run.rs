@@ -523,7 +523,14 @@ fn the_batch_started_from_the_online_window_ends_at_the_same_minimum() {
         window,
     )
     .unwrap();
-    let last = online.output.trace.snapshots.last().unwrap().pose.to_vector();
+    let last = online
+        .output
+        .trace
+        .snapshots
+        .last()
+        .unwrap()
+        .pose
+        .to_vector();
     let node = *from_window.initial.poses().keys().last().unwrap();
     assert!((from_window.initial.pose(node).unwrap() - last).norm() < 1e-12);
     assert!((from_filter.initial.pose(node).unwrap() - last).norm() > 1e-6);
@@ -535,7 +542,10 @@ fn the_batch_started_from_the_online_window_ends_at_the_same_minimum() {
     };
     let (a, cost_a) = solve(&from_window);
     let (b, cost_b) = solve(&from_filter);
-    assert!((cost_a - cost_b).abs() <= 1e-6 * cost_b, "{cost_a} vs {cost_b}");
+    assert!(
+        (cost_a - cost_b).abs() <= 1e-6 * cost_b,
+        "{cost_a} vs {cost_b}"
+    );
     for (id, p) in a.poses() {
         let q = b.pose(*id).unwrap();
         assert!((p - q).norm() < 1e-4, "pose {id}: {p} vs {q}");
