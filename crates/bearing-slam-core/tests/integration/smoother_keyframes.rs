@@ -14,7 +14,8 @@ use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
     FixedLagConfig, KeyframeRule, LandmarkChart, OnlineSmoother, OnlineStart,
-    PreintegratedOdometry, SmootherConfig, SmootherMode, run_from_log, run_online_smoother,
+    PreintegratedOdometry, SmoothedRun, SmootherConfig, SmootherMode, run_from_log,
+    run_online_smoother,
 };
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 use nalgebra::Vector3;
@@ -50,6 +51,18 @@ fn online_in(keyframes: Option<KeyframeRule>, landmark_chart: LandmarkChart) -> 
     }
 }
 
+/// The first 120 steps of Fig. 4, seed 7: its run configuration, log, the
+/// batch smoother's run and the per-scan window of 10 poses with point
+/// landmarks.
+fn batch_and_ten_scans() -> (RunConfig, SensorLog, SmoothedRun, SmoothedRun) {
+    let s = short_fig4(120);
+    let config = s.run_config().unwrap();
+    let log = s.simulate(7);
+    let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
+    let per_scan = run_from_log(&log, &config, &online(None)).unwrap();
+    (config, log, batch, per_scan)
+}
+
 /// Ten scans are a short baseline for a bearing-only landmark: in the point
 /// chart the window marginalizes it where a few nearly parallel rays left
 /// it. Anchored in inverse depth where the robot first saw it (the
@@ -57,11 +70,7 @@ fn online_in(keyframes: Option<KeyframeRule>, landmark_chart: LandmarkChart) -> 
 /// in that chart and every landmark covariance positive definite.
 #[test]
 fn inverse_depth_landmarks_bring_a_short_window_close_to_the_batch() {
-    let s = short_fig4(120);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(7);
-    let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
-    let point = run_from_log(&log, &config, &online_in(None, LandmarkChart::Point)).unwrap();
+    let (config, log, batch, point) = batch_and_ten_scans();
     let charted =
         run_from_log(&log, &config, &online_in(None, LandmarkChart::InverseDepth)).unwrap();
     assert_eq!(
@@ -107,11 +116,7 @@ fn a_rule_keeping_every_scan_is_the_per_scan_window() {
 
 #[test]
 fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
-    let s = short_fig4(120);
-    let config = s.run_config().unwrap();
-    let log = s.simulate(7);
-    let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
-    let per_scan = run_from_log(&log, &config, &online(None)).unwrap();
+    let (config, log, batch, per_scan) = batch_and_ten_scans();
     // A keyframe every 0.25 m (Fig. 4 moves 5 cm per scan: one pose in
     // about five, the first pose and rounding aside). The default's 0.5 m
     // ends at 0.058 m here: the longer odometry offsets held fixed cost
@@ -326,9 +331,8 @@ fn the_keyframe_window_triangulates_what_the_filter_never_initialized() {
     let with = run_from_log(&log, &config, &keyframes).unwrap();
     let without = run_from_log(&log, &config, &off).unwrap();
     let none = run_from_log(&log, &config, &strict).unwrap();
-    let final_map = |out: &bearing_slam_core::smoother::SmoothedRun| {
-        out.output.trace.snapshots.last().unwrap().landmarks.clone()
-    };
+    let final_map =
+        |out: &SmoothedRun| out.output.trace.snapshots.last().unwrap().landmarks.clone();
     assert_eq!(without.report.n_triangulated, 0);
     assert_eq!(none.report.n_triangulated, 0);
     let filters = final_map(&without);
