@@ -15,7 +15,7 @@ use super::factors::{
 use super::fixed_lag::FixedLagConfig;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
-use super::online::{KeyframeRule, OnlineStart, run_online_smoother};
+use super::online::{KeyframeRule, OnlineStart, OnlineWindow, run_online_smoother};
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
@@ -46,15 +46,17 @@ pub enum BatchStart {
     /// The filter's estimate after each scan and its final map.
     #[default]
     Filter,
-    /// The online smoother's, run first with this window and solver, this
-    /// keyframe rule and the configuration's landmark chart: each pose as
-    /// it left the window, the map as it ended. A filter run that diverged
-    /// then no longer decides where the batch starts.
+    /// The online smoother's, run first with this window and solver, the
+    /// configuration's landmark chart and `online`'s keyframes and
+    /// triangulation ([`OnlineWindow::apply`]): each pose as it left the
+    /// window, the map as it ended. A filter run that diverged then no
+    /// longer decides where the batch starts.
     OnlineSmoother {
         /// The window and its solver.
         window: FixedLagConfig,
-        /// Which scans get a pose variable ([`SmootherConfig::keyframes`]).
-        keyframes: Option<KeyframeRule>,
+        /// Which scans get a pose variable, and whether the window
+        /// triangulates.
+        online: OnlineWindow,
     },
 }
 
@@ -464,12 +466,8 @@ fn batch_start(
 ) -> Result<RunOutput> {
     match config.batch_start {
         BatchStart::Filter => Ok(filter.clone()),
-        BatchStart::OnlineSmoother { window, keyframes } => {
-            let online = SmootherConfig {
-                keyframes,
-                ..*config
-            };
-            Ok(run_online_smoother(log, run_config, &online, window)?.output)
+        BatchStart::OnlineSmoother { window, online } => {
+            Ok(run_online_smoother(log, run_config, &online.apply(*config), window)?.output)
         }
     }
 }

@@ -495,17 +495,17 @@ fn the_batch_start_is_held_by_the_initial_variance() {
 #[test]
 fn the_batch_started_from_the_online_window_ends_at_the_same_minimum() {
     use bearing_slam_core::estimator::{EstimatorConfig, default_batch_start};
-    use bearing_slam_core::smoother::{BatchStart, run_online_smoother};
+    use bearing_slam_core::smoother::{BatchStart, OnlineWindow, run_online_smoother};
 
     let s = scenario();
     let config = run_config(&s);
     let log = s.simulate(11);
     let estimator = EstimatorConfig::default();
     assert_eq!(estimator.smoother.batch_start, default_batch_start());
-    let BatchStart::OnlineSmoother { window, keyframes } = default_batch_start() else {
+    let BatchStart::OnlineSmoother { window, online } = default_batch_start() else {
         panic!("the estimator's batch starts from the online smoother");
     };
-    assert!(keyframes.is_some());
+    assert_eq!(online, OnlineWindow::Keyframes);
     let from_window = batch_problem(&log, &config, &estimator.smoother).unwrap();
     let filter_start = SmootherConfig {
         batch_start: BatchStart::Filter,
@@ -513,16 +513,8 @@ fn the_batch_started_from_the_online_window_ends_at_the_same_minimum() {
     };
     let from_filter = batch_problem(&log, &config, &filter_start).unwrap();
     // The start: the keyframe window's last snapshot, not the filter's.
-    let online = run_online_smoother(
-        &log,
-        &config,
-        &SmootherConfig {
-            keyframes,
-            ..estimator.smoother
-        },
-        window,
-    )
-    .unwrap();
+    let online =
+        run_online_smoother(&log, &config, &online.apply(estimator.smoother), window).unwrap();
     let last = online
         .output
         .trace
