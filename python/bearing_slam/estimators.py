@@ -3,15 +3,16 @@
 ``bearing-slam run``, ``mrclam`` and ``montecarlo`` take ``--estimator`` (the
 names of :data:`~bearing_slam.vocabulary.ESTIMATORS`, read from Rust's
 ``EstimatorKind``): ``filter`` (the EKF, the default), ``smoother`` (the
-batch graph smoother started from the filter's run), ``filter+smoother``
-(the online fixed-lag smoother run with the filter), ``fastslam1`` and
-``fastslam2`` (with ``--particles``); ``filter+smoother`` takes
-``--online-window`` (``scans``, the default, or ``keyframes``: the choice for
-real robots) and ``--landmark-chart`` (``inverse-depth``, the default, or
-``point``) on ``run`` and ``mrclam``. Every estimator's result has the shape
-of the filter's, so ``metrics.json``, the plots and ``estimate.mcap`` (the
-smoothed trajectory and map, or the particle cloud's pose with the best
-particle's map) are written the same way.
+batch graph smoother, started from the online keyframe window run after
+the filter), ``filter+smoother`` (the online fixed-lag smoother run with
+the filter), ``fastslam1`` and ``fastslam2`` (with ``--particles``);
+``filter+smoother`` takes ``--online-window`` (``scans``, the default, or
+``keyframes``: keyframes by motion and the window's own triangulation, the
+choice for real robots) and ``--landmark-chart`` (``inverse-depth``, the
+default, or ``point``) on ``run`` and ``mrclam``. Every estimator's result
+has the shape of the filter's, so ``metrics.json``, the plots and
+``estimate.mcap`` (the smoothed trajectory and map, or the particle cloud's
+pose with the best particle's map) are written the same way.
 """
 
 from __future__ import annotations
@@ -58,7 +59,7 @@ def add_estimator_options(parser: argparse.ArgumentParser) -> None:
         choices=ESTIMATORS,
         default=DEFAULT_ESTIMATOR,
         help="the estimator (default: %(default)s, the EKF; smoother: the batch graph "
-        "smoother started from the filter's run; filter+smoother: the online fixed-lag "
+        "smoother, started from the online keyframe window; filter+smoother: the online fixed-lag "
         "smoother; fastslam1/fastslam2: FastSLAM 1.0/2.0)",
     )
     parser.add_argument(
@@ -73,8 +74,10 @@ def add_online_smoother_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--online-window",
         choices=ONLINE_WINDOWS,
-        help=f"filter+smoother only: a pose per scan or keyframes by motion (0.5 m / "
-        f"0.5 rad / 20 scans; the choice for real robots) (default: {DEFAULT_ONLINE_WINDOW})",
+        help=f"filter+smoother only: a pose per scan, or keyframes by motion (0.5 m / "
+        f"0.5 rad / 20 scans) with the landmarks the filter has not initialized "
+        f"triangulated in the window: the choice for real robots "
+        f"(default: {DEFAULT_ONLINE_WINDOW})",
     )
     parser.add_argument(
         "--landmark-chart",

@@ -378,7 +378,8 @@ pub(crate) fn py_run(
 }
 
 /// Smooths a whole log: the filter runs, then the batch graph smoother
-/// starts from its estimate (or, with `config.estimator ==
+/// starts from the online keyframe window's estimate
+/// (`estimator::default_batch_start`) (or, with `config.estimator ==
 /// "filter+smoother"`, the online fixed-lag smoother runs with it). The
 /// result has `run`'s shape, with the smoother's marginal covariances (so
 /// NEES is scored). Without a config, `Config.for_log(log)` is used.
