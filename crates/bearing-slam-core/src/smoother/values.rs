@@ -72,6 +72,11 @@ crate::named_enum!(LandmarkChart, "landmark chart", [
 /// stays on its ray at a finite distance instead of crossing infinity.
 pub const MIN_INVERSE_DEPTH: f64 = 1e-3;
 
+/// Largest inverse depth a step may reach: 1 mm from the anchor, the
+/// nearest [`Values::anchor_landmark`] accepts (closer, the azimuth has no
+/// ray to be measured along).
+pub const MAX_INVERSE_DEPTH: f64 = 1e3;
+
 /// The inverse-depth coordinates `[θ, ρ]` of `point` about `anchor`.
 fn inverse_depth_of(anchor: &Vector2<f64>, point: &Vector2<f64>) -> Vector2<f64> {
     let ray = point - anchor;
@@ -218,8 +223,8 @@ impl Values {
 
     /// Adds the increment `delta` (tangent of `key`) to `key`: plain addition,
     /// the heading wrapped back to (−π, π]; for an anchored landmark, added
-    /// to its `[θ, ρ]` (`ρ` kept ≥ [`MIN_INVERSE_DEPTH`]) and converted back
-    /// by (11).
+    /// to its `[θ, ρ]` (`ρ` kept in [`MIN_INVERSE_DEPTH`],
+    /// [`MAX_INVERSE_DEPTH`]) and converted back by (11).
     pub fn retract(&mut self, key: Key, delta: &[f64]) -> Result<()> {
         let mut v = self.get(key)?;
         if delta.len() != v.len() {
@@ -234,7 +239,7 @@ impl Values {
         {
             let old = inverse_depth_of(&anchor, &Vector2::new(v[0], v[1]));
             let theta = old.x + delta[0];
-            let rho = (old.y + delta[1]).max(MIN_INVERSE_DEPTH);
+            let rho = (old.y + delta[1]).clamp(MIN_INVERSE_DEPTH, MAX_INVERSE_DEPTH);
             let point =
                 inverse_depth_to_point(&Vector4::new(anchor.x, anchor.y, theta, rho))?.point;
             return self.insert_landmark(id, point);
@@ -271,9 +276,9 @@ impl Values {
     }
 
     /// `x ⊟ x0` for values `x`, `x0` of `key` (the inverse of
-    /// [`Values::retract`]), in its chart: the
-    /// difference with the heading wrapped; for an anchored landmark, the
-    /// difference of their `[θ, ρ]` (azimuth wrapped).
+    /// [`Values::retract`]), in its chart: the difference with the heading
+    /// wrapped; for an anchored landmark, the difference of their `[θ, ρ]`
+    /// (azimuth wrapped).
     pub fn local_difference(&self, key: Key, x: &DVector<f64>, x0: &DVector<f64>) -> DVector<f64> {
         match key {
             Key::Pose(_) => {

@@ -5,7 +5,7 @@
 
 use super::smoother_common;
 
-use bearing_slam_core::smoother::values::MIN_INVERSE_DEPTH;
+use bearing_slam_core::smoother::values::{MAX_INVERSE_DEPTH, MIN_INVERSE_DEPTH};
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor,
     OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig, Termination, Values,
@@ -200,7 +200,8 @@ fn the_inverse_depth_chart_keeps_the_solution_and_the_marginals() {
 }
 
 /// A step in inverse depth past infinity (`ρ + δρ ≤ 0`) stops at
-/// `MIN_INVERSE_DEPTH`, on the landmark's ray; and `⊟` undoes `⊞`.
+/// `MIN_INVERSE_DEPTH`, on the landmark's ray, one onto the anchor at
+/// `MAX_INVERSE_DEPTH`; and `⊟` undoes `⊞`.
 #[test]
 fn an_inverse_depth_step_stays_on_the_ray_and_is_undone_by_the_difference() {
     let mut v = Values::new();
@@ -221,6 +222,14 @@ fn an_inverse_depth_step_stays_on_the_ray_and_is_undone_by_the_difference() {
     assert!((far.norm() - 1.0 / MIN_INVERSE_DEPTH).abs() < 1e-6, "{far}");
     let ray = after.fixed_rows::<2>(0) - anchor;
     assert!((far.y.atan2(far.x) - ray.y.atan2(ray.x)).abs() < 1e-12);
+    v.retract(key, &[0.0, 1e9]).unwrap();
+    let near = v.landmark(3).unwrap() - anchor;
+    assert!(
+        (near.norm() - 1.0 / MAX_INVERSE_DEPTH).abs() < 1e-9,
+        "{near}"
+    );
+    v.retract(key, &[0.0, -0.5]).unwrap();
+    assert!(v.landmark(3).unwrap().iter().all(|c| c.is_finite()));
 }
 
 #[test]
