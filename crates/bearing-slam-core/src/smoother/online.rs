@@ -399,6 +399,8 @@ impl OnlineSmoother {
                 found.push((*id, point.point));
             }
         }
+        // `waiting` is a hash map: enter in id order, so a run is repeatable.
+        found.sort_by_key(|(id, _)| *id);
         for (id, point) in found {
             self.enter_landmark(id, point)?;
             self.report.n_triangulated += 1;
