@@ -353,6 +353,19 @@ fn the_keyframe_window_triangulates_what_the_filter_never_initialized() {
         let [[a, b], [c, d]] = l.covariance;
         assert!(a > 0.0 && d > 0.0 && a * d - b * c > 0.0, "{l:?}");
     }
+    // Repeatable: a second run (its hash maps seeded afresh) gives the same
+    // output, in the keyframe and in the per-scan window.
+    let again = run_from_log(&log, &config, &keyframes).unwrap();
+    assert_eq!(again.output.trace.snapshots, with.output.trace.snapshots);
+    let per_scan = SmootherConfig {
+        keyframes: None,
+        ..keyframes
+    };
+    let (a, b) = (
+        run_from_log(&log, &config, &per_scan).unwrap(),
+        run_from_log(&log, &config, &per_scan).unwrap(),
+    );
+    assert_eq!(a.output.track, b.output.track);
     assert_eq!(OnlineWindow::Scans.apply(keyframes).keyframes, None);
     assert!(!OnlineWindow::Scans.apply(keyframes).triangulate_online);
 }
