@@ -403,16 +403,24 @@ impl Factor {
     /// factor's Jacobian is already in the charts it was formed in.
     pub fn linearize(&self, values: &Values) -> Result<Linearization> {
         let mut lin = self.linearize_at_points(values)?;
-        if values.has_anchors() && !matches!(self, Factor::Linear(_)) {
-            for (key, jacobian) in self.keys().iter().zip(&mut lin.jacobians) {
-                if let Key::Landmark(id) = key
-                    && let Some(chart) = values.landmark_chart_jacobian(*id)?
-                {
-                    *jacobian = &*jacobian * dm(&chart);
-                }
-            }
+        if values.has_anchors()
+            && let Some((id, slot)) = self.landmark_slot()
+            && let Some(chart) = values.landmark_chart_jacobian(id)?
+        {
+            lin.jacobians[slot] = &lin.jacobians[slot] * dm(&chart);
         }
         Ok(lin)
+    }
+
+    /// The landmark a point-measuring factor touches and the index of its
+    /// Jacobian (a linear factor's are already in their charts: `None`).
+    fn landmark_slot(&self) -> Option<(u64, usize)> {
+        match self {
+            Factor::LandmarkPrior(f) => Some((f.landmark, 0)),
+            Factor::Bearing(f) => Some((f.landmark, 1)),
+            Factor::RangeBearing(f) => Some((f.landmark, 1)),
+            Factor::PosePrior(_) | Factor::Odometry(_) | Factor::Linear(_) => None,
+        }
     }
 
     /// [`Factor::linearize`] with every landmark Jacobian taken with

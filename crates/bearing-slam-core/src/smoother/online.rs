@@ -386,10 +386,7 @@ impl OnlineSmoother {
                 if !self.smoother.in_window(*node as u64) {
                     continue;
                 }
-                let mut pose = Pose2::from_vector(&self.smoother.values().pose(*node as u64)?);
-                if let Some(motion) = offset {
-                    pose = pose.compose(&Pose2::from_vector(&motion.delta));
-                }
+                let pose = self.scan_pose(*node as u64, offset.as_ref())?;
                 rays.push((pose.to_vector(), o.bearing));
             }
             if rays.len() < rule.min_inliers {
@@ -410,26 +407,29 @@ impl OnlineSmoother {
         Ok(())
     }
 
-    /// Where the robot was when it first saw landmark `id`, by the
-    /// smoother's estimate of that scan's pose (as it left the window, if it
-    /// has), composed with the odometry since; the latest pose when no
-    /// sighting waited.
+    /// Where the robot was when it first saw landmark `id` (its first
+    /// waiting sighting's [`OnlineSmoother::scan_pose`]); the latest pose
+    /// when no sighting waited.
     fn first_sighting_position(&self, id: u64) -> Result<Vector2<f64>> {
-        let first = self.waiting.get(&id).and_then(|w| w.first());
-        let (node, offset) = match first {
-            Some((node, offset, _)) => (*node as u64, offset.as_ref()),
-            None => (self.nodes as u64 - 1, None),
+        let pose = match self.waiting.get(&id).and_then(|w| w.first()) {
+            Some((node, offset, _)) => self.scan_pose(*node as u64, offset.as_ref())?,
+            None => self.scan_pose(self.nodes as u64 - 1, None)?,
         };
-        let mut pose = match self.smoother.finalized().get(&node) {
-            Some(f) => f.pose,
-            None => self.smoother.values().pose(node)?,
-        };
-        if let Some(motion) = offset {
-            pose = Pose2::from_vector(&pose)
-                .compose(&Pose2::from_vector(&motion.delta))
-                .to_vector();
-        }
         Ok(Vector2::new(pose.x, pose.y))
+    }
+
+    /// The pose of a scan taken at pose variable `node` after the odometry
+    /// `offset`: the smoother's estimate of `node` (as it left the window,
+    /// if it has) composed with `offset`.
+    fn scan_pose(&self, node: u64, offset: Option<&PreintegratedOdometry>) -> Result<Pose2> {
+        let pose = match self.smoother.finalized().get(&node) {
+            Some(f) => Pose2::from_vector(&f.pose),
+            None => Pose2::from_vector(&self.smoother.values().pose(node)?),
+        };
+        Ok(match offset {
+            Some(motion) => pose.compose(&Pose2::from_vector(&motion.delta)),
+            None => pose,
+        })
     }
 
     /// Every pose variable's estimate and covariance and every landmark's,
@@ -514,13 +514,9 @@ impl OnlineEstimator for OnlineSmoother {
         self.scan_offset.push(offset);
         let filter_to_smoother = match self.start {
             OnlineStart::Filter => Pose2::default(),
-            OnlineStart::Odometry => {
-                let mut here = Pose2::from_vector(&self.smoother.values().pose(node as u64)?);
-                if let Some(motion) = &offset {
-                    here = here.compose(&Pose2::from_vector(&motion.delta));
-                }
-                here.compose(&snapshot.pose.inverse())
-            }
+            OnlineStart::Odometry => self
+                .scan_pose(node as u64, offset.as_ref())?
+                .compose(&snapshot.pose.inverse()),
         };
         for l in &snapshot.landmarks {
             if !self.smoother.values().contains(Key::Landmark(l.id)) {
