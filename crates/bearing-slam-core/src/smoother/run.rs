@@ -27,6 +27,7 @@ use crate::log::{BearingObservation, EventKind, SensorLog, VelocityOdometry};
 use crate::runner::{OdometryConfig, RunConfig, RunOutput, run};
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use std::borrow::Cow;
 use std::collections::BTreeMap;
 use std::time::Instant;
 
@@ -397,15 +398,6 @@ pub fn run_from_log(
         lms.insert(*id, (*p, marginals.landmark(*id)?));
     }
     let skeleton = problem.skeleton;
-    let mut output = start.clone();
-    apply_smoothed(
-        &mut output,
-        &skeleton.scan_node,
-        &skeleton.records,
-        &poses,
-        &pose_cov,
-        &lms,
-    );
     // Every landmark of the graph, from the scan where it entered on: the
     // triangulated ones, and the filter's own, which the filter's later
     // snapshots leave out while its inverse depth is at or beyond infinity
@@ -415,6 +407,15 @@ pub fn run_from_log(
             .entry
             .iter()
             .map(|(id, (k, _))| (*id, *k)),
+    );
+    let mut output = start.into_owned();
+    apply_smoothed(
+        &mut output,
+        &skeleton.scan_node,
+        &skeleton.records,
+        &poses,
+        &pose_cov,
+        &lms,
     );
     add_to_snapshots(&mut output, &first_scan, &lms);
     report.smoother_time_s = started.elapsed().as_secs_f64();
@@ -457,18 +458,18 @@ pub fn batch_problem(
 }
 
 /// The run the batch starts from ([`SmootherConfig::batch_start`]): the
-/// filter's `filter`, or the online smoother's on `log`.
-fn batch_start(
+/// filter's `filter` itself, or the online smoother's on `log`.
+fn batch_start<'a>(
     log: &SensorLog,
     run_config: &RunConfig,
     config: &SmootherConfig,
-    filter: &RunOutput,
-) -> Result<RunOutput> {
+    filter: &'a RunOutput,
+) -> Result<Cow<'a, RunOutput>> {
     match config.batch_start {
-        BatchStart::Filter => Ok(filter.clone()),
-        BatchStart::OnlineSmoother { window, online } => {
-            Ok(run_online_smoother(log, run_config, &online.apply(*config), window)?.output)
-        }
+        BatchStart::Filter => Ok(Cow::Borrowed(filter)),
+        BatchStart::OnlineSmoother { window, online } => Ok(Cow::Owned(
+            run_online_smoother(log, run_config, &online.apply(*config), window)?.output,
+        )),
     }
 }
 
