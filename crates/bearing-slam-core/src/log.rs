@@ -84,6 +84,39 @@ pub struct VelocityOdometry {
     pub dt: f64,
 }
 
+/// Number of components of an appearance [`Descriptor`].
+pub const DESCRIPTOR_LEN: usize = 8;
+
+/// What a detection looked like: a small appearance vector (a camera's
+/// patch reduced to a few numbers, a microphone array's spectral signature,
+/// a radio's carrier features), compared by Euclidean distance. Sightings of
+/// one landmark give vectors scattered round the landmark's own with an
+/// isotropic noise of known σ ([`crate::association::DescriptorModel`]); the
+/// simulator draws each landmark's vector from `N(0, I)`.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Descriptor(pub [f64; DESCRIPTOR_LEN]);
+
+impl Descriptor {
+    /// Squared Euclidean distance to `other`.
+    #[must_use]
+    pub fn distance_squared(&self, other: &Descriptor) -> f64 {
+        self.0
+            .iter()
+            .zip(&other.0)
+            .map(|(a, b)| (a - b) * (a - b))
+            .sum()
+    }
+
+    /// Returns the descriptor if every component is finite, otherwise an
+    /// error naming it.
+    pub fn ensure_finite(&self) -> Result<&Self> {
+        for &c in &self.0 {
+            ensure_finite("descriptor component", c)?;
+        }
+        Ok(self)
+    }
+}
+
 /// One bearing (and optionally range) to an identified landmark, in the robot
 /// frame: counter-clockwise from the robot's x-axis.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -95,6 +128,23 @@ pub struct BearingObservation {
     /// Range in metres when the sensor measures it (only the range-bearing
     /// reference filter uses it).
     pub range: Option<f64>,
+    /// The detection's appearance, when the sensor gives one (only the
+    /// unknown-identity association uses it).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub descriptor: Option<Descriptor>,
+}
+
+impl BearingObservation {
+    /// A bearing to landmark `landmark_id`, without range or descriptor.
+    #[must_use]
+    pub fn new(landmark_id: u64, bearing: f64) -> Self {
+        Self {
+            landmark_id,
+            bearing,
+            range: None,
+            descriptor: None,
+        }
+    }
 }
 
 /// What happened at one instant.
@@ -161,7 +211,8 @@ pub struct SensorLog {
 impl SensorLog {
     /// Checks that times are finite and non-decreasing, that every number
     /// in every event is finite, that every bearing lies within
-    /// ±[`MAX_ABS_BEARING_RAD`], that every range is positive and at most
+    /// ±[`MAX_ABS_BEARING_RAD`], that every descriptor is finite, that every
+    /// range is positive and at most
     /// [`MAX_RANGE`](crate::measurement::MAX_RANGE) (the filter's own bound,
     /// so a log is refused when it is loaded, not at its first update) and
     /// that every velocity command covers a positive `dt`; names the first
@@ -199,6 +250,9 @@ impl SensorLog {
                         ensure_bearing(o.bearing)?;
                         if let Some(r) = o.range {
                             ensure_range(r)?;
+                        }
+                        if let Some(d) = &o.descriptor {
+                            d.ensure_finite()?;
                         }
                     }
                 }

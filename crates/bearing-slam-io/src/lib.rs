@@ -33,7 +33,7 @@
 //! | `/bearing_slam/landmarks` | `bearing_slam.LandmarkTruthList` | `{landmarks: [{id, x, y}]}`, once |
 //! | `/odometry/wheels` | `bearing_slam.WheelOdometry` | `{time, left_m, right_m}` |
 //! | `/odometry/velocity` | `bearing_slam.VelocityOdometry` | `{time, v, omega, dt}` |
-//! | `/bearings` | `bearing_slam.BearingScan` | `{time, observations: [{landmark_id, bearing, range}]}` |
+//! | `/bearings` | `bearing_slam.BearingScan` | `{time, observations: [{landmark_id, bearing, range, descriptor?}]}` |
 //! | `/ground_truth/pose2d` | `bearing_slam.GroundTruthPose` | `{time, pose: {x, y, theta}}` |
 //! | `/slam/estimate` | `bearing_slam.EstimateSnapshot` | [`EstimateSnapshot`] |
 //! | `/slam/event_data` | `bearing_slam.SlamEvent` | [`TimedSlamEvent`] (`{time, event: {kind, ...}}`) |

@@ -13,7 +13,8 @@
 
 use bearing_slam_core::Pose2;
 use bearing_slam_core::log::{
-    BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, VelocityOdometry, WheelOdometry,
+    BearingObservation, DESCRIPTOR_LEN, Event, EventKind, LandmarkTruth, LogInfo, VelocityOdometry,
+    WheelOdometry,
 };
 use bearing_slam_core::trace::{EstimateSnapshot, ParticleCloud, SlamEvent, TimedSlamEvent};
 use serde::{Deserialize, Serialize};
@@ -361,6 +362,11 @@ pub(crate) fn check_event(event: &Event) -> Result<(), NonFinite> {
                 if let Some(r) = o.range {
                     fin(&format!("observations[{i}].range"), r)?;
                 }
+                if let Some(d) = &o.descriptor {
+                    for (k, &c) in d.0.iter().enumerate() {
+                        fin(&format!("observations[{i}].descriptor[{k}]"), c)?;
+                    }
+                }
             }
             Ok(())
         }
@@ -606,6 +612,13 @@ fn scan_schema() -> Value {
                         "landmark_id": id("Landmark id"),
                         "bearing": number("Radians, counter-clockwise from the robot x-axis"),
                         "range": { "type": ["number", "null"], "description": "Range in metres, when measured" },
+                        "descriptor": {
+                            "type": "array",
+                            "items": { "type": "number" },
+                            "minItems": DESCRIPTOR_LEN,
+                            "maxItems": DESCRIPTOR_LEN,
+                            "description": "Appearance vector of the detection, when the sensor gives one",
+                        },
                     }),
                     &["landmark_id", "bearing"],
                 ),

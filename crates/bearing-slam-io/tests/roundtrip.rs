@@ -52,6 +52,7 @@ fn round_trip_is_bit_exact_for_arbitrary_finite_f64() {
                 landmark_id: rng.next_u64(),
                 bearing: rng.finite_bits(),
                 range: Some(rng.finite_bits()),
+                descriptor: None,
             }]),
         });
     }
@@ -191,11 +192,13 @@ fn non_finite_values_are_refused_with_topic_and_field() {
                 landmark_id: 1,
                 bearing: 0.5,
                 range: None,
+                descriptor: None,
             },
             BearingObservation {
                 landmark_id: 2,
                 bearing: 0.5,
                 range: Some(f64::NAN),
+                descriptor: None,
             },
         ]),
     };

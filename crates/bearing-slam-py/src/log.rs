@@ -180,6 +180,7 @@ impl PySensorLog {
                         landmark_id: id as u64,
                         bearing: rs[i][2],
                         range,
+                        descriptor: None,
                     });
                     i += 1;
                 }

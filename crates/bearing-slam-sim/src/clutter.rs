@@ -114,6 +114,7 @@ impl ClutterSpec {
                     landmark_id: id,
                     bearing: wrap_angle(rng.random_range(-half..half)),
                     range: None,
+                    descriptor: None,
                 }
             })
             .collect()

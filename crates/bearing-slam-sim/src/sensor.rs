@@ -230,6 +230,7 @@ impl BearingSensor {
                 landmark_id: lm.id,
                 bearing,
                 range: Some(noisy_range),
+                descriptor: None,
             });
         }
         out

@@ -139,6 +139,7 @@ fn each_scan_draws_from_its_own_step_s_streams() {
         landmark_id: 1,
         bearing: 0.1,
         range: None,
+        descriptor: None,
     }];
     for k in 1..=3 {
         mcl.update(&scan).expect("updates");

@@ -172,6 +172,7 @@ impl KinematicScenario {
                             + bearing_noise.sample(&mut rng),
                     ),
                     range: None,
+                    descriptor: None,
                 })
                 .collect();
             events.push(Event {

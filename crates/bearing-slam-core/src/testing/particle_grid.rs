@@ -58,6 +58,7 @@ pub fn grid_problem(particles: usize, k: usize) -> Result<(FastSlam, Vec<Bearing
                 landmark_id: id as u64,
                 bearing: p.y.atan2(p.x),
                 range: None,
+                descriptor: None,
             }
         })
         .collect();

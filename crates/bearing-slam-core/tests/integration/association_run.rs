@@ -30,6 +30,7 @@ fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
                         landmark_id: next_clutter,
                         bearing: rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
                         range: None,
+                        descriptor: None,
                     });
                     next_clutter += 1;
                 }
@@ -39,6 +40,7 @@ fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
                         landmark_id: DISTRACTOR_ID_START,
                         bearing: wrap_angle((y - pose.y).atan2(x - pose.x) - pose.theta),
                         range: None,
+                        descriptor: None,
                     });
                 }
             }

@@ -54,6 +54,7 @@ fn a_spurious_landmark_is_removed_and_the_real_ones_stay() {
                         landmark_id: SPURIOUS,
                         bearing: 0.4,
                         range: Some(3.0),
+                        descriptor: None,
                     });
                 }
                 let report = slam.update(event.time, &scan, true).expect("updates");

@@ -215,6 +215,7 @@ fn weighed_twice_by(config: FastSlamConfig) -> (FastSlam, ParticleUpdateReport) 
         landmark_id: id,
         bearing: y.atan2(x - from_x),
         range: Some((x - from_x).hypot(y)),
+        descriptor: None,
     };
     let (wheels, roll) = rolling_10_cm();
     filter
@@ -281,11 +282,13 @@ fn a_landmark_at_the_sensor_is_rejected_and_ties_go_to_the_first_particle() {
             landmark_id: 1,
             bearing: 0.3,
             range: None,
+            descriptor: None,
         },
         BearingObservation {
             landmark_id: 2,
             bearing: f64::atan2(1.0, 2.0),
             range: None,
+            descriptor: None,
         },
     ];
     let report = filter
@@ -311,6 +314,7 @@ fn the_report_counts_the_landmarks_that_enter_the_map() {
             landmark_id: id,
             bearing: y.atan2(x),
             range: Some(x.hypot(y)),
+            descriptor: None,
         });
     let report = filter.update(0.0, &scan, true).expect("maps");
     assert_eq!((report.initialized, report.used), (2, 0), "{report:?}");
@@ -435,6 +439,7 @@ fn fastslam2_resampling_before_the_proposal_weighs_first() {
             landmark_id: id,
             bearing: f64::atan2(y, x),
             range: None,
+            descriptor: None,
         })
         .collect();
     let report = filter.update(0.0, &scan, false).expect("weighs");

@@ -84,6 +84,7 @@ fn filter_steps_copy_only_the_observed_landmarks() {
                 landmark_id: id,
                 bearing: (5.0 + (id % 7) as f64).atan2(id as f64),
                 range: None,
+                descriptor: None,
             })
             .collect();
         let report = slam.update(step as f64, &scan, false).expect("valid scan");

@@ -149,6 +149,7 @@ fn bearing(landmark_id: u64, bearing: f64) -> BearingObservation {
         landmark_id,
         bearing,
         range: None,
+        descriptor: None,
     }
 }
 

@@ -123,6 +123,7 @@ mod tests {
                 landmark_id: 7,
                 bearing: 0.2,
                 range: None,
+                descriptor: None,
             }]),
         }
     }

@@ -544,6 +544,7 @@ pub fn load_mrclam_with(
             landmark_id: id,
             bearing: wrap_angle(m.bearing),
             range: Some(m.range),
+            descriptor: None,
         });
         if robot_sighting {
             report.n_robot_sightings += 1;

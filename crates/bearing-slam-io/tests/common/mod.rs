@@ -94,6 +94,7 @@ pub fn sample_log(n_steps: usize) -> SensorLog {
                     } else {
                         Some(rng.uniform(0.5, 20.0))
                     },
+                    descriptor: None,
                 })
                 .collect(),
         };
