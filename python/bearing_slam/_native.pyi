@@ -136,8 +136,10 @@ class Config:
     # "keyframes") and landmark chart ("inverse-depth", "point").
     online_window: str
     landmark_chart: str
-    # Data association (issue 16): "known", "nn", "jcbb".
+    # Data association (issue 16): "known", "nn", "jcbb"; the appearance
+    # descriptors' noise σ (None: descriptors ignored; nn/jcbb only).
     association: str
+    descriptor_sigma: float | None
     # Robustness on a real camera (issue 13 item 3): robust gating and the
     # bearing-offset state, all off (None) by default.
     readmit_after: int | None
@@ -185,6 +187,8 @@ class SensorLog:
     def ranges(self) -> _F64: ...
     @property
     def bearing_ids(self) -> _U64: ...
+    @property
+    def descriptors(self) -> _F64: ...
     @property
     def truth(self) -> _F64: ...
     @property
@@ -340,6 +344,9 @@ def simulate(
     fov: float | None = None,
     encoder_noise: float | None = None,
     duration: float | None = None,
+    clutter: float | None = None,
+    descriptor_sigma: float | None = None,
+    descriptor_confusion: float = 0.0,
 ) -> SensorLog: ...
 def scenario_toml(scenario: _Path, seed: int | None = None) -> str: ...
 def write_mcap(

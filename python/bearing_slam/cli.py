@@ -247,6 +247,13 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
         options["bearing_sigma"] = math.radians(args.bearing_sigma_deg)
     if args.duration is not None:
         options["duration"] = args.duration
+    if args.clutter is not None:
+        options["clutter"] = args.clutter
+    if args.descriptor_sigma is not None:
+        options["descriptor_sigma"] = args.descriptor_sigma
+        options["descriptor_confusion"] = args.descriptor_confusion
+    elif args.descriptor_confusion != 0.0:
+        raise UserError("--descriptor-confusion needs --descriptor-sigma")
     scenario = args.scenario
     is_file = scenario.lower().endswith((".toml", ".json"))
     if not is_file and scenario not in scenario_names():
@@ -323,6 +330,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if problem := estimator_problem(args):
         raise UserError(problem)
     config = with_estimator(_config(log, args), args).replace(association=args.association)
+    if args.descriptor_sigma is not None:
+        if args.association == "known":
+            raise UserError("--descriptor-sigma applies to --association nn or jcbb only")
+        config = config.replace(descriptor_sigma=args.descriptor_sigma)
     config = _with_robustness(config, args)
     live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
@@ -499,6 +510,20 @@ def _parser() -> argparse.ArgumentParser:
     simp.add_argument("--slip", action="store_true", help="add the scenario's slip patches")
     simp.add_argument("--bearing-sigma-deg", type=positive_float, help="bearing noise σ, degrees")
     simp.add_argument("--duration", type=positive_float, help="duration, seconds")
+    simp.add_argument(
+        "--clutter", type=non_negative_float, help="mean false bearings per scan (clutter)"
+    )
+    simp.add_argument(
+        "--descriptor-sigma",
+        type=positive_float,
+        help="give every sighting an appearance descriptor with this noise σ per component",
+    )
+    simp.add_argument(
+        "--descriptor-confusion",
+        type=non_negative_float,
+        default=0.0,
+        help="probability a sighting shows another landmark's appearance (default: 0)",
+    )
     simp.set_defaults(func=_cmd_simulate)
 
     runp = sub.add_parser(
@@ -545,6 +570,12 @@ def _parser() -> argparse.ArgumentParser:
     add_estimator_options(runp)
     add_online_smoother_options(runp)
     _add_association_option(runp)
+    runp.add_argument(
+        "--descriptor-sigma",
+        type=positive_float,
+        help="with --association nn/jcbb: the noise σ of the log's appearance descriptors; a "
+        "bearing that carries one is then paired only with a landmark that looks alike",
+    )
     _add_robustness_options(runp)
     add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)

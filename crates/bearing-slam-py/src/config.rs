@@ -5,7 +5,7 @@
 use crate::errors::SlamResultExt;
 use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
-use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam::core::association::{AssociationConfig, AssociationMethod, DescriptorModel};
 use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::init::{
@@ -169,6 +169,12 @@ pub(crate) struct PyConfig {
     /// used only to score it; the EKF `filter` only).
     #[pyo3(get, set)]
     pub association: String,
+    /// σ of the sensor's appearance-descriptor noise per component
+    /// (`DescriptorModel::sigma`; association `"nn"`/`"jcbb"` only): with
+    /// it, a bearing carrying a descriptor is paired only with a landmark
+    /// that looks alike; None (default) ignores descriptors.
+    #[pyo3(get, set)]
+    pub descriptor_sigma: Option<f64>,
     // --- robustness on a real camera (issue #13 item 3) ---
     /// Robust gating (`RobustGate::readmit_after`): a landmark's bearings
     /// gated out this many times in a row are re-admitted with inflated
@@ -189,7 +195,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 41] = [
+const FIELDS: [&str; 42] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -227,6 +233,7 @@ const FIELDS: [&str; 41] = [
     "online_window",
     "landmark_chart",
     "association",
+    "descriptor_sigma",
     // robustness on a real camera (issue #13 item 3)
     "readmit_after",
     "huber_threshold",
@@ -277,6 +284,7 @@ impl Default for PyConfig {
             online_window: OnlineWindow::default().to_string(),
             landmark_chart: SmootherConfig::default().landmark_chart.to_string(),
             association: slam.association.method.to_string(),
+            descriptor_sigma: None,
             readmit_after: None,
             huber_threshold: None,
             bearing_offset_sigma: None,
@@ -302,6 +310,7 @@ impl PyConfig {
         c.consistency = s.consistency.to_string();
         c.update_iterations = s.update_iterations;
         c.association = s.association.method.to_string();
+        c.descriptor_sigma = s.association.descriptors.map(|d| d.sigma);
         c.readmit_after = s.robust_gate.and_then(|r| r.readmit_after);
         c.huber_threshold = s.robust_gate.and_then(|r| r.huber_threshold);
         c.bearing_offset_sigma = s.bearing_offset.map(|b| b.sigma_per_sqrt_s);
@@ -428,7 +437,10 @@ impl PyConfig {
             update,
             consistency,
             update_iterations: self.update_iterations,
-            association: AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?),
+            association: AssociationConfig {
+                descriptors: self.descriptor_sigma.map(|sigma| DescriptorModel { sigma }),
+                ..AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?)
+            },
             robust_gate: (self.readmit_after.is_some() || self.huber_threshold.is_some())
                 .then_some(RobustGate {
                     readmit_after: self.readmit_after,
@@ -618,6 +630,11 @@ impl PyConfig {
                     self.estimator
                 ))
             }
+            "descriptor_sigma" if self.association == AssociationMethod::Known.to_string() => Some(
+                "it is a parameter of the association with the ids hidden \
+                     (association \"nn\" or \"jcbb\"), and association is \"known\""
+                    .to_owned(),
+            ),
             "range_sigma" if !self.use_range => {
                 Some("it applies to range-bearing runs (use_range=True) only".to_owned())
             }

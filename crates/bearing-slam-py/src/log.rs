@@ -4,8 +4,8 @@ use crate::convert::{In2, arr1, arr2, rows, to_py};
 use crate::errors::{self, SlamResultExt};
 use bearing_slam::core::Pose2;
 use bearing_slam::core::log::{
-    BearingObservation, Event, EventKind, LandmarkTruth, LogInfo, SensorLog, VelocityOdometry,
-    WheelOdometry,
+    BearingObservation, DESCRIPTOR_LEN, Event, EventKind, LandmarkTruth, LogInfo, SensorLog,
+    VelocityOdometry, WheelOdometry,
 };
 use numpy::{PyArray1, PyArray2};
 use pyo3::exceptions::PyValueError;
@@ -344,6 +344,23 @@ impl PySensorLog {
             }
         });
         arr1(py, v)
+    }
+
+    /// The appearance descriptor of each row of `bearings`, shape
+    /// (n, DESCRIPTOR_LEN) (a row of NaN where the sensor gave none).
+    #[getter]
+    fn descriptors<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let v = self.collect(DESCRIPTOR_LEN, |e, o| {
+            if let EventKind::Bearings(s) = &e.kind {
+                for b in s {
+                    match &b.descriptor {
+                        Some(d) => o.extend(d.0),
+                        None => o.extend([f64::NAN; DESCRIPTOR_LEN]),
+                    }
+                }
+            }
+        });
+        arr2(py, v, DESCRIPTOR_LEN)
     }
 
     /// The landmark ids of each row of `bearings`, as uint64.

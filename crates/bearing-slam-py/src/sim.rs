@@ -2,6 +2,7 @@
 
 use crate::errors;
 use crate::log::PySensorLog;
+use bearing_slam::sim::appearance::AppearanceSpec;
 use bearing_slam::sim::{Scenario, SimError, Simulation, scenario_names};
 use pyo3::prelude::*;
 use pyo3::types::PyBool;
@@ -69,9 +70,12 @@ const SIGNAL_CHECK_INTERVAL: Duration = Duration::from_millis(50);
 /// `landmark_count` (scenarios with random landmarks), `far_landmark=False`
 /// removes the far landmark of `paper_fig4`, `slip` (bool), `bearing_sigma`
 /// (rad), `fov` (rad), `encoder_noise` (variance per metre rolled),
-/// `duration` (s).
+/// `duration` (s), `clutter` (mean false bearings per scan),
+/// `descriptor_sigma` (each sighting carries an appearance descriptor with
+/// this noise σ per component) and `descriptor_confusion` (the probability
+/// a sighting shows another landmark's appearance).
 #[pyfunction(name = "simulate")]
-#[pyo3(signature = (scenario, seed = None, *, landmark_count = None, far_landmark = true, slip = None, bearing_sigma = None, fov = None, encoder_noise = None, duration = None))]
+#[pyo3(signature = (scenario, seed = None, *, landmark_count = None, far_landmark = true, slip = None, bearing_sigma = None, fov = None, encoder_noise = None, duration = None, clutter = None, descriptor_sigma = None, descriptor_confusion = 0.0))]
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn py_simulate(
     py: Python<'_>,
@@ -84,6 +88,9 @@ pub(crate) fn py_simulate(
     fov: Option<f64>,
     encoder_noise: Option<f64>,
     duration: Option<f64>,
+    clutter: Option<f64>,
+    descriptor_sigma: Option<f64>,
+    descriptor_confusion: f64,
 ) -> PyResult<PySensorLog> {
     let seed = optional_u64(seed, "seed")?;
     let landmark_count = optional_u64(landmark_count, "landmark_count")?;
@@ -114,6 +121,20 @@ pub(crate) fn py_simulate(
     }
     if let Some(v) = duration {
         s = s.with_duration(v);
+    }
+    if let Some(v) = clutter {
+        s.clutter.per_scan = v;
+    }
+    if let Some(sigma) = descriptor_sigma {
+        s.appearance = Some(AppearanceSpec {
+            sigma,
+            confusion_rate: descriptor_confusion,
+        });
+    } else if descriptor_confusion != 0.0 {
+        return Err(errors::raise(
+            "InvalidParameterError",
+            "descriptor_confusion needs descriptor_sigma (the descriptors it confuses)".to_owned(),
+        ));
     }
     let mut sim = py.detach(|| Simulation::new(&s)).map_err(errors::sim)?;
     loop {

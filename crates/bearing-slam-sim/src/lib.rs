@@ -15,7 +15,8 @@
 //!
 //! Modules, one job each: [`robot`] (wheels, motors, friction forces),
 //! [`friction`] (the floor's `μ` and the friction law), [`encoders`],
-//! [`sensor`], [`controller`] and [`path`], [`world`] (walls, obstacles, the
+//! [`sensor`], [`clutter`] and [`appearance`] (what makes association
+//! hard, and what helps it), [`controller`] and [`path`], [`world`] (walls, obstacles, the
 //! rapier world), [`scenario`] (named scenarios, files) and [`sim`] (the loop).
 //!
 //! # Determinism
@@ -101,6 +102,14 @@
 //! x = 2.0
 //! y = 1.5
 //!
+//! [clutter]                    # optional, clutter::ClutterSpec
+//! per_scan = 0.0               # Poisson mean of false bearings per scan
+//! distractors = [ { center = [1.0, 1.0], heading_rad = 0.0, amplitude_m = 1.0, period_s = 6.0 } ]
+//!
+//! [appearance]                 # optional, appearance::AppearanceSpec: a descriptor on every sighting
+//! sigma = 0.2                  # noise σ per component (appearances are N(0, I))
+//! confusion_rate = 0.0         # probability a sighting shows another landmark's appearance
+//!
 //! [random_landmarks]           # optional: drawn from the seed, ids first_id…
 //! count = 10
 //! center = [0.0, 0.0]
@@ -128,6 +137,7 @@
 
 #![cfg_attr(test, allow(clippy::unwrap_used))]
 
+pub mod appearance;
 pub mod clutter;
 pub mod controller;
 pub mod encoders;

@@ -3,6 +3,7 @@
 //! knobs, and loading from TOML/JSON (the format is documented in the crate
 //! docs).
 
+use crate::appearance::AppearanceSpec;
 use crate::clutter::ClutterSpec;
 use crate::controller::{ControllerSpec, Segment};
 use crate::encoders::EncoderParams;
@@ -47,6 +48,8 @@ pub(crate) const STREAM_SENSOR: u64 = 3;
 pub(crate) const STREAM_VARIATION: u64 = 4;
 /// The clutter's stream ([`ClutterSpec`]).
 pub(crate) const STREAM_CLUTTER: u64 = 5;
+/// The appearance descriptors' stream ([`AppearanceSpec`]).
+pub(crate) const STREAM_APPEARANCE: u64 = 6;
 
 /// A seeded generator for stream `stream` of run `seed`.
 pub(crate) fn stream_rng(seed: u64, stream: u64) -> StdRng {
@@ -178,6 +181,9 @@ pub struct Scenario {
     /// False bearings and moving distractors (none by default).
     #[serde(default)]
     pub clutter: ClutterSpec,
+    /// Appearance descriptors on every sighting (none by default).
+    #[serde(default)]
+    pub appearance: Option<AppearanceSpec>,
     /// What drives the robot.
     pub controller: ControllerSpec,
     /// An error recorded by a builder method, reported by [`Scenario::validate`].
@@ -206,6 +212,7 @@ impl Scenario {
             random_landmarks: None,
             far_landmark_ids: Vec::new(),
             clutter: ClutterSpec::default(),
+            appearance: None,
             controller,
             builder_error: None,
         }
@@ -315,6 +322,9 @@ impl Scenario {
         check_contact_stability(&self.robot, &self.world, self.slip, self.rates.physics_hz)?;
         self.variation.validate()?;
         self.clutter.validate()?;
+        if let Some(a) = &self.appearance {
+            a.validate()?;
+        }
         self.controller.validate()?;
         if let Some(r) = &self.random_landmarks {
             check_finite("random_landmarks.center.x", r.center[0])?;

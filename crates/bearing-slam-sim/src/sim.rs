@@ -10,13 +10,15 @@
 //! stop one period before the end, so both tile `[0, T]` exactly. A scan that
 //! sees nothing still produces an (empty) `Bearings` event.
 
+use crate::appearance::Appearances;
 use crate::clutter::ClutterSpec;
 use crate::controller::{Command, CommandLimiter, Controller};
 use crate::encoders::Encoders;
 use crate::error::{Result, SimError};
 use crate::robot::DriveTrain;
 use crate::scenario::{
-    STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario, check_contact_stability, stream_rng,
+    STREAM_APPEARANCE, STREAM_CLUTTER, STREAM_ENCODERS, STREAM_SENSOR, Scenario,
+    check_contact_stability, stream_rng,
 };
 use crate::sensor::BearingSensor;
 use crate::world::PhysicsScene;
@@ -56,6 +58,8 @@ pub struct Simulation {
     clutter: ClutterSpec,
     rng_clutter: StdRng,
     next_clutter: u64,
+    /// Appearance descriptors, with their own stream.
+    appearance: Option<(Appearances, StdRng)>,
     events: Vec<Event>,
     info: LogInfo,
     finished: bool,
@@ -84,6 +88,20 @@ impl Simulation {
             scenario.rates.physics_hz,
         )?;
         let landmarks = scenario.landmark_truth()?;
+        let appearance = match scenario.appearance {
+            Some(spec) => {
+                let mut rng = stream_rng(scenario.seed, STREAM_APPEARANCE);
+                let distractors: Vec<u64> = scenario
+                    .clutter
+                    .distractors_at(0.0)
+                    .iter()
+                    .map(|d| d.id)
+                    .collect();
+                let drawn = Appearances::draw(spec, &landmarks, &distractors, &mut rng)?;
+                Some((drawn, rng))
+            }
+            None => None,
+        };
         let robot = scenario.robot.clone();
         let info = LogInfo {
             source: scenario.name.clone(),
@@ -113,6 +131,7 @@ impl Simulation {
             clutter: scenario.clutter.clone(),
             rng_clutter: stream_rng(scenario.seed, STREAM_CLUTTER),
             next_clutter: 0,
+            appearance,
             events: Vec::new(),
             info,
             finished: false,
@@ -274,6 +293,9 @@ impl Simulation {
                     &mut self.next_clutter,
                     &mut self.rng_clutter,
                 ));
+            }
+            if let Some((appearances, rng)) = &mut self.appearance {
+                appearances.describe(&mut obs, rng);
             }
             self.events.push(Event {
                 time: t,

@@ -6,13 +6,16 @@
 //!
 //! ```text
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- sim 5
+//! ASSOCIATION_DESCRIPTORS=0.2,0.05 nice -n 10 cargo run --release -p bearing-slam --example association -- sim 3
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- cost
 //! ```
 
 use bearing_slam::core::Pose2;
 use bearing_slam::core::association::score::AssociationScore;
-use bearing_slam::core::association::{AssociationConfig, AssociationMethod, NewLandmarkDensity};
+use bearing_slam::core::association::{
+    AssociationConfig, AssociationMethod, DescriptorModel, NewLandmarkDensity,
+};
 use bearing_slam::core::log::{LandmarkTruth, SensorLog};
 use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
 use bearing_slam::core::score::summarize;
@@ -20,6 +23,7 @@ use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, align_landmarks_se2, filter_log,
 };
 use bearing_slam::io::mrclam::load_mrclam_with;
+use bearing_slam::sim::appearance::AppearanceSpec;
 use bearing_slam::sim::clutter::Distractor;
 use bearing_slam::sim::scenario::Scenario;
 use bearing_slam::sim::sim::simulate;
@@ -57,6 +61,9 @@ struct Row {
 /// and `ASSOCIATION_PARALLAX_VIEWS`. `ASSOCIATION_NEW_LANDMARKS=1` turns on
 /// the unmapped-landmark hypothesis with `prior` (the caller's stated
 /// prior: the setup's landmark count, clutter rate and field of view).
+/// `ASSOCIATION_DESCRIPTORS=σ,c` gives the simulated sensor appearance
+/// descriptors of noise σ with confusion rate c ([`descriptor_setting`]) and
+/// the association the sensor's stated σ.
 fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDensity) -> RunConfig {
     let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
         Ok("0") => false,
@@ -98,9 +105,21 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
         } else {
             d.new_landmark_density
         },
+        descriptors: descriptor_setting().map(|s| DescriptorModel { sigma: s.sigma }),
         ..d
     };
     config
+}
+
+/// The simulated descriptors of `ASSOCIATION_DESCRIPTORS=σ,c` (noise σ per
+/// component, confusion rate c), if set.
+fn descriptor_setting() -> Option<AppearanceSpec> {
+    let text = std::env::var("ASSOCIATION_DESCRIPTORS").ok()?;
+    let (sigma, confusion) = text.split_once(',')?;
+    Some(AppearanceSpec {
+        sigma: sigma.trim().parse().ok()?,
+        confusion_rate: confusion.trim().parse().ok()?,
+    })
 }
 
 fn run_one(
@@ -167,6 +186,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
             for seed in first_seed..first_seed + seeds {
                 let mut scenario = Scenario::named(name, seed)?;
                 scenario.clutter.per_scan = clutter;
+                scenario.appearance = descriptor_setting();
                 if distractor {
                     scenario.clutter.distractors = vec![Distractor {
                         center: [1.0, 1.0],
@@ -498,6 +518,8 @@ fn cost() -> Res<()> {
                 }),
                 noise_variance: deg * deg,
                 new_density: 0.0,
+                appearance: None,
+                appearance_gate: f64::INFINITY,
             });
         }
         let gates = Gates::new(0.999, m + 2)?;

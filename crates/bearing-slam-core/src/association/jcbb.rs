@@ -32,6 +32,12 @@ pub struct PairingProblem {
     /// `N(ν_ij; 0, S_jj)` is at least this (the "new" hypothesis is the
     /// likelier otherwise). 0: the χ² gate alone.
     pub new_density: f64,
+    /// Appearance distances `a²_ij` of bearing `i` to prediction `j`
+    /// (`n × m`, [`super::appearance`]), NaN where either has no
+    /// descriptor; `None`: geometry alone.
+    pub appearance: Option<DMatrix<f64>>,
+    /// The gate `χ²_D(p)` on `a²` (unused without `appearance`).
+    pub appearance_gate: f64,
 }
 
 /// The χ² gates of a pairing: individual (1 dof) and joint (k dof).
@@ -104,6 +110,15 @@ impl PairingProblem {
             ensure_finite("prediction covariance", c)?;
         }
         crate::error::ensure_positive_noise("bearing noise variance", self.noise_variance)?;
+        if let Some(a) = &self.appearance
+            && a.shape() != (self.bearings.len(), m)
+        {
+            return Err(SlamError::DimensionMismatch {
+                what: "appearance distances (rows = bearings, columns = predictions)",
+                expected: self.bearings.len() * m,
+                got: a.len(),
+            });
+        }
         if !(self.new_density.is_finite() && self.new_density >= 0.0) {
             return Err(SlamError::InvalidParameter {
                 name: "new-landmark density",
@@ -135,12 +150,29 @@ impl PairingProblem {
         (-0.5 * self.distance(i, j)).exp() / (std::f64::consts::TAU * s).sqrt()
     }
 
+    /// The appearance distance `a²_ij`, 0 when either side has no descriptor.
+    #[must_use]
+    pub fn appearance_distance(&self, i: usize, j: usize) -> f64 {
+        match &self.appearance {
+            Some(a) if a[(i, j)].is_finite() => a[(i, j)],
+            _ => 0.0,
+        }
+    }
+
+    /// `d²_ij + a²_ij`: the pair's distance with its appearance, which
+    /// ranks the candidates (the two noises are independent).
+    #[must_use]
+    pub fn ranking_distance(&self, i: usize, j: usize) -> f64 {
+        self.distance(i, j) + self.appearance_distance(i, j)
+    }
+
     /// Whether the pair `i → j` is individually compatible: `d²_ij` within
-    /// `gate` and, with a new-landmark density, `N(ν_ij; 0, S_jj)` at least
-    /// that density.
+    /// `gate`, `a²_ij` within the appearance gate and, with a new-landmark
+    /// density, `N(ν_ij; 0, S_jj)` at least that density.
     #[must_use]
     pub fn individually_compatible(&self, i: usize, j: usize, gate: f64) -> bool {
         self.distance(i, j) <= gate
+            && self.appearance_distance(i, j) <= self.appearance_gate
             && (self.new_density <= 0.0 || self.density(i, j) >= self.new_density)
     }
 
@@ -150,7 +182,7 @@ impl PairingProblem {
             .map(|i| {
                 let mut c: Vec<(usize, f64)> = (0..self.predicted.len())
                     .filter(|&j| self.individually_compatible(i, j, gate))
-                    .map(|j| (j, self.distance(i, j)))
+                    .map(|j| (j, self.ranking_distance(i, j)))
                     .collect();
                 c.sort_by(|a, b| a.1.total_cmp(&b.1));
                 c
@@ -217,17 +249,27 @@ struct Search<'a> {
     nodes: usize,
     exhausted: bool,
     best: Vec<(usize, usize)>,
+    /// The best hypothesis's joint NIS.
     best_nis: f64,
+    /// Its joint NIS plus its appearance distances (what ties are broken by).
+    best_score: f64,
 }
 
 impl Search<'_> {
     /// Whether `pairs` beats the best hypothesis: more pairings, or as many
-    /// with a smaller joint NIS.
+    /// with a smaller joint NIS plus appearance distances.
     fn consider(&mut self, pairs: &[(usize, usize)], nis: f64) {
-        if pairs.len() > self.best.len() || (pairs.len() == self.best.len() && nis < self.best_nis)
+        let score = nis
+            + pairs
+                .iter()
+                .map(|&(i, j)| self.problem.appearance_distance(i, j))
+                .sum::<f64>();
+        if pairs.len() > self.best.len()
+            || (pairs.len() == self.best.len() && score < self.best_score)
         {
             self.best = pairs.to_vec();
             self.best_nis = nis;
+            self.best_score = score;
         }
     }
 
@@ -285,6 +327,7 @@ pub fn jcbb(problem: &PairingProblem, gates: &Gates, budget: usize) -> Result<Pa
         exhausted: false,
         best: Vec::new(),
         best_nis: f64::INFINITY,
+        best_score: f64::INFINITY,
     };
     search.visit(0, &mut Vec::new(), 0.0);
     let mut landmark_of = vec![None; problem.bearings.len()];
@@ -327,6 +370,8 @@ mod tests {
             ),
             noise_variance: 0.005f64.powi(2),
             new_density: 0.0,
+            appearance: None,
+            appearance_gate: f64::INFINITY,
         }
     }
 
@@ -344,6 +389,41 @@ mod tests {
         // The crossed pairing is jointly incompatible.
         let crossed = problem.joint_nis(&[(0, 1), (1, 0)]).expect("pd");
         assert!(crossed > gates.joint[2], "{crossed}");
+    }
+
+    /// The shifted pair where appearance says which is which: with each
+    /// bearing's descriptor matching its own landmark (a² ≈ 1) and not the
+    /// other (a² = 400), nearest neighbour is no longer fooled; a bearing
+    /// whose descriptor matches neither landmark stays unpaired; a NaN
+    /// entry (no descriptor) leaves the geometry to decide.
+    #[test]
+    fn appearance_separates_what_geometry_confuses() {
+        let mut problem = shifted_pair();
+        problem.appearance = Some(DMatrix::from_row_slice(2, 2, &[1.0, 400.0, 400.0, 1.0]));
+        problem.appearance_gate = crate::stats::chi2_quantile(8.0, 0.99).expect("gate");
+        let gates = Gates::new(0.99, 2).expect("gates");
+        for pairing in [
+            nearest_neighbour(&problem, &gates).expect("nn"),
+            jcbb(&problem, &gates, 1000).expect("jcbb"),
+        ] {
+            assert_eq!(pairing.landmark_of, vec![Some(0), Some(1)]);
+        }
+        let mut stranger = problem.clone();
+        stranger.appearance = Some(DMatrix::from_row_slice(2, 2, &[400.0, 400.0, 400.0, 1.0]));
+        let nn = nearest_neighbour(&stranger, &gates).expect("nn");
+        assert_eq!(nn.landmark_of, vec![None, Some(1)]);
+        let mut unknown = problem.clone();
+        unknown.appearance = Some(DMatrix::from_element(2, 2, f64::NAN));
+        let nn = nearest_neighbour(&unknown, &gates).expect("nn");
+        assert_eq!(
+            nn.landmark_of,
+            vec![Some(1), Some(0)],
+            "geometry alone, fooled"
+        );
+        let mut bad = problem;
+        bad.appearance = Some(DMatrix::zeros(3, 2));
+        let e = jcbb(&bad, &gates, 10).expect_err("size").to_string();
+        assert!(e.contains("appearance distances"), "{e}");
     }
 
     #[test]
@@ -371,6 +451,8 @@ mod tests {
             prediction_covariance: DMatrix::from_row_slice(2, 2, &[0.09, 0.0, 0.0, 1e-4]),
             noise_variance: 1e-4,
             new_density: 6.0 / std::f64::consts::TAU,
+            appearance: None,
+            appearance_gate: f64::INFINITY,
         };
         let gates = Gates::new(0.999, 2).expect("gates");
         assert!(problem.distance(0, 0) <= gates.individual);

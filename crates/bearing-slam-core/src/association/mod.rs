@@ -19,15 +19,21 @@
 //!   that never confirm (too few consistent sightings, or sightings that no
 //!   static point explains), so they never enter the map.
 //!
+//! With a sensor that reports appearance descriptors, a pairing and a
+//! track's sighting must match in appearance as well ([`appearance`]).
+//!
 //! [`score`] scores a run's associations against the log's ids
 //! (precision, recall, duplicate, spurious and missed landmarks): in the
 //! unknown-identity mode the estimator ignores the ids and they serve as
 //! ground truth only.
 
+pub mod appearance;
 pub mod depth_hypotheses;
 pub mod jcbb;
 pub mod score;
 pub mod tracks;
+
+pub use appearance::{Appearance, DescriptorModel};
 
 use crate::error::{Result, SlamError, ensure_in_range};
 use crate::names::Named;
@@ -176,6 +182,13 @@ pub struct AssociationConfig {
     /// may be paired.
     #[serde(default)]
     pub new_landmark_density: Option<NewLandmarkDensity>,
+    /// The descriptor noise of a sensor that reports appearance
+    /// ([`crate::log::Descriptor`]): with it, a bearing that carries a
+    /// descriptor is paired with a landmark, or joins a track, only when
+    /// its appearance matches too ([`appearance`]). `None` (the default):
+    /// descriptors are ignored.
+    #[serde(default)]
+    pub descriptors: Option<DescriptorModel>,
 }
 
 /// The prior of the unmapped-landmark hypothesis (the "new landmark"
@@ -265,6 +278,7 @@ impl Default for AssociationConfig {
             confirm_unambiguous: false,
             confirm_track_score: false,
             new_landmark_density: None,
+            descriptors: None,
         }
     }
 }
@@ -300,6 +314,9 @@ impl AssociationConfig {
             ),
         ])?;
         if let Some(d) = &self.new_landmark_density {
+            d.validate()?;
+        }
+        if let Some(d) = &self.descriptors {
             d.validate()?;
         }
         if let Some(g) = self.track_max_gap_s

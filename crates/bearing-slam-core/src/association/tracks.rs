@@ -25,9 +25,11 @@
 //! [confirmed](TrackSet::confirmed) and hands those to its initializer.
 
 use super::AssociationConfig;
+use super::appearance::{Appearance, appearance_distance};
 use super::depth_hypotheses::{DepthHypothesis, initial_hypotheses};
 use crate::error::Result;
 use crate::geometry::{unit_direction, wrap_angle};
+use crate::log::Descriptor;
 use crate::stats::chi2_quantile;
 use nalgebra::{Matrix2, Vector2, Vector3};
 
@@ -59,6 +61,8 @@ pub struct Sighting {
     pub time: f64,
     /// `(scan number, index in the scan)`: the same bearing in two tracks has the same key.
     pub key: (u64, usize),
+    /// The bearing's appearance descriptor, if the sensor gave one.
+    pub descriptor: Option<Descriptor>,
 }
 
 impl Sighting {
@@ -103,6 +107,8 @@ pub struct Track {
     /// density of the scan's bearings round the circle (a bearing that is
     /// another landmark's or clutter).
     pub score: f64,
+    /// The mean descriptor of its sightings that had one.
+    pub appearance: Option<Appearance>,
 }
 
 impl Track {
@@ -152,6 +158,8 @@ pub struct TrackSet {
     view_separation: f64,
     /// `consistency[k] = χ²_k(p)` for a track's sightings (k = n − 2).
     consistency: Vec<f64>,
+    /// `χ²_D(p)` on a sighting's appearance distance (with descriptors).
+    appearance_gate: f64,
     tracks: Vec<Track>,
     scan: u64,
 }
@@ -177,6 +185,10 @@ impl TrackSet {
             score_threshold: -(1.0 - p).ln(),
             view_separation: chi2_quantile(1.0, p)?.sqrt() * bearing_sigma,
             consistency,
+            appearance_gate: match &config.descriptors {
+                Some(model) => model.gate(p)?,
+                None => f64::INFINITY,
+            },
             tracks: Vec::new(),
             scan: 0,
         })
@@ -198,8 +210,26 @@ impl TrackSet {
     /// track: against its point when it has one, else against the wedge of
     /// its first ray, with the log of the predictive density of the
     /// bearing (a Gaussian at its variance; uniform over the span with the
-    /// old wedge rule). `None`: not compatible.
+    /// old wedge rule). With descriptors, a sighting whose appearance does
+    /// not match the track's is not compatible, and its appearance distance
+    /// is added to the squared distance (which ranks the bearings).
+    /// `None`: not compatible.
     fn distance(&self, track: &Track, sighting: &Sighting) -> Option<(f64, f64)> {
+        let appearance = appearance_distance(
+            self.config.descriptors.as_ref(),
+            track.appearance.as_ref(),
+            sighting.descriptor.as_ref(),
+        )
+        .unwrap_or(0.0);
+        if appearance > self.appearance_gate {
+            return None;
+        }
+        self.geometric_distance(track, sighting)
+            .map(|(d2, log_density)| (d2 + appearance, log_density))
+    }
+
+    /// [`Self::distance`] by the bearing alone.
+    fn geometric_distance(&self, track: &Track, sighting: &Sighting) -> Option<(f64, f64)> {
         let p = sighting.position();
         let phi = sighting.world_bearing();
         // Only the pose uncertainty gained since the track began matters:
@@ -269,7 +299,16 @@ impl TrackSet {
         new_id: impl FnMut() -> u64,
     ) -> Vec<Vec<u64>> {
         let may_start = vec![true; bearings.len()];
-        self.observe_excluding(time, pose, pose_variances, bearings, &may_start, new_id)
+        let descriptors = vec![None; bearings.len()];
+        self.observe_excluding(
+            time,
+            pose,
+            pose_variances,
+            bearings,
+            &descriptors,
+            &may_start,
+            new_id,
+        )
     }
 
     /// [`Self::observe`], where a bearing with `may_start[i] == false` may
@@ -277,13 +316,16 @@ impl TrackSet {
     /// bearing inside a mapped landmark's individual gate (mutual
     /// exclusion — a new landmark is never begun where a mapped one already
     /// explains the bearing; if it is a new landmark behind the mapped one,
-    /// its track starts once the two bearings separate).
+    /// its track starts once the two bearings separate). `descriptors[i]`
+    /// is bearing `i`'s appearance, if any (a shorter slice: none).
+    #[allow(clippy::too_many_arguments)]
     pub fn observe_excluding(
         &mut self,
         time: f64,
         pose: &Vector3<f64>,
         pose_variances: &Vector3<f64>,
         bearings: &[f64],
+        descriptors: &[Option<Descriptor>],
         may_start: &[bool],
         mut new_id: impl FnMut() -> u64,
     ) -> Vec<Vec<u64>> {
@@ -297,6 +339,7 @@ impl TrackSet {
                 bearing: wrap_angle(z),
                 time,
                 key: (self.scan, i),
+                descriptor: descriptors.get(i).copied().flatten(),
             })
             .collect();
         let mut joined = vec![Vec::new(); bearings.len()];
@@ -342,6 +385,8 @@ impl TrackSet {
                 {
                     let mut branch = track.clone();
                     branch.score += log_density - log_false_density;
+                    branch.appearance =
+                        Appearance::extended(branch.appearance, sightings[i].descriptor.as_ref());
                     branch.sightings.push(sightings[i]);
                     branch.hits += 1;
                     branch.misses = 0;
@@ -357,6 +402,8 @@ impl TrackSet {
         for (t, i, gain) in taken_by_track {
             let track = &mut self.tracks[t];
             track.score += gain;
+            track.appearance =
+                Appearance::extended(track.appearance, sightings[i].descriptor.as_ref());
             track.sightings.push(sightings[i]);
             track.hits += 1;
             track.misses = 0;
@@ -384,6 +431,7 @@ impl TrackSet {
                     id,
                     hypotheses,
                     score: 0.0,
+                    appearance: s.descriptor.as_ref().map(Appearance::of),
                     sightings: vec![*s],
                     first_scan: self.scan,
                     hits: 1,

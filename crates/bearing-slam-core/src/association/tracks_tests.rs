@@ -56,14 +56,14 @@ fn an_excluded_bearing_joins_tracks_but_never_starts_one() {
         next
     };
     // Inside a mapped landmark's gate: no track is born.
-    let joined = s.observe_excluding(0.0, &pose, &v, &[0.3], &[false], &mut id);
+    let joined = s.observe_excluding(0.0, &pose, &v, &[0.3], &[], &[false], &mut id);
     assert_eq!(joined, vec![Vec::<u64>::new()]);
     assert!(s.tracks().is_empty());
     // A free bearing starts a track; the next scan's excluded bearing
     // of the same point still joins it.
-    s.observe_excluding(1.0, &pose, &v, &[0.3], &[true], &mut id);
+    s.observe_excluding(1.0, &pose, &v, &[0.3], &[], &[true], &mut id);
     let pose = Vector3::new(0.1, 0.0, 0.0);
-    let joined = s.observe_excluding(2.0, &pose, &v, &[0.31], &[false], &mut id);
+    let joined = s.observe_excluding(2.0, &pose, &v, &[0.31], &[], &[false], &mut id);
     assert_eq!(joined, vec![vec![1]]);
     assert_eq!(s.tracks().len(), 1);
 }
@@ -175,4 +175,39 @@ fn scattered_bearings_never_confirm() {
         confirmed.extend(s.confirmed());
     }
     assert!(confirmed.is_empty(), "{confirmed:?}");
+}
+
+/// Two landmarks seen along one ray (a wedge that takes either): with
+/// descriptors each bearing joins only the track that looks like it.
+#[test]
+fn a_bearing_that_looks_different_does_not_join_a_track() {
+    let config = AssociationConfig {
+        descriptors: Some(super::super::DescriptorModel { sigma: 0.1 }),
+        // Each track is seen every other scan.
+        min_hit_ratio: 0.4,
+        ..AssociationConfig::default()
+    };
+    let mut s = TrackSet::new(&config, 0.01, 0.5).expect("valid");
+    let v = Vector3::new(1e-6, 1e-6, 1e-6);
+    let (a, b) = (Descriptor([1.0; 8]), Descriptor([-1.0; 8]));
+    let mut next = 0;
+    let mut id = || {
+        next += 1;
+        next
+    };
+    for k in 0..10 {
+        let pose = Vector3::new(0.1 * k as f64, 0.0, 0.0);
+        // One bearing per scan towards (3, 2), showing A's appearance on
+        // even scans and B's on odd ones.
+        let z = bearing_to(&pose, 3.0, 2.0);
+        let shown = if k % 2 == 0 { a } else { b };
+        s.observe_excluding(k as f64, &pose, &v, &[z], &[Some(shown)], &[true], &mut id);
+    }
+    // Track 1 (A's look) took the even scans only, track 2 (B's) the odd.
+    let one = s.get(1).expect("A's track");
+    assert_eq!(one.sightings.len(), 5);
+    assert!(one.sightings.iter().all(|x| x.descriptor == Some(a)));
+    let two = s.get(2).expect("B's track");
+    assert!(two.sightings.iter().all(|x| x.descriptor == Some(b)));
+    assert_eq!(two.appearance.map(|x| x.count), Some(5));
 }

@@ -7,6 +7,7 @@
 
 use super::delayed::PendingCandidate;
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
+use crate::association::appearance::{Appearance, appearance_distance};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
 use crate::association::tracks::{TrackPoint, TrackSet};
@@ -15,7 +16,7 @@ use crate::ekf::BlockJacobian;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide};
-use crate::log::{BearingObservation, ensure_bearing};
+use crate::log::{BearingObservation, Descriptor, ensure_bearing};
 use nalgebra::{DMatrix, Matrix1, Vector3};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
@@ -42,6 +43,8 @@ struct Prediction {
     own_variance: f64,
     /// Whether it is a track's (a landmark not mapped yet), not a mapped landmark's.
     track: bool,
+    /// Its estimated appearance, when descriptors are in use and known.
+    appearance: Option<Appearance>,
 }
 
 /// The tracks of the unknown-identity mode and the ids they hand out.
@@ -63,6 +66,9 @@ pub(super) struct Anonymous {
     recent_nis: BTreeMap<u64, VecDeque<f64>>,
     /// Landmarks removed as duplicates, with the landmark they duplicated.
     merged: BTreeMap<u64, u64>,
+    /// Each mapped landmark's appearance (the mean of its paired
+    /// descriptors), when the bearings carry descriptors.
+    appearances: BTreeMap<u64, Appearance>,
 }
 
 impl Anonymous {
@@ -90,6 +96,7 @@ impl Anonymous {
             deaths: BTreeMap::new(),
             recent_nis: BTreeMap::new(),
             merged: BTreeMap::new(),
+            appearances: BTreeMap::new(),
         }))
     }
 }
@@ -131,9 +138,38 @@ impl BearingSlam {
     /// configured for known association, on NaN bearings or bearings beyond
     /// ±2π, or a time before the last one, leaving the filter as it was.
     pub fn update_anonymous(&mut self, time: f64, bearings: &[f64]) -> Result<AnonymousReport> {
+        self.update_anonymous_described(time, bearings, &[])
+    }
+
+    /// [`Self::update_anonymous`] with each bearing's appearance
+    /// descriptor (`descriptors[i]` for bearing `i`, `None` where the
+    /// sensor gave none; an empty slice: none at all). With
+    /// [`AssociationConfig::descriptors`] set, appearance must match too
+    /// ([`crate::association::appearance`]); without it descriptors are
+    /// ignored. Errors as [`Self::update_anonymous`], and when the slices'
+    /// lengths differ or a descriptor is not finite.
+    pub fn update_anonymous_described(
+        &mut self,
+        time: f64,
+        bearings: &[f64],
+        descriptors: &[Option<Descriptor>],
+    ) -> Result<AnonymousReport> {
         for &z in bearings {
             ensure_bearing(z)?;
         }
+        if !descriptors.is_empty() && descriptors.len() != bearings.len() {
+            return Err(SlamError::DimensionMismatch {
+                what: "descriptors (one per bearing, or none)",
+                expected: bearings.len(),
+                got: descriptors.len(),
+            });
+        }
+        for d in descriptors.iter().flatten() {
+            d.ensure_finite()?;
+        }
+        let descriptors: Vec<Option<Descriptor>> = (0..bearings.len())
+            .map(|i| descriptors.get(i).copied().flatten())
+            .collect();
         self.check_time(time)?;
         let method = self.config.association.method;
         if self.anonymous.is_none() {
@@ -147,7 +183,8 @@ impl BearingSlam {
             let tracks = self.track_predictions(bearings)?;
             predictions.extend(tracks);
         }
-        let (problem, kept, in_gate) = self.pairing_problem(bearings, &predictions)?;
+        let (problem, kept, in_gate) =
+            self.pairing_problem(bearings, &descriptors, &predictions)?;
         let gates = Gates::new(self.config.association.gate_probability, bearings.len())?;
         let pairing = match method {
             AssociationMethod::Jcbb => {
@@ -188,6 +225,7 @@ impl BearingSlam {
             .filter_map(|(i, j)| j.map(|j| (predictions[kept[j]].id, problem.distance(i, j))))
             .collect();
         let mut batch = self.update_bearings(time, &paired)?;
+        self.remember_appearances(&pairing, &kept, &predictions, &descriptors);
         self.remove_inconsistent_landmarks(time, &nis)?;
         let mut assigned: Vec<Assignment> = pairing
             .landmark_of
@@ -215,6 +253,7 @@ impl BearingSlam {
                     &pose,
                     &variances,
                     &unpaired.iter().map(|&i| bearings[i]).collect::<Vec<_>>(),
+                    &unpaired.iter().map(|&i| descriptors[i]).collect::<Vec<_>>(),
                     &may_start,
                     || {
                         let id = *next_id;
@@ -239,11 +278,38 @@ impl BearingSlam {
         })
     }
 
+    /// Adds each paired bearing's descriptor to its landmark's appearance.
+    fn remember_appearances(
+        &mut self,
+        pairing: &Pairing,
+        kept: &[usize],
+        predictions: &[Prediction],
+        descriptors: &[Option<Descriptor>],
+    ) {
+        if self.config.association.descriptors.is_none() {
+            return;
+        }
+        let Some(a) = self.anonymous.as_mut() else {
+            return;
+        };
+        for (i, j) in pairing.landmark_of.iter().enumerate() {
+            let (Some(j), Some(d)) = (j, &descriptors[i]) else {
+                continue;
+            };
+            let id = predictions[kept[*j]].id;
+            let known = a.appearances.get(&id).copied();
+            if let Some(appearance) = Appearance::extended(known, Some(d)) {
+                a.appearances.insert(id, appearance);
+            }
+        }
+    }
+
     /// Every mapped landmark's predicted bearing and Jacobian blocks (a
     /// landmark predicted at the sensor is left out).
     fn predictions(&self) -> Result<Vec<Prediction>> {
         let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
         let pose = self.vehicle_at();
+        let appearances = self.anonymous.as_ref().map(|a| &a.appearances);
         let mut out = Vec::with_capacity(self.landmarks.len());
         for (&id, &slot) in &self.landmarks {
             match linearize_bearing(&self.ekf, self.config.consistency, pose, slot, 0.0, &noise) {
@@ -253,6 +319,7 @@ impl BearingSlam {
                     blocks: l.blocks,
                     own_variance: 0.0,
                     track: false,
+                    appearance: appearances.and_then(|a| a.get(&id)).copied(),
                 }),
                 Err(SlamError::Degenerate(_)) => {}
                 Err(e) => return Err(e),
@@ -263,14 +330,24 @@ impl BearingSlam {
 
     /// The pairing problem over the predictions individually compatible with
     /// some bearing (their indices in `predictions` are returned too), and
-    /// for each bearing whether it lies in some prediction's individual gate.
+    /// for each bearing whether it lies in some prediction's individual gate
+    /// (appearance included).
     fn pairing_problem(
         &self,
         bearings: &[f64],
+        descriptors: &[Option<Descriptor>],
         predictions: &[Prediction],
     ) -> Result<(PairingProblem, Vec<usize>, Vec<bool>)> {
         let noise_variance = self.config.bearing_sigma.powi(2);
         let gate = Gates::new(self.config.association.gate_probability, 1)?.individual;
+        let model = self.config.association.descriptors.as_ref();
+        let appearance_gate = match model {
+            Some(m) => m.gate(self.config.association.gate_probability)?,
+            None => f64::INFINITY,
+        };
+        let appearance = |i: usize, p: &Prediction| {
+            appearance_distance(model, p.appearance.as_ref(), descriptors[i].as_ref())
+        };
         let mut kept = Vec::new();
         let mut in_gate = vec![false; bearings.len()];
         for (j, p) in predictions.iter().enumerate() {
@@ -278,7 +355,9 @@ impl BearingSlam {
                 cross_covariance(self, &p.blocks, &p.blocks)? + p.own_variance + noise_variance;
             let mut compatible = false;
             for (i, &z) in bearings.iter().enumerate() {
-                if wrap_angle(z - p.bearing).powi(2) / variance <= gate {
+                if wrap_angle(z - p.bearing).powi(2) / variance <= gate
+                    && appearance(i, p).is_none_or(|a2| a2 <= appearance_gate)
+                {
                     compatible = true;
                     in_gate[i] |= !p.track;
                 }
@@ -312,6 +391,12 @@ impl BearingSlam {
                     .association
                     .new_landmark_density
                     .map_or(0.0, |d| d.density(self.landmarks.len())),
+                appearance: model.map(|_| {
+                    DMatrix::from_fn(bearings.len(), m, |i, a| {
+                        appearance(i, &predictions[kept[a]]).unwrap_or(f64::NAN)
+                    })
+                }),
+                appearance_gate,
             },
             kept,
             in_gate,
@@ -349,7 +434,14 @@ impl BearingSlam {
                 + own_variance
                 + noise_variance;
             let bearing = wrap_angle(d.y.atan2(d.x) - pose.z);
-            candidates.push((track.id, bearing, h_pose, own_variance, variance));
+            candidates.push((
+                track.id,
+                bearing,
+                h_pose,
+                own_variance,
+                variance,
+                track.appearance,
+            ));
         }
         let mut chosen: Vec<usize> = Vec::new();
         for &z in bearings {
@@ -368,7 +460,7 @@ impl BearingSlam {
         Ok(chosen
             .into_iter()
             .map(|k| {
-                let (id, bearing, h_pose, own_variance, _) = candidates[k];
+                let (id, bearing, h_pose, own_variance, _, appearance) = candidates[k];
                 Prediction {
                     id,
                     bearing,
@@ -378,6 +470,7 @@ impl BearingSlam {
                     }],
                     own_variance,
                     track: true,
+                    appearance,
                 }
             })
             .collect())
@@ -402,7 +495,7 @@ impl BearingSlam {
                 continue;
             };
             let (first, last) = (*track.first(), *track.last());
-            if self.explained_by_map(track.point.as_ref()) {
+            if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref()) {
                 // A mapped landmark already stands there: its bearings
                 // missed the gate for a while; it is not mapped twice.
                 if let Some(a) = self.anonymous.as_mut() {
@@ -443,6 +536,9 @@ impl BearingSlam {
             if inserted {
                 if let Some(a) = self.anonymous.as_mut() {
                     a.births.insert(id, time);
+                    if let Some(appearance) = track.appearance {
+                        a.appearances.insert(id, appearance);
+                    }
                 }
                 entered += 1;
             }
@@ -459,7 +555,8 @@ impl BearingSlam {
         scan: &[BearingObservation],
     ) -> Result<AnonymousReport> {
         let bearings: Vec<f64> = scan.iter().map(|o| o.bearing).collect();
-        let report = self.update_anonymous(time, &bearings)?;
+        let descriptors: Vec<Option<Descriptor>> = scan.iter().map(|o| o.descriptor).collect();
+        let report = self.update_anonymous_described(time, &bearings, &descriptors)?;
         if let Some(a) = self.anonymous.as_mut() {
             a.costs.push(report.cost);
             a.records
@@ -548,6 +645,7 @@ impl BearingSlam {
             }
             for id in &doomed {
                 a.recent_nis.remove(id);
+                a.appearances.remove(id);
                 a.deaths.insert(*id, time);
             }
         }
@@ -558,18 +656,31 @@ impl BearingSlam {
     }
 
     /// Whether a track's point lies within the χ²₂ gate of a mapped
-    /// landmark (covariances of both summed).
-    fn explained_by_map(&self, point: Option<&TrackPoint>) -> bool {
+    /// landmark (covariances of both summed) that, with descriptors, also
+    /// looks like it (appearance within the χ²_D gate).
+    fn explained_by_map(
+        &self,
+        point: Option<&TrackPoint>,
+        appearance: Option<&Appearance>,
+    ) -> bool {
         let Some((x, cov)) = point else {
             return false;
         };
-        let gate = crate::stats::chi2_quantile(2.0, self.config.association.gate_probability)
-            .unwrap_or(f64::INFINITY);
+        let p = self.config.association.gate_probability;
+        let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
+        let model = self.config.association.descriptors;
+        let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
+        let known = self.anonymous.as_ref().map(|a| &a.appearances);
         self.landmarks().iter().any(|l| {
             let d = x - l.position;
-            (cov + l.covariance)
-                .try_inverse()
-                .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
+            let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
+                (Some(m), Some(a), Some(b)) => m.distance_between(a, b) <= appearance_gate,
+                _ => true,
+            };
+            alike
+                && (cov + l.covariance)
+                    .try_inverse()
+                    .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
         })
     }
 
@@ -578,12 +689,28 @@ impl BearingSlam {
     /// ([`Self::duplicate_pairs`]); a removal is recorded as a death and a
     /// merge (`merged[younger] = older`).
     pub(super) fn remove_duplicates(&mut self, time: f64) -> Result<()> {
-        let gate = crate::stats::chi2_quantile(2.0, self.config.association.gate_probability)?;
+        let p = self.config.association.gate_probability;
+        let gate = crate::stats::chi2_quantile(2.0, p)?;
+        let model = self.config.association.descriptors;
+        let appearance_gate = match &model {
+            Some(m) => m.gate(p)?,
+            None => f64::INFINITY,
+        };
         let pairs = self.duplicate_pairs(gate)?;
         for (a, b) in pairs {
             let Some(anonymous) = self.anonymous.as_mut() else {
                 return Ok(());
             };
+            // Two landmarks that look different are two landmarks, however
+            // close (twins closer than the bearing noise).
+            if let (Some(m), Some(pa), Some(pb)) = (
+                &model,
+                anonymous.appearances.get(&a),
+                anonymous.appearances.get(&b),
+            ) && m.distance_between(pa, pb) > appearance_gate
+            {
+                continue;
+            }
             let born = |id: u64| anonymous.births.get(&id).copied().unwrap_or(f64::INFINITY);
             let (older, younger) = if (born(a), a) <= (born(b), b) {
                 (a, b)
@@ -593,6 +720,7 @@ impl BearingSlam {
             anonymous.deaths.insert(younger, time);
             anonymous.merged.insert(younger, older);
             anonymous.recent_nis.remove(&younger);
+            anonymous.appearances.remove(&younger);
             self.remove_landmark(younger)?;
         }
         Ok(())

@@ -1,17 +1,21 @@
 //! The unknown-identity mode on whole seeded runs (issue #16): clutter
 //! bearings and a moving distractor never enter the map, and the static
-//! landmarks are associated correctly.
+//! landmarks are associated correctly; appearance descriptors keep twin
+//! landmarks apart.
 
 use bearing_slam_core::association::score::AssociationScore;
-use bearing_slam_core::association::{AssociationConfig, AssociationMethod};
+use bearing_slam_core::association::{AssociationConfig, AssociationMethod, DescriptorModel};
 use bearing_slam_core::log::{
-    BearingObservation, CLUTTER_ID_START, DISTRACTOR_ID_START, EventKind, SensorLog,
+    BearingObservation, CLUTTER_ID_START, DESCRIPTOR_LEN, DISTRACTOR_ID_START, Descriptor,
+    EventKind, LandmarkTruth, SensorLog,
 };
 use bearing_slam_core::runner::run;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 use bearing_slam_core::wrap_angle;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
+use rand_distr::{Distribution, StandardNormal};
+use std::collections::BTreeMap;
 
 /// The straight run past four landmarks, with `clutter` uniform false
 /// bearings per scan and, when `distractor`, a person pacing 1 m back and
@@ -99,4 +103,61 @@ fn known_association_drops_marked_clutter_and_is_not_scored() {
         "{:?}",
         last.landmarks.iter().map(|l| l.id).collect::<Vec<_>>()
     );
+}
+
+/// The straight run past four pairs of twin landmarks 0.15 m apart (about
+/// 2σ of bearing at the typical range), every sighting carrying a
+/// descriptor: its landmark's own appearance (drawn from `N(0, I)`) plus
+/// noise of σ = 0.1 per component.
+fn twins_log(seed: u64) -> SensorLog {
+    let base = KinematicScenario::paper_fig4(false);
+    let mut landmarks = base.landmarks.clone();
+    landmarks.extend(base.landmarks.iter().map(|l| LandmarkTruth {
+        id: l.id + 100,
+        x: l.x,
+        y: l.y + 0.15,
+    }));
+    let scenario = KinematicScenario { landmarks, ..base };
+    let mut log = scenario.simulate(seed);
+    let mut rng = StdRng::seed_from_u64(seed + 2000);
+    let normal = |rng: &mut StdRng| -> f64 { StandardNormal.sample(rng) };
+    let appearance: BTreeMap<u64, [f64; DESCRIPTOR_LEN]> = scenario
+        .landmarks
+        .iter()
+        .map(|l| (l.id, std::array::from_fn(|_| normal(&mut rng))))
+        .collect();
+    for event in &mut log.events {
+        if let EventKind::Bearings(scan) = &mut event.kind {
+            for o in scan {
+                let own = appearance[&o.landmark_id];
+                o.descriptor = Some(Descriptor(std::array::from_fn(|k| {
+                    own[k] + 0.1 * normal(&mut rng)
+                })));
+            }
+        }
+    }
+    log
+}
+
+#[test]
+fn appearance_keeps_twin_landmarks_apart() {
+    for method in [AssociationMethod::Jcbb, AssociationMethod::NearestNeighbour] {
+        let log = twins_log(5);
+        // Geometry alone mixes the twins (76 % and 60 % precision on this run) ...
+        let geometry = run_with(&log, AssociationConfig::of(method));
+        assert!(geometry.precision < 0.9, "{method}: {geometry:?}");
+        // ... their appearance keeps every pairing right and maps all eight.
+        let described = run_with(
+            &log,
+            AssociationConfig {
+                descriptors: Some(DescriptorModel { sigma: 0.1 }),
+                ..AssociationConfig::of(method)
+            },
+        );
+        assert!(described.precision >= 0.99, "{method}: {described:?}");
+        assert!(described.recall >= 0.95, "{method}: {described:?}");
+        assert_eq!(described.duplicates, 0, "{method}: {described:?}");
+        assert_eq!(described.mapped, 8, "{method}: {described:?}");
+        assert_eq!(described.missed, 0, "{method}: {described:?}");
+    }
 }
