@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 import bearing_slam as bs
@@ -35,3 +36,39 @@ def test_hidden_ids_are_associated_and_scored(short_log: bs.SensorLog) -> None:
 def test_a_bad_association_name_lists_the_known_ones() -> None:
     with pytest.raises(ValueError, match="known, nn, jcbb"):
         bs.Config(association="nearest").validate()
+
+
+def test_simulated_descriptors_change_no_bearing_and_follow_their_noise() -> None:
+    plain = bs.simulate("paper_fig4", seed=2, duration=10.0)
+    described = bs.simulate("paper_fig4", seed=2, duration=10.0, descriptor_sigma=0.05)
+    # Descriptors draw from their own random stream: the bearings are the same.
+    np.testing.assert_array_equal(plain.bearings, described.bearings)
+    assert np.isnan(plain.descriptors).all()
+    d = described.descriptors
+    assert d.shape == (len(described.bearings), 8) and np.isfinite(d).all()
+    # Every sighting of one landmark scatters with σ = 0.05 round its appearance.
+    ids = described.bearing_ids
+    for landmark in np.unique(ids):
+        rows = d[ids == landmark]
+        if len(rows) > 20:
+            assert 0.03 < float(rows.std(axis=0).mean()) < 0.07
+    with pytest.raises(bs.InvalidParameterError, match="descriptor_confusion needs"):
+        bs.simulate("paper_fig4", seed=2, duration=1.0, descriptor_confusion=0.1)
+    with pytest.raises(bs.BearingSlamError, match="appearance.confusion_rate"):
+        bs.simulate("paper_fig4", seed=2, duration=1.0, descriptor_sigma=0.1, descriptor_confusion=2)
+
+
+def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() -> None:
+    with pytest.raises(ValueError, match="descriptor_sigma is not used here"):
+        bs.Config(descriptor_sigma=0.2)
+    config = bs.Config(association="jcbb", descriptor_sigma=0.2)
+    assert config.descriptor_sigma == 0.2
+    with pytest.raises(ValueError, match="association.descriptors.sigma"):
+        config.replace(descriptor_sigma=-1.0).validate()
+    log = bs.simulate("paper_fig4", seed=3, clutter=2.0, descriptor_sigma=0.1).head(25.0)
+    result = bs.run(log, bs.Config.for_log(log, association="jcbb", descriptor_sigma=0.1))
+    assert result.config.descriptor_sigma == 0.1
+    score = result.association
+    assert score is not None
+    assert score["precision"] >= 0.99
+    assert score["spurious"] == 0 and score["duplicates"] == 0

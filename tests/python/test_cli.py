@@ -102,6 +102,30 @@ def test_run_mte_history(tmp_path: Path) -> None:
     assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
 
 
+def test_simulate_with_clutter_and_descriptors_then_associate(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    r = cli(
+        "simulate", "paper_fig4", "--seed", "3", "--duration", "25", "--clutter", "1",
+        "--descriptor-sigma", "0.1", "--out", log,
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    out = tmp_path / "jcbb"
+    r = cli(
+        "run", log, "--association", "jcbb", "--descriptor-sigma", "0.1", "--out", out, "--quiet"
+    )
+    assert r.returncode == 0, r.stderr
+    m = check_outputs(out)
+    assert m["config"]["descriptor_sigma"] == 0.1  # type: ignore[index]
+    score = m["association"]
+    assert score["precision"] >= 0.99  # type: ignore[index]
+    assert score["spurious"] == 0  # type: ignore[index]
+    r = cli("run", log, "--descriptor-sigma", "0.1", "--out", tmp_path / "known", "--quiet")
+    assert r.returncode != 0
+    assert "--descriptor-sigma applies to --association nn or jcbb only" in r.stderr
+    r = cli("simulate", "paper_fig4", "--descriptor-confusion", "0.1", "--out", log)
+    assert r.returncode != 0 and "--descriptor-confusion needs --descriptor-sigma" in r.stderr
+
+
 def test_simulate_scenario_file(tmp_path: Path) -> None:
     out = tmp_path / "example.mcap"
     r = cli("simulate", EXAMPLE_SCENARIO, "--seed", "1", "--duration", "5", "--out", out)

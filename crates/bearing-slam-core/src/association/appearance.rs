@@ -61,6 +61,16 @@ impl DescriptorModel {
         appearance.mean.distance_squared(descriptor) / variance
     }
 
+    /// `ln N(d; m, σ²(1 + 1/n) I)`: the density of `descriptor` if it is
+    /// a sighting of the landmark whose appearance is `appearance`.
+    #[must_use]
+    pub fn log_density(&self, appearance: &Appearance, descriptor: &Descriptor) -> f64 {
+        let variance = self.sigma * self.sigma * (1.0 + 1.0 / appearance.count as f64);
+        let dof = DESCRIPTOR_LEN as f64;
+        -0.5 * self.distance(appearance, descriptor)
+            - 0.5 * dof * (std::f64::consts::TAU * variance).ln()
+    }
+
     /// `a²` of two appearances against each other: `‖m_a − m_b‖² /
     /// (σ²(1/n_a + 1/n_b))`, χ²_D when both are of one landmark.
     #[must_use]
@@ -110,6 +120,52 @@ impl Appearance {
             (None, Some(d)) => Some(Self::of(d)),
             (a, None) => a,
         }
+    }
+}
+
+/// The appearance of "anything": a diagonal Gaussian fitted to every
+/// descriptor seen so far (Welford's running mean and variance per
+/// component), the alternative hypothesis of a track's appearance evidence
+/// (a sighting that is not the track's landmark looks like a random draw
+/// from what the sensor sees).
+#[derive(Clone, Debug, PartialEq, Default)]
+pub struct Background {
+    count: usize,
+    mean: [f64; DESCRIPTOR_LEN],
+    /// Sums of squared deviations per component.
+    m2: [f64; DESCRIPTOR_LEN],
+}
+
+impl Background {
+    /// Adds a descriptor.
+    pub fn add(&mut self, d: &Descriptor) {
+        self.count += 1;
+        let n = self.count as f64;
+        for k in 0..DESCRIPTOR_LEN {
+            let delta = d.0[k] - self.mean[k];
+            self.mean[k] += delta / n;
+            self.m2[k] += delta * (d.0[k] - self.mean[k]);
+        }
+    }
+
+    /// `ln` of the fitted density at `d`; `None` until it has seen more
+    /// descriptors than twice their length (a variance from fewer is no
+    /// model) or while a component has no spread.
+    #[must_use]
+    pub fn log_density(&self, d: &Descriptor) -> Option<f64> {
+        if self.count <= 2 * DESCRIPTOR_LEN {
+            return None;
+        }
+        let mut sum = 0.0;
+        for k in 0..DESCRIPTOR_LEN {
+            let variance = self.m2[k] / (self.count - 1) as f64;
+            if variance.is_nan() || variance <= 0.0 {
+                return None;
+            }
+            let z = d.0[k] - self.mean[k];
+            sum += -0.5 * z * z / variance - 0.5 * (std::f64::consts::TAU * variance).ln();
+        }
+        Some(sum)
     }
 }
 
@@ -168,6 +224,31 @@ mod tests {
         );
         let rate = inside as f64 / trials as f64;
         assert!((rate - 0.99).abs() < 0.01, "inside the 99 % gate: {rate}");
+    }
+
+    #[test]
+    fn a_right_sighting_is_evidence_for_its_track_against_the_background() {
+        let model = DescriptorModel { sigma: 0.2 };
+        let mut rng = StdRng::seed_from_u64(3);
+        let mut background = Background::default();
+        let zero = [0.0; DESCRIPTOR_LEN];
+        let own: Vec<Descriptor> = (0..40).map(|_| noisy(&zero, 1.0, &mut rng)).collect();
+        let first = noisy(&own[0].0, 0.2, &mut rng);
+        assert_eq!(background.log_density(&first), None, "no model yet");
+        for a in &own {
+            background.add(&noisy(&a.0, 0.2, &mut rng));
+        }
+        let track = Appearance::of(&first);
+        let right = noisy(&own[0].0, 0.2, &mut rng);
+        let wrong = noisy(&own[1].0, 0.2, &mut rng);
+        let bg = |d| background.log_density(d).expect("fitted");
+        // ln-likelihood ratios: a right sighting gains past
+        // ln(1/(1 − 0.999)) ≈ 6.9 ((D/2) ln((1 + σ²)/(2σ²)) ≈ 10.3 on
+        // average against N(0, (1 + σ²) I)), a wrong one loses.
+        let gain = model.log_density(&track, &right) - bg(&right);
+        assert!(gain > 6.9, "{gain}");
+        let loss = model.log_density(&track, &wrong) - bg(&wrong);
+        assert!(loss < 0.0, "{loss}");
     }
 
     #[test]

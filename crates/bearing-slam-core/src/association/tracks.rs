@@ -25,7 +25,7 @@
 //! [confirmed](TrackSet::confirmed) and hands those to its initializer.
 
 use super::AssociationConfig;
-use super::appearance::{Appearance, appearance_distance};
+use super::appearance::{Appearance, Background, appearance_distance};
 use super::depth_hypotheses::{DepthHypothesis, initial_hypotheses};
 use crate::error::Result;
 use crate::geometry::{unit_direction, wrap_angle};
@@ -109,6 +109,10 @@ pub struct Track {
     pub score: f64,
     /// The mean descriptor of its sightings that had one.
     pub appearance: Option<Appearance>,
+    /// Its appearance evidence: the summed ln-likelihood ratio of its
+    /// sightings' descriptors under its appearance against the background
+    /// of everything seen ([`Background`]); 0 without descriptors.
+    pub appearance_score: f64,
 }
 
 impl Track {
@@ -160,6 +164,8 @@ pub struct TrackSet {
     consistency: Vec<f64>,
     /// `χ²_D(p)` on a sighting's appearance distance (with descriptors).
     appearance_gate: f64,
+    /// The descriptors seen so far, the alternative of the appearance evidence.
+    background: Background,
     tracks: Vec<Track>,
     scan: u64,
 }
@@ -189,6 +195,7 @@ impl TrackSet {
                 Some(model) => model.gate(p)?,
                 None => f64::INFINITY,
             },
+            background: Background::default(),
             tracks: Vec::new(),
             scan: 0,
         })
@@ -385,6 +392,7 @@ impl TrackSet {
                 {
                     let mut branch = track.clone();
                     branch.score += log_density - log_false_density;
+                    branch.appearance_score += self.appearance_gain(track, &sightings[i]);
                     branch.appearance =
                         Appearance::extended(branch.appearance, sightings[i].descriptor.as_ref());
                     branch.sightings.push(sightings[i]);
@@ -400,8 +408,10 @@ impl TrackSet {
             self.tracks.push(branch);
         }
         for (t, i, gain) in taken_by_track {
+            let appearance_gain = self.appearance_gain(&self.tracks[t], &sightings[i]);
             let track = &mut self.tracks[t];
             track.score += gain;
+            track.appearance_score += appearance_gain;
             track.appearance =
                 Appearance::extended(track.appearance, sightings[i].descriptor.as_ref());
             track.sightings.push(sightings[i]);
@@ -432,6 +442,7 @@ impl TrackSet {
                     hypotheses,
                     score: 0.0,
                     appearance: s.descriptor.as_ref().map(Appearance::of),
+                    appearance_score: 0.0,
                     sightings: vec![*s],
                     first_scan: self.scan,
                     hits: 1,
@@ -444,8 +455,28 @@ impl TrackSet {
                 joined[i].push(id);
             }
         }
+        for d in sightings.iter().filter_map(|s| s.descriptor.as_ref()) {
+            self.background.add(d);
+        }
         self.prune(time);
         joined
+    }
+
+    /// The ln-likelihood ratio of `sighting`'s descriptor under `track`'s
+    /// appearance against the background; 0 without descriptors, without
+    /// the model, or before the background is fitted.
+    fn appearance_gain(&self, track: &Track, sighting: &Sighting) -> f64 {
+        let (Some(model), Some(appearance), Some(d)) = (
+            &self.config.descriptors,
+            &track.appearance,
+            &sighting.descriptor,
+        ) else {
+            return 0.0;
+        };
+        match self.background.log_density(d) {
+            Some(background) => model.log_density(appearance, d) - background,
+            None => 0.0,
+        }
     }
 
     /// Drops tracks that missed too many scans (or, counting in time, were
@@ -633,17 +664,24 @@ impl TrackSet {
     /// Tracks ready for the map: seen at least `min_sightings` times in
     /// enough of their scans, with a consistent point, and not contested
     /// by another consistent track that explains most of the same bearings
-    /// with a different point. Ascending ids.
+    /// with a different point. Ascending ids. With descriptors, a track
+    /// whose appearance evidence passes Wald's bound `ln(1/(1 − p))`
+    /// (`p` = `track_gate_probability`: the probability of confirming a
+    /// track of sightings that are not one landmark's is at most `1 − p`)
+    /// needs only two sightings instead of `min_sightings`: the sightings
+    /// are then shown to be one thing by their looks, which is what the
+    /// count stands in for without them.
     #[must_use]
     pub fn confirmed(&self) -> Vec<u64> {
         self.tracks
             .iter()
             .filter(|t| {
                 let timed = self.config.track_max_gap_s.is_some();
-                t.hits >= self.config.min_sightings
+                let looks_one = t.hits >= 2 && t.appearance_score >= self.score_threshold;
+                (t.hits >= self.config.min_sightings || looks_one)
                     && (timed
                         || t.hits as f64 >= self.config.min_hit_ratio * t.judged_scans(self.scan))
-                    && t.point.is_some()
+                    && (t.point.is_some() || looks_one)
                     && t.last().key.0 == self.scan
             })
             .filter(|t| {

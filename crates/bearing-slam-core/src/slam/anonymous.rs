@@ -534,11 +534,25 @@ impl BearingSlam {
                 a.tracks.remove_with_competitors(id);
             }
             if inserted {
+                // A mapped landmark that looks like the new one is the same
+                // landmark, lost by its estimate (its bearings stopped
+                // falling in its gate): the new estimate replaces it, so it
+                // is not mapped twice.
+                let replaced = self.look_alike(track.appearance.as_ref());
                 if let Some(a) = self.anonymous.as_mut() {
                     a.births.insert(id, time);
                     if let Some(appearance) = track.appearance {
                         a.appearances.insert(id, appearance);
                     }
+                    if let Some(old) = replaced {
+                        a.deaths.insert(old, time);
+                        a.merged.insert(old, id);
+                        a.recent_nis.remove(&old);
+                        a.appearances.remove(&old);
+                    }
+                }
+                if let Some(old) = replaced {
+                    self.remove_landmark(old)?;
                 }
                 entered += 1;
             }
@@ -655,22 +669,39 @@ impl BearingSlam {
         Ok(())
     }
 
-    /// Whether a track's point lies within the χ²₂ gate of a mapped
-    /// landmark (covariances of both summed) that, with descriptors, also
-    /// looks like it (appearance within the χ²_D gate).
+    /// The mapped landmark a track looks like (appearance within the χ²_D
+    /// gate), with descriptors: the track is that landmark, seen where its
+    /// estimate no longer predicts it.
+    fn look_alike(&self, appearance: Option<&Appearance>) -> Option<u64> {
+        let model = self.config.association.descriptors?;
+        let gate = model.gate(self.config.association.gate_probability).ok()?;
+        let a = appearance?;
+        let known = &self.anonymous.as_ref()?.appearances;
+        known
+            .iter()
+            .map(|(&id, b)| (id, model.distance_between(a, b)))
+            .filter(|&(_, d2)| d2 <= gate)
+            .min_by(|x, y| x.1.total_cmp(&y.1))
+            .map(|(id, _)| id)
+    }
+
+    /// Whether a mapped landmark already explains a track: its point lies
+    /// within the χ²₂ gate of the track's (covariances of both summed)
+    /// and, with descriptors, it looks like it (appearance within the χ²_D
+    /// gate).
     fn explained_by_map(
         &self,
         point: Option<&TrackPoint>,
         appearance: Option<&Appearance>,
     ) -> bool {
-        let Some((x, cov)) = point else {
-            return false;
-        };
         let p = self.config.association.gate_probability;
-        let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
         let model = self.config.association.descriptors;
         let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
         let known = self.anonymous.as_ref().map(|a| &a.appearances);
+        let Some((x, cov)) = point else {
+            return false;
+        };
+        let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
         self.landmarks().iter().any(|l| {
             let d = x - l.position;
             let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
