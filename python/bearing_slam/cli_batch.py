@@ -13,11 +13,18 @@ from typing import Any
 from tqdm import tqdm
 
 from bearing_slam._native import scenario_names
-from bearing_slam.arg_types import UserError, output_file, positive_float, seed
+from bearing_slam.arg_types import (
+    UserError,
+    non_negative_float,
+    output_file,
+    positive_float,
+    seed,
+)
 from bearing_slam.arg_types import positive_int as _positive_int
 from bearing_slam.estimators import add_estimator_options, estimator_problem, estimator_spec
 from bearing_slam.outputs import write_text_atomic
 from bearing_slam.vocabulary import (
+    ASSOCIATIONS,
     DEFAULT_PRIOR,
     DEFAULT_THRESHOLDS,
     EXPERIMENT_DEFAULT_RUNS,
@@ -41,6 +48,8 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         )
     if problem := estimator_problem(args):
         raise UserError(problem)
+    if args.descriptor_sigma is None and args.descriptor_confusion != 0.0:
+        raise UserError("--descriptor-confusion needs --descriptor-sigma")
     spec = make_spec(
         args.scenario,
         args.init,
@@ -52,6 +61,10 @@ def _cmd_montecarlo(args: argparse.Namespace) -> int:
         landmark_scale=args.scale,
         rho_ini=DEFAULT_PRIOR["rho_ini"] if args.rho_ini is None else args.rho_ini,
         sigma_rho=DEFAULT_PRIOR["sigma_rho"] if args.sigma_rho is None else args.sigma_rho,
+        association=args.association,
+        clutter=args.clutter,
+        descriptor_sigma=args.descriptor_sigma,
+        descriptor_confusion=args.descriptor_confusion,
         **estimator_spec(args),
     )
     result = run_spec(spec, progress=not args.quiet)
@@ -163,6 +176,26 @@ def add_batch_parsers(sub: Any) -> None:
     )
     mc.add_argument(
         "--json", required=True, type=output_file, metavar="OUT.json", help="report file to write"
+    )
+    mc.add_argument(
+        "--association",
+        choices=ASSOCIATIONS,
+        default="known",
+        help="data association (default: %(default)s, the log's ids; nn/jcbb: hidden from the "
+        "filter and used to score it: precision, recall, duplicates in the report)",
+    )
+    mc.add_argument("--clutter", type=non_negative_float, help="mean false bearings per scan")
+    mc.add_argument(
+        "--descriptor-sigma",
+        type=positive_float,
+        help="give every sighting an appearance descriptor with this noise σ (also the "
+        "association's descriptor model)",
+    )
+    mc.add_argument(
+        "--descriptor-confusion",
+        type=non_negative_float,
+        default=0.0,
+        help="probability a sighting shows another landmark's appearance (default: 0)",
     )
     mc.add_argument("--quiet", action="store_true", help="no progress bar")
     add_estimator_options(mc)

@@ -114,14 +114,33 @@ def make_spec(
     sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
     estimator: str = DEFAULT_ESTIMATOR,
     particles: int = DEFAULT_PARTICLES,
+    association: str = "known",
+    clutter: float | None = None,
+    descriptor_sigma: float | None = None,
+    descriptor_confusion: float = 0.0,
 ) -> dict[str, Any]:
     """A Monte Carlo spec (the JSON of the Rust ``MonteCarloSpec``) as a dict.
     ``landmark_scale`` multiplies the positions of the scenario's near
     landmarks (all but its far ones) about the world origin; ``estimator``
     (:data:`~bearing_slam.vocabulary.ESTIMATORS`) runs another estimator
-    than the EKF (``particles`` for FastSLAM, seeded with each run's seed)."""
+    than the EKF (``particles`` for FastSLAM, seeded with each run's seed).
+    ``association`` (:data:`~bearing_slam.vocabulary.ASSOCIATIONS`) hides the
+    ids from the estimator (``"nn"``, ``"jcbb"``) and scores it against them;
+    ``clutter`` adds false bearings per scan; ``descriptor_sigma`` gives every
+    sighting an appearance descriptor of that noise (also the association's
+    descriptor model), ``descriptor_confusion`` the probability a sighting
+    shows another landmark's appearance."""
     if runs < 1:
         raise ValueError(f"runs must be at least 1, got {runs}")
+    if descriptor_sigma is None and descriptor_confusion != 0.0:
+        raise ValueError(
+            "descriptor_confusion needs descriptor_sigma (the descriptors it confuses)"
+        )
+    appearance = (
+        None
+        if descriptor_sigma is None
+        else {"sigma": descriptor_sigma, "confusion_rate": descriptor_confusion}
+    )
     return {
         "scenario": {
             "name": scenario,
@@ -130,12 +149,15 @@ def make_spec(
             "far_landmark": far_landmark,
             "slip": slip,
             "landmark_scale": landmark_scale,
+            "clutter_per_scan": clutter,
+            "appearance": appearance,
         },
         "initializer": initializer_spec(init, rho_ini=rho_ini, sigma_rho=sigma_rho),
         "runs": runs,
         "thresholds": {**DEFAULT_THRESHOLDS, **(thresholds or {})},
         "estimator": estimator,
         "particles": particles,
+        "association": association,
     }
 
 
@@ -238,12 +260,22 @@ class MonteCarloResult:
         return json.dumps(self.report, indent=indent)
 
     def summary_line(self) -> str:
-        """One line: label, runs and class fractions."""
-        return (
+        """One line: label, runs and class fractions (and, with the ids
+        hidden, the mean association precision, recall and duplicates)."""
+        line = (
             f"{self.label}: {self.runs} runs: converged {100 * self.converged_fraction:.1f} %, "
             f"drift {100 * self.drift_fraction:.1f} %, "
             f"diverged {100 * self.diverged_fraction:.1f} %"
         )
+        means = self.report["all_finite"]
+        if means.get("association_precision") is not None:
+            line += (
+                f"; association precision {100 * means['association_precision']:.1f} %, "
+                f"recall {100 * means['association_recall']:.1f} %, "
+                f"{means['duplicates_at_end']:.2f} duplicate and "
+                f"{means['spurious_at_end']:.2f} spurious landmarks per run"
+            )
+        return line
 
 
 def _bar(
@@ -318,6 +350,10 @@ def montecarlo(
     sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
     estimator: str = DEFAULT_ESTIMATOR,
     particles: int = DEFAULT_PARTICLES,
+    association: str = "known",
+    clutter: float | None = None,
+    descriptor_sigma: float | None = None,
+    descriptor_confusion: float = 0.0,
 ) -> dict[str, MonteCarloResult]:
     """``runs`` runs of ``scenario`` (seeds ``seed0 …``) for each initializer.
 
@@ -327,7 +363,9 @@ def montecarlo(
     ``landmark_count``, ``far_landmark``, ``slip`` and ``landmark_scale``
     change the scenario (``None``: its own); ``thresholds``
     override :data:`DEFAULT_THRESHOLDS`; ``estimator`` and ``particles``
-    choose the estimator (:func:`make_spec`). Without ``executor`` the runs use
+    choose the estimator, ``association``, ``clutter``, ``descriptor_sigma``
+    and ``descriptor_confusion`` the data association and what makes it hard
+    (:func:`make_spec`). Without ``executor`` the runs use
     every local core; with one (e.g. ``distributed.Client().get_executor()``)
     each run is a task, with the same result.
 
@@ -353,6 +391,10 @@ def montecarlo(
             sigma_rho=sigma_rho,
             estimator=estimator,
             particles=particles,
+            association=association,
+            clutter=clutter,
+            descriptor_sigma=descriptor_sigma,
+            descriptor_confusion=descriptor_confusion,
         )
         result = run_spec(spec, executor=executor, progress=progress)
         key = init if isinstance(init, str) else result.label

@@ -45,7 +45,8 @@ def test_simulated_descriptors_change_no_bearing_and_follow_their_noise() -> Non
     np.testing.assert_array_equal(plain.bearings, described.bearings)
     assert np.isnan(plain.descriptors).all()
     d = described.descriptors
-    assert d.shape == (len(described.bearings), 8) and np.isfinite(d).all()
+    assert d.shape == (len(described.bearings), 8)
+    assert np.isfinite(d).all()
     # Every sighting of one landmark scatters with σ = 0.05 round its appearance.
     ids = described.bearing_ids
     for landmark in np.unique(ids):
@@ -54,8 +55,10 @@ def test_simulated_descriptors_change_no_bearing_and_follow_their_noise() -> Non
             assert 0.03 < float(rows.std(axis=0).mean()) < 0.07
     with pytest.raises(bs.InvalidParameterError, match="descriptor_confusion needs"):
         bs.simulate("paper_fig4", seed=2, duration=1.0, descriptor_confusion=0.1)
-    with pytest.raises(bs.BearingSlamError, match="appearance.confusion_rate"):
-        bs.simulate("paper_fig4", seed=2, duration=1.0, descriptor_sigma=0.1, descriptor_confusion=2)
+    with pytest.raises(bs.BearingSlamError, match=r"appearance\.confusion_rate"):
+        bs.simulate(
+            "paper_fig4", seed=2, duration=1.0, descriptor_sigma=0.1, descriptor_confusion=2
+        )
 
 
 def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() -> None:
@@ -63,7 +66,7 @@ def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() 
         bs.Config(descriptor_sigma=0.2)
     config = bs.Config(association="jcbb", descriptor_sigma=0.2)
     assert config.descriptor_sigma == 0.2
-    with pytest.raises(ValueError, match="association.descriptors.sigma"):
+    with pytest.raises(ValueError, match=r"association\.descriptors\.sigma"):
         config.replace(descriptor_sigma=-1.0).validate()
     log = bs.simulate("paper_fig4", seed=3, clutter=2.0, descriptor_sigma=0.1).head(25.0)
     result = bs.run(log, bs.Config.for_log(log, association="jcbb", descriptor_sigma=0.1))
@@ -71,4 +74,5 @@ def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() 
     score = result.association
     assert score is not None
     assert score["precision"] >= 0.99
-    assert score["spurious"] == 0 and score["duplicates"] == 0
+    assert score["spurious"] == 0
+    assert score["duplicates"] == 0

@@ -123,7 +123,8 @@ def test_simulate_with_clutter_and_descriptors_then_associate(tmp_path: Path) ->
     assert r.returncode != 0
     assert "--descriptor-sigma applies to --association nn or jcbb only" in r.stderr
     r = cli("simulate", "paper_fig4", "--descriptor-confusion", "0.1", "--out", log)
-    assert r.returncode != 0 and "--descriptor-confusion needs --descriptor-sigma" in r.stderr
+    assert r.returncode != 0
+    assert "--descriptor-confusion needs --descriptor-sigma" in r.stderr
 
 
 def test_simulate_scenario_file(tmp_path: Path) -> None:

@@ -181,6 +181,33 @@ def test_cli_montecarlo_writes_json(tmp_path: Path) -> None:
     assert "Traceback" not in bad.stderr
 
 
+def test_association_is_scored_over_the_runs(tmp_path: Path) -> None:
+    result = bs.montecarlo(
+        "paper_fig4", "mte", 3, association="jcbb", clutter=1.0, descriptor_sigma=0.1,
+        progress=False,
+    )["mte"]  # fmt: skip
+    spec = result.spec["scenario"]
+    assert spec["clutter_per_scan"] == 1.0
+    assert spec["appearance"] == {"sigma": 0.1, "confusion_rate": 0.0}
+    precision = result.metrics["association_precision"]
+    assert precision.shape == (3,)
+    assert np.all(precision >= 0.99)
+    assert np.all(result.metrics["spurious_at_end"] == 0)
+    means = result.report["all_finite"]
+    assert means["association_precision"] == pytest.approx(float(precision.mean()))
+    assert "association precision" in result.summary_line()
+    # Known ids: nothing to score.
+    assert np.isnan(run_spec(FIG4_MTE, progress=False).metrics["association_precision"]).all()
+    with pytest.raises(ValueError, match="descriptor_confusion needs descriptor_sigma"):
+        make_spec("paper_fig4", "mte", 2, descriptor_confusion=0.1)
+    out = tmp_path / "jcbb.json"
+    r = cli("montecarlo", "paper_fig4", "--runs", "2", "--association", "jcbb", "--clutter", "1",
+            "--descriptor-sigma", "0.1", "--json", out, "--quiet")  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    assert "association precision" in r.stdout
+    assert json.loads(out.read_text())["spec"]["association"] == "jcbb"
+
+
 @pytest.mark.parametrize("command", [["montecarlo"], ["experiment"]])
 def test_cli_help(command: list[str]) -> None:
     r = cli(*command, "--help")

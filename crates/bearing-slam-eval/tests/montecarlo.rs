@@ -55,6 +55,10 @@ fn metrics(pos: Option<f64>, heading: Option<f64>, landmarks: Option<f64>) -> Ru
         dead_reckoning_final_position_error_m: Some(0.9),
         dead_reckoning_final_heading_error_deg: Some(9.0),
         measurements_rejected: Some(0),
+        association_precision: None,
+        association_recall: None,
+        duplicates_at_end: None,
+        spurious_at_end: None,
     }
 }
 

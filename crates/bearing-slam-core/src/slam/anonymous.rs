@@ -69,6 +69,8 @@ pub(super) struct Anonymous {
     /// Each mapped landmark's appearance (the mean of its paired
     /// descriptors), when the bearings carry descriptors.
     appearances: BTreeMap<u64, Appearance>,
+    /// When each mapped landmark was last paired with a bearing.
+    last_paired: BTreeMap<u64, f64>,
 }
 
 impl Anonymous {
@@ -97,6 +99,7 @@ impl Anonymous {
             recent_nis: BTreeMap::new(),
             merged: BTreeMap::new(),
             appearances: BTreeMap::new(),
+            last_paired: BTreeMap::new(),
         }))
     }
 }
@@ -226,6 +229,11 @@ impl BearingSlam {
             .collect();
         let mut batch = self.update_bearings(time, &paired)?;
         self.remember_appearances(&pairing, &kept, &predictions, &descriptors);
+        if let Some(a) = self.anonymous.as_mut() {
+            for &(id, _) in &paired {
+                a.last_paired.insert(id, time);
+            }
+        }
         self.remove_inconsistent_landmarks(time, &nis)?;
         let mut assigned: Vec<Assignment> = pairing
             .landmark_of
@@ -495,7 +503,21 @@ impl BearingSlam {
                 continue;
             };
             let (first, last) = (*track.first(), *track.last());
-            if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref()) {
+            // With descriptors, a track that looks like a mapped landmark is
+            // that landmark: lost by its estimate if no bearing has been
+            // paired with it since the track began (the track then replaces
+            // it, below), else a mixture of its sightings with a look-alike's
+            // (dropped).
+            let look_alike = self.look_alike(track.appearance.as_ref());
+            let lost = look_alike.filter(|old| {
+                self.anonymous
+                    .as_ref()
+                    .and_then(|a| a.last_paired.get(old))
+                    .is_none_or(|&t| t < first.time)
+            });
+            if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref())
+                || (look_alike.is_some() && lost.is_none())
+            {
                 // A mapped landmark already stands there: its bearings
                 // missed the gate for a while; it is not mapped twice.
                 if let Some(a) = self.anonymous.as_mut() {
@@ -534,11 +556,9 @@ impl BearingSlam {
                 a.tracks.remove_with_competitors(id);
             }
             if inserted {
-                // A mapped landmark that looks like the new one is the same
-                // landmark, lost by its estimate (its bearings stopped
-                // falling in its gate): the new estimate replaces it, so it
-                // is not mapped twice.
-                let replaced = self.look_alike(track.appearance.as_ref());
+                // The lost landmark the new one looks like is replaced by
+                // it, so it is not mapped twice.
+                let replaced = lost;
                 if let Some(a) = self.anonymous.as_mut() {
                     a.births.insert(id, time);
                     if let Some(appearance) = track.appearance {
@@ -549,6 +569,7 @@ impl BearingSlam {
                         a.merged.insert(old, id);
                         a.recent_nis.remove(&old);
                         a.appearances.remove(&old);
+                        a.last_paired.remove(&old);
                     }
                 }
                 if let Some(old) = replaced {

@@ -68,10 +68,12 @@ pub use run::{
     score_run,
 };
 
+use bearing_slam_core::association::AssociationMethod;
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam_core::init::{InverseDepthPrior, MTE_HISTORY, TriangulationConfig};
 use bearing_slam_core::slam::{InitializerConfig, InitializerKind};
 use bearing_slam_sim::Scenario;
+use bearing_slam_sim::appearance::AppearanceSpec;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -101,6 +103,14 @@ pub struct ScenarioSpec {
     /// the origin, so the landmarks' first depths scale by this factor.
     #[serde(default)]
     pub landmark_scale: Option<f64>,
+    /// Mean false bearings per scan (`None` keeps the scenario's own).
+    #[serde(default)]
+    pub clutter_per_scan: Option<f64>,
+    /// Appearance descriptors on every sighting (`None` keeps the
+    /// scenario's own, none for the built-in ones); their σ is also the
+    /// association's descriptor model.
+    #[serde(default)]
+    pub appearance: Option<AppearanceSpec>,
 }
 
 fn default_true() -> bool {
@@ -118,6 +128,8 @@ impl ScenarioSpec {
             far_landmark: true,
             slip: None,
             landmark_scale: None,
+            clutter_per_scan: None,
+            appearance: None,
         }
     }
 
@@ -147,6 +159,12 @@ impl ScenarioSpec {
                 l.x *= scale;
                 l.y *= scale;
             }
+        }
+        if let Some(clutter) = self.clutter_per_scan {
+            s.clutter.per_scan = clutter;
+        }
+        if let Some(appearance) = self.appearance {
+            s.appearance = Some(appearance);
         }
         s.validate()?;
         Ok(s)
@@ -305,6 +323,12 @@ pub struct MonteCarloSpec {
     /// FastSLAM's particle count (its seed is the run's).
     #[serde(default = "default_particles")]
     pub particles: usize,
+    /// Data association: the log's ids (`known`, the default) or hidden
+    /// from the estimator (`nn`, `jcbb`), which is then scored against them
+    /// (issue 16); with the scenario's appearance descriptors, their σ is
+    /// the association's descriptor model.
+    #[serde(default)]
+    pub association: AssociationMethod,
 }
 
 /// FastSLAM's default particle count ([`EstimatorConfig::default`]).
@@ -324,6 +348,7 @@ impl MonteCarloSpec {
             thresholds: Thresholds::default(),
             estimator: EstimatorKind::default(),
             particles: default_particles(),
+            association: AssociationMethod::default(),
         }
     }
 }

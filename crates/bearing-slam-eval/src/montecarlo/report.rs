@@ -70,6 +70,18 @@ pub struct MetricMeans {
     pub dead_reckoning_final_position_error_m: Option<f64>,
     /// Mean dead-reckoning final heading error, degrees.
     pub dead_reckoning_final_heading_error_deg: Option<f64>,
+    /// Mean association precision (ids hidden; `None` with known ids).
+    #[serde(default)]
+    pub association_precision: Option<f64>,
+    /// Mean association recall (ids hidden).
+    #[serde(default)]
+    pub association_recall: Option<f64>,
+    /// Mean landmarks mapped twice at the end, per run (ids hidden).
+    #[serde(default)]
+    pub duplicates_at_end: Option<f64>,
+    /// Mean clutter or moving-object landmarks at the end, per run (ids hidden).
+    #[serde(default)]
+    pub spurious_at_end: Option<f64>,
 }
 
 impl MetricMeans {
@@ -98,6 +110,14 @@ impl MetricMeans {
             ),
             dead_reckoning_final_heading_error_deg: stats::mean_of_present(
                 it().map(|r| r.dead_reckoning_final_heading_error_deg),
+            ),
+            association_precision: stats::mean_of_present(it().map(|r| r.association_precision)),
+            association_recall: stats::mean_of_present(it().map(|r| r.association_recall)),
+            duplicates_at_end: stats::mean_of_present(
+                it().map(|r| r.duplicates_at_end.map(|n| n as f64)),
+            ),
+            spurious_at_end: stats::mean_of_present(
+                it().map(|r| r.spurious_at_end.map(|n| n as f64)),
             ),
         }
     }

@@ -4,6 +4,7 @@
 use super::MonteCarloSpec;
 use super::Thresholds;
 use crate::stats;
+use bearing_slam_core::association::{AssociationConfig, DescriptorModel};
 use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::wrap_angle;
 use bearing_slam_core::log::SensorLog;
@@ -68,6 +69,20 @@ pub struct RunMetrics {
     pub dead_reckoning_final_heading_error_deg: Option<f64>,
     /// Measurements rejected by the gate.
     pub measurements_rejected: Option<usize>,
+    /// With the ids hidden (issue 16): the fraction of pairings that were
+    /// right ([`AssociationScore::precision`](bearing_slam_core::association::score::AssociationScore::precision)).
+    #[serde(default)]
+    pub association_precision: Option<f64>,
+    /// With the ids hidden: the fraction of the mapped landmarks' bearings
+    /// paired with them ([`AssociationScore::recall`](bearing_slam_core::association::score::AssociationScore::recall)).
+    #[serde(default)]
+    pub association_recall: Option<f64>,
+    /// With the ids hidden: landmarks mapped twice, at the end.
+    #[serde(default)]
+    pub duplicates_at_end: Option<usize>,
+    /// With the ids hidden: landmarks made of clutter or a moving object, at the end.
+    #[serde(default)]
+    pub spurious_at_end: Option<usize>,
 }
 
 /// Time series of one run on the track's ground-truth times.
@@ -137,6 +152,10 @@ impl RunRecord {
                 dead_reckoning_final_position_error_m: None,
                 dead_reckoning_final_heading_error_deg: None,
                 measurements_rejected: None,
+                association_precision: None,
+                association_recall: None,
+                duplicates_at_end: None,
+                spurious_at_end: None,
             },
             series: RunSeries::default(),
             init_events: Vec::new(),
@@ -237,6 +256,13 @@ pub fn run_config(
 ) -> bearing_slam_core::Result<RunConfig> {
     let mut config = default_run_config(log)?;
     config.slam.initializer = spec.initializer.to_config(far_ids)?;
+    config.slam.association = AssociationConfig {
+        descriptors: spec
+            .scenario
+            .appearance
+            .map(|a| DescriptorModel { sigma: a.sigma }),
+        ..AssociationConfig::of(spec.association)
+    };
     Ok(config)
 }
 
@@ -368,6 +394,10 @@ pub fn score_run(
         ),
         dead_reckoning_final_heading_error_deg: dr_heading.and_then(finite),
         measurements_rejected: Some(output.counts.measurements_rejected),
+        association_precision: output.association.as_ref().map(|a| a.precision),
+        association_recall: output.association.as_ref().map(|a| a.recall),
+        duplicates_at_end: output.association.as_ref().map(|a| a.duplicates_at_end),
+        spurious_at_end: output.association.as_ref().map(|a| a.spurious_at_end),
     };
     if !summary.finite && metrics.reason.is_none() {
         metrics.reason = Some("non-finite covariance".into());
