@@ -67,7 +67,8 @@ pub struct ParticleUpdateReport {
     pub used: usize,
     /// Measurements skipped (degenerate geometry).
     pub rejected: usize,
-    /// Landmarks that entered the map.
+    /// Landmarks that entered the map (under hidden ids every new
+    /// landmark, tentative ones included).
     pub initialized: usize,
     /// Landmarks removed by the existence counter.
     pub removed: usize,

@@ -298,3 +298,39 @@ fn fastslam_refuses_jcbb_and_the_smoothers_refuse_hidden_ids() {
         );
     }
 }
+
+#[test]
+fn a_range_decides_between_landmarks_on_one_ray() {
+    // Landmarks 3 and 7 on the +x ray, 5 m and 9 m away: the bearing alone
+    // cannot tell them apart, the range can; a range far from both is new.
+    let (mut map, ml, prior) = two_landmarks();
+    map.insert(7, landmark(9.0, 0.0));
+    let scored = |range: f64| {
+        let o = BearingObservation {
+            range: Some(range),
+            ..BearingObservation::new(0, 0.0)
+        };
+        let obs = Observation::RangeBearing {
+            range,
+            bearing: 0.0,
+        };
+        ml.associate_scan(&map, &prior, &[o], &[obs]).unwrap()
+    };
+    assert_eq!(scored(5.05), [Association::Known(3)]);
+    assert_eq!(scored(8.9), [Association::Known(7)]);
+    assert_eq!(scored(20.0), [Association::New(10)]);
+    // Its p₀ is the bearing's spread over the sensor's range, per metre.
+    let p0 = ml
+        .new_landmark_log_likelihood(
+            &map,
+            &Observation::RangeBearing {
+                range: 1.0,
+                bearing: 0.0,
+            },
+        )
+        .unwrap();
+    let bearing_only = ml
+        .new_landmark_log_likelihood(&map, &Observation::Bearing(0.0))
+        .unwrap();
+    assert!((bearing_only - p0 - 50f64.ln()).abs() < 1e-12);
+}
