@@ -136,7 +136,9 @@ class Config:
     # "keyframes") and landmark chart ("inverse-depth", "point").
     online_window: str
     landmark_chart: str
-    # Data association (issue 16): "known", "nn", "jcbb".
+    # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the
+    # filter takes both, FastSLAM "nn" only, per-particle maximum
+    # likelihood; the smoothers "known" only).
     association: str
     # Robustness on a real camera (issue 13 item 3): robust gating and the
     # bearing-offset state, all off (None) by default.
