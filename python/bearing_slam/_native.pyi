@@ -136,8 +136,10 @@ class Config:
     # "keyframes") and landmark chart ("inverse-depth", "point").
     online_window: str
     landmark_chart: str
-    # Data association (issue 16): "known", "nn", "jcbb"; the appearance
-    # descriptors' noise σ (None: descriptors ignored; nn/jcbb only).
+    # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the
+    # filter takes both, FastSLAM "nn" only, per-particle maximum
+    # likelihood; the smoothers "known" only); the appearance descriptors'
+    # noise σ (None: descriptors ignored; the filter's nn/jcbb only).
     association: str
     descriptor_sigma: float | None
     # Robustness on a real camera (issue 13 item 3): robust gating and the

@@ -277,8 +277,9 @@ def _add_association_option(parser: argparse.ArgumentParser) -> None:
         choices=ASSOCIATIONS,
         default="known",
         help="data association (default: %(default)s, the log's ids; nn/jcbb: the ids are "
-        "hidden from the filter, which pairs bearings with landmarks itself; they then only "
-        "score it, in metrics.json; filter estimator only)",
+        "hidden from the estimator, which pairs bearings with landmarks itself; they then only "
+        "score it, in metrics.json; the filter takes nn and jcbb, fastslam1/fastslam2 take nn "
+        "(per-particle maximum likelihood), the smoothers neither)",
     )
 
 

@@ -76,3 +76,27 @@ def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() 
     assert score["precision"] >= 0.99
     assert score["spurious"] == 0
     assert score["duplicates"] == 0
+
+
+def test_fastslam_associates_per_particle_and_is_scored(short_log: bs.SensorLog) -> None:
+    config = bs.Config.for_log(short_log).replace(
+        estimator="fastslam2", particles=20, association="nn"
+    )
+    result = bs.run(short_log, config)
+    assert result.config.association == "nn"
+    score = result.association
+    assert score is not None
+    assert score["mapped"] > 0
+    assert score["spurious"] == 0
+    assert 0.9 <= score["precision"] <= 1.0
+
+
+def test_fastslam_refuses_jcbb_and_the_smoothers_refuse_hidden_ids(
+    short_log: bs.SensorLog,
+) -> None:
+    config = bs.Config.for_log(short_log)
+    with pytest.raises(ValueError, match="jcbb is not implemented for FastSLAM"):
+        bs.run(short_log, config.replace(estimator="fastslam2", association="jcbb"))
+    for estimator in ("smoother", "filter+smoother"):
+        with pytest.raises(ValueError, match="the smoothers need `known`"):
+            bs.run(short_log, config.replace(estimator=estimator, association="nn"))

@@ -181,3 +181,22 @@ def test_user_errors_are_one_line(tmp_path: Path, args: list[str], message: str)
     assert len(lines) == 1, r.stderr
     assert lines[0].startswith("bearing-slam: error:")
     assert message in lines[0]
+
+
+def test_run_fastslam_with_hidden_ids_writes_the_association_block(tmp_path: Path) -> None:
+    log = tmp_path / "fig4.mcap"
+    assert cli("simulate", "paper_fig4", "--seed", "3", "--out", log).returncode == 0
+    out = tmp_path / "fastslam_nn"
+    r = cli(
+        "run", log, "--estimator", "fastslam2", "--particles", "20",
+        "--association", "nn", "--out", out, "--quiet",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    metrics = json.loads((out / "metrics.json").read_text())
+    association = metrics["association"]
+    assert association is not None
+    assert association["mapped"] > 0
+    assert association["spurious_at_end"] == 0
+    refused = cli("run", log, "--estimator", "smoother", "--association", "nn", "--out", out)
+    assert refused.returncode != 0
+    assert "the smoothers need `known`" in refused.stderr

@@ -5,11 +5,21 @@
 //! odometry model, the sensor noise, the initializer) and returns the
 //! runner's output shape, so every estimator is scored, exported and
 //! plotted the same way.
+//!
+//! With the log's ids hidden (association `nn` or `jcbb`) the EKF pairs
+//! bearings itself ([`crate::association`]); FastSLAM accepts `nn`, which
+//! for a particle filter means per-particle maximum-likelihood association
+//! ([`crate::particle::ml_association`]), and refuses `jcbb` (no joint
+//! compatibility per particle); the smoothers refuse both.
 
+use crate::association::AssociationMethod;
 use crate::error::{Result, SlamError};
+use crate::init::InverseDepthPrior;
 use crate::log::SensorLog;
 use crate::names::Named;
+use crate::particle::existence::ExistenceConfig;
 use crate::particle::landmark_ekf::SensorNoise;
+use crate::particle::ml_association::{DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodConfig};
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
 use crate::runner::{RunConfig, RunOutput, run};
 use crate::slam::{InitializerConfig, SlamConfig};
@@ -203,14 +213,42 @@ impl EstimatorConfig {
     /// (either form) as per-particle triangulation, PI-SR as per-particle
     /// inverse depth with the same prior; the variant of [`Self::kind`]
     /// (2.0 unless it is `fastslam1`).
+    ///
+    /// With the ids hidden ([`crate::association::AssociationConfig::ignores_ids`]):
+    /// per-particle maximum-likelihood association
+    /// ([`crate::particle::ml_association`]) with the association's stated
+    /// new-landmark density ([`DEFAULT_NEW_LANDMARK_DENSITY`] when none is
+    /// stated) and its `min_sightings`; every bearing-only landmark starts
+    /// with undelayed inverse depth (PI-SR's prior, or the paper's near
+    /// prior `(0.5, 0.25)` 1/m when the filter triangulates), and the
+    /// existence counter's defaults remove what is not seen again, except
+    /// that evidence is capped at [`HIDDEN_ID_MAX_EVIDENCE`].
     #[must_use]
     pub fn fastslam_config(&self, slam: &SlamConfig) -> FastSlamConfig {
+        let hidden = slam.association.ignores_ids();
         let initializer = match &slam.initializer {
+            InitializerConfig::Triangulation(_) | InitializerConfig::TriangulationWithClone(_)
+                if hidden =>
+            {
+                ParticleInitializer::InverseDepth(InverseDepthPrior::PAPER_NEAR)
+            }
             InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) => {
                 ParticleInitializer::Triangulation(*t)
             }
             InitializerConfig::PiSr { prior, .. } => ParticleInitializer::InverseDepth(*prior),
         };
+        let existence = ExistenceConfig {
+            max_evidence: HIDDEN_ID_MAX_EVIDENCE,
+            ..ExistenceConfig::default()
+        };
+        let association = hidden.then(|| MaximumLikelihoodConfig {
+            new_landmark: slam
+                .association
+                .new_landmark_density
+                .unwrap_or(DEFAULT_NEW_LANDMARK_DENSITY),
+            max_range_m: existence.max_range_m,
+            min_sightings: slam.association.min_sightings,
+        });
         FastSlamConfig {
             variant: if self.kind == EstimatorKind::FastSlam1 {
                 FastSlamVariant::FastSlam1
@@ -227,10 +265,22 @@ impl EstimatorConfig {
             },
             initializer,
             conversion_threshold: slam.conversion_threshold,
+            existence: hidden.then_some(existence),
+            association,
             ..FastSlamConfig::default()
         }
     }
 }
+
+/// The existence counter's evidence cap when FastSLAM associates by
+/// maximum likelihood ([`ExistenceConfig::max_evidence`]): a landmark seen
+/// for 100 scans survives 100 missed scans (an occlusion), while one seen
+/// once (clutter) still goes after 4. The default cap, 10, removes a
+/// landmark hidden for 13 scans; on `slip_patch`, whose box hides
+/// landmarks for longer, each such landmark came back as a duplicate
+/// (seeds 0–1: 22 duplicates per run with 10, 9 with 100;
+/// docs/results/association.md, where seeds 3–5 are held out).
+pub const HIDDEN_ID_MAX_EVIDENCE: f64 = 100.0;
 
 /// An estimator's run: the output in the runner's shape, and what the
 /// estimator has beyond it.
@@ -257,10 +307,17 @@ pub fn run_estimator(
     estimator: &EstimatorConfig,
 ) -> Result<EstimatorRun> {
     estimator.validate()?;
-    if config.slam.association.ignores_ids() && estimator.kind != EstimatorKind::Filter {
+    let method = config.slam.association.method;
+    if config.slam.association.ignores_ids() && estimator.kind.is_smoother() {
         return Err(SlamError::Mismatch(
-            "association nn/jcbb (ids unknown) is implemented for the `filter` estimator only; \
-             the smoothers and FastSLAM need `known`",
+            "association nn/jcbb (ids unknown) is implemented for the `filter` and FastSLAM \
+             estimators only; the smoothers need `known`",
+        ));
+    }
+    if method == AssociationMethod::Jcbb && estimator.kind.is_particle_filter() {
+        return Err(SlamError::Mismatch(
+            "association jcbb is not implemented for FastSLAM: use `nn` (per-particle \
+             maximum-likelihood association) or `known`",
         ));
     }
     let only = |output| EstimatorRun {

@@ -165,8 +165,11 @@ pub(crate) struct PyConfig {
     #[pyo3(get, set)]
     pub landmark_chart: String,
     /// Data association (`AssociationMethod`): `"known"` (the log's ids,
-    /// the default), `"nn"` or `"jcbb"` (ids hidden from the filter and
-    /// used only to score it; the EKF `filter` only).
+    /// the default), `"nn"` or `"jcbb"` (ids hidden from the estimator and
+    /// used only to score it). The EKF `filter` takes both; FastSLAM
+    /// (`"fastslam1"`, `"fastslam2"`) takes `"nn"`, meaning per-particle
+    /// maximum-likelihood association, and refuses `"jcbb"`; the smoothers
+    /// refuse both.
     #[pyo3(get, set)]
     pub association: String,
     /// σ of the sensor's appearance-descriptor noise per component

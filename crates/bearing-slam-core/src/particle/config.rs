@@ -2,6 +2,7 @@
 
 use super::existence::ExistenceConfig;
 use super::landmark_ekf::SensorNoise;
+use super::ml_association::MaximumLikelihoodConfig;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig};
@@ -62,6 +63,12 @@ pub struct FastSlamConfig {
     pub resample_before_proposal: bool,
     /// The existence counter; `None` never removes a landmark.
     pub existence: Option<ExistenceConfig>,
+    /// Data association: `None` (the default) takes the log's ids as the
+    /// truth; `Some` ignores them and associates per particle by maximum
+    /// likelihood ([`super::ml_association`]), which needs the undelayed
+    /// inverse-depth initializer and the existence counter.
+    #[serde(default)]
+    pub association: Option<MaximumLikelihoodConfig>,
 }
 
 impl Default for FastSlamConfig {
@@ -83,6 +90,7 @@ impl Default for FastSlamConfig {
             resample_threshold: 0.5,
             resample_before_proposal: false,
             existence: None,
+            association: None,
         }
     }
 }
@@ -144,6 +152,21 @@ impl FastSlamConfig {
         }
         if let Some(e) = &self.existence {
             e.validate()?;
+        }
+        if let Some(a) = &self.association {
+            a.validate()?;
+            if self.existence.is_none() {
+                return Err(SlamError::Mismatch(
+                    "maximum-likelihood association needs the existence counter \
+                     (`existence`): it is what removes the landmarks clutter starts",
+                ));
+            }
+            if matches!(self.initializer, ParticleInitializer::Triangulation(_)) {
+                return Err(SlamError::Mismatch(
+                    "maximum-likelihood association needs the undelayed inverse-depth \
+                     initializer: a delayed candidate has no point to score later bearings against",
+                ));
+            }
         }
         Ok(())
     }

@@ -17,9 +17,11 @@ use super::existence::ExistenceCounter;
 use super::initializer::{InitStep, initialize};
 use super::landmark_ekf::{LandmarkEkf, Observation};
 use super::map::{MappedLandmark, ParticleMap};
+use super::ml_association::{DecisionLog, MaximumLikelihoodAssociation, scan_decisions};
 use super::proposal::{PoseGaussian, propose};
 use super::resample::{effective_sample_size, normalize_log_weights, systematic_resample};
 use super::sampling::{StreamPurpose, sample_gaussian, stream, uniform};
+use crate::association::score::AssociationScore;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::log::BearingObservation;
@@ -42,6 +44,10 @@ pub struct Particle {
     /// FastSLAM 2.0: the motion prediction not yet drawn from (it is drawn
     /// together with the next measurements).
     pub pending: Option<PoseGaussian>,
+    /// Under unknown association: the association decisions of this
+    /// particle's ancestry, scored against the log's ids at the end
+    /// ([`FastSlam::association_score`]); empty under known association.
+    pub decisions: DecisionLog,
 }
 
 impl Particle {
@@ -61,7 +67,8 @@ pub struct ParticleUpdateReport {
     pub used: usize,
     /// Measurements skipped (degenerate geometry).
     pub rejected: usize,
-    /// Landmarks that entered the map.
+    /// Landmarks that entered the map (under hidden ids every new
+    /// landmark, tentative ones included).
     pub initialized: usize,
     /// Landmarks removed by the existence counter.
     pub removed: usize,
@@ -86,11 +93,15 @@ struct ParticleCounts {
 /// proposal with the weight it earns.
 #[derive(Clone, Debug)]
 struct Plan {
+    /// Each observation's association, in the scan's order.
+    assigned: Vec<Association>,
     known: Vec<(u64, Observation)>,
     new: Vec<(u64, Observation)>,
     proposal: Option<PoseGaussian>,
     /// FastSLAM 2.0: the proposal's per-landmark log-likelihood terms.
     terms: Vec<(u64, f64)>,
+    /// The new-landmark terms `(id, ln p₀)` when the associator states `p₀`.
+    new_terms: Vec<(u64, f64)>,
 }
 
 /// The FastSLAM filter.
@@ -132,6 +143,7 @@ impl FastSlam {
                     log_weight: 0.0,
                     map: map.clone(),
                     pending: None,
+                    decisions: DecisionLog::default(),
                 })
             })
             .collect::<Result<Vec<_>>>()?;
@@ -246,7 +258,9 @@ impl FastSlam {
             })
     }
 
-    /// Updates with one scan under known data association.
+    /// Updates with one scan under the configured association: the log's
+    /// ids ([`KnownAssociation`]), or per-particle maximum likelihood when
+    /// [`FastSlamConfig::association`] is set.
     ///
     /// # Errors
     /// As [`FastSlam::update_with`].
@@ -256,15 +270,36 @@ impl FastSlam {
         scan: &[BearingObservation],
         use_range: bool,
     ) -> Result<ParticleUpdateReport> {
-        self.update_with(time, scan, use_range, &KnownAssociation)
+        match self.config.association {
+            Some(ml) => {
+                let associator = MaximumLikelihoodAssociation::new(ml, self.config.noise)?;
+                self.update_with(time, scan, use_range, &associator)
+            }
+            None => self.update_with(time, scan, use_range, &KnownAssociation),
+        }
+    }
+
+    /// The association scores against the log's ids of the particle that
+    /// is best at the end ([`FastSlam::best_particle`]): the decisions of
+    /// its ancestry, whose ids are those of its map. `None` under known
+    /// association.
+    #[must_use]
+    pub fn association_score(&self) -> Option<AssociationScore> {
+        let ml = self.config.association?;
+        Some(self.best_particle().decisions.score(ml.min_sightings))
     }
 
     /// Updates with one scan, associating per particle with `association`.
-    /// With `use_range` every observation must carry a range.
+    /// With `use_range` every observation must carry a range. When the
+    /// associator states a new-landmark likelihood `p₀`
+    /// ([`DataAssociation::new_landmark_log_likelihood`]) the ids are its
+    /// own, per particle: each particle is weighed by its own terms (`ℓ_j`
+    /// or `p₀` per observation) and the log's ids are not checked.
     ///
     /// # Errors
     /// [`SlamError::NonFinite`] for a bad bearing or range,
-    /// [`SlamError::DuplicateMeasurement`] for an id twice in the scan,
+    /// [`SlamError::DuplicateMeasurement`] for an id twice in the scan
+    /// (known association),
     /// [`SlamError::Mismatch`] for a missing range, [`SlamError::TimeOrder`],
     /// and [`SlamError::InvalidParameter`] when every particle's weight
     /// becomes zero.
@@ -275,31 +310,45 @@ impl FastSlam {
         use_range: bool,
         association: &A,
     ) -> Result<ParticleUpdateReport> {
-        let observations = check_scan(scan, use_range)?;
+        let own_ids = association
+            .new_landmark_log_likelihood(&ParticleMap::new(), &Observation::Bearing(0.0))
+            .is_some();
+        let observations = check_scan(scan, use_range, !own_ids)?;
         self.check_time(time)?;
         self.step += 1;
         let mut plans = self.plan(scan, &observations, association)?;
         let mut report = ParticleUpdateReport::default();
         let before = self.config.resample_before_proposal;
         let second_order = self.config.variant == FastSlamVariant::FastSlam2;
+        let with_new = |terms: &[(u64, f64)], plan: &Plan| {
+            let mut all = terms.to_vec();
+            all.extend_from_slice(&plan.new_terms);
+            all
+        };
         if before {
-            let terms: Vec<_> = plans.iter().map(|p| p.terms.clone()).collect();
-            self.add_credited(&terms)?;
+            let terms: Vec<_> = plans.iter().map(|p| with_new(&p.terms, p)).collect();
+            self.add_credited(&terms, own_ids)?;
             let parents = self.weigh_and_maybe_resample(&mut report)?;
             if let Some(parents) = parents {
                 plans = parents.iter().map(|&i| plans[i].clone()).collect();
             }
         }
         let weights_before = self.weights()?;
-        let (counts, first_order_terms): (Vec<ParticleCounts>, Vec<Vec<(u64, f64)>>) =
-            self.apply(time, &plans, &observations)?.into_iter().unzip();
+        let (counts, first_order_terms): (Vec<ParticleCounts>, Vec<Vec<(u64, f64)>>) = self
+            .apply(time, &plans, scan, &observations)?
+            .into_iter()
+            .unzip();
         if !before {
-            let terms = if second_order {
-                plans.into_iter().map(|p| p.terms).collect()
+            let terms: Vec<_> = if second_order {
+                plans.iter().map(|p| with_new(&p.terms, p)).collect()
             } else {
                 first_order_terms
+                    .iter()
+                    .zip(&plans)
+                    .map(|(t, p)| with_new(t, p))
+                    .collect()
             };
-            self.add_credited_with(&weights_before, &terms);
+            self.add_credited_with(&weights_before, &terms, own_ids);
             self.weigh_and_maybe_resample(&mut report)?;
         }
         let c = counts.get(self.best).copied().unwrap_or_default();
@@ -322,46 +371,62 @@ impl FastSlam {
         self.particles
             .par_iter()
             .map(|p| {
-                let pose = p.pose_mean();
+                let prior = p.pending.unwrap_or(PoseGaussian {
+                    mean: p.pose,
+                    cov: Matrix3::zeros(),
+                });
+                let assigned = association.associate_scan(&p.map, &prior, scan, observations)?;
                 let mut known = Vec::new();
                 let mut new = Vec::new();
-                for (o, obs) in scan.iter().zip(observations) {
-                    match association.associate(&p.map, &pose, o) {
+                let mut new_terms = Vec::new();
+                for (a, obs) in assigned.iter().zip(observations) {
+                    match *a {
                         Association::Known(id) => known.push((id, *obs)),
-                        Association::New(id) => new.push((id, *obs)),
+                        Association::New(id) => {
+                            if let Some(ll) = association.new_landmark_log_likelihood(&p.map, obs) {
+                                new_terms.push((id, ll));
+                            }
+                            new.push((id, *obs));
+                        }
                         Association::Clutter => {}
                     }
                 }
                 let (proposal, terms) = if variant == FastSlamVariant::FastSlam2 {
-                    let prior = p.pending.unwrap_or(PoseGaussian {
-                        mean: p.pose,
-                        cov: Matrix3::zeros(),
-                    });
                     let proposal = propose(&prior, &known, &p.map, &noise)?;
                     (Some(proposal.gaussian), proposal.terms)
                 } else {
                     (None, Vec::new())
                 };
                 Ok(Plan {
+                    assigned,
                     known,
                     new,
                     proposal,
                     terms,
+                    new_terms,
                 })
             })
             .collect()
     }
 
     /// Adds the credited log-likelihoods of `terms` ([`credited_log_likelihoods`])
-    /// to the log-weights.
-    fn add_credited(&mut self, terms: &[Vec<(u64, f64)>]) -> Result<()> {
+    /// to the log-weights; with `own_only` (per-particle ids) each particle's
+    /// own terms alone.
+    fn add_credited(&mut self, terms: &[Vec<(u64, f64)>], own_only: bool) -> Result<()> {
         let weights = self.weights()?;
-        self.add_credited_with(&weights, terms);
+        self.add_credited_with(&weights, terms, own_only);
         Ok(())
     }
 
-    fn add_credited_with(&mut self, weights: &[f64], terms: &[Vec<(u64, f64)>]) {
-        let increments = credited_log_likelihoods(weights, terms);
+    fn add_credited_with(&mut self, weights: &[f64], terms: &[Vec<(u64, f64)>], own_only: bool) {
+        let increments = if own_only {
+            terms
+                .iter()
+                .map(|t| t.iter().map(|(_, ll)| ll).sum())
+                .collect()
+        } else {
+            credited_log_likelihoods(weights, terms)
+        };
         for (p, d) in self.particles.iter_mut().zip(increments) {
             p.log_weight += d;
         }
@@ -374,6 +439,7 @@ impl FastSlam {
         &mut self,
         time: f64,
         plans: &[Plan],
+        scan: &[BearingObservation],
         observations: &[Observation],
     ) -> Result<Vec<(ParticleCounts, Terms)>> {
         let config = &self.config;
@@ -386,6 +452,9 @@ impl FastSlam {
             .map(|(i, (p, plan))| {
                 let mut counts = ParticleCounts::default();
                 let mut terms = Vec::new();
+                let mut decisions = config
+                    .association
+                    .map(|ml| scan_decisions(time, &p.map, scan, &plan.assigned, &ml));
                 if let Some(proposal) = plan.proposal {
                     let mut rng = stream(config.seed, step, i as u64, StreamPurpose::Proposal);
                     p.pose = sample_gaussian(&proposal.mean, &proposal.cov, &mut rng)?;
@@ -407,6 +476,12 @@ impl FastSlam {
                             let mut existence = landmark.existence;
                             if let Some(e) = &config.existence {
                                 existence.record_seen(e);
+                            }
+                            if let (Some(d), Some(ml)) = (&mut decisions, &config.association)
+                                && existence.seen as usize == ml.min_sightings
+                                && landmark.existence.seen < existence.seen
+                            {
+                                d.confirmed.push(*id);
                             }
                             let filter = convert(filter, &p.pose, config.conversion_threshold);
                             p.map.insert(*id, MappedLandmark { filter, existence });
@@ -430,13 +505,30 @@ impl FastSlam {
                     if let InitStep::Landmark(filter) = step {
                         let existence =
                             ExistenceCounter::first_sighting(&config.existence.unwrap_or_default());
+                        if let (Some(d), Some(ml)) = (&mut decisions, &config.association)
+                            && existence.seen as usize >= ml.min_sightings
+                        {
+                            d.confirmed.push(*id);
+                        }
                         let filter = convert(filter, &p.pose, config.conversion_threshold);
                         p.map.insert(*id, MappedLandmark { filter, existence });
                         counts.initialized += 1;
                     }
                 }
                 if let Some(e) = &config.existence {
-                    counts.removed = record_misses(&mut p.map, &p.pose, &seen, e);
+                    let removed = record_misses(&mut p.map, &p.pose, &seen, e);
+                    counts.removed = removed.len();
+                    if let (Some(d), Some(ml)) = (&mut decisions, &config.association) {
+                        d.removed.extend(
+                            removed
+                                .iter()
+                                .filter(|(_, l)| ml.confirmed(l))
+                                .map(|(id, _)| *id),
+                        );
+                    }
+                }
+                if let Some(d) = decisions {
+                    p.decisions = p.decisions.with(d);
                 }
                 debug_assert!(counts.used + counts.rejected <= n_observations);
                 Ok((counts, terms))
@@ -497,12 +589,15 @@ impl FastSlam {
     }
 
     /// The best particle's landmarks as Euclidean points with covariances
-    /// (inverse-depth ones with `ρ ≤ 0` are left out).
+    /// (inverse-depth ones with `ρ ≤ 0` are left out; under unknown
+    /// association, the confirmed ones only).
     #[must_use]
     pub fn landmark_estimates(&self) -> Vec<LandmarkSnapshot> {
+        let ml = self.config.association;
         self.best_particle()
             .map
             .iter()
+            .filter(|(_, l)| ml.is_none_or(|ml| ml.confirmed(l)))
             .filter_map(|(id, l)| {
                 let (p, c): (Vector2<f64>, Matrix2<f64>) = l.filter.point().ok()?;
                 Some(LandmarkSnapshot {
@@ -550,14 +645,14 @@ fn convert(filter: LandmarkEkf, pose: &Vector3<f64>, threshold: Option<f64>) -> 
 }
 
 /// Counts a miss for every mapped landmark expected from `pose` but not in
-/// `seen`, removing those whose evidence falls too low; returns how many
-/// were removed. O(K) per particle: it visits the whole map.
+/// `seen`, removing those whose evidence falls too low; returns the removed
+/// ones. O(K) per particle: it visits the whole map.
 fn record_misses(
     map: &mut ParticleMap,
     pose: &Vector3<f64>,
     seen: &BTreeSet<u64>,
     config: &super::existence::ExistenceConfig,
-) -> usize {
+) -> Vec<(u64, MappedLandmark)> {
     let missed: Vec<(u64, MappedLandmark)> = map
         .iter()
         .filter(|(id, l)| {
@@ -568,11 +663,11 @@ fn record_misses(
         })
         .map(|(id, l)| (id, *l))
         .collect();
-    let mut removed = 0;
+    let mut removed = Vec::new();
     for (id, mut landmark) in missed {
         if landmark.existence.record_missed(config) {
             map.remove(id);
-            removed += 1;
+            removed.push((id, landmark));
         } else {
             map.insert(id, landmark);
         }
@@ -580,13 +675,18 @@ fn record_misses(
     removed
 }
 
-/// Checks a scan and turns it into observations.
-fn check_scan(scan: &[BearingObservation], use_range: bool) -> Result<Vec<Observation>> {
+/// Checks a scan and turns it into observations; with `unique_ids`, an id
+/// twice in the scan is an error (the ids are used).
+fn check_scan(
+    scan: &[BearingObservation],
+    use_range: bool,
+    unique_ids: bool,
+) -> Result<Vec<Observation>> {
     let mut ids = BTreeSet::new();
     scan.iter()
         .map(|o| {
             ensure_finite("bearing", o.bearing)?;
-            if !ids.insert(o.landmark_id) {
+            if unique_ids && !ids.insert(o.landmark_id) {
                 return Err(SlamError::DuplicateMeasurement(o.landmark_id));
             }
             if !use_range {

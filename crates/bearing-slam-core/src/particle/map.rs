@@ -28,6 +28,10 @@ pub struct MappedLandmark {
 pub struct ParticleMap {
     landmarks: RedBlackTreeMapSync<u64, MappedLandmark>,
     candidates: RedBlackTreeMapSync<u64, Candidate>,
+    /// One past the largest id ever inserted (landmark or candidate): the
+    /// id a landmark this particle discovers itself gets next, so that its
+    /// ids are unique within the particle and never reused after a removal.
+    next_id: u64,
 }
 
 impl Default for ParticleMap {
@@ -43,6 +47,7 @@ impl ParticleMap {
         Self {
             landmarks: RedBlackTreeMapSync::new_sync(),
             candidates: RedBlackTreeMapSync::new_sync(),
+            next_id: 0,
         }
     }
 
@@ -72,6 +77,7 @@ impl ParticleMap {
 
     /// Inserts or replaces landmark `id`: O(log K) new nodes, the rest shared.
     pub fn insert(&mut self, id: u64, landmark: MappedLandmark) {
+        self.next_id = self.next_id.max(id.saturating_add(1));
         self.landmarks.insert_mut(id, landmark);
     }
 
@@ -93,12 +99,24 @@ impl ParticleMap {
 
     /// Inserts or replaces the candidate of landmark `id`.
     pub fn set_candidate(&mut self, id: u64, candidate: Candidate) {
+        self.next_id = self.next_id.max(id.saturating_add(1));
         self.candidates.insert_mut(id, candidate);
     }
 
     /// Drops the candidate of landmark `id`; returns whether it was there.
     pub fn remove_candidate(&mut self, id: u64) -> bool {
         self.candidates.remove_mut(&id)
+    }
+
+    /// The smallest id above every id this map ever held (landmark or
+    /// candidate, removed ones included): where the ids of the landmarks a
+    /// particle discovers under unknown association start. Copied with the
+    /// map, so a particle's descendants continue its count and the ids stay
+    /// unique within each particle (not across particles: two particles may
+    /// give one id to different landmarks).
+    #[must_use]
+    pub fn next_free_id(&self) -> u64 {
+        self.next_id
     }
 
     /// Number of waiting candidates.

@@ -5,7 +5,8 @@
 //!
 //! * [`fastslam`]: the filter; [`config`] its settings; [`proposal`] the 2.0
 //!   proposal; [`initializer`] per-particle landmark initialization;
-//!   [`association`] the data-association hook.
+//!   [`association`] the data-association hook; [`ml_association`]
+//!   per-particle maximum-likelihood association for unknown identities.
 //! * [`landmark_ekf`]: the small per-particle landmark EKFs.
 //! * [`map`]: the persistent map shared between particles (`rpds`).
 //! * [`credit`]: weighting when particles map different landmarks.
@@ -28,6 +29,7 @@ pub mod kld;
 pub mod landmark_ekf;
 pub mod map;
 pub mod mcl;
+pub mod ml_association;
 pub mod proposal;
 pub mod resample;
 pub mod run;

@@ -38,7 +38,9 @@ pub struct Proposal {
     pub terms: Vec<(u64, f64)>,
 }
 
-fn condition<const M: usize>(g: &mut PoseGaussian, lin: &Linearized<M>) -> Result<f64> {
+/// Conditions `g` on one linearized measurement (a Kalman step in Joseph
+/// form); returns the measurement's predictive log-density.
+pub(super) fn condition<const M: usize>(g: &mut PoseGaussian, lin: &Linearized<M>) -> Result<f64> {
     let h = lin.j_pose;
     let s = h * g.cov * h.transpose() + lin.noise;
     let log_likelihood = gaussian_log_density(&lin.innovation, &s)?;

@@ -9,7 +9,7 @@ use super::config::FastSlamConfig;
 use super::fastslam::FastSlam;
 use crate::error::Result;
 use crate::geometry::Pose2;
-use crate::log::{BearingObservation, EventKind, SensorLog};
+use crate::log::{BearingObservation, EventKind, SensorLog, TruthKind, truth_kind};
 use crate::model::MotionModel;
 use crate::online::{OnlineEstimator, ScanCounts};
 use crate::runner::{OdometryConfig, OnlineRun, RunOutput, run_online};
@@ -46,7 +46,20 @@ impl OnlineEstimator for FastSlam {
         scan: &[BearingObservation],
         use_range: bool,
     ) -> Result<ScanCounts> {
-        let report = FastSlam::update(self, time, scan, use_range)?;
+        let report = if self.config().association.is_some() {
+            // Unknown identities: the ids are kept for scoring only.
+            FastSlam::update(self, time, scan, use_range)?
+        } else {
+            // Known association; bearings the log marks as clutter or a
+            // moving distractor are what a sensor that knew ids would drop
+            // (as the EKF's run does).
+            let kept: Vec<BearingObservation> = scan
+                .iter()
+                .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
+                .copied()
+                .collect();
+            FastSlam::update(self, time, &kept, use_range)?
+        };
         Ok(ScanCounts {
             used: report.used,
             rejected: report.rejected,
@@ -62,7 +75,8 @@ impl OnlineEstimator for FastSlam {
         self.pose_estimate()
     }
 
-    fn finish(&mut self, _output: &mut RunOutput) -> Result<()> {
+    fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
+        output.association = self.association_score();
         Ok(())
     }
 }
@@ -162,6 +176,7 @@ impl OnlineEstimator for CloudRecorder {
     }
 
     fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
+        OnlineEstimator::finish(&mut self.filter, output)?;
         self.clouds.extend(self.last.take());
         output.trace.particle_clouds = std::mem::take(&mut self.clouds);
         Ok(())

@@ -20,7 +20,7 @@ use std::collections::BTreeMap;
 /// The straight run past four landmarks, with `clutter` uniform false
 /// bearings per scan and, when `distractor`, a person pacing 1 m back and
 /// forth across the line of sight 3 m off the path.
-fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
+pub(crate) fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
     let mut log = KinematicScenario::paper_fig4(false).simulate(seed);
     let mut rng = StdRng::seed_from_u64(seed + 1000);
     let mut next_clutter = CLUTTER_ID_START;

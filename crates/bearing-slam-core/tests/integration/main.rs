@@ -21,6 +21,7 @@ mod particle_existence;
 mod particle_fastslam;
 mod particle_map_sharing;
 mod particle_mcl;
+mod particle_ml_association;
 mod particle_resampling;
 mod runner_observed;
 mod smoother_common;
