@@ -5,19 +5,17 @@
 //! tracks of landmarks not mapped yet ([`crate::association::tracks`]),
 //! whose confirmed tracks the configured initializer brings into the map.
 
-use super::delayed::PendingCandidate;
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
 use crate::association::appearance::{Appearance, appearance_distance};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
-use crate::association::tracks::{TrackPoint, TrackSet};
+use crate::association::tracks::TrackSet;
 use crate::association::{AssociationConfig, AssociationMethod};
 use crate::ekf::BlockJacobian;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
-use crate::init::{Candidate, CandidateDecision, decide};
 use crate::log::{BearingObservation, Descriptor, ensure_bearing};
-use nalgebra::{DMatrix, Matrix1, Vector3};
+use nalgebra::{DMatrix, Matrix1};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
@@ -484,103 +482,6 @@ impl BearingSlam {
             .collect())
     }
 
-    /// Brings the confirmed tracks into the map through the configured
-    /// initializer, from their first sighting and the current bearing;
-    /// returns how many entered.
-    fn promote_confirmed_tracks(&mut self, time: f64, pose: &Vector3<f64>) -> Result<usize> {
-        let confirmed = match &self.anonymous {
-            Some(a) => a.tracks.confirmed(),
-            None => return Ok(0),
-        };
-        let mut entered = 0;
-        for id in confirmed {
-            let Some(track) = self
-                .anonymous
-                .as_ref()
-                .and_then(|a| a.tracks.get(id))
-                .cloned()
-            else {
-                continue;
-            };
-            let (first, last) = (*track.first(), *track.last());
-            // With descriptors, a track that looks like a mapped landmark is
-            // that landmark: lost by its estimate if no bearing has been
-            // paired with it since the track began (the track then replaces
-            // it, below), else a mixture of its sightings with a look-alike's
-            // (dropped).
-            let look_alike = self.look_alike(track.appearance.as_ref());
-            let lost = look_alike.filter(|old| {
-                self.anonymous
-                    .as_ref()
-                    .and_then(|a| a.last_paired.get(old))
-                    .is_none_or(|&t| t < first.time)
-            });
-            if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref())
-                || (look_alike.is_some() && lost.is_none())
-            {
-                // A mapped landmark already stands there: its bearings
-                // missed the gate for a while; it is not mapped twice.
-                if let Some(a) = self.anonymous.as_mut() {
-                    a.tracks.remove_with_competitors(id);
-                }
-                continue;
-            }
-            let decision = match &self.config.initializer {
-                InitializerConfig::PiSr { .. } => CandidateDecision::Triangulate,
-                InitializerConfig::Triangulation(c)
-                | InitializerConfig::TriangulationWithClone(c) => {
-                    let candidate = candidate_of(&first, time);
-                    decide(c, &candidate, pose, last.bearing).0
-                }
-            };
-            match decision {
-                CandidateDecision::Wait => continue,
-                CandidateDecision::Restart => {
-                    if let Some(a) = self.anonymous.as_mut() {
-                        a.tracks.remove_with_competitors(id);
-                    }
-                    continue;
-                }
-                CandidateDecision::Triangulate | CandidateDecision::Far => {}
-            }
-            if !matches!(self.config.initializer, InitializerConfig::PiSr { .. }) {
-                self.candidates.insert(
-                    id,
-                    PendingCandidate::from_first_sighting(candidate_of(&first, time)),
-                );
-            }
-            let inserted = self.initialize_from_bearing(id, last.bearing)?;
-            // A candidate the initializer did not take is not kept waiting.
-            self.candidates.remove(&id);
-            if let Some(a) = self.anonymous.as_mut() {
-                a.tracks.remove_with_competitors(id);
-            }
-            if inserted {
-                // The lost landmark the new one looks like is replaced by
-                // it, so it is not mapped twice.
-                let replaced = lost;
-                if let Some(a) = self.anonymous.as_mut() {
-                    a.births.insert(id, time);
-                    if let Some(appearance) = track.appearance {
-                        a.appearances.insert(id, appearance);
-                    }
-                    if let Some(old) = replaced {
-                        a.deaths.insert(old, time);
-                        a.merged.insert(old, id);
-                        a.recent_nis.remove(&old);
-                        a.appearances.remove(&old);
-                        a.last_paired.remove(&old);
-                    }
-                }
-                if let Some(old) = replaced {
-                    self.remove_landmark(old)?;
-                }
-                entered += 1;
-            }
-        }
-        Ok(entered)
-    }
-
     /// [`Self::update_anonymous`] on a scan of the log, whose ids the
     /// filter does not use but keeps next to its decisions to score them
     /// ([`Self::association_score`]).
@@ -690,52 +591,6 @@ impl BearingSlam {
         Ok(())
     }
 
-    /// The mapped landmark a track looks like (appearance within the χ²_D
-    /// gate), with descriptors: the track is that landmark, seen where its
-    /// estimate no longer predicts it.
-    fn look_alike(&self, appearance: Option<&Appearance>) -> Option<u64> {
-        let model = self.config.association.descriptors?;
-        let gate = model.gate(self.config.association.gate_probability).ok()?;
-        let a = appearance?;
-        let known = &self.anonymous.as_ref()?.appearances;
-        known
-            .iter()
-            .map(|(&id, b)| (id, model.distance_between(a, b)))
-            .filter(|&(_, d2)| d2 <= gate)
-            .min_by(|x, y| x.1.total_cmp(&y.1))
-            .map(|(id, _)| id)
-    }
-
-    /// Whether a mapped landmark already explains a track: its point lies
-    /// within the χ²₂ gate of the track's (covariances of both summed)
-    /// and, with descriptors, it looks like it (appearance within the χ²_D
-    /// gate).
-    fn explained_by_map(
-        &self,
-        point: Option<&TrackPoint>,
-        appearance: Option<&Appearance>,
-    ) -> bool {
-        let p = self.config.association.gate_probability;
-        let model = self.config.association.descriptors;
-        let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
-        let known = self.anonymous.as_ref().map(|a| &a.appearances);
-        let Some((x, cov)) = point else {
-            return false;
-        };
-        let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
-        self.landmarks().iter().any(|l| {
-            let d = x - l.position;
-            let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
-                (Some(m), Some(a), Some(b)) => m.distance_between(a, b) <= appearance_gate,
-                _ => true,
-            };
-            alike
-                && (cov + l.covariance)
-                    .try_inverse()
-                    .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
-        })
-    }
-
     /// Removes the younger of every pair of mapped landmarks that are the
     /// same point within the χ²₂ gate at `gate_probability`
     /// ([`Self::duplicate_pairs`]); a removal is recorded as a death and a
@@ -793,17 +648,6 @@ impl BearingSlam {
     }
 }
 
-/// The candidate of the delayed initializer (16) a track's first sighting makes.
-fn candidate_of(first: &crate::association::tracks::Sighting, time: f64) -> Candidate {
-    Candidate {
-        pose: first.pose,
-        bearing: first.bearing,
-        pose_variances: first.pose_variances,
-        created: first.time,
-        last_seen: time,
-    }
-}
-
 /// The `(landmark id, bearing)` pairs of a pairing.
 fn paired_ids(
     pairing: &Pairing,
@@ -818,3 +662,6 @@ fn paired_ids(
         .filter_map(|(i, j)| j.map(|j| (predictions[kept[j]].id, bearings[i])))
         .collect()
 }
+
+#[path = "track_promotion.rs"]
+mod promotion;
