@@ -75,7 +75,9 @@ pub struct AssociationScore {
     /// merged into the landmark they duplicated, or removed).
     #[serde(default)]
     pub duplicates_at_end: usize,
-    /// Landmarks removed as duplicates of another mapped landmark.
+    /// Landmarks removed as duplicates of another mapped landmark, or
+    /// replaced, once lost, by a new one that looks like them (appearance
+    /// descriptors).
     #[serde(default)]
     pub merged: usize,
     /// Landmarks ever mapped that were owned by clutter or a moving distractor.

@@ -62,7 +62,8 @@ pub(super) struct Anonymous {
     deaths: BTreeMap<u64, f64>,
     /// The individual NIS of each landmark's latest pairings.
     recent_nis: BTreeMap<u64, VecDeque<f64>>,
-    /// Landmarks removed as duplicates, with the landmark they duplicated.
+    /// Landmarks removed as duplicates, or replaced as lost by a track that
+    /// looks like them, with the landmark that stands for them now.
     merged: BTreeMap<u64, u64>,
     /// Each mapped landmark's appearance (the mean of its paired
     /// descriptors), when the bearings carry descriptors.

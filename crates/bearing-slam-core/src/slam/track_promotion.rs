@@ -91,13 +91,12 @@ impl BearingSlam {
             if inserted {
                 // The lost landmark the new one looks like is replaced by
                 // it, so it is not mapped twice.
-                let replaced = lost;
                 if let Some(a) = self.anonymous.as_mut() {
                     a.births.insert(id, time);
                     if let Some(appearance) = track.appearance {
                         a.appearances.insert(id, appearance);
                     }
-                    if let Some(old) = replaced {
+                    if let Some(old) = lost {
                         a.deaths.insert(old, time);
                         a.merged.insert(old, id);
                         a.recent_nis.remove(&old);
@@ -105,7 +104,7 @@ impl BearingSlam {
                         a.last_paired.remove(&old);
                     }
                 }
-                if let Some(old) = replaced {
+                if let Some(old) = lost {
                     self.remove_landmark(old)?;
                 }
                 entered += 1;
