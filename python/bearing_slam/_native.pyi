@@ -139,7 +139,7 @@ class Config:
     # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the
     # filter takes both, FastSLAM "nn" only, per-particle maximum
     # likelihood; the smoothers "known" only); the appearance descriptors'
-    # noise σ (None: descriptors ignored; the filter's nn/jcbb only).
+    # noise σ (None: descriptors ignored; hidden ids only).
     association: str
     descriptor_sigma: float | None
     # Robustness on a real camera (issue 13 item 3): robust gating and the

@@ -64,8 +64,9 @@ def test_simulated_descriptors_change_no_bearing_and_follow_their_noise() -> Non
 def test_descriptor_sigma_is_refused_with_known_ids_and_used_with_hidden_ones() -> None:
     with pytest.raises(ValueError, match="descriptor_sigma is not used here"):
         bs.Config(descriptor_sigma=0.2)
-    with pytest.raises(ValueError, match="used by the filter's association only"):
-        bs.Config(estimator="fastslam2", association="nn", descriptor_sigma=0.2)
+    # FastSLAM's per-particle association uses them too.
+    fastslam = bs.Config(estimator="fastslam2", association="nn", descriptor_sigma=0.2)
+    assert fastslam.descriptor_sigma == 0.2
     config = bs.Config(association="jcbb", descriptor_sigma=0.2)
     assert config.descriptor_sigma == 0.2
     with pytest.raises(ValueError, match=r"association\.descriptors\.sigma"):

@@ -248,6 +248,7 @@ impl EstimatorConfig {
                 .unwrap_or(DEFAULT_NEW_LANDMARK_DENSITY),
             max_range_m: existence.max_range_m,
             min_sightings: slam.association.min_sightings,
+            descriptors: slam.association.descriptors,
         });
         FastSlamConfig {
             variant: if self.kind == EstimatorKind::FastSlam1 {

@@ -638,13 +638,6 @@ impl PyConfig {
                  (association \"nn\" or \"jcbb\"), and association is \"known\""
                     .to_owned(),
             ),
-            "descriptor_sigma" if self.estimator != EstimatorKind::Filter.to_string() => {
-                Some(format!(
-                    "appearance descriptors are used by the filter's association only, \
-                     and estimator is {:?}",
-                    self.estimator
-                ))
-            }
             "range_sigma" if !self.use_range => {
                 Some("it applies to range-bearing runs (use_range=True) only".to_owned())
             }

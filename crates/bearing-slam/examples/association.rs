@@ -394,6 +394,7 @@ fn fastslam_runs(
     let mut hidden = base.clone();
     hidden.slam.association = AssociationConfig {
         new_landmark_density: Some(prior),
+        descriptors: descriptor_setting().map(|d| DescriptorModel { sigma: d.sigma }),
         ..AssociationConfig::of(AssociationMethod::NearestNeighbour)
     };
     let started = Instant::now();
@@ -420,6 +421,7 @@ fn fastslam(seeds: u64, first_seed: u64) -> Res<()> {
             for seed in first_seed..first_seed + seeds {
                 let mut scenario = Scenario::named(name, seed)?;
                 scenario.clutter.per_scan = clutter;
+                scenario.appearance = descriptor_setting();
                 let log = simulate(&scenario)?;
                 // The stated prior, as for the EKF: the scenario's static
                 // landmarks, its clutter rate and field of view.

@@ -128,7 +128,7 @@ impl Appearance {
 /// component), the alternative hypothesis of a track's appearance evidence
 /// (a sighting that is not the track's landmark looks like a random draw
 /// from what the sensor sees).
-#[derive(Clone, Debug, PartialEq, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct Background {
     count: usize,
     mean: [f64; DESCRIPTOR_LEN],

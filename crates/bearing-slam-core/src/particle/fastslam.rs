@@ -21,10 +21,11 @@ use super::ml_association::{DecisionLog, MaximumLikelihoodAssociation, scan_deci
 use super::proposal::{PoseGaussian, propose};
 use super::resample::{effective_sample_size, normalize_log_weights, systematic_resample};
 use super::sampling::{StreamPurpose, sample_gaussian, stream, uniform};
+use crate::association::appearance::{Appearance, Background};
 use crate::association::score::AssociationScore;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
-use crate::log::BearingObservation;
+use crate::log::{BearingObservation, Descriptor};
 use crate::model::MotionModel;
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
@@ -97,6 +98,9 @@ struct Plan {
     assigned: Vec<Association>,
     known: Vec<(u64, Observation)>,
     new: Vec<(u64, Observation)>,
+    /// The appearance descriptors of `known` and `new`, in their order.
+    known_descriptors: Vec<Option<Descriptor>>,
+    new_descriptors: Vec<Option<Descriptor>>,
     proposal: Option<PoseGaussian>,
     /// FastSLAM 2.0: the proposal's per-landmark log-likelihood terms.
     terms: Vec<(u64, f64)>,
@@ -112,6 +116,9 @@ pub struct FastSlam {
     step: u64,
     time: Option<f64>,
     best: usize,
+    /// Every appearance descriptor seen so far (the new-landmark
+    /// hypothesis's appearance density under unknown ids).
+    background: Background,
 }
 
 impl FastSlam {
@@ -153,6 +160,7 @@ impl FastSlam {
             step: 0,
             time: None,
             best: 0,
+            background: Background::default(),
         })
     }
 
@@ -272,8 +280,13 @@ impl FastSlam {
     ) -> Result<ParticleUpdateReport> {
         match self.config.association {
             Some(ml) => {
-                let associator = MaximumLikelihoodAssociation::new(ml, self.config.noise)?;
-                self.update_with(time, scan, use_range, &associator)
+                let associator = MaximumLikelihoodAssociation::new(ml, self.config.noise)?
+                    .with_background(self.background);
+                let report = self.update_with(time, scan, use_range, &associator)?;
+                for d in scan.iter().filter_map(|o| o.descriptor.as_ref()) {
+                    self.background.add(d);
+                }
+                Ok(report)
             }
             None => self.update_with(time, scan, use_range, &KnownAssociation),
         }
@@ -378,15 +391,22 @@ impl FastSlam {
                 let assigned = association.associate_scan(&p.map, &prior, scan, observations)?;
                 let mut known = Vec::new();
                 let mut new = Vec::new();
+                let mut known_descriptors = Vec::new();
+                let mut new_descriptors = Vec::new();
                 let mut new_terms = Vec::new();
-                for (a, obs) in assigned.iter().zip(observations) {
+                for (k, (a, obs)) in assigned.iter().zip(observations).enumerate() {
+                    let descriptor = scan.get(k).and_then(|o| o.descriptor);
                     match *a {
-                        Association::Known(id) => known.push((id, *obs)),
+                        Association::Known(id) => {
+                            known.push((id, *obs));
+                            known_descriptors.push(descriptor);
+                        }
                         Association::New(id) => {
                             if let Some(ll) = association.new_landmark_log_likelihood(&p.map, obs) {
                                 new_terms.push((id, ll));
                             }
                             new.push((id, *obs));
+                            new_descriptors.push(descriptor);
                         }
                         Association::Clutter => {}
                     }
@@ -401,6 +421,8 @@ impl FastSlam {
                     assigned,
                     known,
                     new,
+                    known_descriptors,
+                    new_descriptors,
                     proposal,
                     terms,
                     new_terms,
@@ -463,7 +485,9 @@ impl FastSlam {
                 }
                 let first_order = config.variant == FastSlamVariant::FastSlam1;
                 let mut seen = BTreeSet::new();
-                for (id, observation) in &plan.known {
+                for ((id, observation), descriptor) in
+                    plan.known.iter().zip(&plan.known_descriptors)
+                {
                     seen.insert(*id);
                     let Some(landmark) = p.map.get(*id).copied() else {
                         continue;
@@ -484,14 +508,23 @@ impl FastSlam {
                                 d.confirmed.push(*id);
                             }
                             let filter = convert(filter, &p.pose, config.conversion_threshold);
-                            p.map.insert(*id, MappedLandmark { filter, existence });
+                            let appearance =
+                                Appearance::extended(landmark.appearance, descriptor.as_ref());
+                            p.map.insert(
+                                *id,
+                                MappedLandmark {
+                                    filter,
+                                    existence,
+                                    appearance,
+                                },
+                            );
                             counts.used += 1;
                         }
                         Err(SlamError::Degenerate(_)) => counts.rejected += 1,
                         Err(e) => return Err(e),
                     }
                 }
-                for (id, observation) in &plan.new {
+                for ((id, observation), descriptor) in plan.new.iter().zip(&plan.new_descriptors) {
                     seen.insert(*id);
                     let step = initialize(
                         &mut p.map,
@@ -511,7 +544,15 @@ impl FastSlam {
                             d.confirmed.push(*id);
                         }
                         let filter = convert(filter, &p.pose, config.conversion_threshold);
-                        p.map.insert(*id, MappedLandmark { filter, existence });
+                        let appearance = descriptor.as_ref().map(Appearance::of);
+                        p.map.insert(
+                            *id,
+                            MappedLandmark {
+                                filter,
+                                existence,
+                                appearance,
+                            },
+                        );
                         counts.initialized += 1;
                     }
                 }

@@ -11,6 +11,7 @@
 
 use super::existence::ExistenceCounter;
 use super::landmark_ekf::LandmarkEkf;
+use crate::association::appearance::Appearance;
 use crate::init::Candidate;
 use rpds::RedBlackTreeMapSync;
 
@@ -21,6 +22,9 @@ pub struct MappedLandmark {
     pub filter: LandmarkEkf,
     /// Seen versus expected-but-missed.
     pub existence: ExistenceCounter,
+    /// The mean of the appearance descriptors of its sightings (unknown
+    /// ids with descriptors; `None` otherwise).
+    pub appearance: Option<Appearance>,
 }
 
 /// The landmarks and pending candidates of one particle (cheap to clone).

@@ -30,6 +30,15 @@
 //! therefore weighs unknown-id particles by their own terms only (no
 //! cross-particle credit, [`super::credit`]).
 //!
+//! **Appearance** ([`MaximumLikelihoodConfig::descriptors`], the same model
+//! as the EKF's, [`crate::association::appearance`]): each landmark of a
+//! particle keeps the mean of its sightings' descriptors; a bearing whose
+//! descriptor is beyond the `χ²_D` gate of a landmark's appearance is not
+//! paired with it, and inside the gate its appearance ln-likelihood ratio
+//! (`ln N(d; m, σ²(1 + 1/n) I)` against the background of every descriptor
+//! the filter has seen, the new-landmark hypothesis's appearance density)
+//! is added to the geometric `ln(ℓ_j / p₀)`.
+//!
 //! Only the pairs inside the χ² gate of the motion prior at `1 − 10⁻⁹`
 //! are considered (a true pairing fails it once in 10⁹): the gate bounds
 //! the work and keeps a prior with `p₀ → 0` from pairing a bearing with a
@@ -62,9 +71,10 @@ use super::landmark_ekf::{Linearized, Observation, SensorNoise, gaussian_log_den
 use super::map::{MappedLandmark, ParticleMap};
 use super::proposal::{PoseGaussian, condition};
 use crate::association::NewLandmarkDensity;
+use crate::association::appearance::{Background, DescriptorModel};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, score};
 use crate::error::{Result, SlamError, ensure_in_range};
-use crate::log::BearingObservation;
+use crate::log::{BearingObservation, Descriptor};
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -90,6 +100,12 @@ pub struct MaximumLikelihoodConfig {
     /// Sightings after which a landmark is confirmed (reported and scored
     /// as mapped), ≥ 1.
     pub min_sightings: usize,
+    /// The descriptor noise of a sensor that reports appearance: with it a
+    /// bearing pairs only with a landmark that looks like it, and its
+    /// appearance evidence joins the likelihood ratio against `p₀`
+    /// ([`crate::association::appearance`]). `None`: descriptors ignored.
+    #[serde(default)]
+    pub descriptors: Option<DescriptorModel>,
 }
 
 impl Default for MaximumLikelihoodConfig {
@@ -100,6 +116,7 @@ impl Default for MaximumLikelihoodConfig {
             new_landmark: DEFAULT_NEW_LANDMARK_DENSITY,
             max_range_m: 50.0,
             min_sightings: crate::association::AssociationConfig::default().min_sightings,
+            descriptors: None,
         }
     }
 }
@@ -111,6 +128,9 @@ impl MaximumLikelihoodConfig {
     /// [`SlamError::InvalidParameter`].
     pub fn validate(&self) -> Result<()> {
         self.new_landmark.validate()?;
+        if let Some(d) = &self.descriptors {
+            d.validate()?;
+        }
         ensure_in_range(&[
             (
                 "association.max_range_m",
@@ -155,6 +175,9 @@ impl MaximumLikelihoodConfig {
 pub struct MaximumLikelihoodAssociation {
     config: MaximumLikelihoodConfig,
     noise: SensorNoise,
+    /// The descriptors seen before this scan: the appearance density of
+    /// the new-landmark hypothesis.
+    background: Background,
 }
 
 impl MaximumLikelihoodAssociation {
@@ -165,7 +188,43 @@ impl MaximumLikelihoodAssociation {
     pub fn new(config: MaximumLikelihoodConfig, noise: SensorNoise) -> Result<Self> {
         config.validate()?;
         noise.validate()?;
-        Ok(Self { config, noise })
+        Ok(Self {
+            config,
+            noise,
+            background: Background::default(),
+        })
+    }
+
+    /// The associator with `background` as the appearance density of a
+    /// new landmark (the descriptors the filter has seen so far).
+    #[must_use]
+    pub fn with_background(self, background: Background) -> Self {
+        Self { background, ..self }
+    }
+
+    /// The appearance evidence of `descriptor` for `landmark`: `None` when
+    /// it does not look like it (`a²` beyond `χ²_D` at
+    /// [`APPEARANCE_GATE_PROBABILITY`]), else the ln-likelihood ratio of its
+    /// appearance against the background (0 when either side has no
+    /// appearance, without the model, or before the background is fitted).
+    fn appearance_evidence(
+        &self,
+        landmark: &MappedLandmark,
+        descriptor: Option<&Descriptor>,
+    ) -> Result<Option<f64>> {
+        let (Some(model), Some(appearance), Some(d)) =
+            (&self.config.descriptors, &landmark.appearance, descriptor)
+        else {
+            return Ok(Some(0.0));
+        };
+        if model.distance(appearance, d) > model.gate(APPEARANCE_GATE_PROBABILITY)? {
+            return Ok(None);
+        }
+        Ok(Some(
+            self.background
+                .log_density(d)
+                .map_or(0.0, |b| model.log_density(appearance, d) - b),
+        ))
     }
 
     /// The settings.
@@ -256,6 +315,10 @@ fn predictive<const M: usize>(
     })
 }
 
+/// Probability of the appearance gate `a² ≤ χ²_D(p)` (the EKF
+/// association's default gate probability).
+const APPEARANCE_GATE_PROBABILITY: f64 = 0.999;
+
 /// Probability of the χ² gate, under the motion prior, that a pairing must
 /// pass to be rescored after the scan's first pairings sharpen the pose:
 /// a true pairing fails it once in 10⁹ (it only bounds the work).
@@ -292,22 +355,26 @@ impl DataAssociation for MaximumLikelihoodAssociation {
         &self,
         map: &ParticleMap,
         prior: &PoseGaussian,
-        _scan: &[BearingObservation],
+        scan: &[BearingObservation],
         observations: &[Observation],
     ) -> Result<Vec<Association>> {
+        let descriptor = |i: usize| scan.get(i).and_then(|o| o.descriptor.as_ref());
         let mapped = map.len();
         let gate = |range: bool| {
             crate::stats::chi2_quantile(if range { 2.0 } else { 1.0 }, CANDIDATE_GATE_PROBABILITY)
         };
         let (gate1, gate2) = (gate(false)?, gate(true)?);
         // The pairs inside the gate under the motion prior, in scan then id order.
-        let mut candidates: Vec<(usize, u64)> = Vec::new();
+        let mut candidates: Vec<(usize, u64, f64)> = Vec::new();
         for (i, obs) in observations.iter().enumerate() {
             for (id, landmark) in map.iter() {
+                let Some(appearance) = self.appearance_evidence(landmark, descriptor(i))? else {
+                    continue;
+                };
                 if let Some(s) = self.log_likelihood(landmark, prior, obs)?
                     && s.mahalanobis <= if s.range { gate2 } else { gate1 }
                 {
-                    candidates.push((i, id));
+                    candidates.push((i, id, appearance));
                 }
             }
         }
@@ -317,23 +384,24 @@ impl DataAssociation for MaximumLikelihoodAssociation {
             // The best remaining (ratio to p₀, candidate index); ties go to
             // the first candidate (deterministic).
             let mut best: Option<(f64, usize)> = None;
-            for (k, &(i, id)) in candidates.iter().enumerate() {
+            for (k, &(i, id, appearance)) in candidates.iter().enumerate() {
                 let Some(landmark) = map.get(id) else {
                     continue;
                 };
                 let Some(s) = self.log_likelihood(landmark, &pose, &observations[i])? else {
                     continue;
                 };
-                let ratio =
-                    s.log_likelihood - self.config.new_landmark_log_density(mapped, s.range);
+                let ratio = s.log_likelihood
+                    - self.config.new_landmark_log_density(mapped, s.range)
+                    + appearance;
                 if ratio > 0.0 && best.is_none_or(|(r, _)| ratio > r) {
                     best = Some((ratio, k));
                 }
             }
             let Some((_, k)) = best else { break };
-            let (i, id) = candidates[k];
+            let (i, id, _) = candidates[k];
             out[i] = Some(Association::Known(id));
-            candidates.retain(|&(j, other)| j != i && other != id);
+            candidates.retain(|&(j, other, _)| j != i && other != id);
             if let Some(landmark) = map.get(id) {
                 self.condition(&mut pose, landmark, &observations[i])?;
             }

@@ -40,6 +40,7 @@ pub fn grid_problem(particles: usize, k: usize) -> Result<(FastSlam, Vec<Bearing
                     missed: 0,
                     evidence: 1.0,
                 },
+                appearance: None,
             },
         );
     }

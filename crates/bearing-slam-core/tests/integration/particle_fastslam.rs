@@ -258,6 +258,7 @@ fn known_map(points: &[(u64, f64, f64)]) -> bearing_slam_core::particle::map::Pa
                     missed: 0,
                     evidence: 1.0,
                 },
+                appearance: None,
             },
         );
     }

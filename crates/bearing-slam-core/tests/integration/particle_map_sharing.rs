@@ -22,6 +22,7 @@ fn landmark(x: f64, y: f64) -> MappedLandmark {
             missed: 0,
             evidence: 1.0,
         },
+        appearance: None,
     }
 }
 

@@ -6,11 +6,14 @@
 use super::association_run::log;
 use bearing_slam_core::SlamError;
 use bearing_slam_core::association::score::AssociationScore;
-use bearing_slam_core::association::{AssociationConfig, AssociationMethod, NewLandmarkDensity};
+use bearing_slam_core::association::{
+    Appearance, AssociationConfig, AssociationMethod, DescriptorModel, NewLandmarkDensity,
+};
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::{
-    BearingObservation, CLUTTER_ID_START, SensorLog, TruthKind, truth_kind,
+    BearingObservation, CLUTTER_ID_START, DESCRIPTOR_LEN, Descriptor, SensorLog, TruthKind,
+    truth_kind,
 };
 use bearing_slam_core::particle::association::{Association, DataAssociation};
 use bearing_slam_core::particle::existence::ExistenceCounter;
@@ -37,6 +40,7 @@ fn landmark(x: f64, y: f64) -> MappedLandmark {
             missed: 0,
             evidence: 10.0,
         },
+        appearance: None,
     }
 }
 
@@ -112,6 +116,61 @@ fn the_most_likely_landmark_wins_and_a_bearing_far_from_all_is_new() {
     assert_eq!(
         associate(&ml, &map, &uncertain, &[6.0 * deg]),
         [Association::Known(3)]
+    );
+}
+
+/// Landmarks 3 and 4 one degree apart 5 m ahead, looking different:
+/// with descriptors a bearing goes to the landmark it looks like even
+/// where the geometry prefers the other, and one that looks like neither
+/// starts a new landmark; without the model the geometry decides.
+#[test]
+fn appearance_decides_between_landmarks_the_geometry_confuses() {
+    let deg = 1f64.to_radians();
+    let look = |v: f64| Descriptor([v; DESCRIPTOR_LEN]);
+    let mut map = ParticleMap::new();
+    for (id, angle, v) in [(3, 0.0, 1.0), (4, deg, -1.0)] {
+        let mut l = landmark(5.0 * f64::cos(angle), 5.0 * f64::sin(angle));
+        l.appearance = Some(Appearance::of(&look(v)));
+        map.insert(id, l);
+    }
+    let noise = SensorNoise {
+        bearing_sigma: deg,
+        range_sigma: 0.1,
+    };
+    let prior = PoseGaussian {
+        mean: Vector3::zeros(),
+        cov: Matrix3::zeros(),
+    };
+    let described = |z: f64, v: f64| BearingObservation {
+        descriptor: Some(look(v)),
+        ..BearingObservation::new(0, z)
+    };
+    // 0.8° is nearer landmark 4, but it looks like landmark 3.
+    let scan = [described(0.8 * deg, 1.0)];
+    let obs = [Observation::Bearing(0.8 * deg)];
+    let geometry =
+        MaximumLikelihoodAssociation::new(MaximumLikelihoodConfig::default(), noise).unwrap();
+    assert_eq!(
+        geometry.associate_scan(&map, &prior, &scan, &obs).unwrap(),
+        [Association::Known(4)]
+    );
+    let config = MaximumLikelihoodConfig {
+        descriptors: Some(DescriptorModel { sigma: 0.1 }),
+        ..MaximumLikelihoodConfig::default()
+    };
+    let appearance = MaximumLikelihoodAssociation::new(config, noise).unwrap();
+    assert_eq!(
+        appearance
+            .associate_scan(&map, &prior, &scan, &obs)
+            .unwrap(),
+        [Association::Known(3)]
+    );
+    let stranger = [described(0.8 * deg, 0.0)];
+    assert_eq!(
+        appearance
+            .associate_scan(&map, &prior, &stranger, &obs)
+            .unwrap(),
+        [Association::New(5)]
     );
 }
 
