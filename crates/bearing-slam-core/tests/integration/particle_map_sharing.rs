@@ -11,19 +11,28 @@ use bearing_slam_core::particle::{FastSlam, FastSlamConfig};
 
 const K: u64 = 1000;
 
-fn landmark(x: f64, y: f64) -> MappedLandmark {
+/// A Euclidean landmark at `(x, y)`, σ = 0.1 m, with `existence` and no appearance.
+pub(crate) fn landmark_with(x: f64, y: f64, existence: ExistenceCounter) -> MappedLandmark {
     MappedLandmark {
         filter: LandmarkEkf::Euclidean {
             mean: Vector2::new(x, y),
             cov: Matrix2::identity() * 0.01,
         },
-        existence: ExistenceCounter {
+        existence,
+        appearance: None,
+    }
+}
+
+fn landmark(x: f64, y: f64) -> MappedLandmark {
+    landmark_with(
+        x,
+        y,
+        ExistenceCounter {
             seen: 1,
             missed: 0,
             evidence: 1.0,
         },
-        appearance: None,
-    }
+    )
 }
 
 fn big_map() -> ParticleMap {

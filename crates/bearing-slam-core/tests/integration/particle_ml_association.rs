@@ -4,6 +4,7 @@
 //! kinematic Fig. 4 straight run with and without clutter.
 
 use super::association_run::log;
+use super::particle_map_sharing::landmark_with;
 use bearing_slam_core::SlamError;
 use bearing_slam_core::association::score::AssociationScore;
 use bearing_slam_core::association::{
@@ -17,7 +18,7 @@ use bearing_slam_core::log::{
 };
 use bearing_slam_core::particle::association::{Association, DataAssociation};
 use bearing_slam_core::particle::existence::ExistenceCounter;
-use bearing_slam_core::particle::landmark_ekf::{LandmarkEkf, Observation, SensorNoise};
+use bearing_slam_core::particle::landmark_ekf::{Observation, SensorNoise};
 use bearing_slam_core::particle::map::{MappedLandmark, ParticleMap};
 use bearing_slam_core::particle::ml_association::{
     DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodAssociation, MaximumLikelihoodConfig,
@@ -27,21 +28,19 @@ use bearing_slam_core::runner::{RunConfig, RunOutput};
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::slam::InitializerConfig;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
-use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
+use nalgebra::{Matrix3, Vector3};
 
+/// A well-seen landmark (confirmed, evidence 10) at `(x, y)`.
 fn landmark(x: f64, y: f64) -> MappedLandmark {
-    MappedLandmark {
-        filter: LandmarkEkf::Euclidean {
-            mean: Vector2::new(x, y),
-            cov: Matrix2::identity() * 0.01,
-        },
-        existence: ExistenceCounter {
+    landmark_with(
+        x,
+        y,
+        ExistenceCounter {
             seen: 20,
             missed: 0,
             evidence: 10.0,
         },
-        appearance: None,
-    }
+    )
 }
 
 fn bearing(b: f64) -> (BearingObservation, Observation) {
