@@ -583,6 +583,7 @@ impl BearingSlam {
             for id in &doomed {
                 a.recent_nis.remove(id);
                 a.appearances.remove(id);
+                a.last_paired.remove(id);
                 a.deaths.insert(*id, time);
             }
         }
@@ -629,6 +630,7 @@ impl BearingSlam {
             anonymous.merged.insert(younger, older);
             anonymous.recent_nis.remove(&younger);
             anonymous.appearances.remove(&younger);
+            anonymous.last_paired.remove(&younger);
             self.remove_landmark(younger)?;
         }
         Ok(())
