@@ -178,6 +178,9 @@ pub struct MaximumLikelihoodAssociation {
     /// The descriptors seen before this scan: the appearance density of
     /// the new-landmark hypothesis.
     background: Background,
+    /// `χ²_D` at [`APPEARANCE_GATE_PROBABILITY`] (computed once, not per
+    /// particle, landmark and bearing).
+    appearance_gate: f64,
 }
 
 impl MaximumLikelihoodAssociation {
@@ -188,10 +191,15 @@ impl MaximumLikelihoodAssociation {
     pub fn new(config: MaximumLikelihoodConfig, noise: SensorNoise) -> Result<Self> {
         config.validate()?;
         noise.validate()?;
+        let appearance_gate = match &config.descriptors {
+            Some(model) => model.gate(APPEARANCE_GATE_PROBABILITY)?,
+            None => f64::INFINITY,
+        };
         Ok(Self {
             config,
             noise,
             background: Background::default(),
+            appearance_gate,
         })
     }
 
@@ -211,20 +219,20 @@ impl MaximumLikelihoodAssociation {
         &self,
         landmark: &MappedLandmark,
         descriptor: Option<&Descriptor>,
-    ) -> Result<Option<f64>> {
+    ) -> Option<f64> {
         let (Some(model), Some(appearance), Some(d)) =
             (&self.config.descriptors, &landmark.appearance, descriptor)
         else {
-            return Ok(Some(0.0));
+            return Some(0.0);
         };
-        if model.distance(appearance, d) > model.gate(APPEARANCE_GATE_PROBABILITY)? {
-            return Ok(None);
+        if model.distance(appearance, d) > self.appearance_gate {
+            return None;
         }
-        Ok(Some(
+        Some(
             self.background
                 .log_density(d)
                 .map_or(0.0, |b| model.log_density(appearance, d) - b),
-        ))
+        )
     }
 
     /// The settings.
@@ -368,7 +376,7 @@ impl DataAssociation for MaximumLikelihoodAssociation {
         let mut candidates: Vec<(usize, u64, f64)> = Vec::new();
         for (i, obs) in observations.iter().enumerate() {
             for (id, landmark) in map.iter() {
-                let Some(appearance) = self.appearance_evidence(landmark, descriptor(i))? else {
+                let Some(appearance) = self.appearance_evidence(landmark, descriptor(i)) else {
                     continue;
                 };
                 if let Some(s) = self.log_likelihood(landmark, prior, obs)?
