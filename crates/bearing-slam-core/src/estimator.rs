@@ -10,24 +10,32 @@
 //! bearings itself ([`crate::association`]); FastSLAM accepts `nn`, which
 //! for a particle filter means per-particle maximum-likelihood association
 //! ([`crate::particle::ml_association`]), and refuses `jcbb` (no joint
-//! compatibility per particle); the smoothers refuse both.
+//! compatibility per particle). The smoothers take their ids from the EKF's
+//! unknown-identity association, their front end: the batch from the
+//! decisions of a whole filter run as they ended
+//! ([`crate::association::relabel`]), the online smoother from its own
+//! filter's decisions as they are made.
 
 use crate::association::AssociationMethod;
+use crate::association::reassociate::{ReassociationGate, reassociate};
+use crate::association::relabel::{ScanLabels, apply_labels, final_labels};
+use crate::association::score::{Assignment, AssociationRecord, AssociationScore, score};
 use crate::error::{Result, SlamError};
 use crate::init::InverseDepthPrior;
-use crate::log::SensorLog;
+use crate::log::{EventKind, SensorLog};
 use crate::names::Named;
 use crate::particle::existence::ExistenceConfig;
 use crate::particle::landmark_ekf::SensorNoise;
 use crate::particle::ml_association::{DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodConfig};
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
-use crate::runner::{RunConfig, RunOutput, run};
-use crate::slam::{InitializerConfig, SlamConfig};
+use crate::runner::{RunConfig, RunOutput, run, run_online};
+use crate::slam::{BearingSlam, InitializerConfig, SlamConfig};
 use crate::smoother::{
     BatchStart, FixedLagConfig, OnlineWindow, RobustKernel, SmootherConfig, SmootherMode,
     SmootherReport, SolverConfig, run_from_log, run_online_smoother,
 };
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::BTreeMap;
 use std::time::Instant;
 
 /// The estimators by name.
@@ -283,6 +291,126 @@ impl EstimatorConfig {
 /// docs/results/association.md, where seeds 3–5 are held out).
 pub const HIDDEN_ID_MAX_EVIDENCE: f64 = 100.0;
 
+/// Re-association passes of the batch smoother with the ids hidden
+/// ([`run_batch_with_hidden_ids`]): after the solve on the front end's ids,
+/// every bearing is paired again against the smoothed estimate and the
+/// batch solved again, this many times (or until the pairing stops
+/// changing).
+pub const BATCH_REASSOCIATION_PASSES: usize = 1;
+
+/// The batch smoother on a log whose ids are hidden.
+///
+/// 1. The EKF runs with the configured association (nearest neighbour or
+///    JCBB) as the front end, and the log is relabelled with its decisions
+///    as they ended ([`final_labels`]).
+/// 2. The batch runs on that log with known association.
+/// 3. Up to `passes` times: every bearing is paired again against the
+///    smoothed estimate ([`reassociate`]: the association's gate
+///    probability, the filter's bearing σ, the appearance model) and the
+///    batch runs again on the new labels; it stops early once they no
+///    longer change.
+///
+/// The map keeps the filter's landmark ids. The association scores are
+/// those of the labels the last solve used, scored as a batch's: every
+/// landmark of the map counts as mapped from the first scan, so recall is
+/// over every bearing of a mapped static landmark. The report's filter time
+/// includes the front end's run.
+///
+/// # Errors
+/// As [`run_estimator`], and an invalid association gate.
+pub fn run_batch_with_hidden_ids(
+    log: &SensorLog,
+    config: &RunConfig,
+    estimator: &EstimatorConfig,
+    passes: usize,
+) -> Result<EstimatorRun> {
+    let started = Instant::now();
+    let front_end = run_online(
+        log,
+        &config.odometry,
+        config.use_range,
+        config.slam.initial_pose,
+        |start| {
+            BearingSlam::new(SlamConfig {
+                initial_pose: start,
+                ..config.slam.clone()
+            })
+        },
+    )?;
+    let front_end_s = started.elapsed().as_secs_f64();
+    let history = front_end
+        .estimator
+        .association_history()
+        .ok_or(SlamError::Mismatch(
+            "the smoother's front end kept no association history (association `known`)",
+        ))?;
+    let mut labels = final_labels(log, &history)?;
+    let mut known = config.clone();
+    known.slam.association.method = AssociationMethod::Known;
+    known.slam.association.descriptors = None;
+    let batch = EstimatorConfig {
+        kind: EstimatorKind::Smoother,
+        ..*estimator
+    };
+    let mut run = run_estimator(&apply_labels(log, &labels)?, &known, &batch)?;
+    let gate = ReassociationGate {
+        probability: config.slam.association.gate_probability,
+        bearing_sigma: config.slam.bearing_sigma,
+        descriptors: config.slam.association.descriptors,
+    };
+    for _ in 0..passes {
+        let (next, _) = reassociate(log, &run.output.trace.snapshots, &labels, &gate)?;
+        if next == labels {
+            break;
+        }
+        labels = next;
+        run = run_estimator(&apply_labels(log, &labels)?, &known, &batch)?;
+    }
+    run.output.association = Some(batch_association_score(
+        log,
+        &labels,
+        &run.output,
+        config.slam.association.min_sightings,
+    ));
+    if let Some(report) = run.smoother.as_mut() {
+        report.filter_time_s += front_end_s;
+    }
+    Ok(run)
+}
+
+/// The association scores of a batch's `labels` ([`score`]): each labelled
+/// bearing paired with its landmark, the others with none, and every
+/// landmark of `output`'s final map mapped from the log's first scan.
+fn batch_association_score(
+    log: &SensorLog,
+    labels: &ScanLabels,
+    output: &RunOutput,
+    min_sightings: usize,
+) -> AssociationScore {
+    let scans = log.events.iter().filter_map(|e| match &e.kind {
+        EventKind::Bearings(scan) => Some((e.time, scan)),
+        _ => None,
+    });
+    let mut records = Vec::new();
+    for ((time, scan), scan_labels) in scans.zip(labels) {
+        for (o, label) in scan.iter().zip(scan_labels) {
+            records.push(AssociationRecord {
+                time,
+                truth: o.landmark_id,
+                assigned: label.map_or(Assignment::Tracks(Vec::new()), Assignment::Landmark),
+            });
+        }
+    }
+    let first = records.first().map_or(0.0, |r| r.time) - 1.0;
+    let births = output
+        .trace
+        .snapshots
+        .last()
+        .map(|s| s.landmarks.iter().map(|l| (l.id, first)).collect())
+        .unwrap_or_default();
+    score(&records, &births, &BTreeMap::new(), &[], min_sightings)
+}
+
 /// An estimator's run: the output in the runner's shape, and what the
 /// estimator has beyond it.
 #[derive(Clone, Debug)]
@@ -309,11 +437,8 @@ pub fn run_estimator(
 ) -> Result<EstimatorRun> {
     estimator.validate()?;
     let method = config.slam.association.method;
-    if config.slam.association.ignores_ids() && estimator.kind.is_smoother() {
-        return Err(SlamError::Mismatch(
-            "association nn/jcbb (ids unknown) is implemented for the `filter` and FastSLAM \
-             estimators only; the smoothers need `known`",
-        ));
+    if config.slam.association.ignores_ids() && estimator.kind == EstimatorKind::Smoother {
+        return run_batch_with_hidden_ids(log, config, estimator, BATCH_REASSOCIATION_PASSES);
     }
     if method == AssociationMethod::Jcbb && estimator.kind.is_particle_filter() {
         return Err(SlamError::Mismatch(

@@ -4,7 +4,8 @@
 
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
-use crate::log::SensorLog;
+use crate::association::score::AssociationScore;
+use crate::log::{SensorLog, TruthKind, truth_kind};
 use crate::metrics::{Alignment, NeesSummary, ate, pose_nees_series};
 use crate::runner::{RunOutput, TrackPoint};
 use crate::trace::{EstimateSnapshot, SlamEvent};
@@ -92,7 +93,7 @@ pub fn summarize(log: &SensorLog, output: &RunOutput) -> Result<RunSummary> {
         final_heading_error_deg: raw.final_heading_rad.to_degrees(),
         dead_reckoning_ate_rmse_m: dr.rmse_m,
         dead_reckoning_final_position_error_m: dr.final_position_m,
-        landmark_rmse_m: last.and_then(|s| landmark_rmse(log, s)),
+        landmark_rmse_m: last.and_then(|s| landmark_rmse(log, s, output.association.as_ref())),
         mean_nees_pose: nees.mean,
         median_nees_pose: nees.median,
         nees_within_95: nees.fraction_within_bound,
@@ -145,16 +146,47 @@ pub fn first_divergence(output: &RunOutput) -> Option<f64> {
         .map(|e| e.time)
 }
 
-/// RMSE of a snapshot's landmarks against the log's landmark truth, over the
-/// landmarks that have both; `None` when none do.
+/// A snapshot's landmarks as `(id, x, y)` under the log's ids. With known
+/// association that is the snapshot's own ids; with the ids hidden
+/// (`association`: the run's scores) each mapped landmark takes the id of
+/// its owner, the true landmark most of its bearings came from
+/// ([`AssociationScore::owners`]), and a landmark owned by clutter, a moving
+/// object or no bearing at all is left out. (The filter's own ids number
+/// its landmarks in the order they entered: compared with the log's ids as
+/// they are, they would pair unrelated landmarks.)
 #[must_use]
-pub fn landmark_rmse(log: &SensorLog, snapshot: &EstimateSnapshot) -> Option<f64> {
-    let errors: Vec<f64> = snapshot
+pub fn landmarks_by_true_id(
+    snapshot: &EstimateSnapshot,
+    association: Option<&AssociationScore>,
+) -> Vec<(u64, f64, f64)> {
+    snapshot
         .landmarks
         .iter()
-        .filter_map(|l| {
-            log.landmark_truth(l.id)
-                .map(|t| (l.x - t.x).powi(2) + (l.y - t.y).powi(2))
+        .filter_map(|l| match association {
+            None => Some((l.id, l.x, l.y)),
+            Some(a) => a
+                .owners
+                .get(&l.id)
+                .filter(|&&owner| truth_kind(owner) == TruthKind::Landmark)
+                .map(|&owner| (owner, l.x, l.y)),
+        })
+        .collect()
+}
+
+/// RMSE of a snapshot's landmarks against the log's landmark truth, over the
+/// landmarks that have both (named by [`landmarks_by_true_id`], so a run with
+/// the ids hidden passes its `association` scores); `None` when none do.
+#[must_use]
+pub fn landmark_rmse(
+    log: &SensorLog,
+    snapshot: &EstimateSnapshot,
+    association: Option<&AssociationScore>,
+) -> Option<f64> {
+    let errors: Vec<f64> = landmarks_by_true_id(snapshot, association)
+        .into_iter()
+        .filter_map(|(id, x, y)| {
+            log.landmark_truth(id)
+                .map(|t| (x - t.x).powi(2) + (y - t.y).powi(2))
         })
         .collect();
     (!errors.is_empty()).then(|| (errors.iter().sum::<f64>() / errors.len() as f64).sqrt())

@@ -240,7 +240,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
                 let truth: Vec<(u64, f64, f64)> =
                     log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
                 let aligned = align_landmarks_se2(&est, &truth).map(|(_, r)| r);
-                let raw = last.and_then(|snap| landmark_rmse(&log, snap));
+                let raw = last.and_then(|snap| landmark_rmse(&log, snap, None));
                 ates.push(s.ate_rmse_m);
                 println!(
                     "| {method} | {consistency} | R{robot} | {:.2} | {:.2} | {:.2} | {} | {:.2} / {:.2} | {} | {} |",
@@ -313,7 +313,7 @@ fn mrclam_history(
                 let truth: Vec<(u64, f64, f64)> =
                     log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
                 let aligned = align_landmarks_se2(&est, &truth).map(|(_, r)| r);
-                let raw = last.and_then(|snap| landmark_rmse(&log, snap));
+                let raw = last.and_then(|snap| landmark_rmse(&log, snap, None));
                 let fraction = inside as f64 / total.max(1) as f64;
                 ates.push(s.ate_rmse_m);
                 fractions.push(fraction);

@@ -22,6 +22,10 @@
 //! With a sensor that reports appearance descriptors, a pairing and a
 //! track's sighting must match in appearance as well ([`appearance`]).
 //!
+//! [`relabel`] hands the filter's decisions to a smoother as a relabelled
+//! log; [`reassociate`] pairs the bearings again against the smoothed
+//! estimate.
+//!
 //! [`score`] scores a run's associations against the log's ids
 //! (precision, recall, duplicate, spurious and missed landmarks): in the
 //! unknown-identity mode the estimator ignores the ids and they serve as
@@ -30,6 +34,8 @@
 pub mod appearance;
 pub mod depth_hypotheses;
 pub mod jcbb;
+pub mod reassociate;
+pub mod relabel;
 pub mod score;
 pub mod tracks;
 

@@ -8,6 +8,7 @@
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
 use crate::association::appearance::{Appearance, appearance_distance};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
+use crate::association::relabel::AssociationHistory;
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
 use crate::association::tracks::TrackSet;
 use crate::association::{AssociationConfig, AssociationMethod};
@@ -524,6 +525,31 @@ impl BearingSlam {
         );
         s.merged = a.merged.len();
         Some(s)
+    }
+
+    /// What the unknown-identity mode decided for every bearing given to
+    /// [`Self::update_scored`], with the landmarks' births, removals and
+    /// merges: the front end a smoother takes its ids from
+    /// ([`crate::association::relabel`]). `None` with known association.
+    #[must_use]
+    pub fn association_history(&self) -> Option<AssociationHistory> {
+        let a = self.anonymous.as_ref()?;
+        Some(AssociationHistory {
+            records: a.records.clone(),
+            births: a.births.clone(),
+            deaths: a.deaths.clone(),
+            merged: a.merged.clone(),
+        })
+    }
+
+    /// The decisions of the latest `n` bearings given to
+    /// [`Self::update_scored`] (the last scan's, with `n` its length); fewer
+    /// when fewer were given, none with known association.
+    #[must_use]
+    pub fn latest_assignments(&self, n: usize) -> &[AssociationRecord] {
+        self.anonymous
+            .as_ref()
+            .map_or(&[], |a| &a.records[a.records.len().saturating_sub(n)..])
     }
 
     /// Every scan's pairing cost so far (unknown-identity mode; empty otherwise).

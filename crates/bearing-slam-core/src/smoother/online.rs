@@ -27,6 +27,7 @@ use super::run::{
 };
 use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::values::{Key, LandmarkChart};
+use crate::association::relabel::label_on_arrival;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
 use crate::log::{BearingObservation, SensorLog};
@@ -221,6 +222,11 @@ impl OnlineSmoother {
         let sigma = slam
             .initial_pose_sigma
             .map(|s| s.max(config.min_initial_sigma));
+        // With the ids hidden a bearing no mapped landmark explains waits
+        // under its track's id; only the filter's confirmation (the track
+        // entering its map) may bring it into the window, never the
+        // window's own triangulation, which would map clutter.
+        let ids_hidden = slam.association.ignores_ids();
         let filter = BearingSlam::new(slam)?;
         let mut smoother = FixedLagSmoother::new(fixed_lag)?;
         smoother.add_pose(0, start.to_vector())?;
@@ -235,7 +241,7 @@ impl OnlineSmoother {
             landmark_chart: config.landmark_chart,
             triangulation: config
                 .triangulate_unmapped
-                .filter(|_| config.triangulate_online)
+                .filter(|_| config.triangulate_online && !ids_hidden)
                 .map(|rule| RayTriangulationRule {
                     min_inliers: rule.min_inliers,
                     ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
@@ -407,6 +413,49 @@ impl OnlineSmoother {
         Ok(())
     }
 
+    /// With the ids hidden, the latest scan under the ids the filter's
+    /// association gave its bearings as it took them
+    /// ([`label_on_arrival`]: the landmark paired with, or the one track
+    /// the bearing went to); the bearings given none are dropped and
+    /// counted.
+    fn labelled_by_filter(&mut self, scan: &[BearingObservation]) -> Vec<BearingObservation> {
+        let decisions = self.filter.latest_assignments(scan.len());
+        let labelled: Vec<BearingObservation> = scan
+            .iter()
+            .zip(decisions)
+            .filter_map(|(o, d)| {
+                label_on_arrival(&d.assigned).map(|id| BearingObservation {
+                    landmark_id: id,
+                    ..o.clone()
+                })
+            })
+            .collect();
+        self.report.n_dropped += scan.len() - labelled.len();
+        labelled
+    }
+
+    /// Drops the waiting sightings of landmarks none of whose sightings is
+    /// still in the window (they could never enter it: [`Self::enter_landmark`]
+    /// drops such sightings too), counted as dropped. Used with the ids
+    /// hidden, where every clutter bearing waits under a track of its own and
+    /// the map of them would otherwise grow with the run (such a landmark,
+    /// if it still enters, is anchored at the latest pose instead of its
+    /// first sighting's: [`Self::first_sighting_position`]).
+    fn forget_waiting_outside_window(&mut self) {
+        let smoother = &self.smoother;
+        let mut dropped = 0;
+        self.waiting.retain(|_, sightings| {
+            let live = sightings
+                .iter()
+                .any(|(node, _, _)| smoother.in_window(*node as u64));
+            if !live {
+                dropped += sightings.len();
+            }
+            live
+        });
+        self.report.n_dropped += dropped;
+    }
+
     /// Where the robot was when it first saw landmark `id` (its first
     /// waiting sighting's [`OnlineSmoother::scan_pose`]); the latest pose
     /// when no sighting waited.
@@ -479,6 +528,13 @@ impl OnlineEstimator for OnlineSmoother {
         use_range: bool,
     ) -> Result<ScanCounts> {
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
+        let relabelled;
+        let scan = if self.filter.config().association.ignores_ids() {
+            relabelled = self.labelled_by_filter(scan);
+            relabelled.as_slice()
+        } else {
+            scan
+        };
         let snapshot = self.filter.snapshot();
         let new_pose = self.pending.steps > 0
             && self
@@ -541,6 +597,9 @@ impl OnlineEstimator for OnlineSmoother {
         self.latest = Some(snapshot);
         if new_pose {
             self.triangulate_waiting()?;
+            if self.filter.config().association.ignores_ids() {
+                self.forget_waiting_outside_window();
+            }
         }
         if new_pose || self.keyframes.is_none_or(|rule| rule.solve_every_scan) {
             self.solve()?;

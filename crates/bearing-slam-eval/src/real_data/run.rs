@@ -11,7 +11,7 @@ use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::{Alignment, align_se2, ate};
 use bearing_slam_core::runner::{self, RunOutput};
-use bearing_slam_core::score::{landmark_rmse, summarize};
+use bearing_slam_core::score::{landmark_rmse, landmarks_by_true_id, summarize};
 use bearing_slam_core::trace::{InitMethod, SlamEvent};
 use bearing_slam_io::mrclam::{LoadOptions, LoadReport, MrclamRun, load_mrclam_with};
 use serde::{Deserialize, Serialize};
@@ -330,13 +330,14 @@ fn evaluate_log(
     };
 
     let last = output.trace.snapshots.last();
+    let association = output.association.as_ref();
     let estimated: Vec<(u64, f64, f64)> = last
-        .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+        .map(|s| landmarks_by_true_id(s, association))
         .unwrap_or_default();
     let truth: Vec<(u64, f64, f64)> = log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
     let aligned = align_landmarks_se2(&estimated, &truth).map(|(_, rmse)| rmse);
     let raw = if has_truth {
-        last.and_then(|s| landmark_rmse(&log, s))
+        last.and_then(|s| landmark_rmse(&log, s, association))
     } else {
         None
     };

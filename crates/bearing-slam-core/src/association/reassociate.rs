@@ -1,0 +1,300 @@
+//! Re-association against a smoothed estimate: once a batch smoother has
+//! solved the run with the front end's ids, every bearing of the log is
+//! paired again with the landmarks of the smoothed map, seen from the
+//! smoothed pose of its scan.
+//!
+//! The front end decided each bearing from the estimate it had at the time
+//! (early in a run, a landmark's sightings wait in tracks, and some never
+//! reach it); the smoothed estimate is far better everywhere, so the same
+//! gate now decides most of those bearings. This is the batch counterpart
+//! of a visual SLAM system's search by projection after bundle adjustment.
+//!
+//! Each bearing `z` of a scan is individually compatible with a landmark
+//! `l` of the map when its normalized innovation
+//! `d² = ν² / S`, `ν = wrap(z − h(x, l))`,
+//! `S = H_x P_x H_xᵀ + H_l P_l H_lᵀ + σ²` (the bearing model (9) with its
+//! Jacobians; the smoothed marginals `P_x`, `P_l`, their cross-covariance
+//! left out) is within `χ²₁(p)`, and, with appearance descriptors, when its
+//! descriptor is within the appearance gate of the landmark's appearance
+//! (the mean of the descriptors labelled with it). The pairs are then taken
+//! nearest first by `d² + a²`, each bearing and each landmark at most once
+//! per scan (nearest neighbour with mutual exclusion).
+
+use crate::association::appearance::{Appearance, DescriptorModel};
+use crate::association::relabel::ScanLabels;
+use crate::error::{Result, SlamError};
+use crate::log::{EventKind, SensorLog};
+use crate::measurement::BearingToPoint;
+use crate::model::MeasurementModel;
+use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
+use nalgebra::{Matrix2, Matrix3, Vector1, Vector2};
+use std::collections::BTreeMap;
+
+/// The gate and noise of a re-association pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ReassociationGate {
+    /// Probability of the χ²₁ bearing gate (and of the appearance gate).
+    pub probability: f64,
+    /// The bearing noise σ, rad.
+    pub bearing_sigma: f64,
+    /// The appearance model, when the bearings carry descriptors.
+    pub descriptors: Option<DescriptorModel>,
+}
+
+/// What a pass did, against the labels it started from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReassociationReport {
+    /// Bearings given a landmark.
+    pub labelled: usize,
+    /// Of those, bearings that had none before.
+    pub gained: usize,
+    /// Bearings whose landmark changed.
+    pub changed: usize,
+    /// Bearings that had a landmark and now have none.
+    pub lost: usize,
+}
+
+/// The labels of every bearing of `log` (one list per bearing scan, as
+/// [`crate::association::relabel::final_labels`] gives them) paired again
+/// against `smoothed`: one snapshot per bearing scan of `log`, in order,
+/// whose pose and covariance are the smoothed ones; the map is the last
+/// snapshot's. `previous` labels the bearings the landmarks' appearances
+/// are estimated from.
+///
+/// # Errors
+/// [`SlamError::Mismatch`] when `smoothed` or `previous` does not match the
+/// scans of `log`; an invalid gate probability.
+pub fn reassociate(
+    log: &SensorLog,
+    smoothed: &[EstimateSnapshot],
+    previous: &ScanLabels,
+    gate: &ReassociationGate,
+) -> Result<(ScanLabels, ReassociationReport)> {
+    let scans: Vec<_> = log
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::Bearings(scan) => Some((e.time, scan)),
+            _ => None,
+        })
+        .collect();
+    if scans.len() != smoothed.len() || scans.len() != previous.len() {
+        return Err(SlamError::Mismatch(
+            "re-association needs one smoothed snapshot and one label list per bearing scan",
+        ));
+    }
+    let bearing_gate = crate::stats::chi2_quantile(1.0, gate.probability)?;
+    let appearance_gate = match &gate.descriptors {
+        Some(model) => model.gate(gate.probability)?,
+        None => f64::INFINITY,
+    };
+    let map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
+    let appearances = landmark_appearances(&scans, previous)?;
+    let mut labels = Vec::with_capacity(scans.len());
+    let mut report = ReassociationReport::default();
+    for (((time, scan), snapshot), before) in scans.iter().zip(smoothed).zip(previous) {
+        if snapshot.time != *time || before.len() != scan.len() {
+            return Err(SlamError::Mismatch(
+                "re-association: a smoothed snapshot or label list is not its scan's",
+            ));
+        }
+        let vehicle = snapshot.pose.to_vector();
+        let pose_cov = Matrix3::from_fn(|r, c| snapshot.pose_covariance[r][c]);
+        // Every individually compatible (score, bearing, landmark).
+        let mut pairs: Vec<(f64, usize, u64)> = Vec::new();
+        for landmark in map {
+            let point = Vector2::new(landmark.x, landmark.y);
+            let Ok(prediction) = BearingToPoint.predict(&vehicle, &point) else {
+                continue; // the landmark sits on the robot: it explains no bearing
+            };
+            let landmark_cov = Matrix2::from_fn(|r, c| landmark.covariance[r][c]);
+            let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
+                + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())
+                    [0]
+                + gate.bearing_sigma * gate.bearing_sigma;
+            for (j, o) in scan.iter().enumerate() {
+                let nu = BearingToPoint
+                    .residual(&Vector1::new(o.bearing), &prediction.value)
+                    .x;
+                let d2 = nu * nu / s;
+                if !(d2 <= bearing_gate) {
+                    continue;
+                }
+                let a2 = match (&gate.descriptors, appearances.get(&landmark.id), &o.descriptor)
+                {
+                    (Some(model), Some(appearance), Some(d)) => model.distance(appearance, d),
+                    _ => 0.0,
+                };
+                if a2 <= appearance_gate {
+                    pairs.push((d2 + a2, j, landmark.id));
+                }
+            }
+        }
+        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let mut scan_labels: Vec<Option<u64>> = vec![None; scan.len()];
+        let mut taken: Vec<u64> = Vec::new();
+        for (_, j, id) in pairs {
+            if scan_labels[j].is_none() && !taken.contains(&id) {
+                scan_labels[j] = Some(id);
+                taken.push(id);
+            }
+        }
+        for (now, was) in scan_labels.iter().zip(before) {
+            match (now, was) {
+                (Some(_), None) => report.gained += 1,
+                (Some(a), Some(b)) if a != b => report.changed += 1,
+                (None, Some(_)) => report.lost += 1,
+                _ => {}
+            }
+            report.labelled += usize::from(now.is_some());
+        }
+        labels.push(scan_labels);
+    }
+    Ok((labels, report))
+}
+
+/// Each labelled landmark's appearance: the mean of the descriptors of the
+/// bearings labelled with it.
+fn landmark_appearances(
+    scans: &[(f64, &Vec<crate::log::BearingObservation>)],
+    labels: &ScanLabels,
+) -> Result<BTreeMap<u64, Appearance>> {
+    let mut appearances: BTreeMap<u64, Appearance> = BTreeMap::new();
+    for ((_, scan), scan_labels) in scans.iter().zip(labels) {
+        if scan_labels.len() != scan.len() {
+            return Err(SlamError::Mismatch(
+                "re-association: a label list is not its scan's",
+            ));
+        }
+        for (o, label) in scan.iter().zip(scan_labels) {
+            if let (Some(id), Some(d)) = (label, &o.descriptor) {
+                appearances
+                    .entry(*id)
+                    .and_modify(|a| a.add(d))
+                    .or_insert_with(|| Appearance::of(d));
+            }
+        }
+    }
+    Ok(appearances)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::Pose2;
+    use crate::log::{BearingObservation, Event, LogInfo};
+
+    fn landmark(id: u64, x: f64, y: f64, sigma: f64) -> LandmarkSnapshot {
+        LandmarkSnapshot {
+            id,
+            x,
+            y,
+            covariance: [[sigma * sigma, 0.0], [0.0, sigma * sigma]],
+            inverse_depth: false,
+        }
+    }
+
+    fn snapshot(time: f64, map: Vec<LandmarkSnapshot>) -> EstimateSnapshot {
+        EstimateSnapshot {
+            time,
+            pose: Pose2::default(),
+            pose_covariance: [[1e-4, 0.0, 0.0], [0.0, 1e-4, 0.0], [0.0, 0.0, 1e-6]],
+            landmarks: map,
+        }
+    }
+
+    fn log_of(scans: &[(f64, &[f64])]) -> SensorLog {
+        SensorLog {
+            info: LogInfo::default(),
+            events: scans
+                .iter()
+                .map(|(t, bearings)| Event {
+                    time: *t,
+                    kind: EventKind::Bearings(
+                        bearings
+                            .iter()
+                            .map(|&b| BearingObservation::new(0, b))
+                            .collect(),
+                    ),
+                })
+                .collect(),
+            landmarks: Vec::new(),
+        }
+    }
+
+    const GATE: ReassociationGate = ReassociationGate {
+        probability: 0.999,
+        bearing_sigma: 0.01,
+        descriptors: None,
+    };
+
+    #[test]
+    fn bearings_the_front_end_left_or_misplaced_are_paired_with_the_smoothed_map() {
+        // Landmarks 1 (ahead, 5 m) and 2 (to the left, 5 m). The first scan's
+        // bearings were never labelled; in the second the front end swapped
+        // them; a third bearing (clutter, 0.5 rad) fits neither.
+        let map = vec![landmark(1, 5.0, 0.0, 0.01), landmark(2, 0.0, 5.0, 0.01)];
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let log = log_of(&[(0.0, &[0.004, half_pi - 0.003]), (1.0, &[0.0, half_pi, 0.5])]);
+        let smoothed = vec![snapshot(0.0, map.clone()), snapshot(1.0, map)];
+        let previous = vec![vec![None, None], vec![Some(2), Some(1), None]];
+        let (labels, report) = reassociate(&log, &smoothed, &previous, &GATE).unwrap();
+        assert_eq!(labels, vec![vec![Some(1), Some(2)], vec![Some(1), Some(2), None]]);
+        assert_eq!(
+            report,
+            ReassociationReport {
+                labelled: 4,
+                gained: 2,
+                changed: 2,
+                lost: 0,
+            }
+        );
+    }
+
+    #[test]
+    fn one_landmark_takes_only_the_nearest_of_two_bearings_of_a_scan() {
+        let map = vec![landmark(1, 5.0, 0.0, 0.01)];
+        let log = log_of(&[(0.0, &[0.012, -0.002])]);
+        let (labels, _) =
+            reassociate(&log, &[snapshot(0.0, map)], &vec![vec![None, None]], &GATE).unwrap();
+        assert_eq!(labels, vec![vec![None, Some(1)]]);
+    }
+
+    #[test]
+    fn the_appearance_gate_keeps_a_look_alike_bearing_off_a_landmark() {
+        use crate::log::Descriptor;
+        let map = vec![landmark(1, 5.0, 0.0, 0.01)];
+        let mut log = log_of(&[(0.0, &[0.0]), (1.0, &[0.001])]);
+        let looks = |v: f64| Some(Descriptor([v; 8]));
+        for (e, d) in log.events.iter_mut().zip([looks(0.0), looks(3.0)]) {
+            if let EventKind::Bearings(scan) = &mut e.kind {
+                scan[0].descriptor = d;
+            }
+        }
+        let gate = ReassociationGate {
+            descriptors: Some(DescriptorModel { sigma: 0.2 }),
+            ..GATE
+        };
+        let smoothed = vec![snapshot(0.0, map.clone()), snapshot(1.0, map)];
+        let previous = vec![vec![Some(1)], vec![None]];
+        let (labels, report) = reassociate(&log, &smoothed, &previous, &gate).unwrap();
+        assert_eq!(labels, vec![vec![Some(1)], vec![None]]);
+        assert_eq!(report.labelled, 1);
+        // Without descriptors the bearing would be the landmark's.
+        let (labels, _) = reassociate(&log, &smoothed, &previous, &GATE).unwrap();
+        assert_eq!(labels, vec![vec![Some(1)], vec![Some(1)]]);
+    }
+
+    #[test]
+    fn snapshots_or_labels_of_another_log_are_refused() {
+        let map = vec![landmark(1, 5.0, 0.0, 0.01)];
+        let log = log_of(&[(0.0, &[0.0]), (1.0, &[0.0])]);
+        let one = vec![snapshot(0.0, map.clone())];
+        let labels = vec![vec![None], vec![None]];
+        assert!(reassociate(&log, &one, &labels, &GATE).is_err());
+        let shifted = vec![snapshot(0.0, map.clone()), snapshot(2.0, map.clone())];
+        assert!(reassociate(&log, &shifted, &labels, &GATE).is_err());
+        let two = vec![snapshot(0.0, map.clone()), snapshot(1.0, map)];
+        assert!(reassociate(&log, &two, &vec![vec![None], vec![None, None]], &GATE).is_err());
+    }
+}
