@@ -138,7 +138,7 @@ class Config:
     landmark_chart: str
     # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the
     # filter takes both, FastSLAM "nn" only, per-particle maximum
-    # likelihood; the smoothers "known" only); the appearance descriptors'
+    # likelihood; the smoothers both, the EKF as their front end); the appearance descriptors'
     # noise σ (None: descriptors ignored; hidden ids only).
     association: str
     descriptor_sigma: float | None

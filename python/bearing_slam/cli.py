@@ -279,7 +279,9 @@ def _add_association_option(parser: argparse.ArgumentParser) -> None:
         help="data association (default: %(default)s, the log's ids; nn/jcbb: the ids are "
         "hidden from the estimator, which pairs bearings with landmarks itself; they then only "
         "score it, in metrics.json; the filter takes nn and jcbb, fastslam1/fastslam2 take nn "
-        "(per-particle maximum likelihood), the smoothers neither)",
+        "(per-particle maximum likelihood); the smoothers take nn and jcbb with the filter as "
+        "their front end (the batch then re-associates every bearing against its smoothed "
+        "estimate)",
     )
 
 

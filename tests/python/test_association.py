@@ -94,12 +94,28 @@ def test_fastslam_associates_per_particle_and_is_scored(short_log: bs.SensorLog)
     assert 0.9 <= score["precision"] <= 1.0
 
 
-def test_fastslam_refuses_jcbb_and_the_smoothers_refuse_hidden_ids(
-    short_log: bs.SensorLog,
-) -> None:
+def test_fastslam_refuses_jcbb(short_log: bs.SensorLog) -> None:
     config = bs.Config.for_log(short_log)
     with pytest.raises(ValueError, match="jcbb is not implemented for FastSLAM"):
         bs.run(short_log, config.replace(estimator="fastslam2", association="jcbb"))
+
+
+def test_the_smoothers_take_the_filters_association_with_hidden_ids(
+    short_log: bs.SensorLog,
+) -> None:
+    config = bs.Config.for_log(short_log)
+    filtered = bs.run(short_log, config.replace(association="nn"))
+    assert filtered.association is not None
     for estimator in ("smoother", "filter+smoother"):
-        with pytest.raises(ValueError, match="the smoothers need `known`"):
-            bs.run(short_log, config.replace(estimator=estimator, association="nn"))
+        result = bs.run(short_log, config.replace(estimator=estimator, association="nn"))
+        score = result.association
+        assert score is not None, estimator
+        assert score["spurious"] == 0, estimator
+        assert score["precision"] >= 0.9, estimator
+        # The map keeps the filter's ids, each owned by a true landmark.
+        ids, _, _ = result.landmarks()
+        assert len(ids) > 0, estimator
+        assert {int(i) for i in ids} <= {int(k) for k in score["owners"]}, estimator
+        summary = result.summary
+        assert summary is not None
+        assert summary["ate_rmse_m"] < 1.0, estimator

@@ -183,7 +183,7 @@ def test_user_errors_are_one_line(tmp_path: Path, args: list[str], message: str)
     assert message in lines[0]
 
 
-def test_run_fastslam_with_hidden_ids_writes_the_association_block(tmp_path: Path) -> None:
+def test_fastslam_and_the_smoother_with_hidden_ids_write_the_association_block(tmp_path: Path) -> None:
     log = tmp_path / "fig4.mcap"
     assert cli("simulate", "paper_fig4", "--seed", "3", "--out", log).returncode == 0
     out = tmp_path / "fastslam_nn"
@@ -197,6 +197,18 @@ def test_run_fastslam_with_hidden_ids_writes_the_association_block(tmp_path: Pat
     assert association is not None
     assert association["mapped"] > 0
     assert association["spurious_at_end"] == 0
-    refused = cli("run", log, "--estimator", "smoother", "--association", "nn", "--out", out)
-    assert refused.returncode != 0
-    assert "the smoothers need `known`" in refused.stderr
+    smoothed = tmp_path / "smoother_nn"
+    r = cli(
+        "run", log, "--estimator", "smoother", "--association", "nn", "--out", smoothed, "--quiet",
+    )  # fmt: skip
+    assert r.returncode == 0, r.stderr
+    given = tmp_path / "smoother_known"
+    r = cli("run", log, "--estimator", "smoother", "--out", given, "--quiet")
+    assert r.returncode == 0, r.stderr
+    hidden_metrics = json.loads((smoothed / "metrics.json").read_text())
+    known_metrics = json.loads((given / "metrics.json").read_text())
+    assert hidden_metrics["association"]["spurious_at_end"] == 0
+    assert known_metrics["association"] is None
+    # The batch re-associates against its smoothed estimate: it ends where
+    # it does given the ids.
+    assert hidden_metrics["ate_rmse_m"] <= 1.2 * known_metrics["ate_rmse_m"]

@@ -169,7 +169,8 @@ pub(crate) struct PyConfig {
     /// used only to score it). The EKF `filter` takes both; FastSLAM
     /// (`"fastslam1"`, `"fastslam2"`) takes `"nn"`, meaning per-particle
     /// maximum-likelihood association, and refuses `"jcbb"`; the smoothers
-    /// refuse both.
+    /// take both, with the EKF as their front end (the batch re-associates
+    /// every bearing against its smoothed estimate).
     #[pyo3(get, set)]
     pub association: String,
     /// σ of the sensor's appearance-descriptor noise per component

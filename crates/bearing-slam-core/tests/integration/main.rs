@@ -27,6 +27,7 @@ mod runner_observed;
 mod smoother_common;
 mod smoother_factors;
 mod smoother_fixed_lag;
+mod smoother_hidden_ids;
 mod smoother_keyframes;
 mod smoother_run;
 mod smoother_solver;

@@ -338,7 +338,7 @@ fn hidden_ids_on_a_clean_log_come_close_to_the_known_ids() {
 }
 
 #[test]
-fn fastslam_refuses_jcbb_and_the_smoothers_refuse_hidden_ids() {
+fn fastslam_refuses_jcbb() {
     let log = log(1, 0, false);
     let est = EstimatorConfig::of(EstimatorKind::FastSlam2);
     let err = run_estimator(&log, &config(AssociationMethod::Jcbb), &est).unwrap_err();
@@ -346,15 +346,6 @@ fn fastslam_refuses_jcbb_and_the_smoothers_refuse_hidden_ids() {
         matches!(err, SlamError::Mismatch(m) if m.contains("jcbb")),
         "{err}"
     );
-    for kind in [EstimatorKind::Smoother, EstimatorKind::FilterSmoother] {
-        let est = EstimatorConfig::of(kind);
-        let err =
-            run_estimator(&log, &config(AssociationMethod::NearestNeighbour), &est).unwrap_err();
-        assert!(
-            matches!(err, SlamError::Mismatch(m) if m.contains("smoothers need `known`")),
-            "{kind}: {err}"
-        );
-    }
 }
 
 #[test]
