@@ -7,6 +7,7 @@
 //!
 //! ```text
 //! ASSOCIATION_DESCRIPTORS=0.2,0 nice -n 10 cargo run --release -p bearing-slam --example association_smoother -- 3 [FIRST_SEED]
+//! nice -n 10 cargo run --release -p bearing-slam --example association_smoother -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! ```
 //!
 //! `REASSOCIATION_PASSES=n` sets the batch's re-association passes (the
@@ -26,7 +27,11 @@ use bearing_slam::core::score::summarize;
 use bearing_slam::sim::appearance::AppearanceSpec;
 use bearing_slam::sim::scenario::Scenario;
 use bearing_slam::sim::sim::simulate;
+use bearing_slam::core::Pose2;
+use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::io::mrclam::load_mrclam_with;
 use std::error::Error;
+use std::path::Path;
 
 type Res<T> = Result<T, Box<dyn Error>>;
 
@@ -73,8 +78,68 @@ fn reassociation_passes() -> Option<usize> {
     std::env::var("REASSOCIATION_PASSES").ok()?.parse().ok()
 }
 
+/// MRCLAM (`mrclam DIR`): per robot, the batch given the barcodes' ids and
+/// with them hidden (JCBB front end; the front end's labels alone and after
+/// the re-association pass), and the online smoother with them hidden.
+fn mrclam(dir: &Path) -> Res<()> {
+    println!(
+        "| robot | estimator | precision % | recall % | mapped | ATE m | landmark RMSE m | ATE / known |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for robot in 1..=5u8 {
+        let loaded = load_mrclam_with(dir, robot, &EvalOptions::default().load)?;
+        let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
+        let known = CALIBRATED_PARAMETERS.run_config(Method::Mte, Pose2::default())?;
+        let mut hidden = known.clone();
+        hidden.slam.association = AssociationConfig::of(AssociationMethod::Jcbb);
+        let batch = EstimatorConfig::of(EstimatorKind::Smoother);
+        let online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+        let runs = [
+            ("batch, ids known", run_estimator(&log, &known, &batch)?),
+            (
+                "batch, front end's labels",
+                run_batch_with_hidden_ids(&log, &hidden, &batch, 0)?,
+            ),
+            ("batch, re-associated", run_estimator(&log, &hidden, &batch)?),
+            ("online, ids hidden", run_estimator(&log, &hidden, &online)?),
+            (
+                "filter, ids hidden",
+                run_estimator(&log, &hidden, &EstimatorConfig::of(EstimatorKind::Filter))?,
+            ),
+        ];
+        let mut known_ate = f64::NAN;
+        for (name, run) in runs {
+            let summary = summarize(&log, &run.output)?;
+            if name == "batch, ids known" {
+                known_ate = summary.ate_rmse_m;
+            }
+            let s = run.output.association.unwrap_or_default();
+            let hidden = name != "batch, ids known";
+            let pct = |x: f64| if hidden { format!("{:.1}", 100.0 * x) } else { "—".into() };
+            println!(
+                "| {robot} | {name} | {} | {} | {} | {:.3} | {} | {:.2} |",
+                pct(s.precision),
+                pct(s.recall),
+                summary.n_landmarks_initialized,
+                summary.ate_rmse_m,
+                summary
+                    .landmark_rmse_m
+                    .map_or("—".into(), |r| format!("{r:.3}")),
+                summary.ate_rmse_m / known_ate,
+            );
+        }
+    }
+    Ok(())
+}
+
 fn main() -> Res<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.first().map(String::as_str) == Some("mrclam") {
+        return mrclam(Path::new(args.get(1).map_or(
+            "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
+            String::as_str,
+        )));
+    }
     let seeds: u64 = args.first().map_or(Ok(3), |s| s.parse())?;
     let first_seed: u64 = args.get(1).map_or(Ok(0), |s| s.parse())?;
     let descriptors = descriptor_setting();

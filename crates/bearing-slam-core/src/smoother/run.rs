@@ -24,11 +24,12 @@ use super::values::{LandmarkChart, Values};
 use crate::error::{Result, SlamError};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::log::{BearingObservation, EventKind, SensorLog, VelocityOdometry};
+use crate::measurement::bearing_to_point;
 use crate::runner::{OdometryConfig, RunConfig, RunOutput, run};
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use std::borrow::Cow;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet};
 use std::time::Instant;
 
 /// Whole-run batch or online fixed-lag.
@@ -418,6 +419,12 @@ pub fn run_from_log(
         &lms,
     );
     add_to_snapshots(&mut output, &first_scan, &lms);
+    // A landmark left out of the start and not triangulated again is not
+    // in the smoothed map either.
+    for snap in &mut output.trace.snapshots {
+        snap.landmarks
+            .retain(|l| !problem.unplaced.contains(&l.id) || lms.contains_key(&l.id));
+    }
     report.smoother_time_s = started.elapsed().as_secs_f64();
     Ok(SmoothedRun {
         output,
@@ -441,6 +448,9 @@ pub struct BatchProblem {
     /// Counters of the graph (the timings are left at zero).
     pub report: SmootherReport,
     skeleton: Skeleton,
+    /// The filter's landmarks left out of the start because their point
+    /// coincides with a pose that observes them.
+    unplaced: BTreeSet<u64>,
 }
 
 /// Runs the filter on `log` and builds the batch problem its estimate starts
@@ -521,7 +531,26 @@ fn build_batch_problem(
         start.to_vector(),
         Matrix3::from_diagonal(&Vector3::from(sigma.map(|s| s * s))),
     )?;
-    let landmarks = filter_landmarks(filter);
+    let mut landmarks = filter_landmarks(filter);
+    // A start point on a pose that observes it has no bearing from there
+    // (an inverse-depth estimate gone to ρ → ∞ lands on its anchor): such a
+    // landmark is left out of the start, as one the filter never
+    // initialized, for the triangulation of the unmapped landmarks.
+    let unplaced: BTreeSet<u64> = skeleton
+        .scans
+        .iter()
+        .zip(&skeleton.scan_node)
+        .flat_map(|(scan, &node)| scan.iter().map(move |o| (node, o.landmark_id)))
+        .filter(|(node, id)| {
+            landmarks
+                .last
+                .get(id)
+                .is_some_and(|p| bearing_to_point(&initial[*node], p).is_err())
+        })
+        .map(|(_, id)| id)
+        .collect();
+    landmarks.last.retain(|id, _| !unplaced.contains(id));
+    landmarks.entry.retain(|id, _| !unplaced.contains(id));
     let mut report = SmootherReport {
         n_poses: skeleton.odometry.len(),
         n_landmarks: landmarks.entry.len(),
@@ -562,6 +591,7 @@ fn build_batch_problem(
         initial: values,
         report,
         skeleton,
+        unplaced,
     })
 }
 
@@ -751,5 +781,46 @@ mod tests {
         let last = &output.trace.snapshots[2].landmarks[0];
         assert_eq!((last.x, last.y), (7.0, 0.5));
         assert!((last.covariance[0][0] - 0.01).abs() < 1e-15);
+    }
+
+    /// A start that puts a landmark on a pose observing it (an inverse-depth
+    /// estimate gone to ρ → ∞ lands on its anchor) has no bearing there: the
+    /// landmark is left out of the start instead of failing the solve, and
+    /// its bearings are dropped from the first graph (for the triangulation
+    /// of the unmapped landmarks).
+    #[test]
+    fn a_start_landmark_on_an_observing_pose_is_left_out() {
+        use crate::testing::kinematic::KinematicScenario;
+        let scenario = KinematicScenario::paper_fig4(false);
+        let log = scenario.simulate(1);
+        let run_config = scenario.run_config().unwrap();
+        let config = SmootherConfig::default();
+        let mut filter = run(&log, &run_config).unwrap();
+        let (k, id) = filter
+            .trace
+            .snapshots
+            .iter()
+            .enumerate()
+            .rev()
+            .find_map(|(k, s)| s.landmarks.first().map(|l| (k, l.id)))
+            .unwrap();
+        let pose = filter.trace.snapshots[k].pose;
+        for snap in &mut filter.trace.snapshots {
+            for l in snap.landmarks.iter_mut().filter(|l| l.id == id) {
+                (l.x, l.y) = (pose.x, pose.y);
+            }
+        }
+        let mut problem = build_batch_problem(&log, &run_config, &config, &filter).unwrap();
+        assert_eq!(problem.unplaced, BTreeSet::from([id]));
+        assert!(!problem.initial.landmarks().contains_key(&id));
+        assert!(problem.report.n_dropped > 0);
+        assert!(
+            problem
+                .graph
+                .factors()
+                .iter()
+                .all(|f| !f.keys().contains(&super::super::values::Key::Landmark(id)))
+        );
+        optimize(&problem.graph, &mut problem.initial, &config.solver).unwrap();
     }
 }
