@@ -2,9 +2,9 @@
 //! log's ground truth (trajectory error against the truth and dead
 //! reckoning, landmark RMSE, pose NEES), from the [`crate::metrics`].
 
+use crate::association::score::AssociationScore;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
-use crate::association::score::AssociationScore;
 use crate::log::{SensorLog, TruthKind, truth_kind};
 use crate::metrics::{Alignment, NeesSummary, ate, pose_nees_series};
 use crate::runner::{RunOutput, TrackPoint};

@@ -17,6 +17,7 @@
 //! of noise σ, as in the `association` example; without it the bearings
 //! carry none.
 
+use bearing_slam::core::Pose2;
 use bearing_slam::core::association::{AssociationConfig, AssociationMethod, DescriptorModel};
 use bearing_slam::core::estimator::{
     EstimatorConfig, EstimatorKind, run_batch_with_hidden_ids, run_estimator,
@@ -24,12 +25,11 @@ use bearing_slam::core::estimator::{
 use bearing_slam::core::log::SensorLog;
 use bearing_slam::core::runner::{RunConfig, default_run_config};
 use bearing_slam::core::score::summarize;
+use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::io::mrclam::load_mrclam_with;
 use bearing_slam::sim::appearance::AppearanceSpec;
 use bearing_slam::sim::scenario::Scenario;
 use bearing_slam::sim::sim::simulate;
-use bearing_slam::core::Pose2;
-use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
-use bearing_slam::io::mrclam::load_mrclam_with;
 use std::error::Error;
 use std::path::Path;
 
@@ -57,7 +57,9 @@ struct Scores {
 fn scored(log: &SensorLog, config: &RunConfig, kind: EstimatorKind) -> Res<Scores> {
     let estimator = EstimatorConfig::of(kind);
     let output = match reassociation_passes() {
-        Some(passes) if kind == EstimatorKind::Smoother && config.slam.association.ignores_ids() => {
+        Some(passes)
+            if kind == EstimatorKind::Smoother && config.slam.association.ignores_ids() =>
+        {
             run_batch_with_hidden_ids(log, config, &estimator, passes)?.output
         }
         _ => run_estimator(log, config, &estimator)?.output,
@@ -100,7 +102,10 @@ fn mrclam(dir: &Path) -> Res<()> {
                 "batch, front end's labels",
                 run_batch_with_hidden_ids(&log, &hidden, &batch, 0)?,
             ),
-            ("batch, re-associated", run_estimator(&log, &hidden, &batch)?),
+            (
+                "batch, re-associated",
+                run_estimator(&log, &hidden, &batch)?,
+            ),
             ("online, ids hidden", run_estimator(&log, &hidden, &online)?),
             (
                 "filter, ids hidden",
@@ -115,7 +120,13 @@ fn mrclam(dir: &Path) -> Res<()> {
             }
             let s = run.output.association.unwrap_or_default();
             let hidden = name != "batch, ids known";
-            let pct = |x: f64| if hidden { format!("{:.1}", 100.0 * x) } else { "—".into() };
+            let pct = |x: f64| {
+                if hidden {
+                    format!("{:.1}", 100.0 * x)
+                } else {
+                    "—".into()
+                }
+            };
             println!(
                 "| {robot} | {name} | {} | {} | {} | {:.3} | {} | {:.2} |",
                 pct(s.precision),

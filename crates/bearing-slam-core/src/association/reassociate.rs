@@ -109,19 +109,22 @@ pub fn reassociate(
             };
             let landmark_cov = Matrix2::from_fn(|r, c| landmark.covariance[r][c]);
             let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
-                + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())
-                    [0]
+                + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())[0]
                 + gate.bearing_sigma * gate.bearing_sigma;
             for (j, o) in scan.iter().enumerate() {
                 let nu = BearingToPoint
                     .residual(&Vector1::new(o.bearing), &prediction.value)
                     .x;
                 let d2 = nu * nu / s;
-                if !(d2 <= bearing_gate) {
+                // A NaN d² fails the gate too.
+                if d2.is_nan() || d2 > bearing_gate {
                     continue;
                 }
-                let a2 = match (&gate.descriptors, appearances.get(&landmark.id), &o.descriptor)
-                {
+                let a2 = match (
+                    &gate.descriptors,
+                    appearances.get(&landmark.id),
+                    &o.descriptor,
+                ) {
                     (Some(model), Some(appearance), Some(d)) => model.distance(appearance, d),
                     _ => 0.0,
                 };
@@ -179,6 +182,7 @@ fn landmark_appearances(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::geometry::Pose2;
@@ -235,11 +239,17 @@ mod tests {
         // them; a third bearing (clutter, 0.5 rad) fits neither.
         let map = vec![landmark(1, 5.0, 0.0, 0.01), landmark(2, 0.0, 5.0, 0.01)];
         let half_pi = std::f64::consts::FRAC_PI_2;
-        let log = log_of(&[(0.0, &[0.004, half_pi - 0.003]), (1.0, &[0.0, half_pi, 0.5])]);
+        let log = log_of(&[
+            (0.0, &[0.004, half_pi - 0.003]),
+            (1.0, &[0.0, half_pi, 0.5]),
+        ]);
         let smoothed = vec![snapshot(0.0, map.clone()), snapshot(1.0, map)];
         let previous = vec![vec![None, None], vec![Some(2), Some(1), None]];
         let (labels, report) = reassociate(&log, &smoothed, &previous, &GATE).unwrap();
-        assert_eq!(labels, vec![vec![Some(1), Some(2)], vec![Some(1), Some(2), None]]);
+        assert_eq!(
+            labels,
+            vec![vec![Some(1), Some(2)], vec![Some(1), Some(2), None]]
+        );
         assert_eq!(
             report,
             ReassociationReport {

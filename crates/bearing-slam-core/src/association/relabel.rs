@@ -195,7 +195,7 @@ pub fn apply_labels(log: &SensorLog, labels: &ScanLabels) -> Result<SensorLog> {
             .filter_map(|(o, label)| {
                 label.map(|id| BearingObservation {
                     landmark_id: id,
-                    ..o.clone()
+                    ..*o
                 })
             })
             .collect();
@@ -224,6 +224,7 @@ pub fn relabel_log(log: &SensorLog, history: &AssociationHistory) -> Result<Sens
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
     use crate::log::{CLUTTER_ID_START, LogInfo};
@@ -356,7 +357,10 @@ mod tests {
         other_time.records[0].time = 1.5;
         for h in [shorter, longer, other_id, other_time] {
             let err = relabel_log(&log, &h).unwrap_err();
-            assert!(matches!(err, SlamError::Mismatch(m) if m.contains("another log")), "{err}");
+            assert!(
+                matches!(err, SlamError::Mismatch(m) if m.contains("another log")),
+                "{err}"
+            );
         }
     }
 }

@@ -426,7 +426,7 @@ impl OnlineSmoother {
             .filter_map(|(o, d)| {
                 label_on_arrival(&d.assigned).map(|id| BearingObservation {
                     landmark_id: id,
-                    ..o.clone()
+                    ..*o
                 })
             })
             .collect();

@@ -729,6 +729,7 @@ pub(super) fn apply_smoothed(
 }
 
 #[cfg(test)]
+#[allow(clippy::unwrap_used)]
 mod tests {
     use super::*;
 

@@ -71,7 +71,10 @@ fn the_batch_with_the_ids_hidden_ends_where_it_does_given_them() {
     let mut ids: Vec<u64> = named.iter().map(|l| l.0).collect();
     ids.sort_unstable();
     assert_eq!(ids, vec![1, 2, 3, 4]);
-    let rmse = summarize(&log, &reassociated.output).unwrap().landmark_rmse_m.unwrap();
+    let rmse = summarize(&log, &reassociated.output)
+        .unwrap()
+        .landmark_rmse_m
+        .unwrap();
     assert!(rmse < 0.5, "{rmse}");
 }
 
@@ -79,8 +82,12 @@ fn the_batch_with_the_ids_hidden_ends_where_it_does_given_them() {
 fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
     let log = log(2, 2, false);
     let hidden = config(AssociationMethod::NearestNeighbour);
-    let online = run_estimator(&log, &hidden, &EstimatorConfig::of(EstimatorKind::FilterSmoother))
-        .unwrap();
+    let online = run_estimator(
+        &log,
+        &hidden,
+        &EstimatorConfig::of(EstimatorKind::FilterSmoother),
+    )
+    .unwrap();
     let filter = run_estimator(&log, &hidden, &EstimatorConfig::of(EstimatorKind::Filter)).unwrap();
     let score = online.output.association.clone().unwrap();
     // The same filter decided: its scores are the filter run's (but for
@@ -99,5 +106,8 @@ fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
     assert_eq!(report.n_landmarks, 4, "{report:?}");
     // Smoothing the filter's decisions does not end worse than the filter.
     let (a_online, a_filter) = (ate(&log, &online), ate(&log, &filter));
-    assert!(a_online <= a_filter, "{a_online} against the filter's {a_filter}");
+    assert!(
+        a_online <= a_filter,
+        "{a_online} against the filter's {a_filter}"
+    );
 }
