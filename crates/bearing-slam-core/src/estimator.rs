@@ -28,8 +28,8 @@ use crate::particle::existence::ExistenceConfig;
 use crate::particle::landmark_ekf::SensorNoise;
 use crate::particle::ml_association::{DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodConfig};
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
-use crate::runner::{RunConfig, RunOutput, run, run_online};
-use crate::slam::{BearingSlam, InitializerConfig, SlamConfig};
+use crate::runner::{RunConfig, RunOutput, filter_at, run, run_online};
+use crate::slam::{InitializerConfig, SlamConfig};
 use crate::smoother::{
     BatchStart, FixedLagConfig, OnlineWindow, RobustKernel, SmootherConfig, SmootherMode,
     SmootherReport, SolverConfig, run_from_log, run_online_smoother,
@@ -330,12 +330,7 @@ pub fn run_batch_with_hidden_ids(
         &config.odometry,
         config.use_range,
         config.slam.initial_pose,
-        |start| {
-            BearingSlam::new(SlamConfig {
-                initial_pose: start,
-                ..config.slam.clone()
-            })
-        },
+        filter_at(config),
     )?;
     let front_end_s = started.elapsed().as_secs_f64();
     let history = front_end

@@ -306,15 +306,21 @@ where
         &config.odometry,
         config.use_range,
         config.slam.initial_pose,
-        |start| {
-            BearingSlam::new(SlamConfig {
-                initial_pose: start,
-                ..config.slam.clone()
-            })
-        },
+        filter_at(config),
         observer,
     )?;
     Ok(run.output)
+}
+
+/// The EKF of `config` started at a given pose: what [`run`] drives, for
+/// [`run_online`] when the caller needs the filter as it ended.
+pub fn filter_at(config: &RunConfig) -> impl FnOnce(Pose2) -> Result<BearingSlam> + '_ {
+    move |start| {
+        BearingSlam::new(SlamConfig {
+            initial_pose: start,
+            ..config.slam.clone()
+        })
+    }
 }
 
 /// An online run's output and the estimator as it ended (its final state:
