@@ -17,7 +17,7 @@
 //! filter's decisions as they are made.
 
 use crate::association::AssociationMethod;
-use crate::association::reassociate::{ReassociationGate, reassociate};
+use crate::association::reassociate::{ReassociationRule, reassociate};
 use crate::association::relabel::{ScanLabels, apply_labels, final_labels};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, score};
 use crate::error::{Result, SlamError};
@@ -348,10 +348,11 @@ pub fn run_batch_with_hidden_ids(
         ..*estimator
     };
     let mut run = run_estimator(&apply_labels(log, &labels)?, &known, &batch)?;
-    let gate = ReassociationGate {
+    let gate = ReassociationRule {
         probability: config.slam.association.gate_probability,
         bearing_sigma: config.slam.bearing_sigma,
         descriptors: config.slam.association.descriptors,
+        min_bearings: config.slam.association.min_sightings,
     };
     for _ in 0..passes {
         let (next, _) = reassociate(log, &run.output.trace.snapshots, &labels, &gate)?;

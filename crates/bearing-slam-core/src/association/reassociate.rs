@@ -17,8 +17,18 @@
 //! left out) is within `χ²₁(p)`, and, with appearance descriptors, when its
 //! descriptor is within the appearance gate of the landmark's appearance
 //! (the mean of the descriptors labelled with it). The pairs are then taken
-//! nearest first by `d² + a²`, each bearing and each landmark at most once
-//! per scan (nearest neighbour with mutual exclusion).
+//! most likely first, by `d² + ln S + a²` (twice the negative log-likelihood
+//! of the bearing, up to a constant: a poorly placed landmark, whose wide
+//! `S` makes every bearing near its line of sight look close in `d²`, does
+//! not win over a well-placed one), each bearing and each landmark at most
+//! once per scan.
+//!
+//! The map is cleaned on the way, as the filter cleans its own: two
+//! landmarks whose smoothed points are one within the χ²₂ gate
+//! (`(p_a − p_b)ᵀ (P_a + P_b)⁻¹ (p_a − p_b) ≤ χ²₂(p)`, and alike in
+//! appearance) are one, the one with fewer bearings giving way; and a
+//! landmark left with fewer bearings than a track needs to enter the map
+//! leaves it (its bearings go unlabelled).
 
 use crate::association::appearance::{Appearance, DescriptorModel};
 use crate::association::relabel::ScanLabels;
@@ -30,15 +40,20 @@ use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
 use nalgebra::{Matrix2, Matrix3, Vector1, Vector2};
 use std::collections::BTreeMap;
 
-/// The gate and noise of a re-association pass.
+/// The gates, noise and map rules of a re-association pass.
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ReassociationGate {
-    /// Probability of the χ²₁ bearing gate (and of the appearance gate).
+pub struct ReassociationRule {
+    /// Probability of the χ²₁ bearing gate, of the appearance gate and of
+    /// the χ²₂ test that finds two landmarks of the map to be one.
     pub probability: f64,
     /// The bearing noise σ, rad.
     pub bearing_sigma: f64,
     /// The appearance model, when the bearings carry descriptors.
     pub descriptors: Option<DescriptorModel>,
+    /// Fewest bearings a landmark must explain to stay in the map (the
+    /// sightings a track needs to enter it,
+    /// [`crate::association::AssociationConfig::min_sightings`]).
+    pub min_bearings: usize,
 }
 
 /// What a pass did, against the labels it started from.
@@ -52,6 +67,10 @@ pub struct ReassociationReport {
     pub changed: usize,
     /// Bearings that had a landmark and now have none.
     pub lost: usize,
+    /// Landmarks of the map found to be another one (their bearings go to it).
+    pub merged: usize,
+    /// Landmarks left with fewer than `min_bearings` bearings (dropped).
+    pub dropped: usize,
 }
 
 /// The labels of every bearing of `log` (one list per bearing scan, as
@@ -68,7 +87,7 @@ pub fn reassociate(
     log: &SensorLog,
     smoothed: &[EstimateSnapshot],
     previous: &ScanLabels,
-    gate: &ReassociationGate,
+    gate: &ReassociationRule,
 ) -> Result<(ScanLabels, ReassociationReport)> {
     let scans: Vec<_> = log
         .events
@@ -88,10 +107,14 @@ pub fn reassociate(
         Some(model) => model.gate(gate.probability)?,
         None => f64::INFINITY,
     };
-    let map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
     let appearances = landmark_appearances(&scans, previous)?;
-    let mut labels = Vec::with_capacity(scans.len());
-    let mut report = ReassociationReport::default();
+    let whole_map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
+    let (map, merged) = without_duplicates(whole_map, previous, &appearances, gate)?;
+    let mut labels: ScanLabels = Vec::with_capacity(scans.len());
+    let mut report = ReassociationReport {
+        merged,
+        ..ReassociationReport::default()
+    };
     for (((time, scan), snapshot), before) in scans.iter().zip(smoothed).zip(previous) {
         if snapshot.time != *time || before.len() != scan.len() {
             return Err(SlamError::Mismatch(
@@ -102,7 +125,7 @@ pub fn reassociate(
         let pose_cov = Matrix3::from_fn(|r, c| snapshot.pose_covariance[r][c]);
         // Every individually compatible (score, bearing, landmark).
         let mut pairs: Vec<(f64, usize, u64)> = Vec::new();
-        for landmark in map {
+        for landmark in &map {
             let point = Vector2::new(landmark.x, landmark.y);
             let Ok(prediction) = BearingToPoint.predict(&vehicle, &point) else {
                 continue; // the landmark sits on the robot: it explains no bearing
@@ -129,7 +152,7 @@ pub fn reassociate(
                     _ => 0.0,
                 };
                 if a2 <= appearance_gate {
-                    pairs.push((d2 + a2, j, landmark.id));
+                    pairs.push((d2 + s.ln() + a2, j, landmark.id));
                 }
             }
         }
@@ -142,18 +165,95 @@ pub fn reassociate(
                 taken.push(id);
             }
         }
-        for (now, was) in scan_labels.iter().zip(before) {
-            match (now, was) {
-                (Some(_), None) => report.gained += 1,
-                (Some(a), Some(b)) if a != b => report.changed += 1,
-                (None, Some(_)) => report.lost += 1,
-                _ => {}
-            }
-            report.labelled += usize::from(now.is_some());
-        }
         labels.push(scan_labels);
     }
+    let mut support: BTreeMap<u64, usize> = BTreeMap::new();
+    for id in labels.iter().flatten().flatten() {
+        *support.entry(*id).or_default() += 1;
+    }
+    report.dropped = support.values().filter(|&&n| n < gate.min_bearings).count();
+    for label in labels.iter_mut().flatten() {
+        if label.is_some_and(|id| support[&id] < gate.min_bearings) {
+            *label = None;
+        }
+    }
+    for (now, was) in labels.iter().flatten().zip(previous.iter().flatten()) {
+        match (now, was) {
+            (Some(_), None) => report.gained += 1,
+            (Some(a), Some(b)) if a != b => report.changed += 1,
+            (None, Some(_)) => report.lost += 1,
+            _ => {}
+        }
+        report.labelled += usize::from(now.is_some());
+    }
     Ok((labels, report))
+}
+
+/// `map` without the landmarks that are another one of it: pairs within
+/// the χ²₂ gate of each other (and alike in appearance, with descriptors),
+/// nearest first, the landmark with fewer bearings in `previous` giving
+/// way (on a tie, the younger id). Returns the map kept and how many gave
+/// way.
+fn without_duplicates(
+    map: &[LandmarkSnapshot],
+    previous: &ScanLabels,
+    appearances: &BTreeMap<u64, Appearance>,
+    rule: &ReassociationRule,
+) -> Result<(Vec<LandmarkSnapshot>, usize)> {
+    let gate = crate::stats::chi2_quantile(2.0, rule.probability)?;
+    let appearance_gate = match &rule.descriptors {
+        Some(model) => model.gate(rule.probability)?,
+        None => f64::INFINITY,
+    };
+    let mut bearings: BTreeMap<u64, usize> = BTreeMap::new();
+    for id in previous.iter().flatten().flatten() {
+        *bearings.entry(*id).or_default() += 1;
+    }
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, a) in map.iter().enumerate() {
+        for (j, b) in map.iter().enumerate().skip(i + 1) {
+            let d = Vector2::new(a.x - b.x, a.y - b.y);
+            let cov = Matrix2::from_fn(|r, c| a.covariance[r][c] + b.covariance[r][c]);
+            let Some(inverse) = cov.try_inverse() else {
+                continue;
+            };
+            let d2 = (d.transpose() * inverse * d)[0];
+            let alike = match (
+                &rule.descriptors,
+                appearances.get(&a.id),
+                appearances.get(&b.id),
+            ) {
+                (Some(model), Some(pa), Some(pb)) => {
+                    model.distance_between(pa, pb) <= appearance_gate
+                }
+                _ => true,
+            };
+            if d2 <= gate && alike {
+                pairs.push((d2, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
+    let mut gone = vec![false; map.len()];
+    for (_, i, j) in pairs {
+        if gone[i] || gone[j] {
+            continue;
+        }
+        let support = |k: usize| bearings.get(&map[k].id).copied().unwrap_or(0);
+        let weaker = if (support(i), map[j].id) >= (support(j), map[i].id) {
+            j
+        } else {
+            i
+        };
+        gone[weaker] = true;
+    }
+    let kept = map
+        .iter()
+        .zip(&gone)
+        .filter(|(_, g)| !**g)
+        .map(|(l, _)| *l)
+        .collect();
+    Ok((kept, gone.iter().filter(|g| **g).count()))
 }
 
 /// Each labelled landmark's appearance: the mean of the descriptors of the
@@ -226,10 +326,11 @@ mod tests {
         }
     }
 
-    const GATE: ReassociationGate = ReassociationGate {
+    const GATE: ReassociationRule = ReassociationRule {
         probability: 0.999,
         bearing_sigma: 0.01,
         descriptors: None,
+        min_bearings: 1,
     };
 
     #[test]
@@ -257,6 +358,8 @@ mod tests {
                 gained: 2,
                 changed: 2,
                 lost: 0,
+                merged: 0,
+                dropped: 0,
             }
         );
     }
@@ -281,7 +384,7 @@ mod tests {
                 scan[0].descriptor = d;
             }
         }
-        let gate = ReassociationGate {
+        let gate = ReassociationRule {
             descriptors: Some(DescriptorModel { sigma: 0.2 }),
             ..GATE
         };
@@ -306,5 +409,43 @@ mod tests {
         assert!(reassociate(&log, &shifted, &labels, &GATE).is_err());
         let two = vec![snapshot(0.0, map.clone()), snapshot(1.0, map)];
         assert!(reassociate(&log, &two, &vec![vec![None], vec![None, None]], &GATE).is_err());
+    }
+
+    #[test]
+    fn a_duplicate_gives_way_and_a_weakly_supported_landmark_leaves() {
+        // Landmarks 1 and 7 are one point 5 m ahead (7 a few centimetres
+        // off, with fewer bearings before); landmark 2, to the left, is seen
+        // in one scan only.
+        let map = vec![
+            landmark(1, 5.0, 0.0, 0.05),
+            landmark(7, 5.0, 0.03, 0.05),
+            landmark(2, 0.0, 5.0, 0.01),
+        ];
+        let half_pi = std::f64::consts::FRAC_PI_2;
+        let log = log_of(&[(0.0, &[0.0, half_pi]), (1.0, &[0.001]), (2.0, &[0.006])]);
+        let smoothed: Vec<_> = [0.0, 1.0, 2.0]
+            .iter()
+            .map(|&t| snapshot(t, map.clone()))
+            .collect();
+        let previous = vec![vec![Some(1), Some(2)], vec![Some(7)], vec![Some(1)]];
+        let rule = ReassociationRule {
+            min_bearings: 2,
+            ..GATE
+        };
+        let (labels, report) = reassociate(&log, &smoothed, &previous, &rule).unwrap();
+        assert_eq!(
+            labels,
+            vec![vec![Some(1), None], vec![Some(1)], vec![Some(1)]]
+        );
+        assert_eq!((report.merged, report.dropped), (1, 1));
+        assert_eq!((report.changed, report.lost), (1, 1));
+        // Far apart they stay two.
+        let apart = vec![landmark(1, 5.0, 0.0, 0.001), landmark(7, 5.0, 0.03, 0.001)];
+        let smoothed: Vec<_> = [0.0, 1.0, 2.0]
+            .iter()
+            .map(|&t| snapshot(t, apart.clone()))
+            .collect();
+        let (_, report) = reassociate(&log, &smoothed, &previous, &GATE).unwrap();
+        assert_eq!(report.merged, 0);
     }
 }
