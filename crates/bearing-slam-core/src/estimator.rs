@@ -348,14 +348,14 @@ pub fn run_batch_with_hidden_ids(
         ..*estimator
     };
     let mut run = run_estimator(&apply_labels(log, &labels)?, &known, &batch)?;
-    let gate = ReassociationRule {
+    let rule = ReassociationRule {
         probability: config.slam.association.gate_probability,
         bearing_sigma: config.slam.bearing_sigma,
         descriptors: config.slam.association.descriptors,
         min_bearings: config.slam.association.min_sightings,
     };
     for _ in 0..passes {
-        let (next, _) = reassociate(log, &run.output.trace.snapshots, &labels, &gate)?;
+        let (next, _) = reassociate(log, &run.output.trace.snapshots, &labels, &rule)?;
         if next == labels {
             break;
         }

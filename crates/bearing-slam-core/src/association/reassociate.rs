@@ -87,7 +87,7 @@ pub fn reassociate(
     log: &SensorLog,
     smoothed: &[EstimateSnapshot],
     previous: &ScanLabels,
-    gate: &ReassociationRule,
+    rule: &ReassociationRule,
 ) -> Result<(ScanLabels, ReassociationReport)> {
     let scans: Vec<_> = log
         .events
@@ -102,14 +102,14 @@ pub fn reassociate(
             "re-association needs one smoothed snapshot and one label list per bearing scan",
         ));
     }
-    let bearing_gate = crate::stats::chi2_quantile(1.0, gate.probability)?;
-    let appearance_gate = match &gate.descriptors {
-        Some(model) => model.gate(gate.probability)?,
+    let bearing_gate = crate::stats::chi2_quantile(1.0, rule.probability)?;
+    let appearance_gate = match &rule.descriptors {
+        Some(model) => model.gate(rule.probability)?,
         None => f64::INFINITY,
     };
     let appearances = landmark_appearances(&scans, previous)?;
     let whole_map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
-    let (map, merged) = without_duplicates(whole_map, previous, &appearances, gate)?;
+    let (map, merged) = without_duplicates(whole_map, previous, &appearances, rule)?;
     let mut labels: ScanLabels = Vec::with_capacity(scans.len());
     let mut report = ReassociationReport {
         merged,
@@ -133,7 +133,7 @@ pub fn reassociate(
             let landmark_cov = Matrix2::from_fn(|r, c| landmark.covariance[r][c]);
             let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
                 + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())[0]
-                + gate.bearing_sigma * gate.bearing_sigma;
+                + rule.bearing_sigma * rule.bearing_sigma;
             for (j, o) in scan.iter().enumerate() {
                 let nu = BearingToPoint
                     .residual(&Vector1::new(o.bearing), &prediction.value)
@@ -144,7 +144,7 @@ pub fn reassociate(
                     continue;
                 }
                 let a2 = match (
-                    &gate.descriptors,
+                    &rule.descriptors,
                     appearances.get(&landmark.id),
                     &o.descriptor,
                 ) {
@@ -171,9 +171,9 @@ pub fn reassociate(
     for id in labels.iter().flatten().flatten() {
         *support.entry(*id).or_default() += 1;
     }
-    report.dropped = support.values().filter(|&&n| n < gate.min_bearings).count();
+    report.dropped = support.values().filter(|&&n| n < rule.min_bearings).count();
     for label in labels.iter_mut().flatten() {
-        if label.is_some_and(|id| support[&id] < gate.min_bearings) {
+        if label.is_some_and(|id| support[&id] < rule.min_bearings) {
             *label = None;
         }
     }
