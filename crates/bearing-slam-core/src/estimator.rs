@@ -425,7 +425,7 @@ pub struct EstimatorRun {
 ///
 /// # Errors
 /// An invalid estimator configuration ([`EstimatorConfig::validate`]), and
-/// the errors of [`run`], [`run_from_log`] or [`run_online`](crate::runner::run_online).
+/// the errors of [`run`], [`run_from_log`] or [`run_online`].
 pub fn run_estimator(
     log: &SensorLog,
     config: &RunConfig,
