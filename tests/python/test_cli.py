@@ -183,7 +183,9 @@ def test_user_errors_are_one_line(tmp_path: Path, args: list[str], message: str)
     assert message in lines[0]
 
 
-def test_fastslam_and_the_smoother_with_hidden_ids_write_the_association_block(tmp_path: Path) -> None:
+def test_fastslam_and_the_smoother_with_hidden_ids_write_the_association_block(
+    tmp_path: Path,
+) -> None:
     log = tmp_path / "fig4.mcap"
     assert cli("simulate", "paper_fig4", "--seed", "3", "--out", log).returncode == 0
     out = tmp_path / "fastslam_nn"
