@@ -134,6 +134,9 @@ pub fn reassociate(
             let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
                 + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())[0]
                 + rule.bearing_sigma * rule.bearing_sigma;
+            if !(s.is_finite() && s > 0.0) {
+                continue; // a covariance that is not one: no gate to judge by
+            }
             for (j, o) in scan.iter().enumerate() {
                 let nu = BearingToPoint
                     .residual(&Vector1::new(o.bearing), &prediction.value)
