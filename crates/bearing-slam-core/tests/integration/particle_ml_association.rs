@@ -254,7 +254,7 @@ fn fastslam(log: &SensorLog, method: AssociationMethod, particles: usize, seed: 
 }
 
 /// Every landmark of the final map is owned by a static landmark.
-fn assert_final_map_is_static(output: &RunOutput, score: &AssociationScore) {
+pub(crate) fn assert_final_map_is_static(output: &RunOutput, score: &AssociationScore) {
     let last = output.trace.snapshots.last().expect("snapshots");
     for l in &last.landmarks {
         let owner = score.owners.get(&l.id).copied();

@@ -4,12 +4,12 @@
 //! as they are made. On the kinematic Fig. 4 straight run with clutter.
 
 use super::association_run::log;
-use bearing_slam_core::association::score::AssociationScore;
+use super::particle_ml_association::assert_final_map_is_static;
 use bearing_slam_core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam_core::estimator::{
     EstimatorConfig, EstimatorKind, EstimatorRun, run_batch_with_hidden_ids, run_estimator,
 };
-use bearing_slam_core::log::{SensorLog, TruthKind, truth_kind};
+use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::{landmarks_by_true_id, summarize};
 use bearing_slam_core::testing::kinematic::KinematicScenario;
@@ -22,19 +22,6 @@ fn config(method: AssociationMethod) -> RunConfig {
 
 fn ate(log: &SensorLog, run: &EstimatorRun) -> f64 {
     summarize(log, &run.output).unwrap().ate_rmse_m
-}
-
-/// No landmark of the final map is owned by clutter or a moving object.
-fn assert_map_is_static(run: &EstimatorRun, score: &AssociationScore) {
-    let last = run.output.trace.snapshots.last().unwrap();
-    for l in &last.landmarks {
-        let owner = score.owners.get(&l.id).copied();
-        assert!(
-            owner.is_some_and(|o| truth_kind(o) == TruthKind::Landmark),
-            "landmark {} owned by {owner:?}: {score:?}",
-            l.id
-        );
-    }
 }
 
 #[test]
@@ -52,7 +39,7 @@ fn the_batch_with_the_ids_hidden_ends_where_it_does_given_them() {
     );
     let front = front_end_only.output.association.clone().unwrap();
     let score = reassociated.output.association.clone().unwrap();
-    assert_map_is_static(&reassociated, &score);
+    assert_final_map_is_static(&reassociated.output, &score);
     // A clutter bearing that falls on a landmark's bearing is its bearing
     // as far as geometry can tell (6 of the 400 here).
     assert!(score.precision >= 0.98, "{score:?}");
@@ -97,7 +84,7 @@ fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
         (score.paired, score.correct, score.mapped, &score.owners),
         (alone.paired, alone.correct, alone.mapped, &alone.owners)
     );
-    assert_map_is_static(&online, &score);
+    assert_final_map_is_static(&online.output, &score);
     let report = online.smoother.as_ref().unwrap();
     // Clutter's bearings are dropped, never factors, and the window
     // triangulates nothing of its own (it would map clutter).
