@@ -15,17 +15,30 @@
 //! ```
 //!
 //! `ROBOT` 0 means every robot; `MODES` is a comma-separated subset of
-//! `default,converging,keyframes,keyframes-every-scan` (the keyframe window
-//! of `KeyframeRule::default()`, solving at keyframes only or at every scan;
-//! its window is 50 poses, or `ONLINE_TIMING_KEYFRAME_LAG` if set;
-//! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans` sets another rule and
-//! `ONLINE_TIMING_KEYFRAME_FEJ=1` first-estimate Jacobians).
+//! `default,converging,keyframes,keyframes-every-scan`. `keyframes` is the
+//! library's keyframe window (`OnlineWindow::Keyframes`: every scan's pose,
+//! a keyframe per 0.5 m / 0.5 rad / 20 scans, the window's own
+//! triangulation, `estimator::keyframe_fixed_lag`), solving at keyframes or,
+//! in `keyframes-every-scan`, at every scan. What-if knobs of the keyframe
+//! modes (environment): `ONLINE_TIMING_KEYFRAME_LAG=n` keyframes kept;
+//! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans`;
+//! `ONLINE_TIMING_KEYFRAME_FEJ=0|1` first-estimate Jacobians;
+//! `ONLINE_TIMING_SCAN_POSES=0|1` (0: the scans between keyframes observe
+//! through their odometry offset, as before 2026-11-28);
+//! `ONLINE_TIMING_ODOMETRY_START=1`; `ONLINE_TIMING_POINT_CHART=1`;
+//! `ONLINE_TIMING_KERNEL=huber:k|cauchy:k|none`;
+//! `ONLINE_TIMING_TRIANGULATE=0|1`; `ONLINE_TIMING_KEYFRAME_ITERATIONS=n[,tol]`
+//! (at most `n` linearizations per solve, stopping on the step at `tol`).
+//! The keyframe window before 2026-11-28 is
+//! `ONLINE_TIMING_SCAN_POSES=0 ONLINE_TIMING_KEYFRAME_FEJ=0 ONLINE_TIMING_KERNEL=huber:2 ONLINE_TIMING_KEYFRAME_ITERATIONS=5`.
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `/work/shared/datasets/mrclam`).
 
 use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
-use bearing_slam_core::smoother::{KeyframeRule, OnlineStart, run_online_smoother};
+use bearing_slam_core::smoother::{
+    KeyframeRule, LandmarkChart, OnlineStart, OnlineWindow, RobustKernel, run_online_smoother,
+};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{EvalOptions, Method, evaluate_run_with, filter_log};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
@@ -76,41 +89,62 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut converging = default;
     converging.smoother.online_start = OnlineStart::Odometry;
     converging.fixed_lag = converging_fixed_lag();
-    let mut keyframes = default;
-    keyframes.smoother.keyframes = Some(KeyframeRule::default());
-    // ONLINE_TIMING_KEYFRAME_LAG: the keyframe modes' window (default: the
-    // default's 50 poses).
-    if let Some(lag) = std::env::var("ONLINE_TIMING_KEYFRAME_LAG")
-        .ok()
-        .and_then(|v| v.parse().ok())
-    {
+    // The library's keyframe window (`OnlineWindow::Keyframes`: every
+    // scan's pose, keyframes by motion, the window's triangulation, the
+    // solver of `keyframe_fixed_lag`), then the what-if knobs below.
+    let mut keyframes = default.with_online_window(OnlineWindow::Keyframes);
+    let flag = |name: &str| std::env::var(name).ok();
+    if let Some(lag) = flag("ONLINE_TIMING_KEYFRAME_LAG").and_then(|v| v.parse().ok()) {
         keyframes.fixed_lag.lag = lag;
     }
-    // ONLINE_TIMING_KEYFRAME_RULE="metres,radians,scans": another rule.
-    if let Some(rule) = std::env::var("ONLINE_TIMING_KEYFRAME_RULE")
-        .ok()
-        .and_then(|v| {
-            let parts: Vec<&str> = v.split(',').collect();
-            Some(KeyframeRule {
-                min_translation_m: parts.first()?.parse().ok()?,
-                min_rotation_rad: parts.get(1)?.parse().ok()?,
-                max_scans: parts.get(2)?.parse().ok()?,
-                solve_every_scan: false,
-            })
+    if let Some(rule) = flag("ONLINE_TIMING_KEYFRAME_RULE").and_then(|v| {
+        let parts: Vec<&str> = v.split(',').collect();
+        Some(KeyframeRule {
+            min_translation_m: parts.first()?.parse().ok()?,
+            min_rotation_rad: parts.get(1)?.parse().ok()?,
+            max_scans: parts.get(2)?.parse().ok()?,
+            ..KeyframeRule::default()
         })
-    {
+    }) {
         keyframes.smoother.keyframes = Some(rule);
     }
-    // ONLINE_TIMING_KEYFRAME_FEJ=1: first-estimate Jacobians on the
-    // marginalized block.
-    if std::env::var("ONLINE_TIMING_KEYFRAME_FEJ").is_ok_and(|v| v == "1") {
-        keyframes.fixed_lag.first_estimates = true;
+    if let Some(fej) = flag("ONLINE_TIMING_KEYFRAME_FEJ") {
+        keyframes.fixed_lag.first_estimates = fej == "1";
+    }
+    if let (Some(rule), Some(v)) = (
+        keyframes.smoother.keyframes.as_mut(),
+        flag("ONLINE_TIMING_SCAN_POSES"),
+    ) {
+        rule.scan_poses = v == "1";
+    }
+    if flag("ONLINE_TIMING_ODOMETRY_START").is_some_and(|v| v == "1") {
+        keyframes.smoother.online_start = OnlineStart::Odometry;
+    }
+    if flag("ONLINE_TIMING_POINT_CHART").is_some_and(|v| v == "1") {
+        keyframes.smoother.landmark_chart = LandmarkChart::Point;
+    }
+    if let Some(v) = flag("ONLINE_TIMING_KERNEL") {
+        keyframes.fixed_lag.solver.robust = match v.split_once(':') {
+            Some(("huber", k)) => RobustKernel::Huber(k.parse()?),
+            Some(("cauchy", k)) => RobustKernel::Cauchy(k.parse()?),
+            _ => RobustKernel::None,
+        };
+    }
+    if let Some(v) = flag("ONLINE_TIMING_TRIANGULATE") {
+        keyframes.smoother.triangulate_online = v == "1";
+    }
+    if let Some(v) = flag("ONLINE_TIMING_KEYFRAME_ITERATIONS") {
+        let mut parts = v.split(',');
+        if let Some(n) = parts.next().and_then(|n| n.parse().ok()) {
+            keyframes.fixed_lag.solver.max_iterations = n;
+        }
+        keyframes.fixed_lag.solver.decrement_tolerance =
+            parts.next().and_then(|t| t.parse().ok()).unwrap_or(0.0);
     }
     let mut keyframes_every_scan = keyframes;
-    keyframes_every_scan.smoother.keyframes = Some(KeyframeRule {
-        solve_every_scan: true,
-        ..KeyframeRule::default()
-    });
+    if let Some(rule) = keyframes_every_scan.smoother.keyframes.as_mut() {
+        rule.solve_every_scan = true;
+    }
     println!(
         "| mode | robot | scans | updates | median (ms) | total (s) | per scan (ms) | slope | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
     );

@@ -12,7 +12,9 @@
 //! cargo run --release -p bearing-slam-eval --example online_window_sim [RUNS]
 //! ```
 
-use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
+use bearing_slam_core::estimator::{
+    EstimatorConfig, EstimatorKind, default_fixed_lag, keyframe_fixed_lag, run_estimator,
+};
 use bearing_slam_core::smoother::{BatchStart, KeyframeRule, LandmarkChart};
 use bearing_slam_eval::montecarlo::{InitializerSpec, MonteCarloSpec, run_config, score_run};
 use bearing_slam_sim::simulate;
@@ -28,6 +30,9 @@ fn online(
     triangulate: bool,
 ) -> EstimatorConfig {
     let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    if keyframes.is_some() {
+        e.fixed_lag = keyframe_fixed_lag();
+    }
     e.smoother.keyframes = keyframes;
     e.smoother.landmark_chart = chart;
     e.smoother.triangulate_online = triangulate;
@@ -88,6 +93,20 @@ fn main() -> Result<(), BoxError> {
         (
             "keyframes, inverse depth, triangulated",
             online(rule, inverse_depth, true),
+        ),
+        (
+            "keyframes before 2026-11-28 (scans through offsets, 5 Huber iterations)",
+            EstimatorConfig {
+                fixed_lag: default_fixed_lag(),
+                ..online(
+                    Some(KeyframeRule {
+                        scan_poses: false,
+                        ..KeyframeRule::default()
+                    }),
+                    inverse_depth,
+                    true,
+                )
+            },
         ),
     ];
     println!("| scenario | estimator | mean ATE m | mean NEES | failed |");

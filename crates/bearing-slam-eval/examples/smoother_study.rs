@@ -32,7 +32,9 @@
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
-use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam_core::estimator::{
+    EstimatorConfig, EstimatorKind, default_fixed_lag, keyframe_fixed_lag,
+};
 use bearing_slam_core::smoother::{BatchStart, KeyframeRule, LandmarkChart, UnmappedTriangulation};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
@@ -103,8 +105,11 @@ fn main() -> Result<(), BoxError> {
         ("smoother + triangulated, filter start", filter_start),
     ];
     if std::env::var_os("ONLINE").is_some() {
-        let online = |keyframes, landmark_chart, triangulate: bool| {
+        let online = |keyframes: Option<KeyframeRule>, landmark_chart, triangulate: bool| {
             let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+            if keyframes.is_some() {
+                e.fixed_lag = keyframe_fixed_lag();
+            }
             e.smoother.keyframes = keyframes;
             e.smoother.landmark_chart = landmark_chart;
             e.smoother.triangulate_online = triangulate;
@@ -136,6 +141,20 @@ fn main() -> Result<(), BoxError> {
             (
                 "filter+smoother, keyframe window, inverse depth, triangulated",
                 online(rule, inverse_depth, true),
+            ),
+            (
+                "filter+smoother, keyframe window before 2026-11-28 (scans through offsets, 5 Huber iterations)",
+                EstimatorConfig {
+                    fixed_lag: default_fixed_lag(),
+                    ..online(
+                        Some(KeyframeRule {
+                            scan_poses: false,
+                            ..KeyframeRule::default()
+                        }),
+                        inverse_depth,
+                        true,
+                    )
+                },
             ),
         ]);
     }

@@ -500,8 +500,8 @@ impl PyConfig {
         let mut est = EstimatorConfig {
             particles: self.particles,
             ..EstimatorConfig::of(parse_name::<EstimatorKind>(&self.estimator)?)
-        };
-        est.smoother = parse_name::<OnlineWindow>(&self.online_window)?.apply(est.smoother);
+        }
+        .with_online_window(parse_name::<OnlineWindow>(&self.online_window)?);
         est.smoother.landmark_chart = parse_name::<LandmarkChart>(&self.landmark_chart)?;
         est.validate().py()?;
         Ok(est)

@@ -92,7 +92,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         )));
     }
     if let Some(window) = window {
-        estimator.smoother = window.apply(estimator.smoother);
+        estimator = estimator.with_online_window(window);
     }
     if let Some(chart) = chart {
         estimator.smoother.landmark_chart = chart;

@@ -1,5 +1,7 @@
 //! Online fixed-lag smoothing: the graph holds the last `lag` poses (and every
-//! landmark); when a pose leaves the window it is marginalized out. The
+//! landmark; poses added as riders do not count toward the lag, they leave
+//! with the counted pose before them); when a pose leaves the window it is
+//! marginalized out. The
 //! factors touching it (and the previous marginalization prior) are
 //! linearized, their normal equations formed densely over the variables they
 //! touch, and the pose eliminated by the Schur complement
@@ -72,6 +74,9 @@ pub struct FixedLagSmoother {
     graph: FactorGraph,
     values: Values,
     window: VecDeque<u64>,
+    /// Poses in the window that do not count toward the lag
+    /// ([`FixedLagSmoother::add_riding_pose`]).
+    riders: BTreeSet<u64>,
     finalized: BTreeMap<u64, FinalizedPose>,
     marginalizations: usize,
 }
@@ -92,6 +97,7 @@ impl FixedLagSmoother {
             graph: FactorGraph::new(),
             values: Values::new(),
             window: VecDeque::new(),
+            riders: BTreeSet::new(),
             finalized: BTreeMap::new(),
             marginalizations: 0,
         })
@@ -109,6 +115,38 @@ impl FixedLagSmoother {
         self.values.insert_pose(id, initial)?;
         self.window.push_back(id);
         Ok(())
+    }
+
+    /// Adds a new (latest) pose that rides in the window without counting
+    /// toward the lag: it leaves with the counted pose before it, when that
+    /// one leaves. A keyframe window ([`super::KeyframeRule::scan_poses`])
+    /// keeps every scan's pose this way while its `lag` counts keyframes.
+    pub fn add_riding_pose(&mut self, id: u64, initial: Vector3<f64>) -> Result<()> {
+        self.add_pose(id, initial)?;
+        self.riders.insert(id);
+        Ok(())
+    }
+
+    /// The poses to marginalize: every pose before the `lag`-th newest
+    /// counted one (riders after a leaving counted pose leave with it).
+    fn leaving_poses(&self) -> Vec<u64> {
+        let counted = self.window.len() - self.riders.len();
+        if counted <= self.config.lag {
+            return Vec::new();
+        }
+        let mut excess = counted - self.config.lag;
+        let mut leaving = Vec::new();
+        for id in &self.window {
+            let rider = self.riders.contains(id);
+            if excess == 0 && !rider {
+                break;
+            }
+            if !rider {
+                excess -= 1;
+            }
+            leaving.push(*id);
+        }
+        leaving
     }
 
     /// Adds a landmark with its initial estimate (the filter's, when it
@@ -163,13 +201,8 @@ impl FixedLagSmoother {
             &mut self.values,
             &self.config.solver,
         )?;
-        if self.window.len() > self.config.lag {
-            let leaving_ids: Vec<u64> = self
-                .window
-                .iter()
-                .take(self.window.len() - self.config.lag)
-                .copied()
-                .collect();
+        let leaving_ids = self.leaving_poses();
+        if !leaving_ids.is_empty() {
             let leaving: Vec<Key> = leaving_ids.iter().map(|id| Key::Pose(*id)).collect();
             // A solve stopped on the Newton decrement returns H at an
             // estimate within the tolerance of the solution: its
@@ -196,6 +229,7 @@ impl FixedLagSmoother {
                 );
                 self.marginalize(oldest)?;
                 self.window.pop_front();
+                self.riders.remove(&oldest);
             }
         }
         Ok(report)

@@ -10,7 +10,9 @@
 //! scan stays flat as the run grows. With a [`KeyframeRule`]
 //! ([`SmootherConfig::keyframes`]) only keyframes by motion get a pose; the
 //! scans between observe from the latest keyframe composed with the
-//! odometry since, and the window spans motion instead of time.
+//! odometry since (or, with [`KeyframeRule::scan_poses`], keep pose
+//! variables of their own that ride in the window without counting toward
+//! its lag), and the window spans motion instead of time.
 //!
 //! It is an [`OnlineEstimator`], driven by the runner's one event loop
 //! ([`crate::runner::run_online`]). Live, it reports the filter's estimate;
@@ -82,6 +84,17 @@ pub struct KeyframeRule {
     /// enters it (`false`: the scans between add their factors only; the
     /// live estimate is the filter's either way).
     pub solve_every_scan: bool,
+    /// Every scan that follows motion keeps a pose variable of its own, as
+    /// without keyframes, tied to the previous pose by its odometry: the
+    /// scans between keyframes ride in the window without counting toward
+    /// its lag ([`FixedLagSmoother::add_riding_pose`]), starting where the
+    /// filter moved since the previous pose. The keyframes still set the
+    /// window's span and when it is solved. `false`: the scans between
+    /// keyframes observe from the latest keyframe composed with the
+    /// odometry since, held fixed, which on MRCLAM Dataset 6 costs the
+    /// window 1.2–1.8× the ATE of one with every scan's pose
+    /// (docs/results/estimators.md, 2026-11-28).
+    pub scan_poses: bool,
 }
 
 impl Default for KeyframeRule {
@@ -97,6 +110,7 @@ impl Default for KeyframeRule {
             min_rotation_rad: 0.5,
             max_scans: 20,
             solve_every_scan: false,
+            scan_poses: true,
         }
     }
 }
@@ -120,8 +134,20 @@ crate::named_enum!(OnlineWindow, "online window", [
 ]);
 
 impl OnlineWindow {
+    /// This window's size and solver: [`crate::estimator::default_fixed_lag`]
+    /// for [`OnlineWindow::Scans`], [`crate::estimator::keyframe_fixed_lag`]
+    /// for [`OnlineWindow::Keyframes`].
+    #[must_use]
+    pub fn fixed_lag(self) -> FixedLagConfig {
+        match self {
+            OnlineWindow::Scans => crate::estimator::default_fixed_lag(),
+            OnlineWindow::Keyframes => crate::estimator::keyframe_fixed_lag(),
+        }
+    }
+
     /// `config` with this window: its keyframe rule (`None` for
-    /// [`OnlineWindow::Scans`]) and whether it triangulates.
+    /// [`OnlineWindow::Scans`]) and whether it triangulates (the window's
+    /// solver is [`OnlineWindow::fixed_lag`]).
     #[must_use]
     pub fn apply(self, config: SmootherConfig) -> SmootherConfig {
         let keyframes = self == OnlineWindow::Keyframes;
@@ -178,8 +204,17 @@ pub struct OnlineSmoother {
     triangulation: Option<RayTriangulationRule>,
     /// The landmarks the window triangulated, with the scan they entered on.
     triangulated: BTreeMap<u64, usize>,
-    /// Scans observing from the latest pose variable.
+    /// Scans since the latest keyframe (observing from it, unless
+    /// [`KeyframeRule::scan_poses`]).
     scans_on_node: usize,
+    /// Odometry since the latest keyframe, when it is not `pending`
+    /// ([`KeyframeRule::scan_poses`]).
+    since_keyframe: PreintegratedOdometry,
+    /// The filter's pose when the latest pose variable was added.
+    filter_at_latest_node: Pose2,
+    /// Scans added factors or poses since the latest solve (a keyframe
+    /// window between keyframes); the run's end solves them.
+    unsolved: bool,
     filter: BearingSlam,
     smoother: FixedLagSmoother,
     run_config: RunConfig,
@@ -248,6 +283,9 @@ impl OnlineSmoother {
                 }),
             triangulated: BTreeMap::new(),
             scans_on_node: 0,
+            since_keyframe: PreintegratedOdometry::new(),
+            filter_at_latest_node: start,
+            unsolved: false,
             filter,
             smoother,
             run_config: run_config.clone(),
@@ -292,6 +330,7 @@ impl OnlineSmoother {
     }
 
     fn solve(&mut self) -> Result<()> {
+        self.unsolved = false;
         let t = Instant::now();
         let solve = self.smoother.update()?;
         self.report.update_times_s.push(t.elapsed().as_secs_f64());
@@ -518,7 +557,11 @@ impl OnlineEstimator for OnlineSmoother {
         M::Control: Sync,
     {
         OnlineEstimator::predict(&mut self.filter, time, model, control)?;
-        self.pending.integrate(model, control)
+        self.pending.integrate(model, control)?;
+        if self.keyframes.is_some_and(|rule| rule.scan_poses) {
+            self.since_keyframe.integrate(model, control)?;
+        }
+        Ok(())
     }
 
     fn update(
@@ -536,20 +579,35 @@ impl OnlineEstimator for OnlineSmoother {
             scan
         };
         let snapshot = self.filter.snapshot();
-        let new_pose = self.pending.steps > 0
+        let scan_poses = self.keyframes.is_some_and(|rule| rule.scan_poses);
+        let since_keyframe = if scan_poses {
+            &self.since_keyframe
+        } else {
+            &self.pending
+        };
+        let keyframe = self.pending.steps > 0
             && self
                 .keyframes
-                .is_none_or(|rule| rule.is_keyframe(&self.pending, self.scans_on_node));
-        if new_pose {
+                .is_none_or(|rule| rule.is_keyframe(since_keyframe, self.scans_on_node));
+        let rider = !keyframe && scan_poses && self.pending.steps > 0;
+        if keyframe || rider {
             let node = self.nodes as u64;
+            let previous = Pose2::from_vector(&self.smoother.values().pose(node - 1)?);
             let start = match self.start {
-                OnlineStart::Filter => snapshot.pose,
-                OnlineStart::Odometry => {
-                    let previous = Pose2::from_vector(&self.smoother.values().pose(node - 1)?);
-                    previous.compose(&Pose2::from_vector(&self.pending.delta))
+                OnlineStart::Filter if rider => {
+                    // As the filter moved since the previous pose variable.
+                    let moved = self.filter_at_latest_node.inverse().compose(&snapshot.pose);
+                    previous.compose(&moved)
                 }
+                OnlineStart::Filter => snapshot.pose,
+                OnlineStart::Odometry => previous.compose(&Pose2::from_vector(&self.pending.delta)),
             };
-            self.smoother.add_pose(node, start.to_vector())?;
+            self.filter_at_latest_node = snapshot.pose;
+            if rider {
+                self.smoother.add_riding_pose(node, start.to_vector())?;
+            } else {
+                self.smoother.add_pose(node, start.to_vector())?;
+            }
             let motion = std::mem::take(&mut self.pending);
             self.smoother
                 .add_factor(Factor::Odometry(OdometryFactor::from_preintegrated(
@@ -559,7 +617,10 @@ impl OnlineEstimator for OnlineSmoother {
                     self.odometry_floor_sigma,
                 )?))?;
             self.nodes += 1;
+        }
+        if keyframe {
             self.scans_on_node = 0;
+            self.since_keyframe = PreintegratedOdometry::new();
         }
         self.scans_on_node += 1;
         let node = self.nodes - 1;
@@ -595,14 +656,16 @@ impl OnlineEstimator for OnlineSmoother {
             }
         }
         self.latest = Some(snapshot);
-        if new_pose {
+        if keyframe {
             self.triangulate_waiting()?;
             if self.filter.config().association.ignores_ids() {
                 self.forget_waiting_outside_window();
             }
         }
-        if new_pose || self.keyframes.is_none_or(|rule| rule.solve_every_scan) {
+        if keyframe || self.keyframes.is_none_or(|rule| rule.solve_every_scan) {
             self.solve()?;
+        } else {
+            self.unsolved = true;
         }
         Ok(counts)
     }
@@ -621,6 +684,10 @@ impl OnlineEstimator for OnlineSmoother {
 
     fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
         OnlineEstimator::finish(&mut self.filter, output)?;
+        // The scans after the latest keyframe were never solved.
+        if self.unsolved {
+            self.solve()?;
+        }
         self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>();
         self.waiting.clear();
         let (poses, covs, lms) = self.estimates()?;

@@ -335,6 +335,74 @@ fn several_poses_added_between_updates_all_leave_at_once() {
     }
 }
 
+/// Riding poses do not count toward the lag: with every pose but each
+/// third one a rider, the window holds `lag` counted poses and the riders
+/// after them; a rider leaves with the counted pose before it. Nothing
+/// marginalized, it is the batch.
+#[test]
+fn riding_poses_leave_with_the_counted_pose_before_them() {
+    let p = problem(14, 12, true, false);
+    let lag = 2;
+    let mut s = FixedLagSmoother::new(FixedLagConfig {
+        lag,
+        ..FixedLagConfig::default()
+    })
+    .unwrap();
+    for i in 0..p.n_landmarks {
+        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
+    }
+    let counted = |k: u64| k.is_multiple_of(3);
+    for k in 0..p.n_poses {
+        let initial = p.initial.pose(k).unwrap();
+        if counted(k) {
+            s.add_pose(k, initial).unwrap();
+        } else {
+            s.add_riding_pose(k, initial).unwrap();
+        }
+        for f in p.graph.factors() {
+            if newest_pose(f) == Some(k) {
+                s.add_factor(f.clone()).unwrap();
+            }
+        }
+        s.update().unwrap();
+        // The oldest pose kept is the lag-th newest counted one.
+        let first_kept = (0..=k)
+            .rev()
+            .filter(|i| counted(*i))
+            .nth(lag - 1)
+            .unwrap_or(0);
+        for id in 0..=k {
+            assert_eq!(s.in_window(id), id >= first_kept, "pose {id} after {k}");
+        }
+        assert_eq!(s.finalized().len() as u64, first_kept);
+    }
+    assert!(s.marginalizations() > 0);
+
+    // A window wide enough to keep them all is the batch.
+    let mut wide = FixedLagSmoother::new(FixedLagConfig {
+        lag: 10,
+        first_estimates: true,
+        solver: SolverConfig::default(),
+    })
+    .unwrap();
+    for i in 0..p.n_landmarks {
+        wide.add_landmark(i, p.initial.landmark(i).unwrap())
+            .unwrap();
+    }
+    for k in 0..p.n_poses {
+        wide.add_riding_pose(k, p.initial.pose(k).unwrap()).unwrap();
+        for f in p.graph.factors() {
+            if newest_pose(f) == Some(k) {
+                wide.add_factor(f.clone()).unwrap();
+            }
+        }
+    }
+    wide.update().unwrap();
+    assert_eq!(wide.marginalizations(), 0);
+    let diff = max_difference(wide.values(), &batch(&p));
+    assert!(diff < 1e-6, "riders vs batch: {diff}");
+}
+
 #[test]
 fn a_marginalized_outlier_stays_down_weighted() {
     // A bearing 0.5 rad off (50σ) from pose 1, which leaves the window early:

@@ -7,7 +7,7 @@
 
 #![allow(clippy::unwrap_used)]
 
-use bearing_slam_core::estimator::default_fixed_lag;
+use bearing_slam_core::estimator::{default_fixed_lag, keyframe_fixed_lag};
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::online::OnlineEstimator;
 use bearing_slam_core::runner::RunConfig;
@@ -106,6 +106,7 @@ fn a_rule_keeping_every_scan_is_the_per_scan_window() {
         min_rotation_rad: 0.0,
         max_scans: 1,
         solve_every_scan: true,
+        scan_poses: false,
     };
     let a = run_from_log(&log, &config, &online(None)).unwrap();
     let b = run_from_log(&log, &config, &online(Some(every))).unwrap();
@@ -126,6 +127,7 @@ fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
         min_rotation_rad: 0.35,
         max_scans: 10,
         solve_every_scan: false,
+        scan_poses: false,
     };
     let keyframed = run_from_log(&log, &config, &online(Some(rule))).unwrap();
     assert!(
@@ -134,10 +136,12 @@ fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
         keyframed.report.n_poses,
         per_scan.report.n_poses
     );
-    // Solving at keyframes only: one update per pose variable after the first.
+    // Solving at keyframes only: one update per pose variable (the first
+    // pose's included), and one at the end for the scans after the last
+    // keyframe.
     assert_eq!(
         keyframed.report.update_times_s.len(),
-        keyframed.report.n_poses
+        keyframed.report.n_poses + 1
     );
     // Every bearing is in the graph or dropped (its pose left the window
     // before its landmark entered); the longer keyframe window drops fewer.
@@ -170,6 +174,61 @@ fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
         .map(|s| s.pose)
         .collect();
     assert!(poses.windows(2).all(|w| w[0] != w[1]));
+}
+
+/// With [`KeyframeRule::scan_poses`] (the default) every scan that
+/// follows motion keeps its own pose, as in the per-scan window, but the
+/// window is solved only when a keyframe enters and its lag counts
+/// keyframes: on the run above, 10 keyframes with the keyframe window's
+/// solver ([`keyframe_fixed_lag`]) end closer to the batch than the same
+/// window observing through odometry offsets.
+#[test]
+fn keyframe_windows_with_scan_poses_solve_at_keyframes_and_stay_near_the_batch() {
+    let (config, log, batch, per_scan) = batch_and_ten_scans();
+    let rule = KeyframeRule {
+        min_translation_m: 0.25,
+        min_rotation_rad: 0.35,
+        max_scans: 10,
+        ..KeyframeRule::default()
+    };
+    assert!(rule.scan_poses);
+    let window = |rule: KeyframeRule| SmootherConfig {
+        mode: SmootherMode::FixedLag(FixedLagConfig {
+            lag: 10,
+            ..keyframe_fixed_lag()
+        }),
+        keyframes: Some(rule),
+        ..SmootherConfig::default()
+    };
+    let with_poses = run_from_log(&log, &config, &window(rule)).unwrap();
+    let offsets = KeyframeRule {
+        scan_poses: false,
+        ..rule
+    };
+    let with_offsets = run_from_log(&log, &config, &window(offsets)).unwrap();
+    // Every scan that moved has a pose; the solves are one per keyframe
+    // (the first pose's included) and the run's last, as many as the
+    // offset window's.
+    assert_eq!(with_poses.report.n_poses, per_scan.report.n_poses);
+    assert_eq!(
+        with_poses.report.update_times_s.len(),
+        with_offsets.report.n_poses + 1
+    );
+    assert_eq!(
+        with_poses.report.update_times_s.len(),
+        with_offsets.report.update_times_s.len()
+    );
+    assert!(3 * with_offsets.report.n_poses < with_poses.report.n_poses);
+    let b = summarize(&log, &batch.output).unwrap();
+    let k = summarize(&log, &with_poses.output).unwrap();
+    let o = summarize(&log, &with_offsets.output).unwrap();
+    println!(
+        "ATE batch {:.4} m, 10 keyframes with scan poses {:.4} m, through offsets {:.4} m",
+        b.ate_rmse_m, k.ate_rmse_m, o.ate_rmse_m
+    );
+    assert!(k.finite && with_poses.report.n_poses > 10);
+    assert!(k.ate_rmse_m < o.ate_rmse_m, "{k:?} vs offsets {o:?}");
+    assert!(k.ate_rmse_m <= 1.3 * b.ate_rmse_m, "{k:?} vs batch {b:?}");
 }
 
 #[test]
@@ -256,6 +315,7 @@ fn a_rule_by_scan_count_alone_puts_a_pose_every_max_scans() {
         min_rotation_rad: 1e9,
         max_scans: 3,
         solve_every_scan: false,
+        scan_poses: false,
     };
     let run = run_from_log(&log, &config, &online(Some(every_third))).unwrap();
     let scans = scan_count(&log);
