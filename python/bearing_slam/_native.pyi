@@ -132,8 +132,8 @@ class Config:
     # "fastslam1", "fastslam2"; particles of FastSLAM.
     estimator: str
     particles: int
-    # The online smoother ("filter+smoother" only): its window ("scans",
-    # "keyframes") and landmark chart ("inverse-depth", "point").
+    # The online smoother ("filter+smoother" only): its window ("keyframes",
+    # the default, or "scans") and landmark chart ("inverse-depth", "point").
     online_window: str
     landmark_chart: str
     # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the

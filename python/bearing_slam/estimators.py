@@ -6,10 +6,11 @@ names of :data:`~bearing_slam.vocabulary.ESTIMATORS`, read from Rust's
 batch graph smoother, started from the online keyframe window run after
 the filter), ``filter+smoother`` (the online fixed-lag smoother run with
 the filter), ``fastslam1`` and ``fastslam2`` (with ``--particles``);
-``filter+smoother`` takes ``--online-window`` (``scans``, the default, or
-``keyframes``: keyframes by motion and the window's own triangulation, the
-choice for real robots) and ``--landmark-chart`` (``inverse-depth``, the
-default, or ``point``) on ``run`` and ``mrclam``. Every estimator's result
+``filter+smoother`` takes ``--online-window`` (``keyframes``, the default:
+every scan's pose, the window spanning 50 keyframes by motion and solved at
+each, with its own triangulation; or ``scans``: the last 50 scans, solved at
+every scan) and ``--landmark-chart`` (``inverse-depth``, the default, or
+``point``) on ``run`` and ``mrclam``. Every estimator's result
 has the shape of the filter's, so ``metrics.json``, the plots and
 ``estimate.mcap`` (the smoothed trajectory and map, or the particle cloud's
 pose with the best particle's map) are written the same way.
@@ -74,10 +75,10 @@ def add_online_smoother_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--online-window",
         choices=ONLINE_WINDOWS,
-        help=f"filter+smoother only: a pose per scan, or keyframes by motion (0.5 m / "
-        f"0.5 rad / 20 scans) with the landmarks the filter has not initialized "
-        f"triangulated in the window: the choice for real robots "
-        f"(default: {DEFAULT_ONLINE_WINDOW})",
+        help=f"filter+smoother only: keyframes (a window of 50 keyframes by motion, "
+        f"0.5 m / 0.5 rad / 20 scans, every scan's pose inside, the landmarks the "
+        f"filter has not initialized triangulated in the window) or scans (the last "
+        f"50 scans) (default: {DEFAULT_ONLINE_WINDOW})",
     )
     parser.add_argument(
         "--landmark-chart",

@@ -121,7 +121,7 @@ def evaluate(
     :class:`bearing_slam.rerun.RerunLogger`). ``association``: ``"known"``
     (the barcodes' ids), or ``"nn"``/``"jcbb"`` with the barcodes hidden from
     the filter (they then only score it: ``result.association``).
-    ``online_window`` (``"scans"``, ``"keyframes"``) and ``landmark_chart``
+    ``online_window`` (``"keyframes"``, the default, or ``"scans"``) and ``landmark_chart``
     (``"inverse-depth"``, ``"point"``): the online smoother's
     (``estimator="filter+smoother"`` only; None: the defaults)."""
     t0 = time.perf_counter()

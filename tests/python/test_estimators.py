@@ -108,7 +108,7 @@ def test_the_online_window_and_chart_reach_the_smoother(short_log: bs.SensorLog)
     # One definition each, in Rust: the names and the defaults.
     assert bs.vocabulary.ONLINE_WINDOWS == ("scans", "keyframes")
     assert bs.vocabulary.LANDMARK_CHARTS == ("point", "inverse-depth")
-    assert (bs.Config().online_window, bs.Config().landmark_chart) == ("scans", "inverse-depth")
+    assert (bs.Config().online_window, bs.Config().landmark_chart) == ("keyframes", "inverse-depth")
     base = bs.Config.for_log(short_log, estimator="filter+smoother")
     runs = {
         (window, chart): bs.smooth(
@@ -128,7 +128,7 @@ def test_the_online_window_and_chart_reach_the_smoother(short_log: bs.SensorLog)
     with pytest.raises(ValueError, match='unknown online window "frames"'):
         bs.Config(estimator="filter+smoother", online_window="frames")
     with pytest.raises(bs.InvalidParameterError, match="online_window is not used here"):
-        bs.Config(online_window="keyframes")
+        bs.Config(online_window="scans")
 
 
 def test_cli_online_window_options(tmp_path: Path) -> None:

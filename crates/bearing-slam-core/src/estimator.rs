@@ -189,8 +189,9 @@ pub fn default_batch_start() -> BatchStart {
 
 impl Default for EstimatorConfig {
     /// The EKF; FastSLAM with 100 particles and seed 0; the batch
-    /// smoother's defaults started at [`default_batch_start`], and
-    /// [`default_fixed_lag`].
+    /// smoother's defaults started at [`default_batch_start`]; the online
+    /// smoother's window [`OnlineWindow::default`] (keyframes, with
+    /// [`keyframe_fixed_lag`]).
     fn default() -> Self {
         Self {
             kind: EstimatorKind::Filter,
@@ -202,6 +203,7 @@ impl Default for EstimatorConfig {
             },
             fixed_lag: default_fixed_lag(),
         }
+        .with_online_window(OnlineWindow::default())
     }
 }
 

@@ -1,21 +1,25 @@
-//! The online fixed-lag smoother (`filter+smoother`, the default window and
-//! solver of `estimator::default_fixed_lag`) on MRCLAM Dataset 6, every
-//! robot, whole runs: its per-scan update time (median, total, and the
-//! log-log slope of the per-part median over 25 equal parts of the run, as
-//! `benches/gtsam_same_graph.py` computes it) with its accuracy (ATE,
+//! The online fixed-lag smoother (`filter+smoother`) on MRCLAM Dataset 6,
+//! every robot, whole runs: its per-scan update time (median, total, and
+//! the log-log slope of the per-part median over 25 equal parts of the run,
+//! as `benches/gtsam_same_graph.py` computes it) with its accuracy (ATE,
 //! landmark RMSE, pose NEES within the 95 % bound, as
 //! `bearing-slam mrclam --estimator filter+smoother` scores it), for
 //! tuning the online mode's speed without losing its accuracy (issue #14).
-//! Two modes: `default` ([`EstimatorConfig`]'s) and `converging`
-//! (`OnlineStart::Odometry` with `converging_fixed_lag`: new poses start at
-//! the odometry prediction and each solve stops once converged):
+//! Modes: `scans` (the per-scan window, `OnlineWindow::Scans` with
+//! `estimator::default_fixed_lag`), `converging` (that window with
+//! `OnlineStart::Odometry` and `converging_fixed_lag`: new poses start at
+//! the odometry prediction and each solve stops once converged), and the
+//! keyframe windows below (`keyframes` is the default window since
+//! 2026-11-28):
 //!
 //! ```text
 //! cargo run --release -p bearing-slam-eval --example online_timing -- [DATA_DIR [ROBOT [MODES]]]
 //! ```
 //!
 //! `ROBOT` 0 means every robot; `MODES` is a comma-separated subset of
-//! `default,converging,keyframes,keyframes-every-scan`. `keyframes` is the
+//! `scans,converging,keyframes,keyframes-every-scan` (`scans`, the per-scan
+//! window of `OnlineWindow::Scans`, was named `default` until 2026-11-28,
+//! and `default` still selects it). `keyframes` is the
 //! library's keyframe window (`OnlineWindow::Keyframes`: every scan's pose,
 //! a keyframe per 0.5 m / 0.5 rad / 20 scans, the window's own
 //! triangulation, `estimator::keyframe_fixed_lag`), solving at keyframes or,
@@ -85,7 +89,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .map_or_else(default_data_root, PathBuf::from);
     let dataset = data.join("MRCLAM_Dataset6");
     let options = EvalOptions::default();
-    let default = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    let default =
+        EstimatorConfig::of(EstimatorKind::FilterSmoother).with_online_window(OnlineWindow::Scans);
     let mut converging = default;
     converging.smoother.online_start = OnlineStart::Odometry;
     converging.fixed_lag = converging_fixed_lag();
@@ -155,14 +160,19 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         .filter(|r| *r > 0);
     let modes: Option<String> = std::env::args().nth(3);
     for (mode, estimator) in [
-        ("default", &default),
+        ("scans", &default),
         ("converging", &converging),
         ("keyframes", &keyframes),
         ("keyframes-every-scan", &keyframes_every_scan),
     ]
     .into_iter()
-    .filter(|(m, _)| modes.as_ref().is_none_or(|s| s.split(',').any(|x| x == *m)))
-    {
+    .filter(|(m, _)| {
+        // `default` is the per-scan window's name from before 2026-11-28.
+        modes.as_ref().is_none_or(|s| {
+            s.split(',')
+                .any(|x| x == *m || (x == "default" && *m == "scans"))
+        })
+    }) {
         for robot in (1..=ROBOT_COUNT).filter(|r| only.is_none_or(|o| o == *r)) {
             let run = load_mrclam_with(&dataset, robot, &options.load)?;
             let log = filter_log(&run, Method::Mte, &options.parameters)?;

@@ -30,9 +30,11 @@ fn online(
     triangulate: bool,
 ) -> EstimatorConfig {
     let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-    if keyframes.is_some() {
-        e.fixed_lag = keyframe_fixed_lag();
-    }
+    e.fixed_lag = if keyframes.is_some() {
+        keyframe_fixed_lag()
+    } else {
+        default_fixed_lag()
+    };
     e.smoother.keyframes = keyframes;
     e.smoother.landmark_chart = chart;
     e.smoother.triangulate_online = triangulate;

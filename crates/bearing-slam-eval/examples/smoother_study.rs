@@ -27,7 +27,8 @@
 //! each with point and inverse-depth landmarks (`LandmarkChart`; inverse
 //! depth is the default), and in inverse depth with the window's own
 //! triangulation of the landmarks the filter has not initialized
-//! (`triangulate_online`). `ESTIMATORS=a,b` keeps only the rows
+//! (`triangulate_online`). `ESTIMATORS=a,b` (`a;b` when a name part has a
+//! comma) keeps only the rows
 //! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
@@ -107,9 +108,11 @@ fn main() -> Result<(), BoxError> {
     if std::env::var_os("ONLINE").is_some() {
         let online = |keyframes: Option<KeyframeRule>, landmark_chart, triangulate: bool| {
             let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-            if keyframes.is_some() {
-                e.fixed_lag = keyframe_fixed_lag();
-            }
+            e.fixed_lag = if keyframes.is_some() {
+                keyframe_fixed_lag()
+            } else {
+                default_fixed_lag()
+            };
             e.smoother.keyframes = keyframes;
             e.smoother.landmark_chart = landmark_chart;
             e.smoother.triangulate_online = triangulate;
@@ -158,9 +161,11 @@ fn main() -> Result<(), BoxError> {
             ),
         ]);
     }
-    // `ESTIMATORS=a,b`: only the estimators whose names contain one of them.
+    // `ESTIMATORS=a,b` (or `a;b`, for names with commas): only the
+    // estimators whose names contain one of them.
     if let Ok(only) = std::env::var("ESTIMATORS") {
-        estimators.retain(|(name, _)| only.split(',').any(|o| name.contains(o)));
+        let separator = if only.contains(';') { ';' } else { ',' };
+        estimators.retain(|(name, _)| only.split(separator).any(|o| name.contains(o)));
     }
     let robots: Vec<u8> = match std::env::var("ROBOTS") {
         Ok(list) => list.split(',').map(str::parse).collect::<Result<_, _>>()?,

@@ -153,10 +153,11 @@ pub(crate) struct PyConfig {
     #[pyo3(get, set)]
     pub particles: usize,
     /// The online smoother's window (`OnlineWindow`; `"filter+smoother"`
-    /// only): `"scans"` (a pose per scan, the default) or `"keyframes"`
-    /// (a pose per 0.5 m / 0.5 rad / 20 scans of odometry, and landmarks
-    /// the filter has not initialized triangulated in the window: the
-    /// choice for real robots, docs/results/estimators.md).
+    /// only): `"keyframes"` (the default: every scan's pose, the window
+    /// spanning 50 keyframes by motion, 0.5 m / 0.5 rad / 20 scans, solved
+    /// at each, and landmarks the filter has not initialized triangulated
+    /// in the window) or `"scans"` (the last 50 scans, solved at every
+    /// scan); docs/results/estimators.md.
     #[pyo3(get, set)]
     pub online_window: String,
     /// The online smoother's landmark chart (`LandmarkChart`;

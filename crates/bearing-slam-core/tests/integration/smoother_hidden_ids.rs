@@ -91,10 +91,27 @@ fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
     assert!(report.n_dropped >= 300, "{report:?}");
     assert_eq!(report.n_triangulated, 0, "{report:?}");
     assert_eq!(report.n_landmarks, 4, "{report:?}");
-    // Smoothing the filter's decisions does not end worse than the filter.
-    let (a_online, a_filter) = (ate(&log, &online), ate(&log, &filter));
+}
+
+/// Smoothing the filter's decisions ends better than the filter over
+/// seeds, not on every seed: a pairing the filter got wrong is a factor
+/// the window solves to convergence, with no re-association (the batch
+/// has one). Measured (clutter 2, nearest neighbour, seeds 0–5): filter
+/// 0.406 / 0.384 / 0.334 / 0.127 / 0.251 / 0.540 m, the keyframe window
+/// 0.074 / 0.483 / 0.469 / 0.107 / 0.204 / 0.167 m (mean 0.340 → 0.251;
+/// the per-scan window 0.274, worse than the filter on seeds 3 and 4).
+#[test]
+fn the_online_smoother_with_the_ids_hidden_beats_its_filter_over_seeds() {
+    let hidden = config(AssociationMethod::NearestNeighbour);
+    let (mut online, mut filter) = (0.0, 0.0);
+    for seed in 0..6 {
+        let log = log(seed, 2, false);
+        let run = |kind| run_estimator(&log, &hidden, &EstimatorConfig::of(kind)).unwrap();
+        online += ate(&log, &run(EstimatorKind::FilterSmoother)) / 6.0;
+        filter += ate(&log, &run(EstimatorKind::Filter)) / 6.0;
+    }
     assert!(
-        a_online <= a_filter,
-        "{a_online} against the filter's {a_filter}"
+        online < 0.85 * filter,
+        "mean ATE {online} against the filter's {filter}"
     );
 }
