@@ -121,7 +121,7 @@ impl Default for KeyframeRule {
 /// window's own triangulation ([`SmootherConfig::triangulate_online`]).
 ///
 /// Keyframes are the default since 2026-11-28: with every scan's pose in
-/// the window ([`KeyframeRule::scan_poses`]) they end within 1.02–1.03× the
+/// the window ([`KeyframeRule::scan_poses`]) they end within 1.01–1.03× the
 /// batch's mean ATE on `paper_fig4`, `paper_fig8` and `slip_patch` (the
 /// per-scan window: 0.98–1.05×) and at 0.25 m mean ATE on MRCLAM Dataset 6
 /// (the per-scan window: 1.11 m) (docs/results/estimators.md).

@@ -28,11 +28,25 @@ fn newest_pose(f: &Factor) -> Option<u64> {
 /// Adds pose `k` of `p` and every factor it completes.
 fn add_pose_with_factors(s: &mut FixedLagSmoother, p: &Problem, k: u64) {
     s.add_pose(k, p.initial.pose(k).unwrap()).unwrap();
+    add_factors_completed_by(s, p, k);
+}
+
+/// Adds every factor of `p` that pose `k` completes.
+fn add_factors_completed_by(s: &mut FixedLagSmoother, p: &Problem, k: u64) {
     for f in p.graph.factors() {
         if newest_pose(f) == Some(k) {
             s.add_factor(f.clone()).unwrap();
         }
     }
+}
+
+/// A fixed-lag smoother at `config` holding `p`'s landmarks at their start.
+fn with_landmarks(p: &Problem, config: FixedLagConfig) -> FixedLagSmoother {
+    let mut s = FixedLagSmoother::new(config).unwrap();
+    for i in 0..p.n_landmarks {
+        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
+    }
+    s
 }
 
 /// Feeds `p` pose by pose (each pose's factors once all their variables
@@ -315,14 +329,13 @@ fn bad_use_is_an_error() {
 fn several_poses_added_between_updates_all_leave_at_once() {
     let p = problem(14, 12, true, false);
     let lag = 4;
-    let mut s = FixedLagSmoother::new(FixedLagConfig {
-        lag,
-        ..FixedLagConfig::default()
-    })
-    .unwrap();
-    for i in 0..p.n_landmarks {
-        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
-    }
+    let mut s = with_landmarks(
+        &p,
+        FixedLagConfig {
+            lag,
+            ..FixedLagConfig::default()
+        },
+    );
     // Poses arrive three at a time (a burst of keyframes), one update each.
     for k in 0..p.n_poses {
         add_pose_with_factors(&mut s, &p, k);
@@ -343,14 +356,13 @@ fn several_poses_added_between_updates_all_leave_at_once() {
 fn riding_poses_leave_with_the_counted_pose_before_them() {
     let p = problem(14, 12, true, false);
     let lag = 2;
-    let mut s = FixedLagSmoother::new(FixedLagConfig {
-        lag,
-        ..FixedLagConfig::default()
-    })
-    .unwrap();
-    for i in 0..p.n_landmarks {
-        s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
-    }
+    let mut s = with_landmarks(
+        &p,
+        FixedLagConfig {
+            lag,
+            ..FixedLagConfig::default()
+        },
+    );
     let counted = |k: u64| k.is_multiple_of(3);
     for k in 0..p.n_poses {
         let initial = p.initial.pose(k).unwrap();
@@ -359,11 +371,7 @@ fn riding_poses_leave_with_the_counted_pose_before_them() {
         } else {
             s.add_riding_pose(k, initial).unwrap();
         }
-        for f in p.graph.factors() {
-            if newest_pose(f) == Some(k) {
-                s.add_factor(f.clone()).unwrap();
-            }
-        }
+        add_factors_completed_by(&mut s, &p, k);
         s.update().unwrap();
         // The oldest pose kept is the lag-th newest counted one.
         let first_kept = (0..=k)
@@ -379,23 +387,17 @@ fn riding_poses_leave_with_the_counted_pose_before_them() {
     assert!(s.marginalizations() > 0);
 
     // A window wide enough to keep them all is the batch.
-    let mut wide = FixedLagSmoother::new(FixedLagConfig {
-        lag: 10,
-        first_estimates: true,
-        solver: SolverConfig::default(),
-    })
-    .unwrap();
-    for i in 0..p.n_landmarks {
-        wide.add_landmark(i, p.initial.landmark(i).unwrap())
-            .unwrap();
-    }
+    let mut wide = with_landmarks(
+        &p,
+        FixedLagConfig {
+            lag: 10,
+            first_estimates: true,
+            solver: SolverConfig::default(),
+        },
+    );
     for k in 0..p.n_poses {
         wide.add_riding_pose(k, p.initial.pose(k).unwrap()).unwrap();
-        for f in p.graph.factors() {
-            if newest_pose(f) == Some(k) {
-                wide.add_factor(f.clone()).unwrap();
-            }
-        }
+        add_factors_completed_by(&mut wide, &p, k);
     }
     wide.update().unwrap();
     assert_eq!(wide.marginalizations(), 0);
