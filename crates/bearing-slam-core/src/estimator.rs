@@ -139,8 +139,9 @@ pub fn default_fixed_lag() -> FixedLagConfig {
 /// the batch's solution on MRCLAM Dataset 6 (ATE within 0.006 m on every
 /// robot); with the lag of 50 keyframes it ends within 1.07× the batch's
 /// mean ATE. With [`default_fixed_lag`]'s solver instead (Huber(2), 5
-/// linearizations) robot 3's window fell into a wrong heading and ended
-/// 2.2 m off (docs/results/estimators.md, 2026-11-28).
+/// linearizations, converged or not) robot 3's window fell into a wrong
+/// heading and ended 2.2–2.3 m off (docs/results/estimators.md,
+/// 2026-11-28).
 #[must_use]
 pub fn keyframe_fixed_lag() -> FixedLagConfig {
     FixedLagConfig {
