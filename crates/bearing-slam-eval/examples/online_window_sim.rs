@@ -12,34 +12,17 @@
 //! cargo run --release -p bearing-slam-eval --example online_window_sim [RUNS]
 //! ```
 
-use bearing_slam_core::estimator::{
-    EstimatorConfig, EstimatorKind, default_fixed_lag, keyframe_fixed_lag, run_estimator,
-};
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind, run_estimator};
 use bearing_slam_core::smoother::{BatchStart, KeyframeRule, LandmarkChart};
 use bearing_slam_eval::montecarlo::{InitializerSpec, MonteCarloSpec, run_config, score_run};
 use bearing_slam_sim::simulate;
 use rayon::prelude::*;
 
-type BoxError = Box<dyn std::error::Error + Send + Sync>;
+#[path = "common/online_windows.rs"]
+mod online_windows;
+use online_windows::{keyframe_window_through_offsets, online};
 
-/// The online smoother with `keyframes` and `chart`, triangulating the
-/// landmarks the filter has not initialized from its window or not.
-fn online(
-    keyframes: Option<KeyframeRule>,
-    chart: LandmarkChart,
-    triangulate: bool,
-) -> EstimatorConfig {
-    let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-    e.fixed_lag = if keyframes.is_some() {
-        keyframe_fixed_lag()
-    } else {
-        default_fixed_lag()
-    };
-    e.smoother.keyframes = keyframes;
-    e.smoother.landmark_chart = chart;
-    e.smoother.triangulate_online = triangulate;
-    e
-}
+type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
 /// `(ATE m, mean NEES)` of run `index` of `scenario` with `estimator`.
 fn one(scenario: &str, index: usize, estimator: &EstimatorConfig) -> Result<(f64, f64), BoxError> {
@@ -98,17 +81,7 @@ fn main() -> Result<(), BoxError> {
         ),
         (
             "keyframes before 2026-11-28 (scans through offsets, 5 Huber iterations)",
-            EstimatorConfig {
-                fixed_lag: default_fixed_lag(),
-                ..online(
-                    Some(KeyframeRule {
-                        scan_poses: false,
-                        ..KeyframeRule::default()
-                    }),
-                    inverse_depth,
-                    true,
-                )
-            },
+            keyframe_window_through_offsets(),
         ),
     ];
     println!("| scenario | estimator | mean ATE m | mean NEES | failed |");

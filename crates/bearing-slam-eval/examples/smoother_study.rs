@@ -33,9 +33,7 @@
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
-use bearing_slam_core::estimator::{
-    EstimatorConfig, EstimatorKind, default_fixed_lag, keyframe_fixed_lag,
-};
+use bearing_slam_core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam_core::smoother::{BatchStart, KeyframeRule, LandmarkChart, UnmappedTriangulation};
 use bearing_slam_eval::real_data::default_data_root;
 use bearing_slam_eval::real_data::{
@@ -43,6 +41,10 @@ use bearing_slam_eval::real_data::{
 };
 use bearing_slam_io::mrclam::load_mrclam_with;
 use std::path::PathBuf;
+
+#[path = "common/online_windows.rs"]
+mod online_windows;
+use online_windows::{keyframe_window_through_offsets, online};
 
 type BoxError = Box<dyn std::error::Error>;
 
@@ -106,18 +108,6 @@ fn main() -> Result<(), BoxError> {
         ("smoother + triangulated, filter start", filter_start),
     ];
     if std::env::var_os("ONLINE").is_some() {
-        let online = |keyframes: Option<KeyframeRule>, landmark_chart, triangulate: bool| {
-            let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
-            e.fixed_lag = if keyframes.is_some() {
-                keyframe_fixed_lag()
-            } else {
-                default_fixed_lag()
-            };
-            e.smoother.keyframes = keyframes;
-            e.smoother.landmark_chart = landmark_chart;
-            e.smoother.triangulate_online = triangulate;
-            e
-        };
         let rule = Some(KeyframeRule::default());
         let (point, inverse_depth) = (LandmarkChart::Point, LandmarkChart::InverseDepth);
         estimators.extend([
@@ -147,17 +137,7 @@ fn main() -> Result<(), BoxError> {
             ),
             (
                 "filter+smoother, keyframe window before 2026-11-28 (scans through offsets, 5 Huber iterations)",
-                EstimatorConfig {
-                    fixed_lag: default_fixed_lag(),
-                    ..online(
-                        Some(KeyframeRule {
-                            scan_poses: false,
-                            ..KeyframeRule::default()
-                        }),
-                        inverse_depth,
-                        true,
-                    )
-                },
+                keyframe_window_through_offsets(),
             ),
         ]);
     }

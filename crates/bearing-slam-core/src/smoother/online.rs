@@ -213,9 +213,9 @@ pub struct OnlineSmoother {
     triangulated: BTreeMap<u64, usize>,
     /// Scans since the latest keyframe (observing from it, unless
     /// [`KeyframeRule::scan_poses`]).
-    scans_on_node: usize,
-    /// Odometry since the latest keyframe, when it is not `pending`
-    /// ([`KeyframeRule::scan_poses`]).
+    scans_since_keyframe: usize,
+    /// Odometry since the latest keyframe (the keyframe rule's motion; it
+    /// is `pending` unless scans between keyframes have poses of their own).
     since_keyframe: PreintegratedOdometry,
     /// The filter's pose when the latest pose variable was added.
     filter_at_latest_node: Pose2,
@@ -289,7 +289,7 @@ impl OnlineSmoother {
                     ..RayTriangulationRule::new(run_config.slam.bearing_sigma, rule.min_parallax)
                 }),
             triangulated: BTreeMap::new(),
-            scans_on_node: 0,
+            scans_since_keyframe: 0,
             since_keyframe: PreintegratedOdometry::new(),
             filter_at_latest_node: start,
             unsolved: false,
@@ -565,10 +565,7 @@ impl OnlineEstimator for OnlineSmoother {
     {
         OnlineEstimator::predict(&mut self.filter, time, model, control)?;
         self.pending.integrate(model, control)?;
-        if self.keyframes.is_some_and(|rule| rule.scan_poses) {
-            self.since_keyframe.integrate(model, control)?;
-        }
-        Ok(())
+        self.since_keyframe.integrate(model, control)
     }
 
     fn update(
@@ -587,27 +584,29 @@ impl OnlineEstimator for OnlineSmoother {
         };
         let snapshot = self.filter.snapshot();
         let scan_poses = self.keyframes.is_some_and(|rule| rule.scan_poses);
-        let since_keyframe = if scan_poses {
-            &self.since_keyframe
-        } else {
-            &self.pending
-        };
         let keyframe = self.pending.steps > 0
-            && self
-                .keyframes
-                .is_none_or(|rule| rule.is_keyframe(since_keyframe, self.scans_on_node));
+            && self.keyframes.is_none_or(|rule| {
+                rule.is_keyframe(&self.since_keyframe, self.scans_since_keyframe)
+            });
         let rider = !keyframe && scan_poses && self.pending.steps > 0;
         if keyframe || rider {
             let node = self.nodes as u64;
-            let previous = Pose2::from_vector(&self.smoother.values().pose(node - 1)?);
+            let previous = || {
+                self.smoother
+                    .values()
+                    .pose(node - 1)
+                    .map(|p| Pose2::from_vector(&p))
+            };
             let start = match self.start {
                 OnlineStart::Filter if rider => {
                     // As the filter moved since the previous pose variable.
                     let moved = self.filter_at_latest_node.inverse().compose(&snapshot.pose);
-                    previous.compose(&moved)
+                    previous()?.compose(&moved)
                 }
                 OnlineStart::Filter => snapshot.pose,
-                OnlineStart::Odometry => previous.compose(&Pose2::from_vector(&self.pending.delta)),
+                OnlineStart::Odometry => {
+                    previous()?.compose(&Pose2::from_vector(&self.pending.delta))
+                }
             };
             self.filter_at_latest_node = snapshot.pose;
             if rider {
@@ -626,10 +625,10 @@ impl OnlineEstimator for OnlineSmoother {
             self.nodes += 1;
         }
         if keyframe {
-            self.scans_on_node = 0;
+            self.scans_since_keyframe = 0;
             self.since_keyframe = PreintegratedOdometry::new();
         }
-        self.scans_on_node += 1;
+        self.scans_since_keyframe += 1;
         let node = self.nodes - 1;
         // A scan that is not a keyframe observes from the latest pose
         // composed with the odometry since.

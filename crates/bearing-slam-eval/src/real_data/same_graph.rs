@@ -101,11 +101,12 @@ pub fn export_same_graph(
         problem,
     };
     std::fs::create_dir_all(out_dir).map_err(|e| write_error(out_dir, e.to_string()))?;
-    let smoother = EstimatorConfig::default().smoother;
+    let default = EstimatorConfig::default();
+    let smoother = default.smoother;
     // The online rows compare an update per scan with iSAM2's: the per-scan
     // window (the keyframe window, the default since 2026-11-28, solves
     // once per keyframe).
-    let per_scan = EstimatorConfig::default().with_online_window(OnlineWindow::Scans);
+    let per_scan = default.with_online_window(OnlineWindow::Scans);
     let parameters: FilterParameters = EvalOptions::default().parameters;
     let mut written = Vec::new();
     for robot in 1..=ROBOT_COUNT {

@@ -1,0 +1,45 @@
+//! The online smoother's windows that `smoother_study` and
+//! `online_window_sim` compare side by side (included by `#[path]`).
+
+use bearing_slam_core::estimator::{
+    EstimatorConfig, EstimatorKind, default_fixed_lag, keyframe_fixed_lag,
+};
+use bearing_slam_core::smoother::{KeyframeRule, LandmarkChart};
+
+/// The online smoother with `keyframes` (`None`: the per-scan window) and
+/// `chart`, triangulating the landmarks the filter has not initialized
+/// from its window or not; each window with its own solver.
+pub fn online(
+    keyframes: Option<KeyframeRule>,
+    chart: LandmarkChart,
+    triangulate: bool,
+) -> EstimatorConfig {
+    let mut e = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    e.fixed_lag = if keyframes.is_some() {
+        keyframe_fixed_lag()
+    } else {
+        default_fixed_lag()
+    };
+    e.smoother.keyframes = keyframes;
+    e.smoother.landmark_chart = chart;
+    e.smoother.triangulate_online = triangulate;
+    e
+}
+
+/// The keyframe window as it was before 2026-11-28: the scans between
+/// keyframes observe through their odometry offset, with the per-scan
+/// window's solver (5 Huber(2) linearizations per solve); inverse-depth
+/// landmarks, triangulating in the window.
+pub fn keyframe_window_through_offsets() -> EstimatorConfig {
+    EstimatorConfig {
+        fixed_lag: default_fixed_lag(),
+        ..online(
+            Some(KeyframeRule {
+                scan_poses: false,
+                ..KeyframeRule::default()
+            }),
+            LandmarkChart::InverseDepth,
+            true,
+        )
+    }
+}
