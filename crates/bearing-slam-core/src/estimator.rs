@@ -389,12 +389,7 @@ pub fn run_batch_with_hidden_ids(
         ..*estimator
     };
     let mut run = run_estimator(&apply_labels(log, &labels)?, &known, &batch)?;
-    let rule = ReassociationRule {
-        probability: config.slam.association.gate_probability,
-        bearing_sigma: config.slam.bearing_sigma,
-        descriptors: config.slam.association.descriptors,
-        min_bearings: config.slam.association.min_sightings,
-    };
+    let rule = ReassociationRule::of(&config.slam.association, config.slam.bearing_sigma);
     for _ in 0..passes {
         let (next, _) = reassociate(log, &run.output.trace.snapshots, &labels, &rule)?;
         if next == labels {

@@ -109,6 +109,18 @@ impl Appearance {
         }
     }
 
+    /// The mean of the descriptors of `a` and `b` together.
+    #[must_use]
+    pub fn merged(a: &Self, b: &Self) -> Self {
+        let count = a.count + b.count;
+        let w = b.count as f64 / count as f64;
+        let mut mean = a.mean;
+        for (m, d) in mean.0.iter_mut().zip(&b.mean.0) {
+            *m += w * (d - *m);
+        }
+        Self { mean, count }
+    }
+
     /// `a` extended by `descriptor`, or the appearance of `descriptor` alone.
     #[must_use]
     pub fn extended(a: Option<Self>, descriptor: Option<&Descriptor>) -> Option<Self> {

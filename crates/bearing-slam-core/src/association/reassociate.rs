@@ -30,14 +30,15 @@
 //! landmark left with fewer bearings than a track needs to enter the map
 //! leaves it (its bearings go unlabelled).
 
+use crate::association::AssociationConfig;
 use crate::association::appearance::{Appearance, DescriptorModel};
 use crate::association::relabel::ScanLabels;
 use crate::error::{Result, SlamError};
-use crate::log::{EventKind, SensorLog};
+use crate::log::{BearingObservation, EventKind, SensorLog};
 use crate::measurement::BearingToPoint;
 use crate::model::MeasurementModel;
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
-use nalgebra::{Matrix2, Matrix3, Vector1, Vector2};
+use nalgebra::{Matrix2, Matrix3, Vector1, Vector2, Vector3};
 use std::collections::BTreeMap;
 
 /// The gates, noise and map rules of a re-association pass.
@@ -54,6 +55,20 @@ pub struct ReassociationRule {
     /// sightings a track needs to enter it,
     /// [`crate::association::AssociationConfig::min_sightings`]).
     pub min_bearings: usize,
+}
+
+impl ReassociationRule {
+    /// The gates, appearance model and map rule of `association`, for
+    /// bearings of noise `bearing_sigma`.
+    #[must_use]
+    pub fn of(association: &AssociationConfig, bearing_sigma: f64) -> Self {
+        Self {
+            probability: association.gate_probability,
+            bearing_sigma,
+            descriptors: association.descriptors,
+            min_bearings: association.min_sightings,
+        }
+    }
 }
 
 /// What a pass did, against the labels it started from.
@@ -102,12 +117,13 @@ pub fn reassociate(
             "re-association needs one smoothed snapshot and one label list per bearing scan",
         ));
     }
-    let bearing_gate = crate::stats::chi2_quantile(1.0, rule.probability)?;
-    let appearance_gate = match &rule.descriptors {
-        Some(model) => model.gate(rule.probability)?,
-        None => f64::INFINITY,
-    };
-    let appearances = landmark_appearances(&scans, previous)?;
+    let gates = Gates::of(rule)?;
+    let appearances = landmark_appearances(
+        scans
+            .iter()
+            .zip(previous)
+            .map(|((_, scan), labels)| (scan.as_slice(), labels.as_slice())),
+    )?;
     let whole_map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
     let (map, merged) = without_duplicates(whole_map, previous, &appearances, rule)?;
     let mut labels: ScanLabels = Vec::with_capacity(scans.len());
@@ -121,53 +137,16 @@ pub fn reassociate(
                 "re-association: a smoothed snapshot or label list is not its scan's",
             ));
         }
-        let vehicle = snapshot.pose.to_vector();
         let pose_cov = Matrix3::from_fn(|r, c| snapshot.pose_covariance[r][c]);
-        // Every individually compatible (score, bearing, landmark).
-        let mut pairs: Vec<(f64, usize, u64)> = Vec::new();
-        for landmark in &map {
-            let point = Vector2::new(landmark.x, landmark.y);
-            let Ok(prediction) = BearingToPoint.predict(&vehicle, &point) else {
-                continue; // the landmark sits on the robot: it explains no bearing
-            };
-            let landmark_cov = Matrix2::from_fn(|r, c| landmark.covariance[r][c]);
-            let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
-                + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())[0]
-                + rule.bearing_sigma * rule.bearing_sigma;
-            if !(s.is_finite() && s > 0.0) {
-                continue; // a covariance that is not one: no gate to judge by
-            }
-            for (j, o) in scan.iter().enumerate() {
-                let nu = BearingToPoint
-                    .residual(&Vector1::new(o.bearing), &prediction.value)
-                    .x;
-                let d2 = nu * nu / s;
-                // A NaN d² fails the gate too.
-                if d2.is_nan() || d2 > bearing_gate {
-                    continue;
-                }
-                let a2 = match (
-                    &rule.descriptors,
-                    appearances.get(&landmark.id),
-                    &o.descriptor,
-                ) {
-                    (Some(model), Some(appearance), Some(d)) => model.distance(appearance, d),
-                    _ => 0.0,
-                };
-                if a2 <= appearance_gate {
-                    pairs.push((d2 + s.ln() + a2, j, landmark.id));
-                }
-            }
-        }
-        pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
-        let mut scan_labels: Vec<Option<u64>> = vec![None; scan.len()];
-        let mut taken: Vec<u64> = Vec::new();
-        for (_, j, id) in pairs {
-            if scan_labels[j].is_none() && !taken.contains(&id) {
-                scan_labels[j] = Some(id);
-                taken.push(id);
-            }
-        }
+        let scan_labels = pair_scan(
+            scan,
+            &snapshot.pose.to_vector(),
+            &pose_cov,
+            &map,
+            &appearances,
+            rule,
+            gates,
+        );
         labels.push(scan_labels);
     }
     let mut support: BTreeMap<u64, usize> = BTreeMap::new();
@@ -192,6 +171,88 @@ pub fn reassociate(
     Ok((labels, report))
 }
 
+/// The χ²₁ bearing gate and the appearance gate of a pass.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Gates {
+    pub(crate) bearing: f64,
+    pub(crate) appearance: f64,
+}
+
+impl Gates {
+    /// The gates of `rule`'s probability.
+    pub(crate) fn of(rule: &ReassociationRule) -> Result<Self> {
+        Ok(Self {
+            bearing: crate::stats::chi2_quantile(1.0, rule.probability)?,
+            appearance: match &rule.descriptors {
+                Some(model) => model.gate(rule.probability)?,
+                None => f64::INFINITY,
+            },
+        })
+    }
+}
+
+/// The landmark of `map` each bearing of `scan` is paired with, seen from
+/// `vehicle` (covariance `pose_cov`): every individually compatible pair,
+/// most likely first by `d² + ln S + a²` (the module's documentation), each
+/// bearing and each landmark at most once; `None` for a bearing no landmark
+/// explains.
+pub(crate) fn pair_scan(
+    scan: &[BearingObservation],
+    vehicle: &Vector3<f64>,
+    pose_cov: &Matrix3<f64>,
+    map: &[LandmarkSnapshot],
+    appearances: &BTreeMap<u64, Appearance>,
+    rule: &ReassociationRule,
+    gates: Gates,
+) -> Vec<Option<u64>> {
+    // Every individually compatible (score, bearing, landmark).
+    let mut pairs: Vec<(f64, usize, u64)> = Vec::new();
+    for landmark in map {
+        let point = Vector2::new(landmark.x, landmark.y);
+        let Ok(prediction) = BearingToPoint.predict(vehicle, &point) else {
+            continue; // the landmark sits on the robot: it explains no bearing
+        };
+        let landmark_cov = Matrix2::from_fn(|r, c| landmark.covariance[r][c]);
+        let s = (prediction.j_z_vehicle * pose_cov * prediction.j_z_vehicle.transpose())[0]
+            + (prediction.j_z_landmark * landmark_cov * prediction.j_z_landmark.transpose())[0]
+            + rule.bearing_sigma * rule.bearing_sigma;
+        if !(s.is_finite() && s > 0.0) {
+            continue; // a covariance that is not one: no gate to judge by
+        }
+        for (j, o) in scan.iter().enumerate() {
+            let nu = BearingToPoint
+                .residual(&Vector1::new(o.bearing), &prediction.value)
+                .x;
+            let d2 = nu * nu / s;
+            // A NaN d² fails the gate too.
+            if d2.is_nan() || d2 > gates.bearing {
+                continue;
+            }
+            let a2 = match (
+                &rule.descriptors,
+                appearances.get(&landmark.id),
+                &o.descriptor,
+            ) {
+                (Some(model), Some(appearance), Some(d)) => model.distance(appearance, d),
+                _ => 0.0,
+            };
+            if a2 <= gates.appearance {
+                pairs.push((d2 + s.ln() + a2, j, landmark.id));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)).then(a.2.cmp(&b.2)));
+    let mut scan_labels: Vec<Option<u64>> = vec![None; scan.len()];
+    let mut taken: Vec<u64> = Vec::new();
+    for (_, j, id) in pairs {
+        if scan_labels[j].is_none() && !taken.contains(&id) {
+            scan_labels[j] = Some(id);
+            taken.push(id);
+        }
+    }
+    scan_labels
+}
+
 /// `map` without the landmarks that are another one of it: pairs within
 /// the χ²₂ gate of each other (and alike in appearance, with descriptors),
 /// nearest first, the landmark with fewer bearings in `previous` giving
@@ -204,10 +265,7 @@ fn without_duplicates(
     rule: &ReassociationRule,
 ) -> Result<(Vec<LandmarkSnapshot>, usize)> {
     let gate = crate::stats::chi2_quantile(2.0, rule.probability)?;
-    let appearance_gate = match &rule.descriptors {
-        Some(model) => model.gate(rule.probability)?,
-        None => f64::INFINITY,
-    };
+    let appearance_gate = Gates::of(rule)?.appearance;
     let mut bearings: BTreeMap<u64, usize> = BTreeMap::new();
     for id in previous.iter().flatten().flatten() {
         *bearings.entry(*id).or_default() += 1;
@@ -260,13 +318,12 @@ fn without_duplicates(
 }
 
 /// Each labelled landmark's appearance: the mean of the descriptors of the
-/// bearings labelled with it.
-fn landmark_appearances(
-    scans: &[(f64, &Vec<crate::log::BearingObservation>)],
-    labels: &ScanLabels,
+/// bearings labelled with it, over `scans` and their `labels`.
+pub(crate) fn landmark_appearances<'a>(
+    scans: impl IntoIterator<Item = (&'a [BearingObservation], &'a [Option<u64>])>,
 ) -> Result<BTreeMap<u64, Appearance>> {
     let mut appearances: BTreeMap<u64, Appearance> = BTreeMap::new();
-    for ((_, scan), scan_labels) in scans.iter().zip(labels) {
+    for (scan, scan_labels) in scans {
         if scan_labels.len() != scan.len() {
             return Err(SlamError::Mismatch(
                 "re-association: a label list is not its scan's",

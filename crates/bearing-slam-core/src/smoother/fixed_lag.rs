@@ -180,6 +180,14 @@ impl FixedLagSmoother {
         self.graph.add(factor)
     }
 
+    /// Removes the measurement factors (bearing, range-bearing) `take`
+    /// selects, returning how many (re-association in the window takes a
+    /// scan's bearings back to add them under new landmarks). Priors,
+    /// odometry and the marginalization prior are never removed.
+    pub fn remove_measurements(&mut self, mut take: impl FnMut(&Factor) -> bool) -> usize {
+        self.graph.extract(|f| f.is_measurement() && take(f)).len()
+    }
+
     /// Whether `id` is a pose in the window.
     #[must_use]
     pub fn in_window(&self, id: u64) -> bool {

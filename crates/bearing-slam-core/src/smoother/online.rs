@@ -12,7 +12,10 @@
 //! scans between observe from the latest keyframe composed with the
 //! odometry since (or, with [`KeyframeRule::scan_poses`], keep pose
 //! variables of their own that ride in the window without counting toward
-//! its lag), and the window spans motion instead of time.
+//! its lag), and the window spans motion instead of time. With the ids
+//! hidden the window takes each bearing's id from the filter's association
+//! as it is made, and a keyframe window pairs its bearings again from its
+//! own estimate before each solve ([`SmootherConfig::reassociate_online`]).
 //!
 //! It is an [`OnlineEstimator`], driven by the runner's one event loop
 //! ([`crate::runner::run_online`]). Live, it reports the filter's estimate;
@@ -29,6 +32,7 @@ use super::run::{
 };
 use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::values::{Key, LandmarkChart};
+use crate::association::reassociate::ReassociationRule;
 use crate::association::relabel::label_on_arrival;
 use crate::error::{Result, SlamError};
 use crate::geometry::Pose2;
@@ -41,6 +45,9 @@ use crate::trace::EstimateSnapshot;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use std::collections::{BTreeMap, HashMap};
 use std::time::Instant;
+use window_reassociation::{WindowBearings, WindowScan};
+
+mod window_reassociation;
 
 /// Where the online smoother starts a new pose and a new landmark.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -241,6 +248,10 @@ pub struct OnlineSmoother {
     records: Vec<(usize, PreintegratedOdometry)>,
     /// The filter's snapshot after the latest scan.
     latest: Option<EstimateSnapshot>,
+    /// With the ids hidden in a keyframe window, the scans of the window
+    /// with their bearings as they came, paired again at each keyframe
+    /// ([`SmootherConfig::reassociate_online`]).
+    window_bearings: Option<WindowBearings>,
     report: SmootherReport,
 }
 
@@ -269,6 +280,10 @@ impl OnlineSmoother {
         // entering its map) may bring it into the window, never the
         // window's own triangulation, which would map clutter.
         let ids_hidden = slam.association.ignores_ids();
+        let window_bearings = (ids_hidden
+            && config.reassociate_online
+            && config.keyframes.is_some())
+        .then(|| WindowBearings::new(ReassociationRule::of(&slam.association, slam.bearing_sigma)));
         let filter = BearingSlam::new(slam)?;
         let mut smoother = FixedLagSmoother::new(fixed_lag)?;
         smoother.add_pose(0, start.to_vector())?;
@@ -305,6 +320,7 @@ impl OnlineSmoother {
             scan_offset: Vec::new(),
             records: Vec::new(),
             latest: None,
+            window_bearings,
             report: SmootherReport::default(),
         };
         this.solve()?;
@@ -336,9 +352,13 @@ impl OnlineSmoother {
         &self.filter
     }
 
+    /// Solves the window (after pairing its bearings again, with the ids
+    /// hidden: [`SmootherConfig::reassociate_online`]), the time of both
+    /// counted as the update's.
     fn solve(&mut self) -> Result<()> {
         self.unsolved = false;
         let t = Instant::now();
+        self.reassociate_window()?;
         let solve = self.smoother.update()?;
         self.report.update_times_s.push(t.elapsed().as_secs_f64());
         self.report.update_iterations.push(solve.iterations);
@@ -459,25 +479,15 @@ impl OnlineSmoother {
         Ok(())
     }
 
-    /// With the ids hidden, the latest scan under the ids the filter's
-    /// association gave its bearings as it took them
-    /// ([`label_on_arrival`]: the landmark paired with, or the one track
-    /// the bearing went to); the bearings given none are dropped and
-    /// counted.
-    fn labelled_by_filter(&mut self, scan: &[BearingObservation]) -> Vec<BearingObservation> {
-        let decisions = self.filter.latest_assignments(scan.len());
-        let labelled: Vec<BearingObservation> = scan
+    /// With the ids hidden, the id the filter's association gave each
+    /// bearing of the latest scan (of `n`) as it took it ([`label_on_arrival`]:
+    /// the landmark paired with, or the one track the bearing went to).
+    fn labels_on_arrival(&self, n: usize) -> Vec<Option<u64>> {
+        self.filter
+            .latest_assignments(n)
             .iter()
-            .zip(decisions)
-            .filter_map(|(o, d)| {
-                label_on_arrival(&d.assigned).map(|id| BearingObservation {
-                    landmark_id: id,
-                    ..*o
-                })
-            })
-            .collect();
-        self.report.n_dropped += scan.len() - labelled.len();
-        labelled
+            .map(|d| label_on_arrival(&d.assigned))
+            .collect()
     }
 
     /// Drops the waiting sightings of landmarks none of whose sightings is
@@ -575,12 +585,29 @@ impl OnlineEstimator for OnlineSmoother {
         use_range: bool,
     ) -> Result<ScanCounts> {
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
-        let relabelled;
-        let scan = if self.filter.config().association.ignores_ids() {
-            relabelled = self.labelled_by_filter(scan);
-            relabelled.as_slice()
-        } else {
-            scan
+        // With the ids hidden, the scan under the filter's ids (the bearings
+        // given none dropped and counted).
+        let labels = self
+            .filter
+            .config()
+            .association
+            .ignores_ids()
+            .then(|| self.labels_on_arrival(scan.len()));
+        let as_they_came = scan;
+        let relabelled: Vec<BearingObservation>;
+        let scan = match &labels {
+            Some(labels) => {
+                relabelled = scan
+                    .iter()
+                    .zip(labels)
+                    .filter_map(|(o, id)| {
+                        id.map(|landmark_id| BearingObservation { landmark_id, ..*o })
+                    })
+                    .collect();
+                self.report.n_dropped += scan.len() - relabelled.len();
+                relabelled.as_slice()
+            }
+            None => scan,
         };
         let snapshot = self.filter.snapshot();
         let scan_poses = self.keyframes.is_some_and(|rule| rule.scan_poses);
@@ -635,6 +662,14 @@ impl OnlineEstimator for OnlineSmoother {
         let offset = (self.pending.steps > 0).then_some(self.pending);
         self.scan_node.push(node);
         self.scan_offset.push(offset);
+        if let (Some(window), Some(labels)) = (&mut self.window_bearings, labels) {
+            window.push(WindowScan {
+                node,
+                offset,
+                bearings: as_they_came.to_vec(),
+                labels,
+            });
+        }
         let filter_to_smoother = match self.start {
             OnlineStart::Filter => Pose2::default(),
             OnlineStart::Odometry => self

@@ -105,6 +105,14 @@ pub struct SmootherConfig {
     /// 0.2 m) and blows the per-scan window's maps up there (its short
     /// baseline); neutral in simulation (docs/results/estimators.md).
     pub triangulate_online: bool,
+    /// Fixed-lag mode with keyframes and the ids hidden: before each
+    /// keyframe's solve, the bearings of the scans still in the window are
+    /// paired again with the window's landmarks from its own estimate (the
+    /// batch's re-association rule; `smoother::online`'s
+    /// `window_reassociation`). On by default: with descriptors it brings
+    /// the online window to the batch's accuracy in simulation
+    /// (docs/results/association.md).
+    pub reassociate_online: bool,
     /// Batch mode: where the solve starts.
     pub batch_start: BatchStart,
 }
@@ -153,6 +161,7 @@ impl Default for SmootherConfig {
             // (docs/results/estimators.md, 2026-11-28).
             landmark_chart: LandmarkChart::InverseDepth,
             triangulate_online: false,
+            reassociate_online: true,
             batch_start: BatchStart::Filter,
         }
     }
@@ -174,6 +183,10 @@ pub struct SmootherReport {
     /// Landmarks the filter never initialized that the batch triangulated
     /// from its smoothed poses and added ([`SmootherConfig::triangulate_unmapped`]).
     pub n_triangulated: usize,
+    /// Bearings the online window paired again with another landmark, or
+    /// with one where the filter gave none, or took off the landmark that no
+    /// longer explained them ([`SmootherConfig::reassociate_online`]).
+    pub n_reassociated: usize,
     /// Landmarks whose increments the online window takes in inverse depth
     /// ([`SmootherConfig::landmark_chart`]).
     pub n_inverse_depth: usize,
