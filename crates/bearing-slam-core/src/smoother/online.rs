@@ -422,6 +422,9 @@ impl OnlineSmoother {
     /// there (then it keeps the point chart).
     fn enter_landmark(&mut self, id: u64, p: Vector2<f64>) -> Result<()> {
         self.smoother.add_landmark(id, p)?;
+        if let Some(window) = &mut self.window_bearings {
+            window.landmark_entered(id, &self.smoother)?;
+        }
         if self.landmark_chart == LandmarkChart::InverseDepth {
             let anchor = self.first_sighting_position(id)?;
             if (p - anchor).norm() >= 1e-3 {
@@ -664,6 +667,7 @@ impl OnlineEstimator for OnlineSmoother {
         self.scan_offset.push(offset);
         if let (Some(window), Some(labels)) = (&mut self.window_bearings, labels) {
             window.push(WindowScan {
+                time,
                 node,
                 offset,
                 bearings: as_they_came.to_vec(),
@@ -731,6 +735,11 @@ impl OnlineEstimator for OnlineSmoother {
         }
         self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>();
         self.waiting.clear();
+        // With the ids hidden in a keyframe window, the association is the
+        // window's: each bearing as it was labelled when it left the window.
+        if let Some(window) = &self.window_bearings {
+            output.association = Some(window.score(self.filter.association_costs()));
+        }
         let (poses, covs, lms) = self.estimates()?;
         apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
         // The landmarks the window triangulated, from the scan they entered on.

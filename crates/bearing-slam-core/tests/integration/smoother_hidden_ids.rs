@@ -66,8 +66,13 @@ fn the_batch_with_the_ids_hidden_ends_where_it_does_given_them() {
     assert!(rmse < 0.5, "{rmse}");
 }
 
+/// The online smoother's association is scored on its window's labels
+/// (each bearing's when its pose left the window), not on the filter's
+/// decisions: the same landmarks, and the bearings the filter left in its
+/// tracks paired (seed 2: 792 of 800 landmark bearings right, 8 clutter
+/// bearings paired; the filter 673 and 9).
 #[test]
-fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
+fn the_online_smoother_with_the_ids_hidden_scores_its_windows_labels() {
     let log = log(2, 2, false);
     let hidden = config(AssociationMethod::NearestNeighbour);
     let online = run_estimator(
@@ -78,13 +83,11 @@ fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
     .unwrap();
     let filter = run_estimator(&log, &hidden, &EstimatorConfig::of(EstimatorKind::Filter)).unwrap();
     let score = online.output.association.clone().unwrap();
-    // The same filter decided: its scores are the filter run's (but for
-    // the time the pairing took).
     let alone = filter.output.association.clone().unwrap();
-    assert_eq!(
-        (score.paired, score.correct, score.mapped, &score.owners),
-        (alone.paired, alone.correct, alone.mapped, &alone.owners)
-    );
+    assert_eq!((score.mapped, &score.owners), (alone.mapped, &alone.owners));
+    assert!(score.correct > alone.correct, "{score:?} / {alone:?}");
+    assert!(score.precision >= 0.98, "{score:?}");
+    assert!(score.recall >= 0.98, "{score:?}");
     assert_final_map_is_static(&online.output, &score);
     let report = online.smoother.as_ref().unwrap();
     // Clutter's bearings are dropped, never factors, and the window
@@ -101,8 +104,8 @@ fn the_online_smoother_with_the_ids_hidden_uses_only_its_filters_decisions() {
 /// (a pairing the filter got wrong is then a factor the window solves to
 /// convergence). Measured (clutter 2, nearest neighbour, seeds 0–5, ATE m):
 /// ids known 0.095 / 0.069 / 0.130 / 0.020 / 0.042 / 0.093 (mean 0.075);
-/// hidden, re-associated 0.103 / 0.047 / 0.155 / 0.018 / 0.056 / 0.125
-/// (0.084); hidden, the filter's decisions only 0.074 / 0.483 / 0.469 /
+/// hidden, re-associated 0.103 / 0.047 / 0.140 / 0.018 / 0.056 / 0.126
+/// (0.082); hidden, the filter's decisions only 0.074 / 0.483 / 0.469 /
 /// 0.107 / 0.204 / 0.167 (0.251); the filter 0.406 / 0.384 / 0.334 / 0.127
 /// / 0.251 / 0.540 (0.340).
 #[test]

@@ -10,15 +10,20 @@
 //! The filter decided each bearing from its own estimate at the time, and
 //! a bearing that went to several competing tracks got no landmark at all;
 //! the window's estimate is better, and it is the estimate the factors are
-//! solved at. A bearing the window pairs takes that landmark; one it pairs
-//! with none leaves the landmark it had (its factor is removed), while a
-//! bearing still waiting under a track keeps waiting. Only scans whose
+//! solved at. A bearing the window pairs takes that landmark (leaving the
+//! track it waited under, if it did); one it pairs with none keeps the id
+//! it had ([`new_label`]). Only scans whose
 //! poses are in the window change: what left it is in the marginalization
 //! prior. The window's landmarks are never removed or merged here.
+//!
+//! The online smoother's association is scored on these labels, each
+//! bearing's as it was when its scan's pose left the window (or at the
+//! end), not on the filter's decisions ([`WindowBearings::score`]).
 
 use super::OnlineSmoother;
 use crate::association::appearance::Appearance;
 use crate::association::reassociate::{Gates, ReassociationRule, landmark_appearances, pair_scan};
+use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
 use crate::error::Result;
 use crate::log::BearingObservation;
 use crate::smoother::fixed_lag::FixedLagSmoother;
@@ -30,6 +35,8 @@ use std::collections::{BTreeMap, BTreeSet, VecDeque};
 /// A scan whose pose is in the window, with its bearings as they came.
 #[derive(Clone, Debug)]
 pub(super) struct WindowScan {
+    /// The scan's time, s.
+    pub(super) time: f64,
     /// Its pose variable.
     pub(super) node: usize,
     /// The odometry from that pose to the scan (a scan without motion since).
@@ -49,6 +56,11 @@ pub(super) struct WindowBearings {
     /// Each landmark's appearance over the labelled bearings whose scans
     /// left the window (with descriptors).
     retired: BTreeMap<u64, Appearance>,
+    /// Each bearing whose scan left the window, with its label then.
+    records: Vec<AssociationRecord>,
+    /// When each landmark could first be paired in the window: the time of
+    /// the window's oldest scan when the landmark entered it.
+    births: BTreeMap<u64, f64>,
 }
 
 impl WindowBearings {
@@ -57,7 +69,57 @@ impl WindowBearings {
             rule,
             scans: VecDeque::new(),
             retired: BTreeMap::new(),
+            records: Vec::new(),
+            births: BTreeMap::new(),
         }
+    }
+
+    /// Landmark `id` entered the window (which `smoother` holds): from
+    /// now on every bearing of the window's scans may be paired with it.
+    pub(super) fn landmark_entered(&mut self, id: u64, smoother: &FixedLagSmoother) -> Result<()> {
+        self.forget_left(smoother)?;
+        if let Some(oldest) = self.scans.front() {
+            self.births.entry(id).or_insert(oldest.time);
+        }
+        Ok(())
+    }
+
+    /// The association scores ([`score`]) of the labels each bearing had
+    /// when its scan's pose left the window, or has at the end; the
+    /// pairing costs are the filter's (`costs`), the labels' own work is in
+    /// the smoother's update times.
+    pub(super) fn score(&self, costs: &[ScanCost]) -> AssociationScore {
+        let mut records = self.records.clone();
+        for scan in &self.scans {
+            records.extend(self.records_of(scan));
+        }
+        score(
+            &records,
+            &self.births,
+            &BTreeMap::new(),
+            costs,
+            self.rule.min_bearings,
+        )
+    }
+
+    /// `scan`'s bearings with their labels now: a landmark of the window,
+    /// a track (waiting), or nothing.
+    fn records_of<'a>(
+        &'a self,
+        scan: &'a WindowScan,
+    ) -> impl Iterator<Item = AssociationRecord> + 'a {
+        scan.bearings
+            .iter()
+            .zip(&scan.labels)
+            .map(|(o, label)| AssociationRecord {
+                time: scan.time,
+                truth: o.landmark_id,
+                assigned: match label {
+                    Some(id) if self.births.contains_key(id) => Assignment::Landmark(*id),
+                    Some(id) => Assignment::Tracks(vec![*id]),
+                    None => Assignment::Tracks(Vec::new()),
+                },
+            })
     }
 
     pub(super) fn push(&mut self, scan: WindowScan) {
@@ -80,6 +142,8 @@ impl WindowBearings {
                 };
                 self.retired.insert(id, merged);
             }
+            let records: Vec<AssociationRecord> = self.records_of(scan).collect();
+            self.records.extend(records);
             self.scans.pop_front();
         }
         Ok(())
@@ -104,19 +168,23 @@ impl WindowBearings {
     }
 }
 
-/// A bearing's new id: the window's landmark when it pairs one; none when
-/// it had a window landmark that no longer explains it; else as it was
-/// (waiting under a track, or none).
-fn new_label(
-    paired: Option<u64>,
-    before: Option<u64>,
-    in_window: impl Fn(u64) -> bool,
-) -> Option<u64> {
-    match (paired, before) {
-        (Some(id), _) => Some(id),
-        (None, Some(id)) if in_window(id) => None,
-        (None, before) => before,
-    }
+/// Each bearing's new id: the window's landmark when it pairs one, else as it
+/// was (a landmark, waiting under a track, or none). A bearing the window
+/// pairs with none keeps the landmark the filter gave it, the robust kernel
+/// weighing it: taking it off instead let one landmark placed badly for a
+/// while lose its bearings for good (the kinematic Fig. 4 run with 2 clutter
+/// bearings per scan, seed 2: 174 of its 200 bearings unpaired at the end,
+/// ATE 0.155 m against 0.140 m keeping them; mean over seeds 0–5 0.084 m
+/// against 0.082 m, precision 96–99 % against 99 %, and seed 2's recall
+/// 76 % against 99.5 %).
+/// One bearing per landmark per scan: an id the window gave another of the
+/// scan's bearings (`paired`, the whole scan's pairing) is not kept.
+fn new_labels(paired: &[Option<u64>], before: &[Option<u64>]) -> Vec<Option<u64>> {
+    paired
+        .iter()
+        .zip(before)
+        .map(|(p, b)| p.or(b.filter(|id| !paired.contains(&Some(*id)))))
+        .collect()
 }
 
 impl OnlineSmoother {
@@ -166,11 +234,7 @@ impl OnlineSmoother {
                 &window.rule,
                 gates,
             );
-            let labels: Vec<Option<u64>> = paired
-                .iter()
-                .zip(&scan.labels)
-                .map(|(p, b)| new_label(*p, *b, in_window))
-                .collect();
+            let labels = new_labels(&paired, &scan.labels);
             if labels != scan.labels {
                 relabelled.push((i, labels));
             }
@@ -230,17 +294,15 @@ impl OnlineSmoother {
 
 #[cfg(test)]
 mod tests {
-    use super::new_label;
+    use super::new_labels;
 
     #[test]
-    fn a_bearing_takes_the_window_landmark_or_leaves_the_one_that_no_longer_explains_it() {
-        let in_window = |id: u64| id < 10;
-        assert_eq!(new_label(Some(3), Some(4), in_window), Some(3));
-        assert_eq!(new_label(Some(3), None, in_window), Some(3));
-        assert_eq!(new_label(Some(3), Some(12), in_window), Some(3));
-        assert_eq!(new_label(None, Some(4), in_window), None);
-        // Waiting under a track, or given nothing: as it was.
-        assert_eq!(new_label(None, Some(12), in_window), Some(12));
-        assert_eq!(new_label(None, None, in_window), None);
+    fn a_bearing_takes_the_window_landmark_or_keeps_its_id_unless_another_took_it() {
+        let paired = [Some(3), Some(5), None, None, None];
+        let before = [Some(4), None, Some(7), None, Some(5)];
+        assert_eq!(
+            new_labels(&paired, &before),
+            vec![Some(3), Some(5), Some(7), None, None]
+        );
     }
 }
