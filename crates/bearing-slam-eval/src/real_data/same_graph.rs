@@ -14,16 +14,30 @@
 //! fixed-lag smoother's per-scan window (`filter+smoother` with
 //! `OnlineWindow::Scans`, one update per scan like iSAM2's) on the same
 //! log, as configured by default and in its converging mode
-//! (`OnlineStart::Odometry`, `converging_fixed_lag`).
+//! (`OnlineStart::Odometry`, `converging_fixed_lag`); and the default
+//! window (`EstimatorConfig::default()`: keyframes, every scan's pose in
+//! the window, solved at keyframes) with its solves, the pose node of the
+//! batch graph each solve ends on (checked against the batch graph's
+//! odometry), and the rest of its work per scan, timed apart
+//! ([`TimedOnline`]), so that iSAM2 can be run on the same schedule.
 
 use super::{EvalOptions, FilterParameters, Method, RealDataError, filter_log};
 use crate::stats::median;
+use bearing_slam_core::error::{Result as SlamResult, SlamError};
 use bearing_slam_core::estimator::{EstimatorConfig, converging_fixed_lag};
 use bearing_slam_core::geometry::Pose2;
+use bearing_slam_core::log::{BearingObservation, SensorLog};
+use bearing_slam_core::model::MotionModel;
+use bearing_slam_core::nalgebra::Matrix3;
+use bearing_slam_core::online::{OnlineEstimator, ScanCounts};
+use bearing_slam_core::runner::{RunConfig, RunOutput, run_online};
+use bearing_slam_core::slam::{BearingSlam, SlamConfig};
 use bearing_slam_core::smoother::{
-    Factor, OnlineStart, OnlineWindow, RobustKernel, SmootherConfig, SolveReport, SolverConfig,
-    Values, batch_problem, optimize, run_online_smoother,
+    Factor, FactorGraph, FixedLagConfig, Key, OdometryFactor, OnlineSmoother, OnlineStart,
+    OnlineWindow, RobustKernel, SmootherConfig, SolveReport, SolverConfig, Values, batch_problem,
+    optimize, run_online_smoother,
 };
+use bearing_slam_core::trace::{EstimateSnapshot, TimedSlamEvent};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -63,6 +77,280 @@ struct SameGraph<'a> {
     /// The same with `OnlineStart::Odometry` and
     /// `estimator::converging_fixed_lag` (each solve stops once converged).
     online_converging_update_times_s: Vec<f64>,
+    /// Bearing scans in the log (every window sees the same).
+    scans: usize,
+    /// The default online window (`EstimatorConfig::default()`: keyframes,
+    /// every scan's pose riding in the window, solved at each keyframe and
+    /// once at the end): the time of each solve, seconds, in order (what
+    /// its report's `update_times_s` records: `FixedLagSmoother::update`,
+    /// i.e. symbolic analysis, LM iterations and marginalization; the
+    /// first is the start's, before any scan).
+    keyframe_update_times_s: Vec<f64>,
+    /// The pose node of the batch graph (`factors`) that is the newest in
+    /// the window at each of those solves.
+    keyframe_update_nodes: Vec<u64>,
+    /// For each scan, its pose node in the batch graph.
+    keyframe_scan_nodes: Vec<u64>,
+    /// For each scan, the index of the first solve that includes it (the
+    /// scan's own, at a keyframe; else the next keyframe's or the run's
+    /// last).
+    keyframe_scan_updates: Vec<usize>,
+    /// For each scan, the online smoother's work outside its solve,
+    /// seconds: its `update` (and the `predict`s since the previous scan)
+    /// minus the same filter's step run alone in lockstep, minus the solve
+    /// — adding the pose, odometry and bearing factors, landmarks entering,
+    /// the window's own triangulation at keyframes. Not in
+    /// `keyframe_update_times_s`.
+    keyframe_scan_graph_times_s: Vec<f64>,
+    /// For each scan, the filter's (EKF) own step, seconds, timed alone in
+    /// lockstep (its `predict`s since the previous scan and its `update`).
+    keyframe_scan_filter_times_s: Vec<f64>,
+}
+
+/// The online smoother with its work per scan timed: its solves are in
+/// its report; the rest of its step (adding poses, factors and landmarks)
+/// is measured as the time of its `predict`/`update` minus that of the
+/// same filter stepped alone in lockstep (deterministic: both filters stay
+/// identical, checked at the end) minus the solve. Also notes the pose node
+/// of each scan and solve, and each new pose's odometry, for the check
+/// against the batch graph.
+struct TimedOnline {
+    smoother: OnlineSmoother,
+    /// The filter that starts `smoother`, stepped alone on the same events.
+    filter: BearingSlam,
+    /// The smoother's own work since the latest scan (the `predict`s).
+    pending_graph_s: f64,
+    /// The filter's own time since the latest scan (the `predict`s).
+    pending_filter_s: f64,
+    /// Pose nodes seen so far (ids `0..nodes`).
+    nodes: u64,
+    /// The odometry `delta` of each new pose's factor, for node `1..`.
+    node_deltas: Vec<[f64; 3]>,
+    update_nodes: Vec<u64>,
+    scan_nodes: Vec<u64>,
+    scan_updates: Vec<usize>,
+    scan_graph_s: Vec<f64>,
+    scan_filter_s: Vec<f64>,
+}
+
+/// The `delta` of an odometry factor (its fields are private: read from
+/// its serialized form, as the export writes it).
+fn odometry_delta(f: &OdometryFactor) -> SlamResult<(u64, [f64; 3])> {
+    let value = serde_json::to_value(f)
+        .map_err(|_| SlamError::Mismatch("an odometry factor that does not serialize"))?;
+    let to = value.get("to").and_then(serde_json::Value::as_u64);
+    let delta: Option<Vec<f64>> = value
+        .get("delta")
+        .and_then(serde_json::Value::as_array)
+        .and_then(|d| d.iter().map(serde_json::Value::as_f64).collect());
+    match (to, delta.as_deref()) {
+        (Some(to), Some(&[x, y, theta])) => Ok((to, [x, y, theta])),
+        _ => Err(SlamError::Mismatch(
+            "an odometry factor without to or delta",
+        )),
+    }
+}
+
+/// The odometry factor of `graph` that ends on pose `node` (the newest
+/// such, searching from the end).
+fn odometry_into(graph: &FactorGraph, node: u64) -> SlamResult<[f64; 3]> {
+    for factor in graph.factors().iter().rev() {
+        if let Factor::Odometry(f) = factor {
+            let (to, delta) = odometry_delta(f)?;
+            if to == node {
+                return Ok(delta);
+            }
+        }
+    }
+    Err(SlamError::Mismatch(
+        "a new pose without its odometry factor",
+    ))
+}
+
+impl TimedOnline {
+    fn new(
+        slam: SlamConfig,
+        run_config: &RunConfig,
+        config: &SmootherConfig,
+        fixed_lag: FixedLagConfig,
+    ) -> SlamResult<Self> {
+        let mut this = Self {
+            smoother: OnlineSmoother::new(slam.clone(), run_config, config, fixed_lag)?,
+            filter: BearingSlam::new(slam)?,
+            pending_graph_s: 0.0,
+            pending_filter_s: 0.0,
+            nodes: 1,
+            node_deltas: Vec::new(),
+            update_nodes: Vec::new(),
+            scan_nodes: Vec::new(),
+            scan_updates: Vec::new(),
+            scan_graph_s: Vec::new(),
+            scan_filter_s: Vec::new(),
+        };
+        // The start's solve, on pose 0.
+        this.note_solves(0);
+        Ok(this)
+    }
+
+    /// The poses the smoother added since the latest call, with their odometry.
+    fn note_new_poses(&mut self) -> SlamResult<()> {
+        let window = self.smoother.smoother();
+        while window.values().contains(Key::Pose(self.nodes)) {
+            self.node_deltas
+                .push(odometry_into(window.graph(), self.nodes)?);
+            self.nodes += 1;
+        }
+        Ok(())
+    }
+
+    /// The solves from index `from` on end on the newest pose.
+    fn note_solves(&mut self, from: usize) {
+        let solves = self.smoother.report().update_times_s.len();
+        for _ in from..solves {
+            self.update_nodes.push(self.nodes - 1);
+        }
+    }
+
+    fn solves(&self) -> usize {
+        self.smoother.report().update_times_s.len()
+    }
+}
+
+impl OnlineEstimator for TimedOnline {
+    fn predict<M>(&mut self, time: f64, model: &M, control: &M::Control) -> SlamResult<()>
+    where
+        M: MotionModel<3> + Sync,
+        M::Control: Sync,
+    {
+        let t = Instant::now();
+        OnlineEstimator::predict(&mut self.smoother, time, model, control)?;
+        let with_smoother = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        OnlineEstimator::predict(&mut self.filter, time, model, control)?;
+        let alone = t.elapsed().as_secs_f64();
+        self.pending_graph_s += with_smoother - alone;
+        self.pending_filter_s += alone;
+        Ok(())
+    }
+
+    fn update(
+        &mut self,
+        time: f64,
+        scan: &[BearingObservation],
+        use_range: bool,
+    ) -> SlamResult<ScanCounts> {
+        let solves = self.solves();
+        let t = Instant::now();
+        let counts = OnlineEstimator::update(&mut self.smoother, time, scan, use_range)?;
+        let with_smoother = t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
+        let alone = t.elapsed().as_secs_f64();
+        let solved: f64 = self.smoother.report().update_times_s[solves..].iter().sum();
+        self.scan_graph_s
+            .push(std::mem::take(&mut self.pending_graph_s) + with_smoother - alone - solved);
+        self.scan_filter_s
+            .push(std::mem::take(&mut self.pending_filter_s) + alone);
+        self.note_new_poses()?;
+        self.scan_nodes.push(self.nodes - 1);
+        // This scan's solve, or else the next one.
+        self.scan_updates.push(solves);
+        self.note_solves(solves);
+        Ok(counts)
+    }
+
+    fn snapshot(&self, time: f64) -> SlamResult<EstimateSnapshot> {
+        self.smoother.snapshot(time)
+    }
+
+    fn track_pose(&mut self, time: f64) -> SlamResult<(Pose2, Matrix3<f64>)> {
+        self.smoother.track_pose(time)
+    }
+
+    fn events(&self) -> &[TimedSlamEvent] {
+        self.smoother.events()
+    }
+
+    fn finish(&mut self, output: &mut RunOutput) -> SlamResult<()> {
+        let solves = self.solves();
+        self.smoother.finish(output)?;
+        // The run's last solve (of the scans after the latest keyframe).
+        self.note_solves(solves);
+        Ok(())
+    }
+}
+
+/// [`run_online_smoother`] with the work per scan timed ([`TimedOnline`]).
+fn run_timed_online(
+    log: &SensorLog,
+    run_config: &RunConfig,
+    config: &SmootherConfig,
+    fixed_lag: FixedLagConfig,
+) -> SlamResult<TimedOnline> {
+    let run = run_online(
+        log,
+        &run_config.odometry,
+        run_config.use_range,
+        run_config.slam.initial_pose,
+        |start| {
+            TimedOnline::new(
+                SlamConfig {
+                    initial_pose: start,
+                    ..run_config.slam.clone()
+                },
+                run_config,
+                config,
+                fixed_lag,
+            )
+        },
+    )?;
+    let timed = run.estimator;
+    if timed.filter.pose().to_vector() != timed.smoother.filter().pose().to_vector() {
+        return Err(SlamError::Mismatch(
+            "the filter stepped alone left the online smoother's filter",
+        ));
+    }
+    Ok(timed)
+}
+
+/// Checks that the online run's pose nodes are the batch graph's: as many,
+/// and each new pose's odometry the batch's factor into the same node.
+fn check_nodes(timed: &TimedOnline, graph: &FactorGraph, initial: &Values) -> SlamResult<()> {
+    if timed.nodes as usize != initial.poses().len() {
+        return Err(SlamError::Mismatch(
+            "the online window's pose nodes are not the batch graph's",
+        ));
+    }
+    let mut batch = vec![None; initial.poses().len()];
+    for factor in graph.factors() {
+        if let Factor::Odometry(f) = factor {
+            let (to, delta) = odometry_delta(f)?;
+            if let Some(slot) = batch.get_mut(to as usize) {
+                *slot = Some(delta);
+            }
+        }
+    }
+    for (online, batch) in timed.node_deltas.iter().zip(batch.iter().skip(1)) {
+        let same = batch.is_some_and(|b| {
+            b.iter()
+                .zip(online)
+                .all(|(b, o)| (b - o).abs() <= 1e-9 * (1.0 + b.abs()))
+        });
+        if !same {
+            return Err(SlamError::Mismatch(
+                "an online pose's odometry differs from the batch graph's at the same node",
+            ));
+        }
+    }
+    if timed
+        .scan_updates
+        .iter()
+        .any(|&u| u >= timed.update_nodes.len())
+        || timed.update_nodes.len() != timed.smoother.report().update_times_s.len()
+    {
+        return Err(SlamError::Mismatch("a scan that no solve includes"));
+    }
+    Ok(())
 }
 
 /// The solver's settings, for the peer to match.
@@ -107,6 +395,8 @@ pub fn export_same_graph(
     // window (the keyframe window, the default since 2026-11-28, solves
     // once per keyframe).
     let per_scan = default.with_online_window(OnlineWindow::Scans);
+    // The default window itself (keyframes, every scan's pose).
+    let keyframes = EstimatorConfig::default();
     let parameters: FilterParameters = EvalOptions::default().parameters;
     let mut written = Vec::new();
     for robot in 1..=ROBOT_COUNT {
@@ -142,6 +432,8 @@ pub fn export_same_graph(
                 run_online_smoother(&log, &config, &converging_smoother, converging_fixed_lag())?;
             let online_converging_update_times_s =
                 converging.estimator.report().update_times_s.clone();
+            let timed = run_timed_online(&log, &config, &keyframes.smoother, keyframes.fixed_lag)?;
+            check_nodes(&timed, &problem.graph, &problem.initial)?;
             let SolverConfig {
                 max_iterations,
                 relative_tolerance,
@@ -176,6 +468,13 @@ pub fn export_same_graph(
                 solve_times_s: times,
                 online_update_times_s,
                 online_converging_update_times_s,
+                scans: timed.scan_nodes.len(),
+                keyframe_update_times_s: timed.smoother.report().update_times_s.clone(),
+                keyframe_update_nodes: timed.update_nodes,
+                keyframe_scan_nodes: timed.scan_nodes,
+                keyframe_scan_updates: timed.scan_updates,
+                keyframe_scan_graph_times_s: timed.scan_graph_s,
+                keyframe_scan_filter_times_s: timed.scan_filter_s,
             };
             let path = out_dir.join(format!("robot{robot}_cut{fraction}.json"));
             let file =
@@ -183,12 +482,17 @@ pub fn export_same_graph(
             serde_json::to_writer(std::io::BufWriter::new(file), &record)
                 .map_err(|e| write_error(&path, e.to_string()))?;
             progress(&format!(
-                "robot {robot} 1/{fraction}: {} factors, cost {:.6e} -> {:.6e} in {} iterations, {:.4} s",
+                "robot {robot} 1/{fraction}: {} factors, cost {:.6e} -> {:.6e} in {} iterations, {:.4} s; \
+                 default online window: {} scans, {} solves, {:.3} s solving + {:.3} s adding",
                 problem.graph.len(),
                 report.initial_cost,
                 report.final_cost,
                 report.iterations,
-                record.solve_time_s
+                record.solve_time_s,
+                record.scans,
+                record.keyframe_update_times_s.len(),
+                record.keyframe_update_times_s.iter().sum::<f64>(),
+                record.keyframe_scan_graph_times_s.iter().sum::<f64>(),
             ));
             written.push(path);
         }
