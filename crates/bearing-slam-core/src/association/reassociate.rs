@@ -125,10 +125,15 @@ pub fn reassociate(
             .map(|((_, scan), labels)| (scan.as_slice(), labels.as_slice())),
     )?;
     let whole_map: &[LandmarkSnapshot] = smoothed.last().map_or(&[], |s| &s.landmarks);
-    let (map, merged) = without_duplicates(whole_map, previous, &appearances, rule)?;
+    let (map, merged) = without_duplicates(
+        whole_map,
+        &support(previous.iter().flatten()),
+        &appearances,
+        rule,
+    )?;
     let mut labels: ScanLabels = Vec::with_capacity(scans.len());
     let mut report = ReassociationReport {
-        merged,
+        merged: merged.len(),
         ..ReassociationReport::default()
     };
     for (((time, scan), snapshot), before) in scans.iter().zip(smoothed).zip(previous) {
@@ -253,23 +258,30 @@ pub(crate) fn pair_scan(
     scan_labels
 }
 
-/// `map` without the landmarks that are another one of it: pairs within
-/// the χ²₂ gate of each other (and alike in appearance, with descriptors),
-/// nearest first, the landmark with fewer bearings in `previous` giving
-/// way (on a tie, the younger id). Returns the map kept and how many gave
-/// way.
-fn without_duplicates(
-    map: &[LandmarkSnapshot],
-    previous: &ScanLabels,
-    appearances: &BTreeMap<u64, Appearance>,
-    rule: &ReassociationRule,
-) -> Result<(Vec<LandmarkSnapshot>, usize)> {
-    let gate = crate::stats::chi2_quantile(2.0, rule.probability)?;
-    let appearance_gate = Gates::of(rule)?.appearance;
+/// The bearings labelled with each landmark in `labels`.
+pub(crate) fn support<'a>(
+    labels: impl IntoIterator<Item = &'a Option<u64>>,
+) -> BTreeMap<u64, usize> {
     let mut bearings: BTreeMap<u64, usize> = BTreeMap::new();
-    for id in previous.iter().flatten().flatten() {
+    for id in labels.into_iter().flatten() {
         *bearings.entry(*id).or_default() += 1;
     }
+    bearings
+}
+
+/// `map` without the landmarks that are another one of it: pairs within
+/// the χ²₂ gate of each other (and alike in appearance, with descriptors),
+/// nearest first, the landmark with fewer `bearings` giving way (on a tie,
+/// the younger id). Returns the map kept and, for each landmark that gave
+/// way, the one it gave way to.
+pub(crate) fn without_duplicates(
+    map: &[LandmarkSnapshot],
+    bearings: &BTreeMap<u64, usize>,
+    appearances: &BTreeMap<u64, Appearance>,
+    rule: &ReassociationRule,
+) -> Result<(Vec<LandmarkSnapshot>, BTreeMap<u64, u64>)> {
+    let gate = crate::stats::chi2_quantile(2.0, rule.probability)?;
+    let appearance_gate = Gates::of(rule)?.appearance;
     let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
     for (i, a) in map.iter().enumerate() {
         for (j, b) in map.iter().enumerate().skip(i + 1) {
@@ -296,17 +308,19 @@ fn without_duplicates(
     }
     pairs.sort_by(|x, y| x.0.total_cmp(&y.0).then(x.1.cmp(&y.1)).then(x.2.cmp(&y.2)));
     let mut gone = vec![false; map.len()];
+    let mut merged = BTreeMap::new();
     for (_, i, j) in pairs {
         if gone[i] || gone[j] {
             continue;
         }
         let support = |k: usize| bearings.get(&map[k].id).copied().unwrap_or(0);
-        let weaker = if (support(i), map[j].id) >= (support(j), map[i].id) {
-            j
+        let (weaker, stronger) = if (support(i), map[j].id) >= (support(j), map[i].id) {
+            (j, i)
         } else {
-            i
+            (i, j)
         };
         gone[weaker] = true;
+        merged.insert(map[weaker].id, map[stronger].id);
     }
     let kept = map
         .iter()
@@ -314,7 +328,7 @@ fn without_duplicates(
         .filter(|(_, g)| !**g)
         .map(|(l, _)| *l)
         .collect();
-    Ok((kept, gone.iter().filter(|g| **g).count()))
+    Ok((kept, merged))
 }
 
 /// Each labelled landmark's appearance: the mean of the descriptors of the

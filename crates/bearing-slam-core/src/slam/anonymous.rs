@@ -511,6 +511,14 @@ impl BearingSlam {
         Ok(report)
     }
 
+    /// The landmarks the unknown-identity mode removed as duplicates, or
+    /// replaced as lost by a track that looks like them, each with the
+    /// landmark that stands for it (empty with known association).
+    #[must_use]
+    pub fn merged_landmarks(&self) -> Option<&BTreeMap<u64, u64>> {
+        self.anonymous.as_ref().map(|a| &a.merged)
+    }
+
     /// The association scores of the scans given to [`Self::update_scored`]
     /// (unknown-identity mode only).
     #[must_use]

@@ -740,7 +740,11 @@ impl OnlineEstimator for OnlineSmoother {
         if let Some(window) = &self.window_bearings {
             output.association = Some(window.score(self.filter.association_costs()));
         }
-        let (poses, covs, lms) = self.estimates()?;
+        let (poses, covs, mut lms) = self.estimates()?;
+        // A landmark the window merged into another is not in its map.
+        if let Some(window) = &self.window_bearings {
+            lms.retain(|id, _| !window.was_merged(*id));
+        }
         apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
         // The landmarks the window triangulated, from the scan they entered on.
         add_to_snapshots(output, &self.triangulated, &lms);
