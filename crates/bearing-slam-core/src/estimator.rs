@@ -478,6 +478,12 @@ pub fn run_estimator(
              maximum-likelihood association) or `known`",
         ));
     }
+    if method == AssociationMethod::Ransac && estimator.kind.is_particle_filter() {
+        return Err(SlamError::Mismatch(
+            "association ransac is not implemented for FastSLAM: use `nn` (per-particle \
+             maximum-likelihood association) or `known`",
+        ));
+    }
     let only = |output| EstimatorRun {
         output,
         smoother: None,

@@ -1,8 +1,11 @@
 //! Data association measurements of issue #16 (docs/results/association.md):
-//! the EKF with the log's ids (`known`) against nearest neighbour and JCBB
-//! with the ids hidden, on `paper_fig8` and `slip_patch` with clutter 0, 1
-//! and 5 false bearings per scan (and a pacing distractor), and on MRCLAM
-//! Dataset 6 with the barcodes hidden; plus JCBB's cost per scan.
+//! the EKF with the log's ids (`known`) against nearest neighbour, JCBB and
+//! 1-point RANSAC with the ids hidden, on `paper_fig8` and `slip_patch` with
+//! clutter 0, 1 and 5 false bearings per scan (and a pacing distractor), and
+//! on MRCLAM Dataset 6 with the barcodes hidden; plus JCBB's and RANSAC's
+//! cost per scan. The `sim` table's last two columns are the mean search
+//! nodes per scan (JCBB; RANSAC: hypotheses tried; nearest neighbour: pairs
+//! examined) and the mean pairing time per scan.
 //!
 //! ```text
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- sim 5
@@ -41,10 +44,11 @@ type Res<T> = Result<T, Box<dyn Error>>;
 /// Ids of the dense variant's twin landmarks: the original's plus this.
 const DENSE_TWIN_ID_OFFSET: u64 = 500;
 
-const METHODS: [AssociationMethod; 3] = [
+const METHODS: [AssociationMethod; 4] = [
     AssociationMethod::Known,
     AssociationMethod::NearestNeighbour,
     AssociationMethod::Jcbb,
+    AssociationMethod::Ransac,
 ];
 
 /// One run's numbers.
@@ -167,9 +171,9 @@ fn pct(x: f64) -> String {
 
 fn sim(seeds: u64, first_seed: u64) -> Res<()> {
     println!(
-        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates (at end) | spurious (at end) | removed | missed | ATE m | ATE / known |"
+        "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates (at end) | spurious (at end) | removed | missed | ATE m | ATE / known | mean nodes | pairing ms |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let only = std::env::var("ASSOCIATION_SCENARIO").ok();
     for name in ["paper_fig8", "slip_patch"] {
         if only.as_deref().is_some_and(|o| o != name) {
@@ -187,7 +191,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                 continue;
             }
             // method -> sums over seeds
-            let mut sums: BTreeMap<&str, [f64; 9]> = BTreeMap::new();
+            let mut sums: BTreeMap<&str, [f64; 11]> = BTreeMap::new();
             for seed in first_seed..first_seed + seeds {
                 let mut scenario = Scenario::named(name, seed)?;
                 scenario.clutter.per_scan = clutter;
@@ -255,6 +259,8 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                         row.ate,
                         s.removed as f64,
                         s.duplicates_at_end as f64,
+                        s.mean_nodes,
+                        1e3 * s.mean_scan_seconds,
                     ]
                     .into_iter()
                     .enumerate()
@@ -270,7 +276,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                 let s = sums.get(method_name(method)).copied().unwrap_or_default();
                 let known = method == AssociationMethod::Known;
                 println!(
-                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} ({:.1}) | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} |",
+                    "| {name} | {clutter} | {} | {} | {} | {} | {} | {:.1} ({:.1}) | {:.1} ({:.1}) | {:.1} | {:.1} | {:.3} | {:.2} | {} | {} |",
                     if distractor { "yes" } else { "no" },
                     if dense { "yes" } else { "no" },
                     method_name(method),
@@ -284,6 +290,16 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
                     s[5] / n,
                     s[6] / n,
                     s[6] / n / known_ate,
+                    if known {
+                        "—".into()
+                    } else {
+                        format!("{:.1}", s[9] / n)
+                    },
+                    if known {
+                        "—".into()
+                    } else {
+                        format!("{:.3}", s[10] / n)
+                    },
                 );
             }
         }
@@ -365,6 +381,7 @@ fn method_name(m: AssociationMethod) -> &'static str {
         AssociationMethod::Known => "known",
         AssociationMethod::NearestNeighbour => "nn",
         AssociationMethod::Jcbb => "jcbb",
+        AssociationMethod::Ransac => "ransac",
     }
 }
 
@@ -516,7 +533,7 @@ fn mrclam(dir: &Path) -> Res<()> {
     // log as moving-object bearings (ids hidden like the landmarks').
     let keep_robots = std::env::var("MRCLAM_KEEP_ROBOTS").as_deref() == Ok("1");
     println!(
-        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | robot bearings (paired) | ATE m | ATE / known | map RMSE m | mean JCBB nodes | mean pairing ms |"
+        "| robot | method | precision % | recall % | mapped | duplicates | spurious | missed | robot bearings (paired) | ATE m | ATE / known | map RMSE m | mean nodes (JCBB) / hypotheses (RANSAC) | mean pairing ms |"
     );
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let mut options = EvalOptions::default();
@@ -552,7 +569,11 @@ fn mrclam(dir: &Path) -> Res<()> {
             metres(known),
             known_map.map_or("—".into(), |r| format!("{r:.3}")),
         );
-        for method in [AssociationMethod::NearestNeighbour, AssociationMethod::Jcbb] {
+        for method in [
+            AssociationMethod::NearestNeighbour,
+            AssociationMethod::Jcbb,
+            AssociationMethod::Ransac,
+        ] {
             let (row, output) = run_full(&log, &config, method, prior)?;
             let Some(s) = row.score else { continue };
             let map = map_rmse(&output, &truth, |id| {
@@ -587,13 +608,15 @@ fn mrclam(dir: &Path) -> Res<()> {
     Ok(())
 }
 
-/// JCBB's and nearest neighbour's time per scan against the number of
-/// visible landmarks, on synthetic scans: `m` landmarks spread round the
-/// robot whose predictions share a heading uncertainty (σ_θ = 3°, each
-/// landmark 1° of its own), seen with σ_z = 1° and the heading 2° off, plus
-/// two clutter bearings; with node budgets of 100, 1 000 and 10 000.
+/// JCBB's, 1-point RANSAC's and nearest neighbour's time per scan against
+/// the number of visible landmarks, on synthetic scans: `m` landmarks spread
+/// round the robot whose predictions share a heading uncertainty (σ_θ = 3°,
+/// each landmark 1° of its own), seen with σ_z = 1° and the heading 2° off,
+/// plus two clutter bearings; JCBB with node budgets of 100, 1 000 and
+/// 10 000, RANSAC with hypothesis budgets of 10 and 100 (the default).
 fn cost() -> Res<()> {
     use bearing_slam::core::association::jcbb::{Gates, PairingProblem, jcbb, nearest_neighbour};
+    use bearing_slam::core::association::ransac::ransac;
     use bearing_slam::core::nalgebra::DMatrix;
     use std::time::Instant;
     println!(
@@ -667,6 +690,23 @@ fn cost() -> Res<()> {
             let us = started.elapsed().as_secs_f64() * 1e6 / scans as f64;
             println!(
                 "| {m} | jcbb | {budget} | {:.0} | {:.0} | {:.1} | {us:.1} |",
+                nodes as f64 / scans as f64,
+                100.0 * hit as f64 / scans as f64,
+                100.0 * correct / scans as f64
+            );
+        }
+        for budget in [10usize, 100] {
+            let started = Instant::now();
+            let (mut nodes, mut hit, mut correct) = (0usize, 0usize, 0.0);
+            for p in &problems {
+                let r = ransac(p, &gates, budget)?;
+                nodes += r.nodes;
+                hit += usize::from(r.budget_exhausted);
+                correct += score(&r.landmark_of);
+            }
+            let us = started.elapsed().as_secs_f64() * 1e6 / scans as f64;
+            println!(
+                "| {m} | ransac | {budget} | {:.0} | {:.0} | {:.1} | {us:.1} |",
                 nodes as f64 / scans as f64,
                 100.0 * hit as f64 / scans as f64,
                 100.0 * correct / scans as f64

@@ -6,7 +6,10 @@
 //! * bearings of **mapped landmarks**: each bearing is paired with a landmark
 //!   by nearest neighbour with a Mahalanobis gate, or by joint compatibility
 //!   branch and bound (JCBB, Neira & Tardós 2001) over the joint innovation
-//!   covariance of the scan ([`jcbb`]);
+//!   covariance of the scan ([`jcbb`]), or by 1-point RANSAC (Civera et al.
+//!   2010): one hypothesis per compatible pair, whose one-bearing update
+//!   corrects every prediction, the one with the most bearings in the gates
+//!   of the corrected predictions kept ([`ransac`]);
 //! * bearings of **new landmarks**: a bearing no mapped landmark explains
 //!   goes to the tracks of [`tracks`], which group the sightings of a
 //!   landmark before it exists (a bearing joins a track when it is
@@ -34,6 +37,7 @@
 pub mod appearance;
 pub mod depth_hypotheses;
 pub mod jcbb;
+pub mod ransac;
 pub mod reassociate;
 pub mod relabel;
 pub mod score;
@@ -60,12 +64,19 @@ pub enum AssociationMethod {
     /// Ids ignored; the largest set of jointly compatible pairings, ties
     /// broken by the smallest joint NIS (Neira & Tardós 2001).
     Jcbb,
+    /// Ids ignored; 1-point RANSAC (Civera, Grasa, Davison & Montiel 2010):
+    /// each individually compatible pairing is a hypothesis, its
+    /// one-bearing update corrects the other predictions, and the
+    /// hypothesis with the most bearings within the χ²₁ gates of the
+    /// corrected predictions gives the pairing ([`ransac`]).
+    Ransac,
 }
 
 crate::named_enum!(AssociationMethod, "association", [
     Known => "known",
     NearestNeighbour => "nn",
     Jcbb => "jcbb",
+    Ransac => "ransac",
 ]);
 
 impl Serialize for AssociationMethod {
@@ -95,6 +106,11 @@ pub struct AssociationConfig {
     /// Most search nodes JCBB explores per scan (≥ 1); past it the best
     /// hypothesis found so far is used.
     pub jcbb_node_budget: usize,
+    /// Most hypotheses 1-point RANSAC tries per scan (≥ 1): every
+    /// individually compatible pair when there are at most this many,
+    /// otherwise this many drawn at random, seeded by the scan
+    /// ([`ransac`]).
+    pub ransac_hypotheses: usize,
     /// Probability of the χ² tests that add a bearing to a track and check
     /// a track's sightings against its point, in (0, 1).
     pub track_gate_probability: f64,
@@ -253,7 +269,8 @@ impl NewLandmarkDensity {
 }
 
 impl Default for AssociationConfig {
-    /// Known association; gates at 0.999; 10 000 JCBB nodes; tracks confirmed
+    /// Known association; gates at 0.999; 10 000 JCBB nodes; 100 RANSAC
+    /// hypotheses; tracks confirmed
     /// after 15 sightings seen in 70 % of their scans, dropped after 3
     /// misses; no removal of moving objects; duplicate merging on; mutual
     /// exclusion of track births, track pairing and the ambiguity options off;
@@ -265,6 +282,7 @@ impl Default for AssociationConfig {
             method: AssociationMethod::Known,
             gate_probability: 0.999,
             jcbb_node_budget: 10_000,
+            ransac_hypotheses: 100,
             track_gate_probability: 0.999,
             min_sightings: 15,
             min_hit_ratio: 0.7,
@@ -345,6 +363,7 @@ impl AssociationConfig {
         }
         for (name, value, min) in [
             ("association.jcbb_node_budget", self.jcbb_node_budget, 1),
+            ("association.ransac_hypotheses", self.ransac_hypotheses, 1),
             ("association.min_sightings", self.min_sightings, 2),
             ("association.max_misses", self.max_misses, 1),
             ("association.max_tracks", self.max_tracks, 1),
@@ -375,6 +394,8 @@ mod tests {
     fn names_parse_and_bad_parameters_are_named() {
         assert_eq!("nn".parse(), Ok(AssociationMethod::NearestNeighbour));
         assert_eq!("jcbb".parse(), Ok(AssociationMethod::Jcbb));
+        assert_eq!("ransac".parse(), Ok(AssociationMethod::Ransac));
+        assert_eq!(AssociationMethod::Ransac.to_string(), "ransac");
         assert!("nearest".parse::<AssociationMethod>().is_err());
         assert_eq!(AssociationMethod::Jcbb.to_string(), "jcbb");
         AssociationConfig::default()
@@ -395,6 +416,12 @@ mod tests {
             .expect_err("1 sighting is refused")
             .to_string();
         assert!(err.contains("association.min_sightings"), "{err}");
+        let bad = AssociationConfig {
+            ransac_hypotheses: 0,
+            ..AssociationConfig::of(AssociationMethod::Ransac)
+        };
+        let err = bad.validate().expect_err("0 hypotheses").to_string();
+        assert!(err.contains("association.ransac_hypotheses"), "{err}");
     }
 
     #[test]

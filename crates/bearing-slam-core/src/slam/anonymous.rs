@@ -1,6 +1,7 @@
 //! The unknown-identity update of [`BearingSlam`]: a scan of bearings
 //! without ids is paired with the mapped landmarks (nearest neighbour or
-//! JCBB, [`crate::association::jcbb`]), the paired bearings go through the
+//! JCBB, [`crate::association::jcbb`], or 1-point RANSAC,
+//! [`crate::association::ransac`]), the paired bearings go through the
 //! known-id update ([`BearingSlam::update_bearings`]), and the rest go to the
 //! tracks of landmarks not mapped yet ([`crate::association::tracks`]),
 //! whose confirmed tracks the configured initializer brings into the map.
@@ -8,6 +9,7 @@
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
 use crate::association::appearance::{Appearance, appearance_distance};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
+use crate::association::ransac::ransac;
 use crate::association::relabel::AssociationHistory;
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
 use crate::association::tracks::TrackSet;
@@ -192,6 +194,9 @@ impl BearingSlam {
         let pairing = match method {
             AssociationMethod::Jcbb => {
                 jcbb(&problem, &gates, self.config.association.jcbb_node_budget)?
+            }
+            AssociationMethod::Ransac => {
+                ransac(&problem, &gates, self.config.association.ransac_hypotheses)?
             }
             AssociationMethod::NearestNeighbour | AssociationMethod::Known => {
                 nearest_neighbour(&problem, &gates)?

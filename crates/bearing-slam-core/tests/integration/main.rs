@@ -5,6 +5,7 @@
 
 #![allow(clippy::unwrap_used)]
 
+mod association_ransac;
 mod association_run;
 mod bad_input;
 mod covariance_and_errors;

@@ -338,14 +338,16 @@ fn hidden_ids_on_a_clean_log_come_close_to_the_known_ids() {
 }
 
 #[test]
-fn fastslam_refuses_jcbb() {
+fn fastslam_refuses_jcbb_and_ransac() {
     let log = log(1, 0, false);
     let est = EstimatorConfig::of(EstimatorKind::FastSlam2);
-    let err = run_estimator(&log, &config(AssociationMethod::Jcbb), &est).unwrap_err();
-    assert!(
-        matches!(err, SlamError::Mismatch(m) if m.contains("jcbb")),
-        "{err}"
-    );
+    for method in [AssociationMethod::Jcbb, AssociationMethod::Ransac] {
+        let err = run_estimator(&log, &config(method), &est).unwrap_err();
+        assert!(
+            matches!(err, SlamError::Mismatch(m) if m.contains(method.to_string().as_str())),
+            "{err}"
+        );
+    }
 }
 
 #[test]
