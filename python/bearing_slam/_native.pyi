@@ -136,9 +136,10 @@ class Config:
     # the default, or "scans") and landmark chart ("inverse-depth", "point").
     online_window: str
     landmark_chart: str
-    # Data association (issue 16): "known", "nn", "jcbb" (ids hidden: the
-    # filter takes both, FastSLAM "nn" only, per-particle maximum
-    # likelihood; the smoothers both, the EKF as their front end); the appearance descriptors'
+    # Data association (issue 16): "known", "nn", "jcbb", "ransac" (1-point
+    # RANSAC) (ids hidden: the filter takes all three, FastSLAM "nn" only,
+    # per-particle maximum likelihood; the smoothers all three, the EKF as
+    # their front end); the appearance descriptors'
     # noise σ (None: descriptors ignored; hidden ids only).
     association: str
     descriptor_sigma: float | None

@@ -276,12 +276,12 @@ def _add_association_option(parser: argparse.ArgumentParser) -> None:
         "--association",
         choices=ASSOCIATIONS,
         default="known",
-        help="data association (default: %(default)s, the log's ids; nn/jcbb: the ids are "
-        "hidden from the estimator, which pairs bearings with landmarks itself; they then only "
-        "score it, in metrics.json; the filter takes nn and jcbb, fastslam1/fastslam2 take nn "
-        "(per-particle maximum likelihood); the smoothers take nn and jcbb with the filter as "
-        "their front end (the batch then re-associates every bearing against its smoothed "
-        "estimate)",
+        help="data association (default: %(default)s, the log's ids; nn/jcbb/ransac: the ids "
+        "are hidden from the estimator, which pairs bearings with landmarks itself; they then "
+        "only score it, in metrics.json; ransac is 1-point RANSAC; the filter takes nn, jcbb "
+        "and ransac, fastslam1/fastslam2 take nn (per-particle maximum likelihood); the "
+        "smoothers take nn, jcbb and ransac with the filter as their front end (the batch then "
+        "re-associates every bearing against its smoothed estimate)",
     )
 
 
@@ -335,7 +335,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     config = with_estimator(_config(log, args), args).replace(association=args.association)
     if args.descriptor_sigma is not None:
         if args.association == "known":
-            raise UserError("--descriptor-sigma applies to --association nn or jcbb only")
+            raise UserError("--descriptor-sigma applies to --association nn, jcbb or ransac only")
         config = config.replace(descriptor_sigma=args.descriptor_sigma)
     config = _with_robustness(config, args)
     live = _rerun_logger(args, log)
@@ -576,8 +576,9 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument(
         "--descriptor-sigma",
         type=positive_float,
-        help="with --association nn/jcbb: the noise σ of the log's appearance descriptors; a "
-        "bearing that carries one is then paired only with a landmark that looks alike",
+        help="with --association nn/jcbb/ransac: the noise σ of the log's appearance "
+        "descriptors; a bearing that carries one is then paired only with a landmark that "
+        "looks alike",
     )
     _add_robustness_options(runp)
     add_live_arguments(runp)  # --live

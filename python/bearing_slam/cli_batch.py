@@ -181,8 +181,8 @@ def add_batch_parsers(sub: Any) -> None:
         "--association",
         choices=ASSOCIATIONS,
         default="known",
-        help="data association (default: %(default)s, the log's ids; nn/jcbb: hidden from the "
-        "filter and used to score it: precision, recall, duplicates in the report)",
+        help="data association (default: %(default)s, the log's ids; nn/jcbb/ransac: hidden "
+        "from the filter and used to score it: precision, recall, duplicates in the report)",
     )
     mc.add_argument("--clutter", type=non_negative_float, help="mean false bearings per scan")
     mc.add_argument(

@@ -125,7 +125,7 @@ def make_spec(
     (:data:`~bearing_slam.vocabulary.ESTIMATORS`) runs another estimator
     than the EKF (``particles`` for FastSLAM, seeded with each run's seed).
     ``association`` (:data:`~bearing_slam.vocabulary.ASSOCIATIONS`) hides the
-    ids from the estimator (``"nn"``, ``"jcbb"``) and scores it against them;
+    ids from the estimator (``"nn"``, ``"jcbb"``, ``"ransac"``) and scores it against them;
     ``clutter`` adds false bearings per scan; ``descriptor_sigma`` gives every
     sighting an appearance descriptor of that noise (also the association's
     descriptor model), ``descriptor_confusion`` the probability a sighting

@@ -119,7 +119,7 @@ def evaluate(
     ``on_scan`` (the filter only): called with each scan's step as the filter
     goes (as in :func:`bearing_slam.run`, e.g. a
     :class:`bearing_slam.rerun.RerunLogger`). ``association``: ``"known"``
-    (the barcodes' ids), or ``"nn"``/``"jcbb"`` with the barcodes hidden from
+    (the barcodes' ids), or ``"nn"``/``"jcbb"``/``"ransac"`` with the barcodes hidden from
     the filter (they then only score it: ``result.association``).
     ``online_window`` (``"keyframes"``, the default, or ``"scans"``) and ``landmark_chart``
     (``"inverse-depth"``, ``"point"``): the online smoother's

@@ -3,11 +3,15 @@
 
 from __future__ import annotations
 
+import json
+from pathlib import Path
+
 import numpy as np
 import pytest
 
 import bearing_slam as bs
 from bearing_slam.vocabulary import ASSOCIATIONS
+from conftest import cli
 
 
 @pytest.fixture(scope="module")
@@ -16,7 +20,7 @@ def short_log() -> bs.SensorLog:
 
 
 def test_the_associations_are_named_in_rust() -> None:
-    assert ASSOCIATIONS == ("known", "nn", "jcbb")
+    assert ASSOCIATIONS == ("known", "nn", "jcbb", "ransac")
     assert bs.Config().association == "known"
 
 
@@ -33,8 +37,38 @@ def test_hidden_ids_are_associated_and_scored(short_log: bs.SensorLog) -> None:
     assert 0.9 <= score["precision"] <= 1.0
 
 
+def test_one_point_ransac_runs_and_writes_the_association_block(
+    short_log: bs.SensorLog, tmp_path: Path
+) -> None:
+    config = bs.Config.for_log(short_log, association="ransac")
+    assert config.association == "ransac"
+    result = bs.run(short_log, config)
+    assert result.config.association == "ransac"
+    score = result.association
+    assert score is not None
+    assert score["mapped"] > 0
+    assert score["spurious"] == 0
+    assert 0.9 <= score["precision"] <= 1.0
+    # Hypotheses tried per scan: at least one whenever a landmark is mapped,
+    # at most the default budget (100); none hit it on this short run.
+    assert 0.0 < score["mean_nodes"] <= 100.0
+    assert score["budget_exhausted_scans"] == 0
+    # The CLI writes the same block to metrics.json.
+    log_path = tmp_path / "short.mcap"
+    bs.write_mcap(log_path, short_log)
+    out = tmp_path / "out"
+    r = cli("run", log_path, "--association", "ransac", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["config"]["association"] == "ransac"
+    block = metrics["association"]
+    assert block["spurious"] == 0
+    assert block["precision"] >= 0.9
+    assert block["mean_nodes"] > 0.0
+
+
 def test_a_bad_association_name_lists_the_known_ones() -> None:
-    with pytest.raises(ValueError, match="known, nn, jcbb"):
+    with pytest.raises(ValueError, match="known, nn, jcbb, ransac"):
         bs.Config(association="nearest").validate()
 
 
@@ -94,10 +128,11 @@ def test_fastslam_associates_per_particle_and_is_scored(short_log: bs.SensorLog)
     assert 0.9 <= score["precision"] <= 1.0
 
 
-def test_fastslam_refuses_jcbb(short_log: bs.SensorLog) -> None:
+@pytest.mark.parametrize("association", ["jcbb", "ransac"])
+def test_fastslam_refuses_jcbb_and_ransac(short_log: bs.SensorLog, association: str) -> None:
     config = bs.Config.for_log(short_log)
-    with pytest.raises(ValueError, match="jcbb is not implemented for FastSLAM"):
-        bs.run(short_log, config.replace(estimator="fastslam2", association="jcbb"))
+    with pytest.raises(ValueError, match=f"{association} is not implemented for FastSLAM"):
+        bs.run(short_log, config.replace(estimator="fastslam2", association=association))
 
 
 def test_the_smoothers_take_the_filters_association_with_hidden_ids(

@@ -166,18 +166,19 @@ pub(crate) struct PyConfig {
     #[pyo3(get, set)]
     pub landmark_chart: String,
     /// Data association (`AssociationMethod`): `"known"` (the log's ids,
-    /// the default), `"nn"` or `"jcbb"` (ids hidden from the estimator and
-    /// used only to score it). The EKF `filter` takes both; FastSLAM
-    /// (`"fastslam1"`, `"fastslam2"`) takes `"nn"`, meaning per-particle
-    /// maximum-likelihood association, and refuses `"jcbb"`; the smoothers
-    /// take both, with the EKF as their front end (the batch re-associates
-    /// every bearing against its smoothed estimate).
+    /// the default), `"nn"`, `"jcbb"` or `"ransac"` (1-point RANSAC; ids
+    /// hidden from the estimator and used only to score it). The EKF
+    /// `filter` takes all three; FastSLAM (`"fastslam1"`, `"fastslam2"`)
+    /// takes `"nn"`, meaning per-particle maximum-likelihood association,
+    /// and refuses `"jcbb"` and `"ransac"`; the smoothers take all three,
+    /// with the EKF as their front end (the batch re-associates every
+    /// bearing against its smoothed estimate).
     #[pyo3(get, set)]
     pub association: String,
     /// σ of the sensor's appearance-descriptor noise per component
-    /// (`DescriptorModel::sigma`; association `"nn"`/`"jcbb"` only): with
-    /// it, a bearing carrying a descriptor is paired only with a landmark
-    /// that looks alike; None (default) ignores descriptors.
+    /// (`DescriptorModel::sigma`; association `"nn"`/`"jcbb"`/`"ransac"`
+    /// only): with it, a bearing carrying a descriptor is paired only with
+    /// a landmark that looks alike; None (default) ignores descriptors.
     #[pyo3(get, set)]
     pub descriptor_sigma: Option<f64>,
     // --- robustness on a real camera (issue #13 item 3) ---
@@ -637,7 +638,7 @@ impl PyConfig {
             }
             "descriptor_sigma" if self.association == AssociationMethod::Known.to_string() => Some(
                 "it is a parameter of the association with the ids hidden \
-                 (association \"nn\" or \"jcbb\"), and association is \"known\""
+                 (association \"nn\", \"jcbb\" or \"ransac\"), and association is \"known\""
                     .to_owned(),
             ),
             "range_sigma" if !self.use_range => {

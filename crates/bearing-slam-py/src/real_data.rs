@@ -50,7 +50,7 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `particles`: FastSLAM's particle count). `on_scan` (the filter only): as
 /// in `run`, a callable given each scan's step as the filter goes (the
 /// result is the same without it). `association` (`"known"`, `"nn"`,
-/// `"jcbb"`): with the last two the barcodes' ids are hidden from the
+/// `"jcbb"`, `"ransac"`): with the last three the barcodes' ids are hidden from the
 /// filter and only score it (`result.association`). `online_window` and
 /// `landmark_chart` (`"filter+smoother"` only; `None`: the defaults) choose
 /// the online smoother's window and landmark chart, as `Config`'s fields.

@@ -313,7 +313,7 @@ impl PyRunResult {
     }
 
     /// The association scores against the log's ids when the filter
-    /// associated the bearings itself (`Config(association="nn"|"jcbb")`):
+    /// associated the bearings itself (`Config(association="nn"|"jcbb"|"ransac")`):
     /// `precision, recall, duplicates, spurious, missed, …`; None with
     /// known association.
     #[getter]
