@@ -43,7 +43,10 @@ pub use factors::{
 pub use fixed_lag::{FinalizedPose, FixedLagConfig, FixedLagSmoother};
 pub use graph::FactorGraph;
 pub use marginals::{Marginals, marginal_covariances};
-pub use online::{KeyframeRule, OnlineSmoother, OnlineStart, OnlineWindow, run_online_smoother};
+pub use online::{
+    KeyframeRule, OnlineReassociation, OnlineSmoother, OnlineStart, OnlineWindow,
+    run_online_smoother,
+};
 pub use preintegration::PreintegratedOdometry;
 pub use robust::RobustKernel;
 pub use run::{

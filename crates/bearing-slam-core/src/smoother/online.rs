@@ -45,6 +45,7 @@ use crate::trace::EstimateSnapshot;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
 use std::collections::{BTreeMap, HashMap};
 use std::time::Instant;
+pub use window_reassociation::OnlineReassociation;
 use window_reassociation::{WindowBearings, WindowScan};
 
 mod window_reassociation;
@@ -281,8 +282,10 @@ impl OnlineSmoother {
         // window's own triangulation, which would map clutter.
         let ids_hidden = slam.association.ignores_ids();
         let window_bearings = (ids_hidden
-            && config.reassociate_online
-            && config.keyframes.is_some())
+            && config.keyframes.is_some()
+            && config
+                .reassociate_online
+                .applies(slam.association.descriptors.is_some()))
         .then(|| WindowBearings::new(ReassociationRule::of(&slam.association, slam.bearing_sigma)));
         let filter = BearingSlam::new(slam)?;
         let mut smoother = FixedLagSmoother::new(fixed_lag)?;

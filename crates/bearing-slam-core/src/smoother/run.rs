@@ -15,7 +15,9 @@ use super::factors::{
 use super::fixed_lag::FixedLagConfig;
 use super::graph::FactorGraph;
 use super::marginals::marginal_covariances;
-use super::online::{KeyframeRule, OnlineStart, OnlineWindow, run_online_smoother};
+use super::online::{
+    KeyframeRule, OnlineReassociation, OnlineStart, OnlineWindow, run_online_smoother,
+};
 use super::preintegration::PreintegratedOdometry;
 use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize};
@@ -105,14 +107,12 @@ pub struct SmootherConfig {
     /// 0.2 m) and blows the per-scan window's maps up there (its short
     /// baseline); neutral in simulation (docs/results/estimators.md).
     pub triangulate_online: bool,
-    /// Fixed-lag mode with keyframes and the ids hidden: before each
-    /// keyframe's solve, the bearings of the scans still in the window are
-    /// paired again with the window's landmarks from its own estimate (the
-    /// batch's re-association rule; `smoother::online`'s
-    /// `window_reassociation`). On by default: with descriptors it brings
-    /// the online window to the batch's accuracy in simulation
-    /// (docs/results/association.md).
-    pub reassociate_online: bool,
+    /// Fixed-lag mode with keyframes and the ids hidden: whether, before
+    /// each keyframe's solve, the bearings of the scans still in the window
+    /// are paired again with the window's landmarks from its own estimate
+    /// (the batch's re-association rule). By default only when the bearings
+    /// carry appearance descriptors ([`OnlineReassociation`]).
+    pub reassociate_online: OnlineReassociation,
     /// Batch mode: where the solve starts.
     pub batch_start: BatchStart,
 }
@@ -161,7 +161,7 @@ impl Default for SmootherConfig {
             // (docs/results/estimators.md, 2026-11-28).
             landmark_chart: LandmarkChart::InverseDepth,
             triangulate_online: false,
-            reassociate_online: true,
+            reassociate_online: OnlineReassociation::WithDescriptors,
             batch_start: BatchStart::Filter,
         }
     }

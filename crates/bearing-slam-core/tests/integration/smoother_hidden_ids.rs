@@ -13,6 +13,7 @@ use bearing_slam_core::estimator::{
 use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::{landmarks_by_true_id, summarize};
+use bearing_slam_core::smoother::OnlineReassociation;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
 
 fn config(method: AssociationMethod) -> RunConfig {
@@ -66,21 +67,18 @@ fn the_batch_with_the_ids_hidden_ends_where_it_does_given_them() {
     assert!(rmse < 0.5, "{rmse}");
 }
 
-/// The online smoother's association is scored on its window's labels
-/// (each bearing's when its pose left the window), not on the filter's
-/// decisions: the same landmarks, and the bearings the filter left in its
+/// The online smoother that pairs its window again is scored on its
+/// window's labels (each bearing's when its pose left the window), not on
+/// the filter's decisions: the same landmarks, and the bearings the filter left in its
 /// tracks paired (seed 2: 792 of 800 landmark bearings right, 8 clutter
 /// bearings paired; the filter 673 and 9).
 #[test]
 fn the_online_smoother_with_the_ids_hidden_scores_its_windows_labels() {
     let log = log(2, 2, false);
     let hidden = config(AssociationMethod::NearestNeighbour);
-    let online = run_estimator(
-        &log,
-        &hidden,
-        &EstimatorConfig::of(EstimatorKind::FilterSmoother),
-    )
-    .unwrap();
+    let mut reassociating = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    reassociating.smoother.reassociate_online = OnlineReassociation::Always;
+    let online = run_estimator(&log, &hidden, &reassociating).unwrap();
     let filter = run_estimator(&log, &hidden, &EstimatorConfig::of(EstimatorKind::Filter)).unwrap();
     let score = online.output.association.clone().unwrap();
     let alone = filter.output.association.clone().unwrap();
@@ -98,7 +96,9 @@ fn the_online_smoother_with_the_ids_hidden_scores_its_windows_labels() {
 }
 
 /// Pairing the window's bearings again before each keyframe's solve
-/// (`SmootherConfig::reassociate_online`, on by default) brings the online
+/// (`SmootherConfig::reassociate_online`; here by geometry alone,
+/// `OnlineReassociation::Always`: the default does it only with
+/// descriptors) brings the online
 /// smoother with the ids hidden to its known-id run over seeds, far below
 /// both its filter and the window that only takes the filter's decisions
 /// (a pairing the filter got wrong is then a factor the window solves to
@@ -112,9 +112,10 @@ fn the_online_smoother_with_the_ids_hidden_scores_its_windows_labels() {
 fn the_online_smoother_with_the_ids_hidden_reassociates_its_window_to_its_known_id_run() {
     let hidden = config(AssociationMethod::NearestNeighbour);
     let known = config(AssociationMethod::Known);
-    let online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    let mut online = EstimatorConfig::of(EstimatorKind::FilterSmoother);
+    online.smoother.reassociate_online = OnlineReassociation::Always;
     let mut decisions_only = online;
-    decisions_only.smoother.reassociate_online = false;
+    decisions_only.smoother.reassociate_online = OnlineReassociation::Off;
     let filter = EstimatorConfig::of(EstimatorKind::Filter);
     // Mean ATE over the seeds: ids known, hidden, hidden without the
     // window's re-association, the filter with the ids hidden.
