@@ -2,7 +2,7 @@
 //! straight run past four landmarks with 2 clutter bearings per scan
 //! (`association_run::log`).
 
-use crate::association_run::log;
+use crate::association_run::{log, twins_log};
 use bearing_slam_core::association::score::AssociationScore;
 use bearing_slam_core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam_core::runner::run;
@@ -52,4 +52,40 @@ fn a_budget_of_one_hypothesis_is_respected_and_reported() {
     assert!(s.mean_nodes <= 1.0, "{s:?}");
     assert!(s.budget_exhausted_scans > 0, "{s:?}");
     assert_eq!(s.spurious, 0, "{s:?}");
+}
+
+/// Twin landmarks 0.15 m apart (about 2σ of bearing), bearings alone
+/// (`association_run::twins_log`, its descriptors ignored): RANSAC mixes
+/// the twins less than nearest neighbour does. Seeds 0–5 measured:
+/// RANSAC's precision 65.9–87.4 % (mean 74.2 %), 7.2–22.9 points above
+/// nearest neighbour's on every seed (mean 59.8 %). On this run the gain
+/// comes from choosing among the hypotheses' consensus sets by size and
+/// joint NIS: with the one-point update removed it still passes (the
+/// update itself is pinned by the unit tests of `association::ransac`).
+#[test]
+fn ransac_pairs_twin_landmarks_better_than_nearest_neighbour() {
+    let precision = |seed: u64, method: AssociationMethod| {
+        let mut config = KinematicScenario::paper_fig4(false)
+            .run_config()
+            .expect("valid scenario");
+        config.slam.association = AssociationConfig::of(method);
+        let output = run(&twins_log(seed), &config).expect("the run completes");
+        output.association.expect("scored").precision
+    };
+    let (mut ransac, mut nn) = (0.0, 0.0);
+    for seed in 0..6 {
+        let r = precision(seed, AssociationMethod::Ransac);
+        let n = precision(seed, AssociationMethod::NearestNeighbour);
+        assert!(
+            r > n + 0.03,
+            "seed {seed}: RANSAC {r}, nearest neighbour {n}"
+        );
+        ransac += r / 6.0;
+        nn += n / 6.0;
+    }
+    assert!(
+        ransac >= nn + 0.08,
+        "RANSAC {ransac}, nearest neighbour {nn}"
+    );
+    assert!(ransac >= 0.68, "RANSAC {ransac}");
 }

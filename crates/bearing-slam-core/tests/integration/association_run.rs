@@ -109,7 +109,7 @@ fn known_association_drops_marked_clutter_and_is_not_scored() {
 /// 2σ of bearing at the typical range), every sighting carrying a
 /// descriptor: its landmark's own appearance (drawn from `N(0, I)`) plus
 /// noise of σ = 0.1 per component.
-fn twins_log(seed: u64) -> SensorLog {
+pub(crate) fn twins_log(seed: u64) -> SensorLog {
     let base = KinematicScenario::paper_fig4(false);
     let mut landmarks = base.landmarks.clone();
     landmarks.extend(base.landmarks.iter().map(|l| LandmarkTruth {
