@@ -397,6 +397,27 @@ impl Factor {
         matches!(self, Factor::Bearing(_) | Factor::RangeBearing(_))
     }
 
+    /// A measurement's distance from its sensor (the pose, composed with
+    /// the factor's offset if it has one) to its landmark at `values`;
+    /// `None` for the other factors.
+    ///
+    /// # Errors
+    /// A pose or landmark missing from `values`.
+    pub fn sensor_distance(&self, values: &Values) -> Result<Option<f64>> {
+        let (pose, landmark, offset) = match self {
+            Factor::Bearing(f) => (f.pose, f.landmark, f.offset),
+            Factor::RangeBearing(f) => (f.pose, f.landmark, f.offset),
+            _ => return Ok(None),
+        };
+        let x = values.pose(pose)?;
+        let sensor = match offset {
+            Some(o) => offset_pose(&x, &o).0,
+            None => x,
+        };
+        let p = values.landmark(landmark)?;
+        Ok(Some((p - sensor.fixed_rows::<2>(0)).norm()))
+    }
+
     /// The whitened residual and its Jacobians at `values`, each Jacobian
     /// in its variable's chart: a landmark anchored in inverse depth
     /// ([`Values::anchor_landmark`]) gets `J_p ∂p/∂[θ, ρ]`. A linear

@@ -736,7 +736,8 @@ impl OnlineEstimator for OnlineSmoother {
         if self.unsolved {
             self.solve()?;
         }
-        self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>();
+        self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>()
+            + self.smoother.degenerate_measurements();
         self.waiting.clear();
         // With the ids hidden in a keyframe window, the association is the
         // window's: each bearing as it was labelled when it left the window.

@@ -178,7 +178,9 @@ pub struct SmootherReport {
     pub n_measurements: usize,
     /// Observations left out: of landmarks the filter never initialized (and
     /// the batch could not triangulate), or (online) of poses that had left
-    /// the window when their landmark entered.
+    /// the window when their landmark entered, or left out of a
+    /// marginalization prior for standing at their sensor
+    /// ([`super::fixed_lag::MIN_PRIOR_SENSOR_DISTANCE_M`]).
     pub n_dropped: usize,
     /// Landmarks the filter never initialized that the batch triangulated
     /// from its smoothed poses and added ([`SmootherConfig::triangulate_unmapped`]).

@@ -584,3 +584,58 @@ fn a_marginal_prior_holds_the_robustly_weighted_information() {
         "pose 1 and the landmark, and their cross terms"
     );
 }
+
+/// A bearing whose landmark stands at its sensor has no direction, and its
+/// information `~1/(σr)²` swamps the pose's odometry in double precision:
+/// it is left out of the marginalization prior and counted, instead of
+/// stopping the run on a pose information that is not positive definite
+/// (as wrong labels pulling a landmark onto a pose did on MRCLAM Dataset 6).
+#[test]
+fn a_bearing_of_a_landmark_at_its_sensor_is_left_out_of_the_prior() {
+    let mut s = FixedLagSmoother::new(FixedLagConfig {
+        lag: 2,
+        ..FixedLagConfig::default()
+    })
+    .unwrap();
+    // Along the diagonal, so the bearing's information mixes x and y.
+    let on_pose_0 = Vector2::new(1.5e-9, 1.5e-9);
+    let step = std::f64::consts::FRAC_1_SQRT_2;
+    s.add_pose(0, Vector3::zeros()).unwrap();
+    s.add_factor(Factor::PosePrior(
+        PosePriorFactor::new(0, Vector3::zeros(), Matrix3::identity() * 1e-4).unwrap(),
+    ))
+    .unwrap();
+    s.add_landmark(7, on_pose_0).unwrap();
+    s.add_factor(Factor::LandmarkPrior(
+        LandmarkPriorFactor::new(7, on_pose_0, Matrix2::identity() * 1e4).unwrap(),
+    ))
+    .unwrap();
+    s.add_factor(Factor::Bearing(
+        BearingFactor::new(0, 7, std::f64::consts::FRAC_PI_4, 0.01).unwrap(),
+    ))
+    .unwrap();
+    s.update().unwrap();
+    for k in 1..=3u64 {
+        let d = k as f64 * step;
+        s.add_pose(k, Vector3::new(d, d, 0.0)).unwrap();
+        s.add_factor(Factor::Odometry(
+            OdometryFactor::new(
+                k - 1,
+                k,
+                Vector3::new(step, step, 0.0),
+                Matrix3::identity() * 1e-4,
+            )
+            .unwrap(),
+        ))
+        .unwrap();
+        s.add_factor(Factor::Bearing(
+            BearingFactor::new(k, 7, -3.0 * std::f64::consts::FRAC_PI_4, 0.01).unwrap(),
+        ))
+        .unwrap();
+        s.update().unwrap();
+    }
+    assert!(!s.in_window(0));
+    assert_eq!(s.degenerate_measurements(), 1);
+    let left = s.finalized()[&0];
+    assert!(left.pose.norm() < 1e-3, "{left:?}");
+}
