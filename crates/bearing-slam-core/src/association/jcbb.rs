@@ -348,7 +348,7 @@ pub fn jcbb(problem: &PairingProblem, gates: &Gates, budget: usize) -> Result<Pa
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     /// Two landmarks 0.1 rad apart whose predictions share a large heading
@@ -357,11 +357,18 @@ mod tests {
     /// same +0.06. Bearing 0 (0.06) lies closer to landmark 1 (0.1) than to
     /// its own landmark 0 (0.0), which fools nearest neighbour; only the true
     /// pairing explains both bearings with one common shift.
-    fn shifted_pair() -> PairingProblem {
+    pub(in crate::association) fn shifted_pair() -> PairingProblem {
+        shifted_pair_with(&[])
+    }
+
+    /// [`shifted_pair`] with `extra` bearings after the two (clutter).
+    pub(in crate::association) fn shifted_pair_with(extra: &[f64]) -> PairingProblem {
         let common = 0.1f64.powi(2);
         let own = 0.005f64.powi(2);
+        let mut bearings = vec![0.06, 0.16];
+        bearings.extend_from_slice(extra);
         PairingProblem {
-            bearings: vec![0.06, 0.16],
+            bearings,
             predicted: vec![0.0, 0.1],
             prediction_covariance: DMatrix::from_row_slice(
                 2,

@@ -185,23 +185,7 @@ mod tests {
     /// bearings. Bearing 0 (0.06) lies closer to landmark 1 (0.1) than to
     /// its own landmark 0 (0.0): nearest neighbour is fooled.
     fn shifted_pair(extra: &[f64]) -> PairingProblem {
-        let common = 0.1f64.powi(2);
-        let own = 0.005f64.powi(2);
-        let mut bearings = vec![0.06, 0.16];
-        bearings.extend_from_slice(extra);
-        PairingProblem {
-            bearings,
-            predicted: vec![0.0, 0.1],
-            prediction_covariance: DMatrix::from_row_slice(
-                2,
-                2,
-                &[common + own, common, common, common + own],
-            ),
-            noise_variance: 0.005f64.powi(2),
-            new_density: 0.0,
-            appearance: None,
-            appearance_gate: f64::INFINITY,
-        }
+        crate::association::jcbb::tests::shifted_pair_with(extra)
     }
 
     /// `m` landmarks 0.1 rad apart sharing a heading σ of 0.1 rad, each
