@@ -12,7 +12,7 @@
 //! the window's estimate is better, and it is the estimate the factors are
 //! solved at. A bearing the window pairs takes that landmark (leaving the
 //! track it waited under, if it did); one it pairs with none keeps the id
-//! it had ([`new_label`]). Only scans whose
+//! it had ([`new_labels`]). Only scans whose
 //! poses are in the window change: what left it is in the marginalization
 //! prior. A landmark the filter merged into another (a duplicate, or one a
 //! look-alike track replaced) is merged in the window too: its bearings go
@@ -52,7 +52,7 @@ pub enum OnlineReassociation {
     /// to 0.91–1.24× on `paper_fig8` and `slip_patch`; by geometry alone on
     /// MRCLAM Dataset 6 (no descriptors, 1–2 of 15 landmarks mapped) it
     /// paired the unmapped landmarks' bearings with the mapped ones and the
-    /// window diverged (robot 1: ATE 3.6 → 20.2 m)
+    /// window diverged (robot 1: ATE 7.3 → 20.2 m)
     /// (docs/results/association.md).
     #[default]
     WithDescriptors,
@@ -250,6 +250,7 @@ impl WindowBearings {
 /// ATE 0.155 m against 0.140 m keeping them; mean over seeds 0–5 0.084 m
 /// against 0.082 m, precision 96–99 % against 99 %, and seed 2's recall
 /// 76 % against 99.5 %).
+///
 /// One bearing per landmark per scan: an id the window gave another of the
 /// scan's bearings (`paired`, the whole scan's pairing) is not kept.
 fn new_labels(paired: &[Option<u64>], before: &[Option<u64>]) -> Vec<Option<u64>> {
