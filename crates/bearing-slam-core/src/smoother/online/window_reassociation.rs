@@ -340,6 +340,16 @@ impl OnlineSmoother {
                     continue;
                 }
                 changed += 1;
+                // A bearing the filter gave no id and the window pairs is no
+                // longer left out; one whose landmark another bearing of its
+                // scan took now is.
+                match (before, now) {
+                    (None, Some(_)) => {
+                        self.report.n_dropped = self.report.n_dropped.saturating_sub(1);
+                    }
+                    (Some(id), None) if in_window(*id) => self.report.n_dropped += 1,
+                    _ => {}
+                }
                 // A bearing leaving a track's wait no longer waits for it.
                 if let Some(waiting) = before
                     .filter(|id| !in_window(*id))
