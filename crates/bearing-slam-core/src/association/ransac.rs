@@ -19,9 +19,9 @@
 //!   [`super::jcbb::nearest_neighbour`] and [`super::jcbb::jcbb`] use
 //!   them). When there are at most `budget` of them every one is tried
 //!   (bearing by bearing, closest landmark first); otherwise `budget` of
-//!   them are drawn without replacement by a generator (splitmix64) seeded
-//!   with the scan: the bits of its bearings and predictions, so one scan
-//!   always gives one pairing.
+//!   them are drawn without replacement (`rand`'s `seq::index::sample` on a
+//!   `StdRng`) seeded with the scan: the bits of its bearings and
+//!   predictions, so one scan always gives one pairing.
 //! * **One-point update**: pairing `i → j` moves prediction `k` to
 //!   `h'_k = h_k + C_kj ν_ij / s_j`, with the variance
 //!   `C'_kk = C_kk − C_kj² / s_j` left (the EKF update with that one
@@ -45,6 +45,8 @@
 use super::jcbb::{Gates, Pairing, PairingProblem};
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
+use rand::SeedableRng;
+use rand::rngs::StdRng;
 
 /// 1-point RANSAC over `problem` with at most `budget` hypotheses (≥ 1);
 /// the rules are in the [module documentation](self).
@@ -139,36 +141,26 @@ fn consensus(
     pairs
 }
 
-/// splitmix64's step: the next state and its output.
-fn splitmix(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
-/// The seed of a scan's draw: its bearings' and predictions' bits, mixed.
+/// The seed of a scan's draw: its sizes, bearings' and predictions' bits
+/// folded together (a multiplicative hash, stable across builds), so one
+/// scan always draws the same hypotheses.
 fn scan_seed(problem: &PairingProblem) -> u64 {
-    let mut state = ((problem.bearings.len() as u64) << 32) | problem.predicted.len() as u64;
-    for x in problem.bearings.iter().chain(&problem.predicted) {
-        state ^= x.to_bits();
-        splitmix(&mut state);
-    }
-    state
+    const GOLDEN: u64 = 0x9E37_79B9_7F4A_7C15;
+    let sizes = ((problem.bearings.len() as u64) << 32) | problem.predicted.len() as u64;
+    problem
+        .bearings
+        .iter()
+        .chain(&problem.predicted)
+        .fold(sizes, |state, x| {
+            (state ^ x.to_bits()).wrapping_mul(GOLDEN).rotate_left(29)
+        })
 }
 
-/// `amount` distinct indices below `length` (a partial Fisher–Yates
-/// shuffle), in increasing order.
+/// `amount` distinct indices below `length`, drawn uniformly by a generator
+/// seeded with `seed`, in increasing order.
 fn draw(seed: u64, length: usize, amount: usize) -> Vec<usize> {
-    let mut state = seed;
-    let mut indices: Vec<usize> = (0..length).collect();
-    for a in 0..amount.min(length) {
-        let left = (length - a) as u64;
-        let pick = a + (splitmix(&mut state) % left) as usize;
-        indices.swap(a, pick);
-    }
-    indices.truncate(amount.min(length));
+    let mut rng = StdRng::seed_from_u64(seed);
+    let mut indices = rand::seq::index::sample(&mut rng, length, amount.min(length)).into_vec();
     indices.sort_unstable();
     indices
 }

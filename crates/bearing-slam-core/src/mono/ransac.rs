@@ -21,6 +21,8 @@ use crate::ekf::LinearizedMeasurement;
 use crate::error::{Result, SlamError};
 use crate::model::MeasurementModel;
 use nalgebra::{DVector, SVector, Vector2};
+use rand::rngs::StdRng;
+use rand::{RngExt, SeedableRng};
 use serde::{Deserialize, Serialize};
 
 /// The settings of 1-point RANSAC. The defaults are those of Civera et
@@ -124,15 +126,6 @@ pub struct RansacSplit {
     pub hypotheses: usize,
 }
 
-/// SplitMix64: a tiny deterministic generator for the hypothesis draws.
-fn splitmix(state: &mut u64) -> u64 {
-    *state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
-    let mut z = *state;
-    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^ (z >> 31)
-}
-
 impl MonoSlam {
     /// The pixel of a map landmark predicted from a hypothetical state mean.
     fn pixel_at(&self, mean: &DVector<f64>, id: u64) -> Option<Vector2<f64>> {
@@ -185,7 +178,7 @@ impl MonoSlam {
         let threshold = ransac.threshold_sigmas * self.config.pixel_sigma;
         let mut best: Vec<usize> = Vec::new();
         let mut needed = ransac.max_hypotheses;
-        let mut state = ransac.seed;
+        let mut rng = StdRng::seed_from_u64(ransac.seed);
         let mut tried = 0;
         // A match drawn again gives the same hypothesis and the same support,
         // which cannot beat the best (strictly larger wins): only the draw
@@ -193,7 +186,7 @@ impl MonoSlam {
         // `max_hypotheses`, mostly on repeats.
         let mut drawn = vec![false; n];
         while tried < needed && n > 0 {
-            let pick = (splitmix(&mut state) % n as u64) as usize;
+            let pick = rng.random_range(0..n);
             tried += 1;
             if std::mem::replace(&mut drawn[pick], true) {
                 continue;
