@@ -58,3 +58,13 @@ def test_cli_writes_metrics_and_figures(room: Path, tmp_path: Path) -> None:
     assert (out / "trajectory.png").stat().st_size > 10_000
     assert (out / "frames.png").stat().st_size > 10_000
     assert main(["mono", str(tmp_path / "missing"), "--out", str(out), "--quiet"]) == 2
+
+
+def test_ransac_seed_is_a_setting_and_a_run_is_deterministic_for_it(room: Path) -> None:
+    config = {"filter": "undelayed", "ransac_seed": 7}
+    first = bs.mono.run(room, config=config)
+    again = bs.mono.run(room, config=config)
+    np.testing.assert_array_equal(first.estimate, again.estimate)
+    assert first.config["ransac_seed"] == 7
+    with pytest.raises(bs.InvalidParameterError, match="mono config"):
+        bs.mono.run(room, config={"ransac_seed": -1})
