@@ -28,8 +28,8 @@ use crate::particle::existence::ExistenceConfig;
 use crate::particle::landmark_ekf::SensorNoise;
 use crate::particle::ml_association::{DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodConfig};
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
-use crate::runner::{RunConfig, RunOutput, filter_at, run, run_online};
-use crate::slam::{InitializerConfig, SlamConfig};
+use crate::runner::{RunConfig, RunOutput, run, run_online_from};
+use crate::slam::{BearingSlam, InitializerConfig, SlamConfig};
 use crate::smoother::{
     BatchStart, FixedLagConfig, OnlineWindow, RobustKernel, SmootherConfig, SmootherMode,
     SmootherReport, SolverConfig, run_from_log, run_online_smoother,
@@ -366,13 +366,7 @@ pub fn run_batch_with_hidden_ids(
     passes: usize,
 ) -> Result<EstimatorRun> {
     let started = Instant::now();
-    let front_end = run_online(
-        log,
-        &config.odometry,
-        config.use_range,
-        config.slam.initial_pose,
-        filter_at(config),
-    )?;
+    let front_end = run_online_from(log, config, BearingSlam::new)?;
     let front_end_s = started.elapsed().as_secs_f64();
     let history = front_end
         .estimator
@@ -461,7 +455,7 @@ pub struct EstimatorRun {
 ///
 /// # Errors
 /// An invalid estimator configuration ([`EstimatorConfig::validate`]), and
-/// the errors of [`run`], [`run_from_log`] or [`run_online`].
+/// the errors of [`run`], [`run_from_log`] or [`run_online_from`].
 pub fn run_estimator(
     log: &SensorLog,
     config: &RunConfig,

@@ -323,6 +323,33 @@ pub fn filter_at(config: &RunConfig) -> impl FnOnce(Pose2) -> Result<BearingSlam
     }
 }
 
+/// [`run_online`] with the odometry, range use and default start of
+/// `config`: `make` builds the estimator from `config.slam` with its
+/// `initial_pose` set to the run's start (the log's own initial pose when it
+/// states one). For an estimator built around the EKF (the online smoother,
+/// a timed wrapper of it) that needs the start before the loop.
+///
+/// # Errors
+/// As [`run_online`].
+pub fn run_online_from<Est: OnlineEstimator>(
+    log: &SensorLog,
+    config: &RunConfig,
+    make: impl FnOnce(SlamConfig) -> Result<Est>,
+) -> Result<OnlineRun<Est>> {
+    run_online(
+        log,
+        &config.odometry,
+        config.use_range,
+        config.slam.initial_pose,
+        |start| {
+            make(SlamConfig {
+                initial_pose: start,
+                ..config.slam.clone()
+            })
+        },
+    )
+}
+
 /// An online run's output and the estimator as it ended (its final state:
 /// a particle cloud, a smoother's report).
 #[derive(Clone, Debug)]

@@ -39,7 +39,7 @@ use crate::geometry::Pose2;
 use crate::log::{BearingObservation, SensorLog};
 use crate::model::MotionModel;
 use crate::online::{OnlineEstimator, ScanCounts};
-use crate::runner::{OnlineRun, RunConfig, RunOutput, run_online};
+use crate::runner::{OnlineRun, RunConfig, RunOutput, run_online_from};
 use crate::slam::{BearingSlam, SlamConfig};
 use crate::trace::EstimateSnapshot;
 use nalgebra::{Matrix2, Matrix3, Vector2, Vector3};
@@ -646,21 +646,7 @@ pub fn run_online_smoother(
     config: &SmootherConfig,
     fixed_lag: FixedLagConfig,
 ) -> Result<OnlineRun<OnlineSmoother>> {
-    run_online(
-        log,
-        &run_config.odometry,
-        run_config.use_range,
-        run_config.slam.initial_pose,
-        |start| {
-            OnlineSmoother::new(
-                SlamConfig {
-                    initial_pose: start,
-                    ..run_config.slam.clone()
-                },
-                run_config,
-                config,
-                fixed_lag,
-            )
-        },
-    )
+    run_online_from(log, run_config, |slam| {
+        OnlineSmoother::new(slam, run_config, config, fixed_lag)
+    })
 }

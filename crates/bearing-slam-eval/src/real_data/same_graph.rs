@@ -30,7 +30,7 @@ use bearing_slam_core::log::{BearingObservation, SensorLog};
 use bearing_slam_core::model::MotionModel;
 use bearing_slam_core::nalgebra::Matrix3;
 use bearing_slam_core::online::{OnlineEstimator, ScanCounts};
-use bearing_slam_core::runner::{RunConfig, RunOutput, run_online};
+use bearing_slam_core::runner::{RunConfig, RunOutput, run_online_from};
 use bearing_slam_core::slam::{BearingSlam, SlamConfig};
 use bearing_slam_core::smoother::{
     Factor, FactorGraph, FixedLagConfig, Key, OdometryFactor, OnlineSmoother, OnlineStart,
@@ -287,23 +287,9 @@ fn run_timed_online(
     config: &SmootherConfig,
     fixed_lag: FixedLagConfig,
 ) -> SlamResult<TimedOnline> {
-    let run = run_online(
-        log,
-        &run_config.odometry,
-        run_config.use_range,
-        run_config.slam.initial_pose,
-        |start| {
-            TimedOnline::new(
-                SlamConfig {
-                    initial_pose: start,
-                    ..run_config.slam.clone()
-                },
-                run_config,
-                config,
-                fixed_lag,
-            )
-        },
-    )?;
+    let run = run_online_from(log, run_config, |slam| {
+        TimedOnline::new(slam, run_config, config, fixed_lag)
+    })?;
     let timed = run.estimator;
     if timed.filter.pose().to_vector() != timed.smoother.filter().pose().to_vector() {
         return Err(SlamError::Mismatch(
