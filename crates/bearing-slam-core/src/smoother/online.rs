@@ -639,7 +639,7 @@ impl OnlineEstimator for OnlineSmoother {
 /// loop. The filter starts at the log's initial pose when it states one.
 ///
 /// # Errors
-/// As [`run_online`], and the smoother's solver failing.
+/// As [`run_online_from`], and the smoother's solver failing.
 pub fn run_online_smoother(
     log: &SensorLog,
     run_config: &RunConfig,
