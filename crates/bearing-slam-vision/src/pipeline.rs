@@ -76,10 +76,10 @@ pub struct MonoRunConfig {
     /// [`bearing_slam_core::mono::OnePointRansac::default`]).
     pub one_point_ransac: bool,
     /// Seed of 1-point RANSAC's hypothesis draws
-    /// ([`bearing_slam_core::mono::OnePointRansac::seed`]). A run is
-    /// deterministic for a seed, but on the KITTI clips the ATE moves by
-    /// several tenths of a percent of the path from one seed to another
-    /// (`docs/results/mono.md`, "RANSAC seeds"): score over several.
+    /// ([`bearing_slam_core::mono::OnePointRansac::seed`]). It matters only
+    /// in a frame with more matches than `max_hypotheses` (1000), where the
+    /// hypotheses are drawn; below that every one is tried
+    /// (`docs/results/mono.md`, "RANSAC seeds").
     pub ransac_seed: u64,
     /// Search features of unknown depth (inverse-depth landmarks, delayed
     /// candidates) along their epipolar segment, `ρ` over `ρ̂ ± 3σ_ρ` cut
