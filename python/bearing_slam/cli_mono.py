@@ -16,6 +16,8 @@ def _cmd_mono(args: argparse.Namespace) -> int:
     config: dict[str, Any] = json.loads(args.config) if args.config else {}
     if args.filter:
         config["filter"] = args.filter
+    if args.velocity_frame:
+        config["velocity_frame"] = args.velocity_frame
     if args.max_frames is not None:
         config["max_frames"] = args.max_frames
     result = mono.run(Path(args.frames_dir), args.calib, config)
@@ -63,6 +65,12 @@ def add_mono_parser(sub: Any) -> None:
         "--filter",
         choices=["delayed", "delayed_clone", "undelayed", "oracle"],
         help="the filter (default: delayed; oracle = ground truth, rendered data only)",
+    )
+    p.add_argument(
+        "--velocity-frame",
+        choices=["world", "body"],
+        help="the constant-velocity model's frame (default: world, the paper's (25), a "
+        "hand-held camera; body: constant velocity along the camera, a camera on a car)",
     )
     p.add_argument("--max-frames", type=int, help="run at most this many frames")
     p.add_argument("--config", help="more settings as JSON (see bearing_slam.mono.run)")

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import numpy as np
@@ -11,6 +12,11 @@ import pytest
 
 import bearing_slam as bs
 from bearing_slam.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+KITTI = Path(
+    os.environ.get("BEARING_SLAM_KITTI") or ROOT.parent / "shared" / "datasets" / "kitti-clips"
+)
 
 
 @pytest.fixture(scope="module")
@@ -68,3 +74,24 @@ def test_ransac_seed_is_a_setting_and_a_run_is_deterministic_for_it(room: Path) 
     assert first.config["ransac_seed"] == 7
     with pytest.raises(bs.InvalidParameterError, match="mono config"):
         bs.mono.run(room, config={"ransac_seed": -1})
+
+
+def test_a_car_camera_on_kitti_s_curve_stays_under_two_percent_with_body_frame_velocity(
+    tmp_path: Path,
+) -> None:
+    """KITTI clip 2 (a 98° curve at ~10 m/s): with the velocity in the camera frame the
+    undelayed filter ends within 2 % of the path after Sim(3); the paper's world-frame
+    model, which needs ~5 m/s² of world acceleration to follow the curve, does not."""
+    clip = KITTI / "KITTI_sequence_2"
+    assert clip.is_dir(), f"KITTI clips not found at {KITTI} (set BEARING_SLAM_KITTI)"
+    car = bs.mono.run(clip, config={"filter": "undelayed", "velocity_frame": "body"})
+    world = bs.mono.run(clip, config={"filter": "undelayed", "velocity_frame": "world"})
+    assert car.config["velocity_frame"] == "body"
+    assert car.metrics["ate_sim3_percent_of_path"] <= 2.0, car.metrics
+    assert world.metrics["ate_sim3_percent_of_path"] > car.metrics["ate_sim3_percent_of_path"]
+    out = tmp_path / "car"
+    args = ["mono", str(clip), "--out", str(out), "--filter", "undelayed"]
+    assert main([*args, "--velocity-frame", "body", "--max-frames", "6", "--quiet"]) == 0
+    assert json.loads((out / "metrics.json").read_text())["config"]["velocity_frame"] == "body"
+    with pytest.raises(bs.InvalidParameterError, match="mono config"):
+        bs.mono.run(clip, config={"velocity_frame": "sideways", "max_frames": 3})

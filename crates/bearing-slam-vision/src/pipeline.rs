@@ -16,7 +16,7 @@ use crate::render::read_scene_config;
 use crate::run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
 use bearing_slam_core::mono::{
     CameraPose, ConstantVelocity, MapPoint, MonoConfig, MonoFilter, MonoSlam, MonoStart,
-    MonoUpdateReport, PinholeCamera, PixelObservation, SearchRegion,
+    MonoUpdateReport, PinholeCamera, PixelObservation, SearchRegion, VelocityFrame,
 };
 use nalgebra::{Vector2, Vector4};
 use serde::{Deserialize, Serialize};
@@ -51,6 +51,10 @@ pub struct MonoRunConfig {
     pub linear_accel_sigma: f64,
     /// Angular acceleration noise σ, rad/s².
     pub angular_accel_sigma: f64,
+    /// The frame of the constant-velocity model's `v`: `"world"` (the
+    /// paper's (25), a hand-held camera) or `"body"` (constant velocity
+    /// along the camera, a camera on a car).
+    pub velocity_frame: VelocityFrame,
     /// σ of the start velocity (around the one of the first two poses), m/s.
     pub velocity_sigma: f64,
     /// σ of the start angular velocity, rad/s.
@@ -97,6 +101,7 @@ impl Default for MonoRunConfig {
             pixel_sigma: 1.0,
             linear_accel_sigma: 2.0,
             angular_accel_sigma: 3.0,
+            velocity_frame: VelocityFrame::World,
             velocity_sigma: 0.1,
             angular_velocity_sigma: 0.1,
             rho_ini: 0.1,
@@ -157,7 +162,8 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
         FilterKind::Undelayed => MonoConfig::undelayed(camera, config.rho_ini, config.sigma_rho),
     };
     core.pixel_sigma = config.pixel_sigma;
-    core.motion = ConstantVelocity::new(config.linear_accel_sigma, config.angular_accel_sigma)?;
+    core.motion = ConstantVelocity::new(config.linear_accel_sigma, config.angular_accel_sigma)?
+        .in_frame(config.velocity_frame);
     if let bearing_slam_core::mono::MonoInitializer::Delayed(ref mut t)
     | bearing_slam_core::mono::MonoInitializer::DelayedWithClone(ref mut t) = core.initializer
     {

@@ -63,6 +63,7 @@ impl MonoConfig {
             motion: ConstantVelocity {
                 linear_accel_sigma: 2.0,
                 angular_accel_sigma: 3.0,
+                velocity_frame: super::motion::VelocityFrame::World,
             },
             pixel_sigma: 1.0,
             initializer: MonoInitializer::Delayed(TriangulationConfig {
@@ -169,7 +170,9 @@ pub struct MonoStart {
     pub position: Vector3<f64>,
     /// Orientation `q^{WC}`, scalar first (normalized on use).
     pub quaternion: Vector4<f64>,
-    /// Linear velocity, m/s.
+    /// Linear velocity in the world frame, m/s (the filter rotates it into
+    /// the camera frame when its model keeps `v` there,
+    /// [`super::motion::VelocityFrame::Body`]).
     pub velocity: Vector3<f64>,
     /// Angular velocity (camera frame), rad/s.
     pub angular_velocity: Vector3<f64>,

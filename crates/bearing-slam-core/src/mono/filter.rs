@@ -123,7 +123,8 @@ impl MonoSlam {
         mean.fixed_rows_mut::<3>(POSITION)
             .copy_from(&start.position);
         mean.fixed_rows_mut::<4>(QUATERNION).copy_from(&q);
-        mean.fixed_rows_mut::<3>(7).copy_from(&start.velocity);
+        mean.fixed_rows_mut::<3>(7)
+            .copy_from(&config.motion.state_velocity(&q, &start.velocity));
         mean.fixed_rows_mut::<3>(10)
             .copy_from(&start.angular_velocity);
         let sigmas = [

@@ -45,5 +45,5 @@ pub use frontend::{
     SegmentMetric,
 };
 pub use init::MonoInitializer;
-pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity};
+pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity, VelocityFrame};
 pub use ransac::{OnePointRansac, RansacSplit};

@@ -8,8 +8,17 @@
 //! implementation; the paper writes `ω^W`). The product is normalized to
 //! keep `q` unit, and the normalization's Jacobian is part of `F`, so the
 //! covariance follows it.
+//!
+//! The paper's `v` is the world-frame velocity ([`VelocityFrame::World`]):
+//! a car in a steady turn then needs a world-frame acceleration of `|v||ω|`
+//! (about 5 m/s² on KITTI's curve) to follow it. [`VelocityFrame::Body`]
+//! keeps `v` in the camera frame instead, `r ← r + R(q) v Δt`, so the
+//! velocity turns with the camera: constant velocity *along the vehicle*,
+//! the usual model for a camera on a car.
 
-use super::quaternion::{from_rotation_vector, left_matrix, normalize, product, right_matrix};
+use super::quaternion::{
+    from_rotation_vector, left_matrix, normalize, product, right_matrix, rotate_jacobian, rotation,
+};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::model::{MotionModel, MotionPrediction};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3, Vector4};
@@ -29,24 +38,62 @@ pub const ANGULAR_VELOCITY: usize = 10;
 /// The camera state `[r, q, v, ω]` (26).
 pub type CameraState = SVector<f64, CAMERA_DIM>;
 
+/// The frame the state's linear velocity `v` (and its acceleration noise)
+/// is expressed in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VelocityFrame {
+    /// `v^W`, constant in the world: the paper's (25), a hand-held camera.
+    #[default]
+    World,
+    /// `v^C`, constant in the camera frame, `r ← r + R(q) v^C Δt`: the
+    /// velocity turns with the camera (a camera on a vehicle).
+    Body,
+}
+
 /// The constant-velocity model (25) with its acceleration noise.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ConstantVelocity {
-    /// Standard deviation of the linear acceleration `a^W`, m/s².
+    /// Standard deviation of the linear acceleration (`a^W`, or `a^C` in
+    /// the body frame), m/s².
     pub linear_accel_sigma: f64,
     /// Standard deviation of the angular acceleration `α`, rad/s².
     pub angular_accel_sigma: f64,
+    /// The frame of `v`; the paper's world frame unless set.
+    #[serde(default)]
+    pub velocity_frame: VelocityFrame,
 }
 
 impl ConstantVelocity {
-    /// A validated model (both noises positive).
+    /// A validated world-frame model (both noises positive), the paper's (25).
     pub fn new(linear_accel_sigma: f64, angular_accel_sigma: f64) -> Result<Self> {
         ensure_positive_noise("linear acceleration sigma", linear_accel_sigma)?;
         ensure_positive_noise("angular acceleration sigma", angular_accel_sigma)?;
         Ok(Self {
             linear_accel_sigma,
             angular_accel_sigma,
+            velocity_frame: VelocityFrame::World,
         })
+    }
+
+    /// The same model with `v` in the given frame.
+    #[must_use]
+    pub fn in_frame(self, velocity_frame: VelocityFrame) -> Self {
+        Self {
+            velocity_frame,
+            ..self
+        }
+    }
+
+    /// The state's velocity entry for a world-frame velocity `v^W` of a
+    /// camera with orientation `q^{WC}` (unit): `v^W` itself, or `R(q)ᵀ v^W`
+    /// in the body frame.
+    #[must_use]
+    pub fn state_velocity(&self, quaternion: &Vector4<f64>, world: &Vector3<f64>) -> Vector3<f64> {
+        match self.velocity_frame {
+            VelocityFrame::World => *world,
+            VelocityFrame::Body => rotation(quaternion).transpose() * world,
+        }
     }
 }
 
@@ -54,8 +101,9 @@ impl MotionModel<CAMERA_DIM> for ConstantVelocity {
     /// The time step `Δt`, seconds (> 0).
     type Control = f64;
 
-    /// (25): `r ← r + v Δt`, `q ← q × q(ω Δt)` (normalized), `v`, `ω`
-    /// unchanged, with `F = ∂f/∂x_v` and `Q = G diag(σ_a² Δt², σ_α² Δt²) Gᵀ`,
+    /// (25): `r ← r + v Δt` (body frame: `r ← r + R(q) v Δt`),
+    /// `q ← q × q(ω Δt)` (normalized), `v`, `ω` unchanged, with
+    /// `F = ∂f/∂x_v` and `Q = G diag(σ_a² Δt², σ_α² Δt²) Gᵀ`,
     /// `G = ∂f/∂[V, Ω]`.
     fn predict(&self, state: &CameraState, dt: &f64) -> Result<MotionPrediction<CAMERA_DIM>> {
         let dt = *dt;
@@ -83,15 +131,27 @@ impl MotionModel<CAMERA_DIM> for ConstantVelocity {
         let j_q_q = j_norm * right_matrix(&q_step);
         let j_q_w = j_norm * left_matrix(&q) * j_step_phi * dt;
 
+        // The step in position and its Jacobians in q and v.
+        let (step, j_step_q, j_step_v) = match self.velocity_frame {
+            VelocityFrame::World => (v * dt, None, Matrix3::identity() * dt),
+            VelocityFrame::Body => (
+                rotation(&q) * v * dt,
+                Some(rotate_jacobian(&q, &v) * dt),
+                rotation(&q) * dt,
+            ),
+        };
         let mut new_state = *state;
         new_state
             .fixed_rows_mut::<3>(POSITION)
-            .copy_from(&(r + v * dt));
+            .copy_from(&(r + step));
         new_state.fixed_rows_mut::<4>(QUATERNION).copy_from(&q_new);
 
         let mut f = SMatrix::<f64, CAMERA_DIM, CAMERA_DIM>::identity();
         f.fixed_view_mut::<3, 3>(POSITION, VELOCITY)
-            .copy_from(&(Matrix3::identity() * dt));
+            .copy_from(&j_step_v);
+        if let Some(j) = j_step_q {
+            f.fixed_view_mut::<3, 4>(POSITION, QUATERNION).copy_from(&j);
+        }
         f.fixed_view_mut::<4, 4>(QUATERNION, QUATERNION)
             .copy_from(&j_q_q);
         f.fixed_view_mut::<4, 3>(QUATERNION, ANGULAR_VELOCITY)

@@ -11,7 +11,7 @@ use bearing_slam_core::mono::camera::PinholeCamera;
 use bearing_slam_core::mono::init::{Candidate3, triangulate_3d, undelayed};
 use bearing_slam_core::mono::landmark::{direction, inverse_depth_to_xyz, ray_angles};
 use bearing_slam_core::mono::metrics::pose_error;
-use bearing_slam_core::mono::motion::{CameraState, ConstantVelocity, camera_state};
+use bearing_slam_core::mono::motion::{CameraState, ConstantVelocity, VelocityFrame, camera_state};
 use bearing_slam_core::mono::observation::{InverseDepthPixel, XyzPixel};
 use bearing_slam_core::mono::quaternion::{
     from_rotation_vector, normalize, rotate_inverse_jacobian, rotate_jacobian, rotation,
@@ -129,11 +129,39 @@ proptest! {
 
     #[test]
     fn constant_velocity_jacobian(x in state(), dt in 0.005..0.2f64) {
-        let model = ConstantVelocity::new(2.0, 3.0).map_err(|e| TestCaseError::fail(e.to_string()))?;
-        let p = model.predict(&x, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
-        let num = numeric_jacobian(|v| model.predict(&sv::<13>(v), &dt).map_or(nan::<13>(), |p| dv(&p.state)), &dv(&x), &[]);
-        compare_jacobians("F", &dm(&p.j_state_state), &num, TOL).map_err(TestCaseError::fail)?;
-        prop_assert!((p.state.fixed_rows::<4>(3).norm() - 1.0).abs() < 1e-12);
+        let world = ConstantVelocity::new(2.0, 3.0).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        for model in [world, world.in_frame(VelocityFrame::Body)] {
+            let p = model.predict(&x, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
+            let num = numeric_jacobian(|v| model.predict(&sv::<13>(v), &dt).map_or(nan::<13>(), |p| dv(&p.state)), &dv(&x), &[]);
+            compare_jacobians("F", &dm(&p.j_state_state), &num, TOL).map_err(TestCaseError::fail)?;
+            prop_assert!((p.state.fixed_rows::<4>(3).norm() - 1.0).abs() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn body_frame_velocity_turns_with_the_camera(x in state(), dt in 0.005..0.2f64) {
+        // The same motion in both frames: the world model given v^W and the
+        // body model given R(q)ᵀ v^W take the same step on the first predict.
+        let world = ConstantVelocity::new(2.0, 3.0).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let body = world.in_frame(VelocityFrame::Body);
+        let q = x.fixed_rows::<4>(3).normalize();
+        let mut xw = x;
+        xw.fixed_rows_mut::<4>(3).copy_from(&q);
+        let mut xb = xw;
+        let v_world = xw.fixed_rows::<3>(7).into_owned();
+        xb.fixed_rows_mut::<3>(7).copy_from(&body.state_velocity(&q, &v_world));
+        let pw = world.predict(&xw, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let pb = body.predict(&xb, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let step_gap = (pw.state.fixed_rows::<3>(0) - pb.state.fixed_rows::<3>(0)).norm();
+        prop_assert!(step_gap < 1e-9, "first steps differ by {}", step_gap);
+        // On the second step the body velocity has turned by ω Δt, the world one has not.
+        let pw2 = world.predict(&pw.state, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let pb2 = body.predict(&pb.state, &dt).map_err(|e| TestCaseError::fail(e.to_string()))?;
+        let turned = rotation(&pb.state.fixed_rows::<4>(3).into_owned()) * xb.fixed_rows::<3>(7) * dt;
+        let body_step = pb2.state.fixed_rows::<3>(0) - pb.state.fixed_rows::<3>(0);
+        prop_assert!((body_step - turned).norm() < 1e-9);
+        let world_step = pw2.state.fixed_rows::<3>(0) - pw.state.fixed_rows::<3>(0);
+        prop_assert!((world_step - v_world * dt).norm() < 1e-9);
     }
 
     #[test]
