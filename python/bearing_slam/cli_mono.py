@@ -35,6 +35,14 @@ def _cmd_mono(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_mono_noise(args: argparse.Namespace) -> int:
+    from bearing_slam import mono
+
+    noise = mono.motion_noise(Path(args.frames_dir), args.velocity_frame, args.calib)
+    print(json.dumps(noise, indent=2))
+    return 0
+
+
 def _cmd_mono_render(args: argparse.Namespace) -> int:
     from bearing_slam import mono
 
@@ -76,6 +84,24 @@ def add_mono_parser(sub: Any) -> None:
     p.add_argument("--config", help="more settings as JSON (see bearing_slam.mono.run)")
     p.add_argument("--quiet", action="store_true", help="no summary on stdout")
     p.set_defaults(func=_cmd_mono)
+
+    n = sub.add_parser(
+        "mono-noise",
+        help="the constant-velocity model's acceleration noise fitted to DIR's ground truth",
+        description="Prints, as JSON for `mono --config`, the acceleration noise "
+        "(linear_accel_sigma, angular_accel_sigma) the ground-truth path of DIR needs: the "
+        "per-axis root mean square of its accelerations between frames. Fit it on one "
+        "sequence and run on another.",
+    )
+    n.add_argument("frames_dir", metavar="DIR", help="the frames directory (poses.txt)")
+    n.add_argument("--calib", help="calibration file (default: DIR/calib.txt)")
+    n.add_argument(
+        "--velocity-frame",
+        choices=["world", "body"],
+        default="world",
+        help="the frame of the model's velocity (default: %(default)s)",
+    )
+    n.set_defaults(func=_cmd_mono_noise)
 
     r = sub.add_parser(
         "mono-render",

@@ -29,7 +29,7 @@ from numpy.typing import NDArray
 
 from bearing_slam import _native
 
-__all__ = ["MonoResult", "render", "run", "write_outputs"]
+__all__ = ["MonoResult", "motion_noise", "render", "run", "write_outputs"]
 
 _PathLike = str | os.PathLike[str]
 
@@ -98,6 +98,29 @@ def run(
         width=int(raw["width"]),
         height=int(raw["height"]),
     )
+
+
+def motion_noise(
+    frames_dir: _PathLike, velocity_frame: str = "world", calib: _PathLike | None = None
+) -> dict[str, Any]:
+    """The constant-velocity model's acceleration noise fitted to the ground-truth poses of
+    ``frames_dir`` (the tuning rule: noise from ground truth on a calibration sequence).
+
+    Returns ``{"linear_accel_sigma", "angular_accel_sigma", "velocity_frame"}``: the root
+    mean square, per axis, of the accelerations the path needs between consecutive
+    frames, with the velocity in ``velocity_frame`` (``"world"`` or ``"body"``), ready to
+    merge into the ``config`` of :func:`run` on another sequence.
+    """
+    sigma_a, sigma_alpha = _native.mono_motion_noise(
+        os.fspath(frames_dir),
+        json.dumps(velocity_frame),
+        None if calib is None else os.fspath(calib),
+    )
+    return {
+        "linear_accel_sigma": sigma_a,
+        "angular_accel_sigma": sigma_alpha,
+        "velocity_frame": velocity_frame,
+    }
 
 
 def render(out_dir: _PathLike, config: dict[str, Any] | None = None) -> int:

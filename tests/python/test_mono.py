@@ -95,3 +95,31 @@ def test_a_car_camera_on_kitti_s_curve_stays_under_two_percent_with_body_frame_v
     assert json.loads((out / "metrics.json").read_text())["config"]["velocity_frame"] == "body"
     with pytest.raises(bs.InvalidParameterError, match="mono config"):
         bs.mono.run(clip, config={"velocity_frame": "sideways", "max_frames": 3})
+
+
+def test_motion_noise_is_the_rms_acceleration_of_the_ground_truth(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``bs.mono.motion_noise`` against the same finite differences done in numpy on
+    KITTI clip 2's poses.txt (10 Hz), in both velocity frames (to 1e-5: the loader keeps
+    the rotations as unit quaternions, and KITTI's matrices are orthonormal to ~1e-6)."""
+    clip = KITTI / "KITTI_sequence_2"
+    poses = np.loadtxt(clip / "poses.txt").reshape(-1, 3, 4)
+    rotations, positions, dt = poses[:, :, :3], poses[:, :, 3], 0.1
+    world = np.diff(positions, axis=0) / dt
+    body = np.einsum("kji,kj->ki", rotations[:-1], world)
+    for frame, velocity in [("world", world), ("body", body)]:
+        accel = np.diff(velocity, axis=0) / dt
+        noise = bs.mono.motion_noise(clip, frame)
+        assert noise["velocity_frame"] == frame
+        assert noise["linear_accel_sigma"] == pytest.approx(np.sqrt(np.mean(accel**2)), rel=1e-5)
+    # the curve: the world frame needs the centripetal acceleration, the body frame not
+    assert (
+        bs.mono.motion_noise(clip, "world")["linear_accel_sigma"]
+        > 3 * bs.mono.motion_noise(clip, "body")["linear_accel_sigma"]
+    )
+    assert main(["mono-noise", str(clip), "--velocity-frame", "body"]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    assert printed == bs.mono.motion_noise(clip, "body")
+    with pytest.raises(bs.InvalidParameterError, match="velocity_frame"):
+        bs.mono.motion_noise(clip, "sideways")

@@ -74,5 +74,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(vocabulary::py_vocabulary, m)?)?;
     m.add_function(wrap_pyfunction!(mono::mono_run, m)?)?;
     m.add_function(wrap_pyfunction!(mono::mono_render, m)?)?;
+    m.add_function(wrap_pyfunction!(mono::mono_motion_noise, m)?)?;
     Ok(())
 }

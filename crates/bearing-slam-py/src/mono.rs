@@ -148,6 +148,26 @@ pub(crate) fn mono_run<'py>(
     Ok(d)
 }
 
+/// The constant-velocity model's acceleration noise `(σ_a, σ_α)` fitted to
+/// the ground-truth poses of a frames directory, with `v` in the frame
+/// given as JSON (`"world"` or `"body"`); see
+/// `bearing_slam.mono.motion_noise`.
+#[pyfunction]
+#[pyo3(signature = (frames_dir, velocity_frame_json, calib = None))]
+pub(crate) fn mono_motion_noise(
+    frames_dir: PathBuf,
+    velocity_frame_json: &str,
+    calib: Option<PathBuf>,
+) -> PyResult<(f64, f64)> {
+    let frame = serde_json::from_str(velocity_frame_json)
+        .map_err(|e| raise("InvalidParameterError", format!("velocity_frame: {e}")))?;
+    let seq =
+        bearing_slam_vision::FrameSequence::open(&frames_dir, calib.as_deref()).map_err(vision)?;
+    let model = bearing_slam::core::mono::motion_noise_from_truth(&seq.poses, &seq.times, frame)
+        .map_err(slam)?;
+    Ok((model.linear_accel_sigma, model.angular_accel_sigma))
+}
+
 /// Renders the synthetic room sequence into `out_dir` in the KITTI clip
 /// layout; returns the number of frames written.
 #[pyfunction]

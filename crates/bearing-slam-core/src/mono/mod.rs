@@ -11,6 +11,7 @@
 //!
 //! By job: [`quaternion`] the quaternion algebra with its Jacobians;
 //! [`motion`] the camera state and the constant-velocity model (25)(26);
+//! [`motion_noise`] its acceleration noise fitted to a ground-truth path;
 //! [`landmark`] the inverse-depth point (27)(28), its conversion and the
 //! linearity index; [`camera`] the pinhole with radial distortion (29);
 //! [`observation`] the pixel measurement models for the EKF; [`init`] the
@@ -32,6 +33,7 @@ pub mod init;
 pub mod landmark;
 pub mod metrics;
 pub mod motion;
+pub mod motion_noise;
 pub mod observation;
 pub mod quaternion;
 pub mod ransac;
@@ -46,4 +48,5 @@ pub use frontend::{
 };
 pub use init::MonoInitializer;
 pub use motion::{CAMERA_DIM, CameraState, ConstantVelocity, VelocityFrame};
+pub use motion_noise::motion_noise_from_truth;
 pub use ransac::{OnePointRansac, RansacSplit};
