@@ -18,6 +18,8 @@ def _cmd_mono(args: argparse.Namespace) -> int:
         config["filter"] = args.filter
     if args.velocity_frame:
         config["velocity_frame"] = args.velocity_frame
+    if args.forget_out_of_view:
+        config["forget_out_of_view"] = True
     if args.max_frames is not None:
         config["max_frames"] = args.max_frames
     result = mono.run(Path(args.frames_dir), args.calib, config)
@@ -79,6 +81,12 @@ def add_mono_parser(sub: Any) -> None:
         choices=["world", "body"],
         help="the constant-velocity model's frame (default: world, the paper's (25), a "
         "hand-held camera; body: constant velocity along the camera, a camera on a car)",
+    )
+    p.add_argument(
+        "--forget-out-of-view",
+        action="store_true",
+        help="features out of view count as misses and leave the map (a camera that does "
+        "not come back, e.g. on a car: the state stays bounded)",
     )
     p.add_argument("--max-frames", type=int, help="run at most this many frames")
     p.add_argument("--config", help="more settings as JSON (see bearing_slam.mono.run)")

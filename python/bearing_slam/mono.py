@@ -70,7 +70,8 @@ def run(
     ``"undelayed"``, ``"oracle"`` — ground truth, rendered sequences only), ``pixel_sigma``,
     ``linear_accel_sigma``, ``angular_accel_sigma``, ``velocity_frame`` (``"world"``, the
     paper's (25), or ``"body"``: constant velocity along the camera, for a camera on a
-    car), ``velocity_sigma``,
+    car), ``forget_out_of_view`` (features out of view count as misses and leave the map:
+    a camera that does not come back), ``velocity_sigma``,
     ``angular_velocity_sigma``, ``rho_ini``, ``sigma_rho``, ``baseline_min_m``,
     ``alpha_min_deg``, ``candidate_depth_m``, ``candidate_sigma_px``, ``max_frames``,
     ``one_point_ransac``, ``ransac_seed``, ``epipolar_search`` and ``front_end`` (``search``:

@@ -55,6 +55,9 @@ pub struct MonoRunConfig {
     /// paper's (25), a hand-held camera) or `"body"` (constant velocity
     /// along the camera, a camera on a car).
     pub velocity_frame: VelocityFrame,
+    /// Features out of view count as misses, so they leave the map
+    /// (`MonoConfig::forget_out_of_view`: a camera that does not come back).
+    pub forget_out_of_view: bool,
     /// σ of the start velocity (around the one of the first two poses), m/s.
     pub velocity_sigma: f64,
     /// σ of the start angular velocity, rad/s.
@@ -102,6 +105,7 @@ impl Default for MonoRunConfig {
             linear_accel_sigma: 2.0,
             angular_accel_sigma: 3.0,
             velocity_frame: VelocityFrame::World,
+            forget_out_of_view: false,
             velocity_sigma: 0.1,
             angular_velocity_sigma: 0.1,
             rho_ini: 0.1,
@@ -164,6 +168,7 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
     core.pixel_sigma = config.pixel_sigma;
     core.motion = ConstantVelocity::new(config.linear_accel_sigma, config.angular_accel_sigma)?
         .in_frame(config.velocity_frame);
+    core.forget_out_of_view = config.forget_out_of_view;
     if let bearing_slam_core::mono::MonoInitializer::Delayed(ref mut t)
     | bearing_slam_core::mono::MonoInitializer::DelayedWithClone(ref mut t) = core.initializer
     {

@@ -32,6 +32,15 @@ pub struct MonoConfig {
     /// A feature (landmark or candidate) searched for and not found this
     /// many times in a row leaves the map.
     pub max_consecutive_misses: u32,
+    /// Count a frame in which a feature is out of view (behind the camera
+    /// or off the image, so not searched) as a miss: a feature unseen for
+    /// `max_consecutive_misses` frames then leaves the map whatever the
+    /// reason, and the state stays bounded for a camera that does not come
+    /// back (a car; Civera et al. 2010's EKF visual odometry deletes the
+    /// features that leave the image). Off (the default) keeps the map of a
+    /// hand-held camera that returns to its scene, as the paper does.
+    #[serde(default)]
+    pub forget_out_of_view: bool,
     /// Matches whose NIS exceeds the χ²₂ quantile of this probability are
     /// rejected (counted as misses); 1 disables the gate.
     pub gate_probability: f64,
@@ -77,6 +86,7 @@ impl MonoConfig {
             }),
             linearity_threshold: 0.1,
             max_consecutive_misses: 5,
+            forget_out_of_view: false,
             gate_probability: 0.9999,
             candidate_search_sigma: 15.0,
             candidate_nominal_depth: 3.0,

@@ -526,6 +526,34 @@ impl MonoSlam {
         self.insert(id, &init.landmark, &init.j_landmark_camera, &added, origin)
     }
 
+    /// The features neither found nor missed this frame that
+    /// [`MonoFilter::search_regions`](super::frontend::MonoFilter::search_regions)
+    /// gave no region: behind the camera or off the image.
+    fn out_of_view(&self, found: &[PixelObservation], missed: &[u64]) -> Vec<u64> {
+        let camera = self.config.camera;
+        let searched: BTreeSet<u64> = found
+            .iter()
+            .map(|o| o.feature_id)
+            .chain(missed.iter().copied())
+            .collect();
+        let landmarks = self
+            .landmarks
+            .iter()
+            .filter(|(id, f)| !searched.contains(id) && self.landmark_region(**id, f).is_none())
+            .map(|(&id, _)| id);
+        let candidates = self
+            .candidates
+            .iter()
+            .filter(|(id, c)| {
+                !searched.contains(id)
+                    && self
+                        .candidate_region(c)
+                        .map_or(true, |(px, _)| !camera.contains(&px))
+            })
+            .map(|(&id, _)| id);
+        landmarks.chain(candidates).collect()
+    }
+
     /// Counts a miss; a feature missed `max_consecutive_misses` times in a
     /// row leaves. Returns whether it left.
     fn missed(&mut self, id: u64) -> Result<bool> {

@@ -7,7 +7,7 @@
 use bearing_slam_core::SlamError;
 use bearing_slam_core::mono::metrics::ate_3d;
 use bearing_slam_core::mono::{
-    FeatureOrigin, MonoConfig, MonoFilter, MonoSlam, MonoStart, PixelObservation,
+    FeatureOrigin, MonoConfig, MonoFilter, MonoSlam, MonoStart, PixelObservation, VelocityFrame,
 };
 use bearing_slam_core::testing::check_covariance;
 use bearing_slam_core::testing::mono::{MonoScenario, MonoSimulation, SimFrontEnd};
@@ -170,6 +170,42 @@ fn features_missed_too_often_leave_and_candidates_search_wide() {
 }
 
 #[test]
+fn features_out_of_view_leave_only_when_the_filter_forgets_them() {
+    let scenario = MonoScenario::desk(3, 2, 10);
+    for forget in [false, true] {
+        let config = MonoConfig {
+            forget_out_of_view: forget,
+            ..MonoConfig::delayed(scenario.camera)
+        };
+        let limit = config.max_consecutive_misses;
+        let mut filter = MonoSlam::new(config, &scenario.start()).expect("filter");
+        let known = filter
+            .add_known_points(&scenario.points[..4], 0.0)
+            .expect("reference");
+        // 2 m behind the camera (it looks along +z from the origin).
+        let behind = filter
+            .add_known_points(&[Vector3::new(0.0, 0.0, -2.0)], 0.0)
+            .expect("point behind")[0];
+        let regions = filter.search_regions().expect("regions");
+        assert!(regions.iter().all(|r| r.feature_id != behind));
+        for frame in 1..=limit {
+            filter.predict(1.0 / 30.0).expect("predict");
+            // Nothing found and nothing reported missed: the reference is
+            // in view (not searched by this front end), the point is not.
+            filter.update(&[], &[]).expect("update");
+            let gone = forget && frame == limit;
+            assert_eq!(
+                !filter.landmark_ids().contains(&behind),
+                gone,
+                "forget {forget}, frame {frame}"
+            );
+        }
+        assert!(known.iter().all(|id| filter.landmark_ids().contains(id)));
+        assert_eq!(filter.landmark_ids().len(), if forget { 4 } else { 5 });
+    }
+}
+
+#[test]
 fn bad_input_is_refused_and_leaves_the_filter_unchanged() {
     let (mut filter, _) = random_filter(5);
     let id = filter
@@ -268,6 +304,19 @@ fn start_from_two_poses_carries_their_velocity() {
     let expected = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.02);
     assert!(pose.orientation.angle_to(&expected) < 1e-9);
     assert!(MonoStart::from_two_poses((&r0, &q(0.0)), (&r1, &q(0.01)), 0.0, 0.01, 0.01).is_err());
+    // With the velocity in the camera frame the start's world velocity is
+    // rotated into it: the first step is the same, the second turns with ω.
+    let config = MonoConfig::delayed(scenario.camera);
+    let body = MonoConfig {
+        motion: config.motion.in_frame(VelocityFrame::Body),
+        ..config
+    };
+    let mut filter = MonoSlam::new(body, &start).expect("filter");
+    filter.predict(0.1).expect("predict");
+    assert!((filter.camera_pose().position - Vector3::new(0.2, 0.0, 0.1)).norm() < 1e-12);
+    filter.predict(0.1).expect("predict");
+    let turned = nalgebra::UnitQuaternion::from_axis_angle(&Vector3::y_axis(), 0.01) * (r1 - r0);
+    assert!((filter.camera_pose().position - Vector3::new(0.2, 0.0, 0.1) - turned).norm() < 1e-12);
 }
 
 #[test]

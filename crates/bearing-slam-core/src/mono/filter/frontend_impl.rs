@@ -69,6 +69,12 @@ impl MonoFilter for MonoSlam {
     fn update(&mut self, found: &[PixelObservation], missed: &[u64]) -> Result<()> {
         self.check_frame(found, missed)?;
         self.last_report = MonoUpdateReport::default();
+        // Out of view at the predicted state, the one the regions came from.
+        let unseen = if self.config.forget_out_of_view {
+            self.out_of_view(found, missed)
+        } else {
+            Vec::new()
+        };
         let rejected = self.update_map(found)?;
         if self.last_report.used > 0 {
             // The camera moved: later candidates need a clone of the new pose.
@@ -90,7 +96,7 @@ impl MonoFilter for MonoSlam {
                 }
             }
         }
-        for &id in missed.iter().chain(rejected.iter()) {
+        for &id in missed.iter().chain(rejected.iter()).chain(unseen.iter()) {
             if self.missed(id)? {
                 dropped += 1;
             }
