@@ -20,6 +20,8 @@ def _cmd_mono(args: argparse.Namespace) -> int:
         config["velocity_frame"] = args.velocity_frame
     if args.forget_out_of_view:
         config["forget_out_of_view"] = True
+    if args.metric_reference:
+        config["metric_reference"] = True
     if args.max_frames is not None:
         config["max_frames"] = args.max_frames
     result = mono.run(Path(args.frames_dir), args.calib, config)
@@ -49,6 +51,8 @@ def _cmd_mono_render(args: argparse.Namespace) -> int:
     from bearing_slam import mono
 
     config: dict[str, Any] = {"frames": args.frames, "seed": args.seed}
+    if args.reference_sheet:
+        config["reference_sheet"] = True
     if args.size:
         width, _, height = args.size.partition("x")
         config["width"], config["height"] = int(width), int(height)
@@ -88,6 +92,12 @@ def add_mono_parser(sub: Any) -> None:
         help="features out of view count as misses and leave the map (a camera that does "
         "not come back, e.g. on a car: the state stays bounded)",
     )
+    p.add_argument(
+        "--metric-reference",
+        action="store_true",
+        help="hold the scale with the paper's metric reference: DIR/known_points.txt (x y z "
+        "per line, world frame) enter the map as exact landmarks at the start",
+    )
     p.add_argument("--max-frames", type=int, help="run at most this many frames")
     p.add_argument("--config", help="more settings as JSON (see bearing_slam.mono.run)")
     p.add_argument("--quiet", action="store_true", help="no summary on stdout")
@@ -119,4 +129,10 @@ def add_mono_parser(sub: Any) -> None:
     r.add_argument("--frames", type=int, default=150, help="frames (default: %(default)s)")
     r.add_argument("--size", help="WIDTHxHEIGHT (default: 424x240, the paper's camera)")
     r.add_argument("--seed", type=int, default=1, help="texture seed (default: %(default)s)")
+    r.add_argument(
+        "--reference-sheet",
+        action="store_true",
+        help="hang the paper's metric reference (a 30 × 20 cm black rectangle on a white "
+        "sheet) in the room and write its corners to OUT/known_points.txt",
+    )
     r.set_defaults(func=_cmd_mono_render)

@@ -11,8 +11,10 @@ inside the ellipse of ``S_i`` (30), the EKF. Python only drives it:
 
 Frames directories have the KITTI clip layout: ``image_l/NNNNNN.png``, ``calib.txt``
 (``P0`` gives fx, fy, cx, cy), ``poses.txt`` (3×4 camera-to-world per frame), optional
-``times.txt`` (else 10 Hz). The filter starts at frame 1 from the first two ground-truth
-poses (pose and velocity: the metric scale), so the scores cover frames 1 … N−1:
+``times.txt`` (else 10 Hz) and ``known_points.txt`` (the metric reference). The filter
+starts at frame 1 from the first two ground-truth poses (pose and velocity: the metric
+scale; with ``metric_reference`` the known points hold it too), so the scores cover
+frames 1 … N−1:
 ``ate_sim3`` after a Sim(3) (Umeyama) alignment, ``ate_metric`` with no alignment.
 """
 
@@ -71,7 +73,9 @@ def run(
     ``linear_accel_sigma``, ``angular_accel_sigma``, ``velocity_frame`` (``"world"``, the
     paper's (25), or ``"body"``: constant velocity along the camera, for a camera on a
     car), ``forget_out_of_view`` (features out of view count as misses and leave the map:
-    a camera that does not come back), ``velocity_sigma``,
+    a camera that does not come back), ``metric_reference`` (the directory's
+    ``known_points.txt`` enter the map as exact landmarks at the start: the paper's metric
+    reference), ``velocity_sigma``,
     ``angular_velocity_sigma``, ``rho_ini``, ``sigma_rho``, ``baseline_min_m``,
     ``alpha_min_deg``, ``candidate_depth_m``, ``candidate_sigma_px``, ``max_frames``,
     ``one_point_ransac``, ``ransac_seed``, ``epipolar_search`` and ``front_end`` (``search``:
@@ -128,7 +132,9 @@ def render(out_dir: _PathLike, config: dict[str, Any] | None = None) -> int:
     """Renders the synthetic room sequence (exact ground truth) into ``out_dir`` in the
     KITTI clip layout; returns the number of frames. ``config`` keys: ``width``,
     ``height`` (default 424×240, the paper's camera), ``hfov_deg``, ``frames``, ``fps``,
-    ``seed``, ``path`` (``forward_speed``, ``sway_m``, ``yaw_rad``)."""
+    ``seed``, ``path`` (``forward_speed``, ``sway_m``, ``yaw_rad``), ``reference_sheet``
+    (the paper's metric reference hung in the room, its corners written to
+    ``known_points.txt``)."""
     return _native.mono_render(os.fspath(out_dir), None if config is None else json.dumps(config))
 
 

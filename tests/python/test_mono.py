@@ -139,3 +139,26 @@ def test_motion_noise_is_the_rms_acceleration_of_the_ground_truth(
     assert printed == bs.mono.motion_noise(clip, "body")
     with pytest.raises(bs.InvalidParameterError, match="velocity_frame"):
         bs.mono.motion_noise(clip, "sideways")
+
+
+def test_the_metric_reference_is_rendered_read_and_tracked(tmp_path: Path) -> None:
+    """``mono-render --reference-sheet`` hangs the paper's sheet in the room and writes its
+    corners; ``mono --metric-reference`` puts them in the map as exact landmarks (ids
+    0–3, found in every frame of a short run); a room without them is refused by name."""
+    room = tmp_path / "room"
+    assert main(["mono-render", str(room), "--frames", "6", "--reference-sheet"]) == 0
+    known = np.loadtxt(room / "known_points.txt")
+    assert known.shape == (4, 3)
+    result = bs.mono.run(room, config={"filter": "undelayed", "metric_reference": True})
+    found = result.searches[result.searches[:, 7] == 0]
+    for feature in range(4):
+        frames = set(found[found[:, 1] == feature, 0].astype(int))
+        assert frames == set(range(1, 6)), (feature, frames)
+        row = result.landmarks[result.landmarks[:, 0] == feature][0]
+        np.testing.assert_allclose(row[1:4], known[feature], atol=1e-9)
+    out = tmp_path / "out"
+    assert main(["mono", str(room), "--out", str(out), "--metric-reference", "--quiet"]) == 0
+    assert json.loads((out / "metrics.json").read_text())["config"]["metric_reference"] is True
+    (room / "known_points.txt").unlink()
+    with pytest.raises(bs.DatasetError, match=r"known_points\.txt"):
+        bs.mono.run(room, config={"metric_reference": True})

@@ -1,7 +1,8 @@
 //! Renders the synthetic room sequence into a directory in the KITTI clip
-//! layout (image_l/*.png, calib.txt, poses.txt, times.txt, scene.json).
+//! layout (image_l/*.png, calib.txt, poses.txt, times.txt, scene.json; with
+//! `--reference-sheet` the paper's metric reference and known_points.txt).
 //!
-//! `cargo run --release -p bearing-slam-vision --example render_synthetic -- OUT [--frames N] [--width W] [--height H] [--seed S]`
+//! `cargo run --release -p bearing-slam-vision --example render_synthetic -- OUT [--frames N] [--width W] [--height H] [--seed S] [--reference-sheet]`
 
 use bearing_slam_vision::{SyntheticConfig, render_sequence};
 use std::path::PathBuf;
@@ -23,6 +24,10 @@ fn main() -> ExitCode {
             "--width" => value("--width").map(|v| config.width = v as u32),
             "--height" => value("--height").map(|v| config.height = v as u32),
             "--seed" => value("--seed").map(|v| config.seed = v),
+            "--reference-sheet" => {
+                config.reference_sheet = true;
+                Ok(())
+            }
             other if !other.starts_with("--") && out.is_none() => {
                 out = Some(PathBuf::from(other));
                 Ok(())
@@ -35,7 +40,9 @@ fn main() -> ExitCode {
         }
     }
     let Some(out) = out else {
-        eprintln!("usage: render_synthetic OUT [--frames N] [--width W] [--height H] [--seed S]");
+        eprintln!(
+            "usage: render_synthetic OUT [--frames N] [--width W] [--height H] [--seed S] [--reference-sheet]"
+        );
         return ExitCode::from(2);
     };
     match render_sequence(&config, &out) {

@@ -1,7 +1,8 @@
 //! The frames source: a directory in the layout of the KITTI odometry clips
 //! (`image_l/NNNNNN.png`, `calib.txt` with the projection matrix `P0`,
 //! `poses.txt` with one 3×4 camera-to-world pose per frame, optional
-//! `times.txt`). The synthetic renderer ([`crate::render`]) writes the same
+//! `times.txt` and `known_points.txt`: the paper's metric reference, one
+//! `x y z` world point per line). The synthetic renderer ([`crate::render`]) writes the same
 //! layout, so one loader reads both.
 
 use crate::error::{Result, VisionError};
@@ -76,7 +77,13 @@ pub struct FrameSequence {
     pub times: Vec<f64>,
     /// The image files, in frame order.
     pub images: Vec<PathBuf>,
+    /// The metric reference's known world points (`known_points.txt`;
+    /// empty when the directory has none).
+    pub known_points: Vec<Vector3<f64>>,
 }
+
+/// The optional file of known world points (the metric reference).
+pub const KNOWN_POINTS_FILE: &str = "known_points.txt";
 
 /// The frame period assumed when a directory has no times.txt (KITTI: 10 Hz).
 pub const DEFAULT_FRAME_PERIOD_S: f64 = 0.1;
@@ -127,6 +134,12 @@ impl FrameSequence {
                 .map(|k| k as f64 * DEFAULT_FRAME_PERIOD_S)
                 .collect()
         };
+        let known_path = dir.join(KNOWN_POINTS_FILE);
+        let known_points = if known_path.exists() {
+            read_known_points(&known_path)?
+        } else {
+            Vec::new()
+        };
         let first = load_gray(&images[0])?;
         Ok(Self {
             dir,
@@ -136,6 +149,7 @@ impl FrameSequence {
             poses,
             times,
             images,
+            known_points,
         })
     }
 
@@ -289,6 +303,27 @@ pub fn read_poses(path: &Path) -> Result<Vec<CameraPose>> {
         });
     }
     Ok(poses)
+}
+
+/// `x y z` per line (blank lines skipped); at least one point.
+fn read_known_points(path: &Path) -> Result<Vec<Vector3<f64>>> {
+    let text = read_text(path)?;
+    let mut points = Vec::new();
+    for (i, line) in text.lines().enumerate() {
+        if line.trim().is_empty() {
+            continue;
+        }
+        let v = parse_numbers(path, i + 1, line, 3)?;
+        points.push(Vector3::new(v[0], v[1], v[2]));
+    }
+    if points.is_empty() {
+        return Err(VisionError::Parse {
+            path: path.to_path_buf(),
+            line: 1,
+            reason: "no point: expected one line of 3 numbers (x y z) per known point".into(),
+        });
+    }
+    Ok(points)
 }
 
 fn read_times(path: &Path) -> Result<Vec<f64>> {

@@ -32,5 +32,5 @@ pub use frames::{FrameSequence, Intrinsics};
 pub use oracle::GroundTruthOracle;
 pub use pipeline::{FilterKind, MonoOutput, MonoRunConfig, run_directory};
 pub use render::{SyntheticConfig, render_sequence};
-pub use run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
+pub use run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono, run_mono_seeded};
 pub use search::{PredictedView, SearchConfig, active_search, active_search_warped};

@@ -10,10 +10,10 @@
 //! frames 1 … N−1.
 
 use crate::error::{Result, VisionError};
-use crate::frames::FrameSequence;
+use crate::frames::{FrameSequence, KNOWN_POINTS_FILE, project_world};
 use crate::oracle::GroundTruthOracle;
 use crate::render::read_scene_config;
-use crate::run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono};
+use crate::run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono, run_mono_seeded};
 use bearing_slam_core::mono::{
     CameraPose, ConstantVelocity, MapPoint, MonoConfig, MonoFilter, MonoSlam, MonoStart,
     MonoUpdateReport, PinholeCamera, PixelObservation, SearchRegion, VelocityFrame,
@@ -58,6 +58,11 @@ pub struct MonoRunConfig {
     /// Features out of view count as misses, so they leave the map
     /// (`MonoConfig::forget_out_of_view`: a camera that does not come back).
     pub forget_out_of_view: bool,
+    /// Hold the scale with the paper's metric reference: the directory's
+    /// `known_points.txt` enter the map as exact landmarks at the start
+    /// (their patches cut in the first frame). Off: the scale comes from
+    /// the first two ground-truth poses only.
+    pub metric_reference: bool,
     /// σ of the start velocity (around the one of the first two poses), m/s.
     pub velocity_sigma: f64,
     /// σ of the start angular velocity, rad/s.
@@ -106,6 +111,7 @@ impl Default for MonoRunConfig {
             angular_accel_sigma: 3.0,
             velocity_frame: VelocityFrame::World,
             forget_out_of_view: false,
+            metric_reference: false,
             velocity_sigma: 0.1,
             angular_velocity_sigma: 0.1,
             rho_ini: 0.1,
@@ -255,12 +261,18 @@ pub fn run_directory(
                 inner: MonoSlam::new(core, &start)?,
                 reports: Vec::new(),
             };
-            let run = run_mono(
+            let seeded = if config.metric_reference {
+                add_metric_reference(&seq, &mut filter.inner, first)?
+            } else {
+                Vec::new()
+            };
+            let run = run_mono_seeded(
                 &seq,
                 &mut filter,
                 &config.front_end,
                 first,
                 config.max_frames,
+                &seeded,
             )?;
             let landmarks = filter.inner.landmarks();
             (run, landmarks, filter.reports)
@@ -277,6 +289,42 @@ pub fn run_directory(
         reports,
         sequence: seq,
     })
+}
+
+/// The paper's metric reference: the sequence's known points enter the map
+/// as exact landmarks, each with its pixel in frame `first` (seen from the
+/// filter's start pose) for its patch.
+fn add_metric_reference(
+    seq: &FrameSequence,
+    filter: &mut MonoSlam,
+    first: usize,
+) -> Result<Vec<(u64, Vector2<f64>)>> {
+    if seq.known_points.is_empty() {
+        return Err(VisionError::Layout {
+            dir: seq.dir.clone(),
+            reason: format!("metric_reference needs the known points of {KNOWN_POINTS_FILE}"),
+        });
+    }
+    let pose = filter.camera_pose();
+    let mut pixels = Vec::with_capacity(seq.known_points.len());
+    for (k, point) in seq.known_points.iter().enumerate() {
+        let px = project_world(&seq.intrinsics, &pose, point)
+            .filter(|px| {
+                px.x >= 0.0
+                    && px.y >= 0.0
+                    && px.x <= f64::from(seq.width - 1)
+                    && px.y <= f64::from(seq.height - 1)
+            })
+            .ok_or_else(|| VisionError::Layout {
+                dir: seq.dir.clone(),
+                reason: format!(
+                    "known point {k} of {KNOWN_POINTS_FILE} is not in view of frame {first}"
+                ),
+            })?;
+        pixels.push(px);
+    }
+    let ids = filter.add_known_points(&seq.known_points, 0.0)?;
+    Ok(ids.into_iter().zip(pixels).collect())
 }
 
 /// [`MonoSlam`] behind the trait, keeping each frame's update report.

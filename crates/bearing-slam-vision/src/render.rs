@@ -1,11 +1,12 @@
 //! The synthetic sequence: [`Scene::room`] seen along [`CameraPath`],
 //! ray-cast per pixel (2×2 supersampling) into 8-bit gray frames, written in
 //! the layout of the KITTI clips (`image_l/NNNNNN.png`, `calib.txt`,
-//! `poses.txt`, plus `times.txt` and `scene.json`) so that
+//! `poses.txt`, plus `times.txt`, `scene.json` and, with the reference
+//! sheet, `known_points.txt`) so that
 //! [`crate::frames::FrameSequence::open`] reads it like the real video.
 
 use crate::error::{Result, VisionError};
-use crate::frames::{FrameSequence, Intrinsics};
+use crate::frames::{FrameSequence, Intrinsics, KNOWN_POINTS_FILE};
 use crate::scene::{CameraPath, Scene};
 use bearing_slam_core::mono::CameraPose;
 use image::GrayImage;
@@ -32,6 +33,10 @@ pub struct SyntheticConfig {
     pub seed: u64,
     /// The camera's path.
     pub path: CameraPath,
+    /// Hang the paper's metric reference in the room
+    /// ([`Scene::with_reference_sheet`]) and write its four corners to
+    /// `known_points.txt`.
+    pub reference_sheet: bool,
 }
 
 impl Default for SyntheticConfig {
@@ -44,6 +49,7 @@ impl Default for SyntheticConfig {
             fps: 30.0,
             seed: 1,
             path: CameraPath::default(),
+            reference_sheet: false,
         }
     }
 }
@@ -89,7 +95,19 @@ impl SyntheticConfig {
 
     /// The scene.
     pub fn scene(&self) -> Scene {
-        Scene::room(self.seed)
+        self.scene_and_known_points().0
+    }
+
+    /// The scene and its known points (the reference sheet's corners; none
+    /// without the sheet).
+    pub fn scene_and_known_points(&self) -> (Scene, Vec<Vector3<f64>>) {
+        let room = Scene::room(self.seed);
+        if self.reference_sheet {
+            let (scene, corners) = room.with_reference_sheet();
+            (scene, corners.to_vec())
+        } else {
+            (room, Vec::new())
+        }
     }
 
     /// The time of frame `k`, seconds.
@@ -169,7 +187,14 @@ pub fn render_sequence(config: &SyntheticConfig, dir: &Path) -> Result<FrameSequ
     let image_dir = dir.join("image_l");
     std::fs::create_dir_all(&image_dir).map_err(|e| VisionError::io(&image_dir, e))?;
     let intrinsics = config.intrinsics();
-    let scene = config.scene();
+    let (scene, known_points) = config.scene_and_known_points();
+    if !known_points.is_empty() {
+        let lines: String = known_points
+            .iter()
+            .map(|p| format!("{:.12e} {:.12e} {:.12e}\n", p.x, p.y, p.z))
+            .collect();
+        write_text(&dir.join(KNOWN_POINTS_FILE), &lines)?;
+    }
     let (fx, fy, cx, cy) = (intrinsics.fx, intrinsics.fy, intrinsics.cx, intrinsics.cy);
     let p0 = format!("{fx:.12e} 0 {cx:.12e} 0 0 {fy:.12e} {cy:.12e} 0 0 0 1 0");
     write_text(&dir.join("calib.txt"), &format!("{p0}\n{p0}\n"))?;

@@ -12,6 +12,7 @@ use crate::patch::Patch;
 use crate::search::{FrameSearch, PatchStore, PredictedView, SearchConfig, active_search_warped};
 use crate::warp::PatchView;
 use bearing_slam_core::mono::{CameraPose, MonoFilter};
+use image::GrayImage;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
 use std::time::Instant;
@@ -123,6 +124,20 @@ pub fn run_mono<F: MonoFilter>(
     first: usize,
     max_frames: Option<usize>,
 ) -> Result<MonoRun> {
+    run_mono_seeded(frames, filter, config, first, max_frames, &[])
+}
+
+/// [`run_mono`] for a filter that already holds some features (the paper's
+/// known points): `seeded` gives each one's id and its pixel in frame
+/// `first`, where its patch is cut before the first search.
+pub fn run_mono_seeded<F: MonoFilter>(
+    frames: &FrameSequence,
+    filter: &mut F,
+    config: &FrontEndConfig,
+    first: usize,
+    max_frames: Option<usize>,
+    seeded: &[(u64, Vector2<f64>)],
+) -> Result<MonoRun> {
     config.validate()?;
     if first >= frames.len() {
         return Err(VisionError::InvalidParameter {
@@ -156,6 +171,15 @@ pub fn run_mono<F: MonoFilter>(
         let clock = Instant::now();
         let ids: Vec<u64> = regions.iter().map(|r| r.feature_id).collect();
         store.retain_ids(&ids);
+        if k == first {
+            seed_patches(
+                &mut store,
+                &image,
+                seeded,
+                &config.search,
+                filter.camera_pose(),
+            )?;
+        }
         stats.front_end_s += clock.elapsed().as_secs_f64();
 
         // The warp needs the predicted camera and the feature points.
@@ -251,6 +275,35 @@ pub fn run_mono<F: MonoFilter>(
         run.added_px.push(new_px);
     }
     Ok(run)
+}
+
+/// Cuts the patch (and the warp's view) of each seeded feature at its pixel.
+fn seed_patches(
+    store: &mut PatchStore,
+    image: &GrayImage,
+    seeded: &[(u64, Vector2<f64>)],
+    search: &SearchConfig,
+    pose: CameraPose,
+) -> Result<()> {
+    for &(id, px) in seeded {
+        let (u, v) = (px.x.round(), px.y.round());
+        let patch = (u >= 0.0 && v >= 0.0)
+            .then(|| Patch::extract(image, u as u32, v as u32, search.patch_half))
+            .flatten()
+            .ok_or_else(|| VisionError::InvalidParameter {
+                name: "known point pixel",
+                value: if u < 0.0 { u } else { v },
+                reason: "a known point must be in view of the first frame, away from its border",
+            })?;
+        store.insert(id, patch);
+        if search.warp
+            && let Some(view) =
+                PatchView::capture(image, u as u32, v as u32, search.warp_window_half, pose)
+        {
+            store.insert_view(id, view);
+        }
+    }
+    Ok(())
 }
 
 /// The scores of a run against the ground truth, as written to metrics.json.

@@ -8,6 +8,18 @@ use bearing_slam_core::mono::CameraPose;
 use nalgebra::{UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 
+/// What is painted on a [`TexturedQuad`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Pattern {
+    /// [`TexturedQuad::texture`]'s random grey cells and blobs.
+    #[default]
+    Cells,
+    /// The paper's metric reference: a white sheet with a black rectangle
+    /// [`REFERENCE_MARGIN_M`] in from every edge, whose four corners are the
+    /// known points ([`Scene::reference_sheet`]).
+    ReferenceSheet,
+}
+
 /// A textured rectangle `{origin + s·edge_u + t·edge_v : s, t ∈ [0, 1]}`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct TexturedQuad {
@@ -19,6 +31,8 @@ pub struct TexturedQuad {
     pub edge_v: Vector3<f64>,
     /// The texture's seed (each face looks different).
     pub texture_seed: u64,
+    /// What is painted on it.
+    pub pattern: Pattern,
 }
 
 /// Where a ray meets the scene.
@@ -53,6 +67,12 @@ impl TexturedQuad {
     /// grey in 20–235, with a round dark or light blob in one cell out of
     /// four (corners of a second kind).
     pub fn texture(&self, a: f64, b: f64) -> f64 {
+        if self.pattern == Pattern::ReferenceSheet {
+            let (w, h) = (self.edge_u.norm(), self.edge_v.norm());
+            let m = REFERENCE_MARGIN_M;
+            let inside = a > m && a < w - m && b > m && b < h - m;
+            return if inside { 20.0 } else { 235.0 };
+        }
         let (fi, fj) = (a / TEXTURE_CELL_M, b / TEXTURE_CELL_M);
         let (i, j) = (fi.floor() as i64, fj.floor() as i64);
         let cell = 20.0 + 215.0 * hash01(self.texture_seed, i, j);
@@ -133,6 +153,7 @@ impl Scene {
                 edge_u: Vector3::from(u),
                 edge_v: Vector3::from(v),
                 texture_seed: seed.wrapping_mul(1000).wrapping_add(k),
+                pattern: Pattern::Cells,
             });
         };
         add([-4.0, -2.5, 8.0], [8.0, 0.0, 0.0], [0.0, 4.0, 0.0]); // back wall
@@ -160,7 +181,37 @@ impl Scene {
             background: 128.0,
         }
     }
+
+    /// The same scene with the paper's metric reference hung in it: a
+    /// 0.5 × 0.4 m white sheet facing the camera's start, 2.6 m ahead and
+    /// 0.5 m to the left of its path, with a black 0.3 × 0.2 m rectangle
+    /// (the paper's sheet) in the middle. Returns the scene and the
+    /// rectangle's four corners, world frame: the known points.
+    #[must_use]
+    pub fn with_reference_sheet(mut self) -> (Self, [Vector3<f64>; 4]) {
+        let origin = Vector3::new(-1.0, -0.3, 2.6);
+        let (edge_u, edge_v) = (Vector3::new(0.5, 0.0, 0.0), Vector3::new(0.0, 0.4, 0.0));
+        self.quads.push(TexturedQuad {
+            origin,
+            edge_u,
+            edge_v,
+            texture_seed: 0,
+            pattern: Pattern::ReferenceSheet,
+        });
+        let (u, v) = (edge_u.normalize(), edge_v.normalize());
+        let m = REFERENCE_MARGIN_M;
+        let (w, h) = (edge_u.norm() - m, edge_v.norm() - m);
+        let corner = |a: f64, b: f64| origin + u * a + v * b;
+        (
+            self,
+            [corner(m, m), corner(w, m), corner(w, h), corner(m, h)],
+        )
+    }
 }
+
+/// The white margin round the black rectangle of the reference sheet,
+/// metres.
+pub const REFERENCE_MARGIN_M: f64 = 0.1;
 
 /// A smooth 6-DOF camera path through [`Scene::room`], a function of time:
 /// forward along +z at 0.4 m/s while swaying sideways (±0.6 m, 8 s period)

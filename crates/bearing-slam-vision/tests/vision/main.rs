@@ -7,6 +7,7 @@
 mod align;
 mod epipolar;
 mod frames_errors;
+mod metric_reference;
 mod ncc_span;
 mod oracle_loop;
 mod render_truth;
@@ -14,7 +15,7 @@ mod search;
 mod warp;
 
 use bearing_slam_core::mono::CameraPose;
-use bearing_slam_vision::scene::{Scene, TexturedQuad};
+use bearing_slam_vision::scene::{Pattern, Scene, TexturedQuad};
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The scene of the warp and epipolar tests: one 6 m textured wall 3 m
@@ -26,6 +27,7 @@ fn wall_three_metres_ahead() -> Scene {
             edge_u: Vector3::new(6.0, 0.0, 0.0),
             edge_v: Vector3::new(0.0, 6.0, 0.0),
             texture_seed: 7,
+            pattern: Pattern::Cells,
         }],
         background: 128.0,
     }

@@ -4,7 +4,7 @@
 
 use bearing_slam_core::mono::SearchRegion;
 use bearing_slam_vision::patch::Patch;
-use bearing_slam_vision::scene::TexturedQuad;
+use bearing_slam_vision::scene::{Pattern, TexturedQuad};
 use bearing_slam_vision::search::{
     PatchStore, SearchConfig, SearchOutcome, active_search, chi2_quantile_2dof, search_region,
 };
@@ -18,6 +18,7 @@ fn textured(width: u32, height: u32, dx: i64, dy: i64) -> GrayImage {
         edge_u: Vector3::x(),
         edge_v: Vector3::y(),
         texture_seed: 7,
+        pattern: Pattern::Cells,
     };
     GrayImage::from_fn(width, height, |x, y| {
         let a = (i64::from(x) - dx) as f64 * 0.05;
