@@ -287,14 +287,17 @@ fn seed_patches(
 ) -> Result<()> {
     for &(id, px) in seeded {
         let (u, v) = (px.x.round(), px.y.round());
-        let patch = (u >= 0.0 && v >= 0.0)
-            .then(|| Patch::extract(image, u as u32, v as u32, search.patch_half))
-            .flatten()
-            .ok_or_else(|| VisionError::InvalidParameter {
-                name: "known point pixel",
-                value: if u < 0.0 { u } else { v },
-                reason: "a known point must be in view of the first frame, away from its border",
-            })?;
+        let in_image = u >= 0.0 && v >= 0.0;
+        let patch = if in_image {
+            Patch::extract(image, u as u32, v as u32, search.patch_half)
+        } else {
+            None
+        }
+        .ok_or(VisionError::InvalidParameter {
+            name: "known point pixel",
+            value: if u < 0.0 { u } else { v },
+            reason: "a known point must be in view of the first frame, away from its border",
+        })?;
         store.insert(id, patch);
         if search.warp
             && let Some(view) =
