@@ -16,6 +16,8 @@
 //! linearization points of one variable. The work per scan
 //! depends on the window and the map size, not on the run length.
 
+mod prior_chart;
+
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
 use super::marginals::{Marginals, marginal_covariances, marginals_from_hessian, marginals_of};
@@ -24,6 +26,7 @@ use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
+use prior_chart::{PriorAnchor, change_of_variables, choose_anchors};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// A measurement whose landmark stands closer than this to its sensor is
@@ -90,6 +93,9 @@ pub struct FixedLagSmoother {
     finalized: BTreeMap<u64, FinalizedPose>,
     marginalizations: usize,
     degenerate_measurements: usize,
+    /// Where the prior's inverse-depth landmarks are anchored
+    /// ([`prior_chart`]).
+    prior_anchor: PriorAnchor,
 }
 
 impl FixedLagSmoother {
@@ -112,6 +118,7 @@ impl FixedLagSmoother {
             finalized: BTreeMap::new(),
             marginalizations: 0,
             degenerate_measurements: 0,
+            prior_anchor: PriorAnchor::from_env(),
         })
     }
 
@@ -239,6 +246,12 @@ impl FixedLagSmoother {
                     &leaving,
                 )?
             };
+            let staying: Vec<u64> = self
+                .window
+                .iter()
+                .filter(|id| !leaving_ids.contains(id))
+                .copied()
+                .collect();
             for oldest in leaving_ids {
                 self.finalized.insert(
                     oldest,
@@ -247,7 +260,7 @@ impl FixedLagSmoother {
                         covariance: marginals.pose(oldest)?,
                     },
                 );
-                self.marginalize(oldest)?;
+                self.marginalize(oldest, &staying)?;
                 self.window.pop_front();
                 self.riders.remove(&oldest);
             }
@@ -291,8 +304,11 @@ impl FixedLagSmoother {
         marginal_covariances(&self.graph, &self.values, &self.config.solver.robust)
     }
 
-    /// Eliminates pose `id` into a linear prior on its neighbours.
-    fn marginalize(&mut self, id: u64) -> Result<()> {
+    /// Eliminates pose `id` into a linear prior on its neighbours, its
+    /// inverse-depth landmarks anchored at poses of `staying` (the window's
+    /// poses that do not leave in this update, oldest first;
+    /// [`prior_chart`]).
+    fn marginalize(&mut self, id: u64, staying: &[u64]) -> Result<()> {
         let target = Key::Pose(id);
         let taken = self
             .graph
@@ -307,11 +323,20 @@ impl FixedLagSmoother {
                 }
             }
         }
-        let rest: BTreeSet<Key> = taken
+        let mut rest: BTreeSet<Key> = taken
             .iter()
             .flat_map(Factor::keys)
             .filter(|k| *k != target)
             .collect();
+        let anchors = choose_anchors(
+            &self.graph,
+            &taken,
+            &point,
+            &rest,
+            staying,
+            self.prior_anchor,
+        )?;
+        rest.extend(anchors.values().map(|pose| Key::Pose(*pose)));
         let keys: Vec<Key> = std::iter::once(target)
             .chain(rest.iter().copied())
             .collect();
@@ -390,8 +415,10 @@ impl FixedLagSmoother {
             .iter()
             .map(|k| point.get(*k))
             .collect::<Result<Vec<_>>>()?;
-        self.graph.add(Factor::Linear(LinearFactor::new(
-            rest, lin_points, jac, off,
-        )?))
+        let (t, slots) = change_of_variables(&rest, &anchors, &point)?;
+        let jac = if anchors.is_empty() { jac } else { jac * t };
+        self.graph.add(Factor::Linear(
+            LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?,
+        ))
     }
 }
