@@ -440,7 +440,8 @@ impl LinearFactor {
                     let a = Vector2::new(a[0], a[1]);
                     let p = Vector2::new(x[0], x[1]);
                     let u = inverse_depth_of(&a, &p);
-                    let u0 = inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
+                    let u0 =
+                        inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
                     delta.extend([wrap_angle(u.x - u0.x), u.y - u0.y]);
                     gradients.push(Some(inverse_depth_gradient(&a, &p)?));
                 }
@@ -458,7 +459,8 @@ impl LinearFactor {
             col += k.dim();
         }
         for (i, gradient) in gradients.iter().enumerate() {
-            let (Some(du_dp), Some(j), Key::Landmark(id)) = (gradient, self.anchors[i], self.keys[i])
+            let (Some(du_dp), Some(j), Key::Landmark(id)) =
+                (gradient, self.anchors[i], self.keys[i])
             else {
                 continue;
             };

@@ -8,8 +8,8 @@ use super::smoother_common;
 use bearing_slam_core::smoother::values::{MAX_INVERSE_DEPTH, MIN_INVERSE_DEPTH};
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor,
-    LinearFactor, OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig, Termination, Values,
-    marginal_covariances, optimize,
+    LinearFactor, OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig,
+    Termination, Values, marginal_covariances, optimize,
 };
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{Problem, max_difference, problem};
@@ -740,7 +740,9 @@ fn a_marginal_prior_is_indifferent_to_a_translation_of_the_map() {
     assert!(!s.in_window(0));
     let t = Vector2::new(0.8, -0.5);
     let (residual, change, anchors) = prior_under_translation(&s, t);
-    println!("prior residual {residual:.3e}, change under the translation {change:.3e}, anchors {anchors:?}");
+    println!(
+        "prior residual {residual:.3e}, change under the translation {change:.3e}, anchors {anchors:?}"
+    );
     assert!(change < 1e-9 * (1.0 + residual), "moved by {change}");
     // Each at the newest pose of the window that sees it.
     assert_eq!(anchors, vec![(5, 2), (6, 1)]);
@@ -751,7 +753,9 @@ fn a_marginal_prior_is_indifferent_to_a_translation_of_the_map() {
     s.update().unwrap();
     assert!(!s.in_window(1));
     let (residual, change, anchors) = prior_under_translation(&s, t);
-    println!("after pose 3: prior residual {residual:.3e}, change {change:.3e}, anchors {anchors:?}");
+    println!(
+        "after pose 3: prior residual {residual:.3e}, change {change:.3e}, anchors {anchors:?}"
+    );
     assert!(change < 1e-9 * (1.0 + residual), "moved by {change}");
     assert_eq!(anchors, vec![(5, 2), (6, 3)]);
 }
