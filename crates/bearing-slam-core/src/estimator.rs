@@ -31,8 +31,8 @@ use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitial
 use crate::runner::{RunConfig, RunOutput, run, run_online_from};
 use crate::slam::{BearingSlam, InitializerConfig, SlamConfig};
 use crate::smoother::{
-    BatchStart, FixedLagConfig, OnlineWindow, RobustKernel, SmootherConfig, SmootherMode,
-    SmootherReport, SolverConfig, run_from_log, run_online_smoother,
+    BatchStart, FixedLagConfig, OnlineWindow, PriorAnchor, RobustKernel, SmootherConfig,
+    SmootherMode, SmootherReport, SolverConfig, run_from_log, run_online_smoother,
 };
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::BTreeMap;
@@ -121,6 +121,7 @@ pub fn default_fixed_lag() -> FixedLagConfig {
     FixedLagConfig {
         lag: 50,
         first_estimates: false,
+        prior_anchor: PriorAnchor::default(),
         solver: SolverConfig {
             max_iterations: 5,
             robust: RobustKernel::Huber(2.0),
@@ -147,6 +148,7 @@ pub fn keyframe_fixed_lag() -> FixedLagConfig {
     FixedLagConfig {
         lag: 50,
         first_estimates: true,
+        prior_anchor: PriorAnchor::default(),
         solver: SolverConfig {
             max_iterations: 30,
             robust: RobustKernel::Cauchy(2.0),

@@ -113,6 +113,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }) {
         keyframes.smoother.keyframes = Some(rule);
     }
+    if let Some(anchor) = flag("ONLINE_TIMING_PRIOR_ANCHOR") {
+        keyframes.fixed_lag.prior_anchor = anchor.parse().map_err(|e| format!("{e}"))?;
+    }
     if let Some(fej) = flag("ONLINE_TIMING_KEYFRAME_FEJ") {
         keyframes.fixed_lag.first_estimates = fej == "1";
     }

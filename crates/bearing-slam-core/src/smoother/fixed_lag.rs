@@ -15,8 +15,16 @@
 //! prior are linearized at their first estimate, so the prior never mixes two
 //! linearization points of one variable. The work per scan
 //! depends on the window and the map size, not on the run length.
+//!
+//! The prior measures an inverse-depth landmark as `[θ, ρ]` about a pose of
+//! the window ([`FixedLagConfig::prior_anchor`], [`prior_chart`]), not about
+//! the fixed world anchor its increments use: linear along the landmark's
+//! ray, as about the fixed anchor, and indifferent to a translation of the
+//! whole map, as the bearings and odometry it replaces are. A landmark whose
+//! anchor pose is the one leaving is re-anchored at a pose that stays before
+//! the Schur complement is formed.
 
-mod prior_chart;
+pub mod prior_chart;
 
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
@@ -26,7 +34,8 @@ use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
-use prior_chart::{PriorAnchor, change_of_variables, choose_anchors};
+pub use prior_chart::PriorAnchor;
+use prior_chart::{change_of_variables, choose_anchors};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// A measurement whose landmark stands closer than this to its sensor is
@@ -55,6 +64,12 @@ pub struct FixedLagConfig {
     /// first estimated from a short window are linearized far from where
     /// they end, and FEJ keeps that error (see the tests for the numbers).
     pub first_estimates: bool,
+    /// Where the marginalization prior measures an inverse-depth landmark
+    /// from: a pose of the window ([`PriorAnchor::NewestObserver`], the
+    /// default), so that the prior is indifferent to a translation of the
+    /// whole map, or its fixed world anchor ([`PriorAnchor::Fixed`], the
+    /// chart before 2026-11-29). See [`prior_chart`].
+    pub prior_anchor: PriorAnchor,
 }
 
 impl Default for FixedLagConfig {
@@ -62,6 +77,7 @@ impl Default for FixedLagConfig {
         Self {
             lag: 20,
             first_estimates: true,
+            prior_anchor: PriorAnchor::default(),
             solver: SolverConfig {
                 max_iterations: 10,
                 ..SolverConfig::default()
@@ -93,9 +109,6 @@ pub struct FixedLagSmoother {
     finalized: BTreeMap<u64, FinalizedPose>,
     marginalizations: usize,
     degenerate_measurements: usize,
-    /// Where the prior's inverse-depth landmarks are anchored
-    /// ([`prior_chart`]).
-    prior_anchor: PriorAnchor,
 }
 
 impl FixedLagSmoother {
@@ -118,7 +131,6 @@ impl FixedLagSmoother {
             finalized: BTreeMap::new(),
             marginalizations: 0,
             degenerate_measurements: 0,
-            prior_anchor: PriorAnchor::from_env(),
         })
     }
 
@@ -334,7 +346,7 @@ impl FixedLagSmoother {
             &point,
             &rest,
             staying,
-            self.prior_anchor,
+            self.config.prior_anchor,
         )?;
         rest.extend(anchors.values().map(|pose| Key::Pose(*pose)));
         let keys: Vec<Key> = std::iter::once(target)

@@ -8,8 +8,8 @@ use super::smoother_common;
 use bearing_slam_core::smoother::values::{MAX_INVERSE_DEPTH, MIN_INVERSE_DEPTH};
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor,
-    LinearFactor, OdometryFactor, PosePriorFactor, RobustKernel, SolveReport, SolverConfig,
-    Termination, Values, marginal_covariances, optimize,
+    LinearFactor, OdometryFactor, PosePriorFactor, PriorAnchor, RobustKernel, SolveReport,
+    SolverConfig, Termination, Values, marginal_covariances, optimize,
 };
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{Problem, max_difference, problem};
@@ -57,6 +57,7 @@ fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
 
 fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSmoother {
     let config = FixedLagConfig {
+        prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates,
         solver: SolverConfig::default(),
@@ -118,6 +119,7 @@ fn stopping_on_the_newton_decrement_keeps_the_batch_solution() {
     // batch's in every component, with its marginal σ as the unit.
     let p = problem(11, 10, true, false);
     let config = FixedLagConfig {
+        prior_anchor: PriorAnchor::default(),
         lag: 10,
         first_estimates: false,
         solver: SolverConfig {
@@ -175,6 +177,7 @@ fn exact_after_marginalization_on_noise_free_data() {
 #[test]
 fn the_inverse_depth_chart_keeps_the_solution_and_the_marginals() {
     let config = |lag| FixedLagConfig {
+        prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates: false,
         solver: SolverConfig::default(),
@@ -390,6 +393,7 @@ fn riding_poses_leave_with_the_counted_pose_before_them() {
     let mut wide = with_landmarks(
         &p,
         FixedLagConfig {
+            prior_anchor: PriorAnchor::default(),
             lag: 10,
             first_estimates: true,
             solver: SolverConfig::default(),
@@ -420,6 +424,7 @@ fn a_marginalized_outlier_stays_down_weighted() {
     let mut batch = p.initial.clone();
     optimize(&p.graph, &mut batch, &solver).unwrap();
     let config = FixedLagConfig {
+        prior_anchor: PriorAnchor::default(),
         lag: 4,
         first_estimates: false,
         solver,
@@ -507,6 +512,7 @@ fn a_marginal_prior_holds_the_robustly_weighted_information() {
     // factors' blocks on pose 1 and on the landmark.
     let kernel = RobustKernel::Cauchy(2.0);
     let mut s = FixedLagSmoother::new(FixedLagConfig {
+        prior_anchor: PriorAnchor::default(),
         lag: 2,
         first_estimates: false,
         solver: SolverConfig {
@@ -691,8 +697,39 @@ fn prior_under_translation(s: &FixedLagSmoother, t: Vector2<f64>) -> (f64, f64, 
 /// landmark is re-anchored at a pose still in the window.
 #[test]
 fn a_marginal_prior_is_indifferent_to_a_translation_of_the_map() {
+    let [
+        (residual, change, anchors),
+        (later, later_change, later_anchors),
+    ] = translated_priors(PriorAnchor::default());
+    println!(
+        "prior residual {residual:.3e}, change under the translation {change:.3e}, anchors {anchors:?}"
+    );
+    assert!(change < 1e-9 * (1.0 + residual), "moved by {change}");
+    // Each at the newest pose of the window that sees it.
+    assert_eq!(anchors, vec![(5, 2), (6, 1)]);
+    // After pose 3 pushed pose 1 out, landmark 6, seen from no pose left,
+    // is re-anchored at the newest pose.
+    println!(
+        "after pose 3: prior residual {later:.3e}, change {later_change:.3e}, anchors {later_anchors:?}"
+    );
+    assert!(
+        later_change < 1e-9 * (1.0 + later),
+        "moved by {later_change}"
+    );
+    assert_eq!(later_anchors, vec![(5, 2), (6, 3)]);
+    // About the fixed anchors the same translation moves the prior.
+    let [(residual, change, anchors), _] = translated_priors(PriorAnchor::Fixed);
+    println!("fixed anchors: prior residual {residual:.3e}, change {change:.3e}");
+    assert!(anchors.is_empty());
+    assert!(change > 1.0, "moved by {change}");
+}
+
+/// [`prior_under_translation`] of a window of two poses after pose 0 left
+/// it, then after pose 1 did, its prior's landmarks anchored by `prior_anchor`.
+fn translated_priors(prior_anchor: PriorAnchor) -> [(f64, f64, Vec<(u64, u64)>); 2] {
     let mut s = FixedLagSmoother::new(FixedLagConfig {
         lag: 2,
+        prior_anchor,
         ..FixedLagConfig::default()
     })
     .unwrap();
@@ -739,23 +776,10 @@ fn a_marginal_prior_is_indifferent_to_a_translation_of_the_map() {
     s.update().unwrap();
     assert!(!s.in_window(0));
     let t = Vector2::new(0.8, -0.5);
-    let (residual, change, anchors) = prior_under_translation(&s, t);
-    println!(
-        "prior residual {residual:.3e}, change under the translation {change:.3e}, anchors {anchors:?}"
-    );
-    assert!(change < 1e-9 * (1.0 + residual), "moved by {change}");
-    // Each at the newest pose of the window that sees it.
-    assert_eq!(anchors, vec![(5, 2), (6, 1)]);
-    // Pose 3 pushes pose 1 out: landmark 6, seen from no pose left, is
-    // re-anchored at the newest pose.
+    let first = prior_under_translation(&s, t);
     add(&mut s, 3);
     see(&mut s, 3);
     s.update().unwrap();
     assert!(!s.in_window(1));
-    let (residual, change, anchors) = prior_under_translation(&s, t);
-    println!(
-        "after pose 3: prior residual {residual:.3e}, change {change:.3e}, anchors {anchors:?}"
-    );
-    assert!(change < 1e-9 * (1.0 + residual), "moved by {change}");
-    assert_eq!(anchors, vec![(5, 2), (6, 3)]);
+    [first, prior_under_translation(&s, t)]
 }
