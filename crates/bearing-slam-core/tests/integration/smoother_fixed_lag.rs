@@ -646,10 +646,14 @@ fn a_bearing_of_a_landmark_at_its_sensor_is_left_out_of_the_prior() {
     assert!(left.pose.norm() < 1e-3, "{left:?}");
 }
 
+/// A prior's residual norm, its change under a translation, and the anchor
+/// pose of each of its pose-anchored landmarks.
+type TranslatedPrior = (f64, f64, Vec<(u64, u64)>);
+
 /// The marginalization prior's residual after every pose and landmark it
 /// touches moved by `t`, minus its residual before; and the anchor pose of
 /// each of its pose-anchored landmarks.
-fn prior_under_translation(s: &FixedLagSmoother, t: Vector2<f64>) -> (f64, f64, Vec<(u64, u64)>) {
+fn prior_under_translation(s: &FixedLagSmoother, t: Vector2<f64>) -> TranslatedPrior {
     let priors: Vec<&LinearFactor> = s
         .graph()
         .factors()
@@ -726,7 +730,7 @@ fn a_marginal_prior_is_indifferent_to_a_translation_of_the_map() {
 
 /// [`prior_under_translation`] of a window of two poses after pose 0 left
 /// it, then after pose 1 did, its prior's landmarks anchored by `prior_anchor`.
-fn translated_priors(prior_anchor: PriorAnchor) -> [(f64, f64, Vec<(u64, u64)>); 2] {
+fn translated_priors(prior_anchor: PriorAnchor) -> [TranslatedPrior; 2] {
     let mut s = FixedLagSmoother::new(FixedLagConfig {
         lag: 2,
         prior_anchor,
