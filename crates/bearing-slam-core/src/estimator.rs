@@ -143,7 +143,7 @@ pub fn default_fixed_lag() -> FixedLagConfig {
 /// ([`crate::smoother::KeyframeRule::scan_poses`]) and no lag this reaches
 /// the batch's solution on MRCLAM Dataset 6 (ATE within 0.006 m on every
 /// robot); with the lag of 50 keyframes it ends within 1.07× the batch's
-/// mean ATE, and 1.00× (every robot within 1.03×, robot 1 0.159 m against
+/// mean ATE, and 1.00× (every robot within 1.05×, robot 1 0.159 m against
 /// the batch's 0.174 m, was 0.244 m) since its marginalization prior
 /// measures each inverse-depth landmark about the newest pose of the
 /// window that observes it ([`PriorAnchor::NewestObserver`]), not about
