@@ -27,6 +27,9 @@
 //! modes (environment): `ONLINE_TIMING_KEYFRAME_LAG=n` keyframes kept;
 //! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans`;
 //! `ONLINE_TIMING_KEYFRAME_FEJ=0|1` first-estimate Jacobians;
+//! `ONLINE_TIMING_PRIOR_ANCHOR=fixed|newest-observer|oldest-observer|newest|oldest`
+//! where the marginalization prior measures an inverse-depth landmark from
+//! (`fixed`: its fixed world anchor, the chart before 2026-11-29);
 //! `ONLINE_TIMING_SCAN_POSES=0|1` (0: the scans between keyframes observe
 //! through their odometry offset, as before 2026-11-28);
 //! `ONLINE_TIMING_ODOMETRY_START=1`; `ONLINE_TIMING_POINT_CHART=1`;
@@ -112,6 +115,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         })
     }) {
         keyframes.smoother.keyframes = Some(rule);
+    }
+    if let Some(anchor) = flag("ONLINE_TIMING_PRIOR_ANCHOR") {
+        keyframes.fixed_lag.prior_anchor = anchor.parse().map_err(|e| format!("{e}"))?;
     }
     if let Some(fej) = flag("ONLINE_TIMING_KEYFRAME_FEJ") {
         keyframes.fixed_lag.first_estimates = fej == "1";

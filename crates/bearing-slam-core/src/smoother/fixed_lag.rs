@@ -15,6 +15,16 @@
 //! prior are linearized at their first estimate, so the prior never mixes two
 //! linearization points of one variable. The work per scan
 //! depends on the window and the map size, not on the run length.
+//!
+//! The prior measures an inverse-depth landmark as `[θ, ρ]` about a pose of
+//! the window ([`FixedLagConfig::prior_anchor`], [`prior_chart`]), not about
+//! the fixed world anchor its increments use: linear along the landmark's
+//! ray, as about the fixed anchor, and indifferent to a translation of the
+//! whole map, as the bearings and odometry it replaces are. A landmark whose
+//! anchor pose is the one leaving is re-anchored at a pose that stays before
+//! the Schur complement is formed.
+
+pub mod prior_chart;
 
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
@@ -24,6 +34,8 @@ use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
+pub use prior_chart::PriorAnchor;
+use prior_chart::{change_of_variables, choose_anchors};
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// A measurement whose landmark stands closer than this to its sensor is
@@ -52,6 +64,12 @@ pub struct FixedLagConfig {
     /// first estimated from a short window are linearized far from where
     /// they end, and FEJ keeps that error (see the tests for the numbers).
     pub first_estimates: bool,
+    /// Where the marginalization prior measures an inverse-depth landmark
+    /// from: a pose of the window ([`PriorAnchor::NewestObserver`], the
+    /// default), so that the prior is indifferent to a translation of the
+    /// whole map, or its fixed world anchor ([`PriorAnchor::Fixed`], the
+    /// chart before 2026-11-29). See [`prior_chart`].
+    pub prior_anchor: PriorAnchor,
 }
 
 impl Default for FixedLagConfig {
@@ -59,6 +77,7 @@ impl Default for FixedLagConfig {
         Self {
             lag: 20,
             first_estimates: true,
+            prior_anchor: PriorAnchor::default(),
             solver: SolverConfig {
                 max_iterations: 10,
                 ..SolverConfig::default()
@@ -239,6 +258,12 @@ impl FixedLagSmoother {
                     &leaving,
                 )?
             };
+            let staying: Vec<u64> = self
+                .window
+                .iter()
+                .filter(|id| !leaving_ids.contains(id))
+                .copied()
+                .collect();
             for oldest in leaving_ids {
                 self.finalized.insert(
                     oldest,
@@ -247,7 +272,7 @@ impl FixedLagSmoother {
                         covariance: marginals.pose(oldest)?,
                     },
                 );
-                self.marginalize(oldest)?;
+                self.marginalize(oldest, &staying)?;
                 self.window.pop_front();
                 self.riders.remove(&oldest);
             }
@@ -291,8 +316,11 @@ impl FixedLagSmoother {
         marginal_covariances(&self.graph, &self.values, &self.config.solver.robust)
     }
 
-    /// Eliminates pose `id` into a linear prior on its neighbours.
-    fn marginalize(&mut self, id: u64) -> Result<()> {
+    /// Eliminates pose `id` into a linear prior on its neighbours, its
+    /// inverse-depth landmarks anchored at poses of `staying` (the window's
+    /// poses that do not leave in this update, oldest first;
+    /// [`prior_chart`]).
+    fn marginalize(&mut self, id: u64, staying: &[u64]) -> Result<()> {
         let target = Key::Pose(id);
         let taken = self
             .graph
@@ -307,11 +335,20 @@ impl FixedLagSmoother {
                 }
             }
         }
-        let rest: BTreeSet<Key> = taken
+        let mut rest: BTreeSet<Key> = taken
             .iter()
             .flat_map(Factor::keys)
             .filter(|k| *k != target)
             .collect();
+        let anchors = choose_anchors(
+            &self.graph,
+            &taken,
+            &point,
+            &rest,
+            staying,
+            self.config.prior_anchor,
+        )?;
+        rest.extend(anchors.values().map(|pose| Key::Pose(*pose)));
         let keys: Vec<Key> = std::iter::once(target)
             .chain(rest.iter().copied())
             .collect();
@@ -390,8 +427,10 @@ impl FixedLagSmoother {
             .iter()
             .map(|k| point.get(*k))
             .collect::<Result<Vec<_>>>()?;
-        self.graph.add(Factor::Linear(LinearFactor::new(
-            rest, lin_points, jac, off,
-        )?))
+        let (t, slots) = change_of_variables(&rest, &anchors, &point)?;
+        let jac = if anchors.is_empty() { jac } else { jac * t };
+        self.graph.add(Factor::Linear(
+            LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?,
+        ))
     }
 }

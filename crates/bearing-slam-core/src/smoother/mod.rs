@@ -40,7 +40,7 @@ pub use factors::{
     BearingFactor, Factor, LandmarkPriorFactor, LinearFactor, Linearization, OdometryFactor,
     PosePriorFactor, RangeBearingFactor,
 };
-pub use fixed_lag::{FinalizedPose, FixedLagConfig, FixedLagSmoother};
+pub use fixed_lag::{FinalizedPose, FixedLagConfig, FixedLagSmoother, PriorAnchor};
 pub use graph::FactorGraph;
 pub use marginals::{Marginals, marginal_covariances};
 pub use online::{

@@ -78,14 +78,14 @@ pub const MIN_INVERSE_DEPTH: f64 = 1e-3;
 pub const MAX_INVERSE_DEPTH: f64 = 1e3;
 
 /// The inverse-depth coordinates `[θ, ρ]` of `point` about `anchor`.
-fn inverse_depth_of(anchor: &Vector2<f64>, point: &Vector2<f64>) -> Vector2<f64> {
+pub(crate) fn inverse_depth_of(anchor: &Vector2<f64>, point: &Vector2<f64>) -> Vector2<f64> {
     let ray = point - anchor;
     Vector2::new(ray.y.atan2(ray.x), 1.0 / ray.norm())
 }
 
 /// `∂p/∂[θ, ρ]` at `point` of the inverse-depth chart about `anchor`: the
 /// last two columns of the Jacobian of (11) ([`inverse_depth_to_point`]).
-fn inverse_depth_chart_jacobian(
+pub(crate) fn inverse_depth_chart_jacobian(
     anchor: &Vector2<f64>,
     point: &Vector2<f64>,
 ) -> Result<Matrix2<f64>> {
@@ -95,6 +95,25 @@ fn inverse_depth_chart_jacobian(
         .j_point_landmark
         .fixed_columns::<2>(2)
         .into_owned())
+}
+
+/// `∂[θ, ρ]/∂p` at `point` of the inverse-depth chart about `anchor` (the
+/// inverse of the chart's `∂p/∂[θ, ρ]`): `∂θ/∂p = [−d_y, d_x]/r²`,
+/// `∂ρ/∂p = −d/r³`, `d = point − anchor`, `r = |d|`. Errors when the point
+/// lies on the anchor (no ray).
+pub(crate) fn inverse_depth_gradient(
+    anchor: &Vector2<f64>,
+    point: &Vector2<f64>,
+) -> Result<Matrix2<f64>> {
+    let d = point - anchor;
+    let r2 = d.norm_squared();
+    if !(r2 > 1e-24 && r2.is_finite()) {
+        return Err(SlamError::Degenerate(
+            "a landmark's inverse-depth anchor must lie away from the landmark",
+        ));
+    }
+    let r3 = r2 * r2.sqrt();
+    Ok(Matrix2::new(-d.y / r2, d.x / r2, -d.x / r3, -d.y / r3))
 }
 
 /// The estimate of every variable: poses by number, landmarks by id.

@@ -227,8 +227,19 @@ proptest! {
         }
         let x0 = vec![DVector::from_column_slice(x.as_slice()), DVector::from_vec(vec![p.x + 0.1, p.y - 0.2])];
         let jac = DMatrix::from_fn(4, 5, |r, c| ((7 * r + 3 * c) % 11) as f64 - 5.0);
-        let linear = Factor::Linear(LinearFactor::new(vec![Key::Pose(4), Key::Landmark(9)], x0, jac, DVector::zeros(4)).unwrap());
+        let linear = Factor::Linear(LinearFactor::new(vec![Key::Pose(4), Key::Landmark(9)], x0.clone(), jac.clone(), DVector::zeros(4)).unwrap());
         check_in_charts(&linear, &v).map_err(TestCaseError::fail)?;
+        // The same factor with the landmark measured in inverse depth about
+        // pose 4's position (a marginalization prior's chart): its
+        // Jacobians are the derivatives along the landmark's fixed-anchor
+        // chart and the pose's increments, as are those of the point chart.
+        let anchored = LinearFactor::new(vec![Key::Pose(4), Key::Landmark(9)], x0, jac, DVector::zeros(4))
+            .unwrap()
+            .with_anchors(vec![None, Some(0)])
+            .unwrap();
+        let anchored = Factor::Linear(anchored);
+        check_in_charts(&anchored, &v).map_err(TestCaseError::fail)?;
+        check_in_charts(&anchored, &values_with(4, x, 9, p)).map_err(TestCaseError::fail)?;
     }
 
     /// Preintegrating from the origin gives the relative pose and covariance

@@ -8,8 +8,8 @@ use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::runner::RunConfig;
 use bearing_slam_core::score::summarize;
 use bearing_slam_core::smoother::{
-    FixedLagConfig, RobustKernel, SmootherConfig, SmootherMode, SolverConfig, batch_problem,
-    optimize, run_from_log,
+    FixedLagConfig, PriorAnchor, RobustKernel, SmootherConfig, SmootherMode, SolverConfig,
+    batch_problem, optimize, run_from_log,
 };
 use bearing_slam_core::testing::check_covariance;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
@@ -122,6 +122,7 @@ fn fixed_lag_smoother_runs_online_close_to_the_batch() {
     let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
     let online_config = SmootherConfig {
         mode: SmootherMode::FixedLag(FixedLagConfig {
+            prior_anchor: PriorAnchor::default(),
             lag: 50,
             first_estimates: false,
             solver: SolverConfig {
