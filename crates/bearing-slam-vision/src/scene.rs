@@ -16,7 +16,7 @@ pub enum Pattern {
     Cells,
     /// The paper's metric reference: a white sheet with a black rectangle
     /// [`REFERENCE_MARGIN_M`] in from every edge, whose four corners are the
-    /// known points ([`Scene::reference_sheet`]).
+    /// known points ([`Scene::with_reference_sheet`]).
     ReferenceSheet,
 }
 
