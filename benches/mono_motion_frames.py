@@ -23,28 +23,12 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
 
 import bearing_slam as bs
-
-#: Filter and search configurations, as in ``benches/mono_ransac_seeds.py``.
-CONFIGS: dict[str, dict[str, Any]] = {
-    "delayed (default)": {},
-    "undelayed": {"filter": "undelayed"},
-    "undelayed, whole ellipse": {
-        "filter": "undelayed",
-        "front_end": {"search": {"max_half_axis_px": 2000}},
-    },
-}
+from mono_ransac_seeds import CONFIGS, ate_percent
 
 #: The hand-held defaults of ``MonoRunConfig`` (the paper's setting).
 PAPER_NOISE = {"linear_accel_sigma": 2.0, "angular_accel_sigma": 3.0}
-
-
-def ate_percent(frames_dir: Path, config: dict[str, Any]) -> float:
-    """ATE after Sim(3) alignment, percent of the path, of one run."""
-    result = bs.mono.run(frames_dir, config=config)
-    return float(result.metrics["ate_sim3_percent_of_path"])
 
 
 def main(argv: list[str] | None = None) -> int:
