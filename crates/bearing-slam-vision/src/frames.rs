@@ -266,23 +266,29 @@ pub fn read_calibration(path: &Path) -> Result<Intrinsics> {
     })
 }
 
+/// The non-blank lines of a text file of numbers, each with its 1-based
+/// line number and exactly `count` finite numbers ([`parse_numbers`]).
+fn numeric_rows(path: &Path, count: usize) -> Result<Vec<(usize, Vec<f64>)>> {
+    let text = read_text(path)?;
+    text.lines()
+        .enumerate()
+        .filter(|(_, line)| !line.trim().is_empty())
+        .map(|(i, line)| Ok((i + 1, parse_numbers(path, i + 1, line, count)?)))
+        .collect()
+}
+
 /// Reads poses.txt: one camera-to-world `[R | t]` per line, 12 numbers row-major.
 /// The rotation is projected to the nearest rotation matrix; one that is far
 /// from orthonormal is an error.
 pub fn read_poses(path: &Path) -> Result<Vec<CameraPose>> {
-    let text = read_text(path)?;
     let mut poses = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let v = parse_numbers(path, i + 1, line, 12)?;
+    for (line, v) in numeric_rows(path, 12)? {
         let m = Matrix3::new(v[0], v[1], v[2], v[4], v[5], v[6], v[8], v[9], v[10]);
         let orthonormality = (m.transpose() * m - Matrix3::identity()).norm();
         if orthonormality > 1e-3 || m.determinant() <= 0.0 {
             return Err(VisionError::Parse {
                 path: path.to_path_buf(),
-                line: i + 1,
+                line,
                 reason: format!(
                     "the 3×3 block is not a rotation (‖RᵀR − I‖ = {orthonormality:.3e}, det = {:.3})",
                     m.determinant()
@@ -307,15 +313,10 @@ pub fn read_poses(path: &Path) -> Result<Vec<CameraPose>> {
 
 /// `x y z` per line (blank lines skipped); at least one point.
 fn read_known_points(path: &Path) -> Result<Vec<Vector3<f64>>> {
-    let text = read_text(path)?;
-    let mut points = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let v = parse_numbers(path, i + 1, line, 3)?;
-        points.push(Vector3::new(v[0], v[1], v[2]));
-    }
+    let points: Vec<Vector3<f64>> = numeric_rows(path, 3)?
+        .into_iter()
+        .map(|(_, v)| Vector3::new(v[0], v[1], v[2]))
+        .collect();
     if points.is_empty() {
         return Err(VisionError::Parse {
             path: path.to_path_buf(),
@@ -327,17 +328,13 @@ fn read_known_points(path: &Path) -> Result<Vec<Vector3<f64>>> {
 }
 
 fn read_times(path: &Path) -> Result<Vec<f64>> {
-    let text = read_text(path)?;
     let mut times: Vec<f64> = Vec::new();
-    for (i, line) in text.lines().enumerate() {
-        if line.trim().is_empty() {
-            continue;
-        }
-        let t = parse_numbers(path, i + 1, line, 1)?[0];
+    for (line, v) in numeric_rows(path, 1)? {
+        let t = v[0];
         if times.last().is_some_and(|&last| t <= last) {
             return Err(VisionError::Parse {
                 path: path.to_path_buf(),
-                line: i + 1,
+                line,
                 reason: format!("time {t} does not increase"),
             });
         }
