@@ -332,9 +332,38 @@ impl Ekf {
         col_offset: usize,
         cols: usize,
     ) -> DMatrix<f64> {
-        DMatrix::from_fn(rows, cols, |i, j| {
-            self.covariance_entry(row_offset + i, col_offset + j)
-        })
+        if self.local.is_some() {
+            return DMatrix::from_fn(rows, cols, |i, j| {
+                self.covariance_entry(row_offset + i, col_offset + j)
+            });
+        }
+        // Straight from the stored lower triangle, in runs that are
+        // contiguous in its column-major storage: entry (r, c) with r ≥ c
+        // sits in column c (a run over r), and with r < c in column r as
+        // (c, r) (a run over c).
+        let ld = self.cov.nrows();
+        let stored = self.cov.as_slice();
+        let mut block = DMatrix::zeros(rows, cols);
+        let out = block.as_mut_slice();
+        for j in 0..cols {
+            let c = col_offset + j;
+            // Rows at or below the diagonal: a run of column c.
+            let first = c.max(row_offset);
+            if first < row_offset + rows {
+                let i0 = first - row_offset;
+                out[j * rows + i0..(j + 1) * rows]
+                    .copy_from_slice(&stored[c * ld + first..c * ld + row_offset + rows]);
+            }
+        }
+        for i in 0..rows {
+            let r = row_offset + i;
+            // Columns right of the diagonal: a run of column r, as (c, r).
+            let first = (r + 1).max(col_offset);
+            for c in first..col_offset + cols {
+                out[(c - col_offset) * rows + i] = stored[r * ld + c];
+            }
+        }
+        block
     }
 
     /// Overwrites `L` entries of the mean (e.g. to wrap an angle after an update).
@@ -652,6 +681,32 @@ impl Ekf {
         }
         let mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
         self.mean = mean.remove_rows(offset, len);
+        Ok(())
+    }
+
+    /// Removes several disjoint blocks `(offset, len)` (offsets before any
+    /// removal) with one compaction of the state instead of one per block:
+    /// the same filter, bit for bit, as [`Ekf::remove_block`] of each.
+    ///
+    /// # Errors
+    /// A block out of range or two blocks that overlap; the filter is then
+    /// left unchanged.
+    pub fn remove_blocks(&mut self, blocks: &[(usize, usize)]) -> Result<()> {
+        let mut ranges: Vec<(usize, usize)> =
+            blocks.iter().copied().filter(|&(_, l)| l > 0).collect();
+        for &(offset, len) in &ranges {
+            self.check_range("removed block", offset, len)?;
+        }
+        ranges.sort_unstable();
+        if let Some(pair) = ranges.windows(2).find(|p| p[0].0 + p[0].1 > p[1].0) {
+            return Err(SlamError::DimensionMismatch {
+                what: "removed blocks overlap at offset",
+                expected: pair[0].0 + pair[0].1,
+                got: pair[1].0,
+            });
+        }
+        self.global_update();
+        self.remove_ranges(&mut ranges);
         Ok(())
     }
 

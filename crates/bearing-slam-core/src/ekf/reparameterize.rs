@@ -145,7 +145,7 @@ impl Ekf {
     /// Removes the disjoint entry ranges `(start, len)` from the state in one
     /// pass over the lower triangle (kept entries move up and left, in
     /// place), as [`Ekf::remove_block`] of each would.
-    fn remove_ranges(&mut self, ranges: &mut [(usize, usize)]) {
+    pub(super) fn remove_ranges(&mut self, ranges: &mut [(usize, usize)]) {
         if ranges.is_empty() {
             return;
         }

@@ -359,12 +359,34 @@ impl MonoSlam {
         })
     }
 
-    /// Removes a map landmark and shifts the offsets of those after it.
-    fn remove_landmark(&mut self, id: u64) -> Result<()> {
-        let Some(feature) = self.landmarks.remove(&id) else {
-            return Ok(());
+    /// Removes map landmarks (unknown ids are skipped) with one compaction
+    /// of the state, and moves the offsets of the landmarks and clones
+    /// after each down.
+    fn remove_landmarks(&mut self, ids: &[u64]) -> Result<()> {
+        let blocks: Vec<(usize, usize)> = ids
+            .iter()
+            .filter_map(|id| self.landmarks.get(id))
+            .map(|f| (f.offset, f.kind.dim()))
+            .collect();
+        self.ekf.remove_blocks(&blocks)?;
+        for id in ids {
+            self.landmarks.remove(id);
+        }
+        // Each remaining block moves down by the entries removed before it.
+        let removed_before = |offset: usize| -> usize {
+            blocks
+                .iter()
+                .filter(|&&(o, _)| o < offset)
+                .map(|&(_, len)| len)
+                .sum()
         };
-        self.remove_state_block(feature.offset, feature.kind.dim())
+        for f in self.landmarks.values_mut() {
+            f.offset -= removed_before(f.offset);
+        }
+        for c in self.clones.values_mut() {
+            c.offset -= removed_before(c.offset);
+        }
+        Ok(())
     }
 
     /// Removes `len` entries at `offset` from the state and moves the
@@ -555,13 +577,18 @@ impl MonoSlam {
     }
 
     /// Counts a miss; a feature missed `max_consecutive_misses` times in a
-    /// row leaves. Returns whether it left.
-    fn missed(&mut self, id: u64) -> Result<bool> {
+    /// row leaves: a candidate at once, a landmark by joining `leaving` (for
+    /// [`MonoSlam::remove_landmarks`]; a landmark already there is not
+    /// counted again). Returns whether it left.
+    fn missed(&mut self, id: u64, leaving: &mut Vec<u64>) -> Result<bool> {
         let limit = self.config.max_consecutive_misses;
+        if leaving.contains(&id) {
+            return Ok(false);
+        }
         if let Some(f) = self.landmarks.get_mut(&id) {
             f.misses += 1;
             if f.misses >= limit {
-                self.remove_landmark(id)?;
+                leaving.push(id);
                 return Ok(true);
             }
         } else if let Some(c) = self.candidates.get_mut(&id) {

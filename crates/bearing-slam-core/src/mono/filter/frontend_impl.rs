@@ -96,11 +96,13 @@ impl MonoFilter for MonoSlam {
                 }
             }
         }
+        let mut leaving = Vec::new();
         for &id in missed.iter().chain(rejected.iter()).chain(unseen.iter()) {
-            if self.missed(id)? {
+            if self.missed(id, &mut leaving)? {
                 dropped += 1;
             }
         }
+        self.remove_landmarks(&leaving)?;
         let converted = self.convert_linear_landmarks()?;
         self.last_report.initialized = initialized;
         self.last_report.dropped = dropped;
