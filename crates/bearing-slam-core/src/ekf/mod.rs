@@ -21,6 +21,7 @@ mod compressed_tests;
 mod contract_tests;
 #[doc(hidden)]
 pub mod kernel;
+mod removal;
 mod reparameterize;
 pub use reparameterize::Reparameterization;
 mod shear;
@@ -662,52 +663,6 @@ impl Ekf {
             }],
             &DMatrix::zeros(len, len),
         )
-    }
-
-    /// Removes a block from the state: marginalization of a Gaussian is just
-    /// dropping its rows and columns. Later blocks move down by `len`.
-    pub fn remove_block(&mut self, offset: usize, len: usize) -> Result<()> {
-        self.check_range("removed block", offset, len)?;
-        self.global_update();
-        // In place, lower triangle only, keeping the capacity: the rows
-        // below the block move up by `len` and the columns past it left.
-        let (n, ld) = (self.dim(), self.cov.nrows());
-        let p = self.cov.as_mut_slice();
-        for j in 0..offset {
-            p.copy_within(j * ld + offset + len..j * ld + n, j * ld + offset);
-        }
-        for j in offset + len..n {
-            p.copy_within(j * ld + j..j * ld + n, (j - len) * ld + j - len);
-        }
-        let mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
-        self.mean = mean.remove_rows(offset, len);
-        Ok(())
-    }
-
-    /// Removes several disjoint blocks `(offset, len)` (offsets before any
-    /// removal) with one compaction of the state instead of one per block:
-    /// the same filter, bit for bit, as [`Ekf::remove_block`] of each.
-    ///
-    /// # Errors
-    /// A block out of range or two blocks that overlap; the filter is then
-    /// left unchanged.
-    pub fn remove_blocks(&mut self, blocks: &[(usize, usize)]) -> Result<()> {
-        let mut ranges: Vec<(usize, usize)> =
-            blocks.iter().copied().filter(|&(_, l)| l > 0).collect();
-        for &(offset, len) in &ranges {
-            self.check_range("removed block", offset, len)?;
-        }
-        ranges.sort_unstable();
-        if let Some(pair) = ranges.windows(2).find(|p| p[0].0 + p[0].1 > p[1].0) {
-            return Err(SlamError::DimensionMismatch {
-                what: "removed blocks overlap at offset",
-                expected: pair[0].0 + pair[0].1,
-                got: pair[1].0,
-            });
-        }
-        self.global_update();
-        self.remove_ranges(&mut ranges);
-        Ok(())
     }
 
     /// Replaces the block `[offset, offset + old_len)` by a new

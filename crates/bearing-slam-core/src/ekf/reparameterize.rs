@@ -141,46 +141,6 @@ impl Ekf {
         self.mean.rows_mut(offset, new_len).copy_from(new_mean);
         Ok(())
     }
-
-    /// Removes the disjoint entry ranges `(start, len)` from the state in one
-    /// pass over the lower triangle (kept entries move up and left, in
-    /// place), as [`Ekf::remove_block`] of each would.
-    pub(super) fn remove_ranges(&mut self, ranges: &mut [(usize, usize)]) {
-        if ranges.is_empty() {
-            return;
-        }
-        ranges.sort_unstable();
-        let (n, ld) = (self.dim(), self.cov.nrows());
-        let keep: Vec<usize> = (0..n)
-            .filter(|i| !ranges.iter().any(|&(s, l)| (s..s + l).contains(i)))
-            .collect();
-        // Runs of consecutive kept indices: (first old index, length).
-        let mut runs: Vec<(usize, usize)> = Vec::new();
-        for &i in &keep {
-            match runs.last_mut() {
-                Some((s, l)) if *s + *l == i => *l += 1,
-                _ => runs.push((i, 1)),
-            }
-        }
-        // Column j (kept, new index nj): its rows i ≥ j, run by run. Every
-        // destination precedes its source (nj ≤ j, ni ≤ i) and both grow
-        // in this order, so no entry is overwritten before it is read.
-        let p = self.cov.as_mut_slice();
-        for (nj, &j) in keep.iter().enumerate() {
-            let mut ni = nj;
-            for &(s, l) in &runs {
-                if s + l <= j {
-                    continue;
-                }
-                let first = s.max(j);
-                let len = s + l - first;
-                p.copy_within(j * ld + first..j * ld + first + len, nj * ld + ni);
-                ni += len;
-            }
-        }
-        let mean = std::mem::replace(&mut self.mean, DVector::zeros(0));
-        self.mean = DVector::from_iterator(keep.len(), keep.iter().map(|&i| mean[i]));
-    }
 }
 
 #[cfg(test)]

@@ -796,31 +796,3 @@ fn an_update_past_f64s_resolution_of_a_variance_is_refused_and_writes_nothing() 
         );
     }
 }
-
-/// `remove_blocks` is `remove_block` of each block (last first, so the
-/// offsets stay valid), bit for bit; overlapping or out-of-range blocks
-/// are refused and leave the filter unchanged.
-#[test]
-fn remove_blocks_equals_one_removal_after_another() {
-    let start = random_filter(20, 61); // 43 entries
-    let blocks = [(30, 6), (3, 2), (9, 6), (41, 2), (15, 0)];
-    let mut batched = start.clone();
-    batched.remove_blocks(&blocks).expect("removes");
-    let mut one_by_one = start.clone();
-    let mut sorted = blocks.to_vec();
-    sorted.sort_unstable_by(|a, b| b.cmp(a));
-    for (offset, len) in sorted {
-        one_by_one.remove_block(offset, len).expect("removes");
-    }
-    assert_eq!(batched.dim(), 43 - 16);
-    assert!(batched == one_by_one, "same mean and lower triangle");
-    assert_eq!(batched.covariance(), one_by_one.covariance());
-
-    let mut refused = start.clone();
-    assert!(matches!(
-        refused.remove_blocks(&[(3, 4), (6, 2)]),
-        Err(SlamError::DimensionMismatch { .. })
-    ));
-    assert!(refused.remove_blocks(&[(3, 2), (42, 2)]).is_err());
-    assert!(refused == start, "a refused removal changes nothing");
-}
