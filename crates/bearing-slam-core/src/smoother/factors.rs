@@ -157,6 +157,24 @@ impl OdometryFactor {
         Self::new(from, to, odometry.delta, cov)
     }
 
+    /// The pose the relative pose is measured from.
+    #[must_use]
+    pub fn from(&self) -> u64 {
+        self.from
+    }
+
+    /// The pose the relative pose is measured to.
+    #[must_use]
+    pub fn to(&self) -> u64 {
+        self.to
+    }
+
+    /// The measured relative pose `[x, y, θ]` of `to` in `from`'s frame.
+    #[must_use]
+    pub fn delta(&self) -> Vector3<f64> {
+        self.delta
+    }
+
     /// The unwhitened residual and its Jacobians with respect to pose `i` and `j`.
     fn raw(
         &self,

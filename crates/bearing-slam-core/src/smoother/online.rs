@@ -117,6 +117,11 @@ pub struct OnlineSmoother {
     /// ([`SmootherConfig::reassociate_online`]).
     window_bearings: Option<WindowBearings>,
     report: SmootherReport,
+    /// The smoother's own seconds (outside its filter) since the latest
+    /// scan: the predictions' preintegration.
+    pending_graph_s: f64,
+    /// The filter's seconds since the latest scan: its predictions.
+    pending_filter_s: f64,
 }
 
 impl OnlineSmoother {
@@ -188,6 +193,8 @@ impl OnlineSmoother {
             latest: None,
             window_bearings,
             report: SmootherReport::default(),
+            pending_graph_s: 0.0,
+            pending_filter_s: 0.0,
         };
         this.solve()?;
         Ok(this)
@@ -442,9 +449,14 @@ impl OnlineEstimator for OnlineSmoother {
         M: MotionModel<3> + Sync,
         M::Control: Sync,
     {
+        let clock = Instant::now();
         OnlineEstimator::predict(&mut self.filter, time, model, control)?;
+        let filter_s = clock.elapsed().as_secs_f64();
         self.pending.integrate(model, control)?;
-        self.since_keyframe.integrate(model, control)
+        self.since_keyframe.integrate(model, control)?;
+        self.pending_filter_s += filter_s;
+        self.pending_graph_s += clock.elapsed().as_secs_f64() - filter_s;
+        Ok(())
     }
 
     fn update(
@@ -453,7 +465,78 @@ impl OnlineEstimator for OnlineSmoother {
         scan: &[BearingObservation],
         use_range: bool,
     ) -> Result<ScanCounts> {
+        let clock = Instant::now();
+        let solves = self.report.update_times_s.len();
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
+        let filter_s = clock.elapsed().as_secs_f64();
+        self.scan_step(time, scan)?;
+        let solved_s: f64 = self.report.update_times_s[solves..].iter().sum();
+        let graph_s = clock.elapsed().as_secs_f64() - filter_s - solved_s;
+        let report = &mut self.report;
+        report
+            .scan_graph_times_s
+            .push(std::mem::take(&mut self.pending_graph_s) + graph_s);
+        report
+            .scan_filter_times_s
+            .push(std::mem::take(&mut self.pending_filter_s) + filter_s);
+        Ok(counts)
+    }
+
+    fn snapshot(&self, time: f64) -> Result<EstimateSnapshot> {
+        match &self.latest {
+            Some(s) => Ok(s.clone()),
+            None => OnlineEstimator::snapshot(&self.filter, time),
+        }
+    }
+
+    fn track_pose(&mut self, time: f64) -> Result<(Pose2, Matrix3<f64>)> {
+        self.records.push((self.nodes - 1, self.pending));
+        OnlineEstimator::track_pose(&mut self.filter, time)
+    }
+
+    fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
+        OnlineEstimator::finish(&mut self.filter, output)?;
+        // The scans after the latest keyframe were never solved.
+        if self.unsolved {
+            self.solve()?;
+        }
+        self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>()
+            + self.smoother.degenerate_measurements();
+        self.waiting.clear();
+        // With the ids hidden in a keyframe window, the association is the
+        // window's: each bearing as it was labelled when it left the window.
+        if let Some(window) = &self.window_bearings {
+            output.association = Some(window.score(self.filter.association_costs()));
+        }
+        let (poses, covs, mut lms) = self.estimates()?;
+        // A landmark the window merged into another is not in its map.
+        if let Some(window) = &self.window_bearings {
+            lms.retain(|id, _| !window.was_merged(*id));
+        }
+        apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
+        // The landmarks the window triangulated, from the scan they entered on.
+        add_to_snapshots(output, &self.triangulated, &lms);
+        // A scan between keyframes is its pose composed with the odometry since.
+        for ((snap, node), offset) in output
+            .trace
+            .snapshots
+            .iter_mut()
+            .zip(&self.scan_node)
+            .zip(&self.scan_offset)
+        {
+            if let Some(motion) = offset {
+                let (pose, cov) = compose(&poses[*node], &covs[*node], motion);
+                snap.pose = pose;
+                snap.pose_covariance = cov.transpose().into();
+            }
+        }
+        Ok(())
+    }
+}
+
+impl OnlineSmoother {
+    /// The smoother's part of a scan's update, after its filter's.
+    fn scan_step(&mut self, time: f64, scan: &[BearingObservation]) -> Result<()> {
         // With the ids hidden, the scan under the filter's ids (the bearings
         // given none dropped and counted).
         let labels = self
@@ -577,57 +660,6 @@ impl OnlineEstimator for OnlineSmoother {
             self.solve()?;
         } else {
             self.unsolved = true;
-        }
-        Ok(counts)
-    }
-
-    fn snapshot(&self, time: f64) -> Result<EstimateSnapshot> {
-        match &self.latest {
-            Some(s) => Ok(s.clone()),
-            None => OnlineEstimator::snapshot(&self.filter, time),
-        }
-    }
-
-    fn track_pose(&mut self, time: f64) -> Result<(Pose2, Matrix3<f64>)> {
-        self.records.push((self.nodes - 1, self.pending));
-        OnlineEstimator::track_pose(&mut self.filter, time)
-    }
-
-    fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
-        OnlineEstimator::finish(&mut self.filter, output)?;
-        // The scans after the latest keyframe were never solved.
-        if self.unsolved {
-            self.solve()?;
-        }
-        self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>()
-            + self.smoother.degenerate_measurements();
-        self.waiting.clear();
-        // With the ids hidden in a keyframe window, the association is the
-        // window's: each bearing as it was labelled when it left the window.
-        if let Some(window) = &self.window_bearings {
-            output.association = Some(window.score(self.filter.association_costs()));
-        }
-        let (poses, covs, mut lms) = self.estimates()?;
-        // A landmark the window merged into another is not in its map.
-        if let Some(window) = &self.window_bearings {
-            lms.retain(|id, _| !window.was_merged(*id));
-        }
-        apply_smoothed(output, &self.scan_node, &self.records, &poses, &covs, &lms);
-        // The landmarks the window triangulated, from the scan they entered on.
-        add_to_snapshots(output, &self.triangulated, &lms);
-        // A scan between keyframes is its pose composed with the odometry since.
-        for ((snap, node), offset) in output
-            .trace
-            .snapshots
-            .iter_mut()
-            .zip(&self.scan_node)
-            .zip(&self.scan_offset)
-        {
-            if let Some(motion) = offset {
-                let (pose, cov) = compose(&poses[*node], &covs[*node], motion);
-                snap.pose = pose;
-                snap.pose_covariance = cov.transpose().into();
-            }
         }
         Ok(())
     }

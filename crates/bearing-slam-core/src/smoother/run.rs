@@ -202,6 +202,15 @@ pub struct SmootherReport {
     pub update_times_s: Vec<f64>,
     /// Linearizations (solver iterations) of each online update, in order.
     pub update_iterations: Vec<usize>,
+    /// Seconds of the online smoother's own work per scan, outside its
+    /// solves (those are in `update_times_s`) and its filter: adding the
+    /// scan's pose, odometry and bearing factors and the landmarks that
+    /// enter, over the scan's update and the predictions since the
+    /// previous scan. One per scan, in order.
+    pub scan_graph_times_s: Vec<f64>,
+    /// Seconds of the filter that starts the online smoother per scan: its
+    /// update and the predictions since the previous scan. One per scan.
+    pub scan_filter_times_s: Vec<f64>,
 }
 
 /// The smoothed run, the filter run that started it, and the report.

@@ -273,7 +273,7 @@ fn scan_count(log: &SensorLog) -> usize {
 }
 
 #[test]
-fn the_online_smoother_counts_its_scans_and_landmarks() {
+fn the_online_smoother_counts_its_scans_landmarks_and_times() {
     let (config, log) = sixty_steps();
     let run = run_online_smoother(&log, &config, &online(None), default_fixed_lag()).unwrap();
     let online = &run.estimator;
@@ -283,6 +283,19 @@ fn the_online_smoother_counts_its_scans_and_landmarks() {
     let landmarks = online.smoother().values().landmarks().len();
     assert!(landmarks > 0);
     assert_eq!(online.report().n_landmarks, landmarks);
+    // One time per scan for its graph work and its filter, apart from the solves.
+    let report = online.report();
+    for (what, times) in [
+        ("graph", &report.scan_graph_times_s),
+        ("filter", &report.scan_filter_times_s),
+    ] {
+        assert_eq!(times.len(), scans, "{what}");
+        assert!(
+            times.iter().all(|t| t.is_finite() && *t >= 0.0),
+            "{what}: {times:?}"
+        );
+        assert!(times.iter().sum::<f64>() > 0.0, "{what}");
+    }
 }
 
 #[test]

@@ -31,11 +31,11 @@ use bearing_slam_core::model::MotionModel;
 use bearing_slam_core::nalgebra::Matrix3;
 use bearing_slam_core::online::{OnlineEstimator, ScanCounts};
 use bearing_slam_core::runner::{RunConfig, RunOutput, run_online_from};
-use bearing_slam_core::slam::{BearingSlam, SlamConfig};
+use bearing_slam_core::slam::SlamConfig;
 use bearing_slam_core::smoother::{
-    Factor, FactorGraph, FixedLagConfig, Key, OdometryFactor, OnlineSmoother, OnlineStart,
-    OnlineWindow, RobustKernel, SmootherConfig, SolveReport, SolverConfig, Values, batch_problem,
-    optimize, run_online_smoother,
+    Factor, FactorGraph, FixedLagConfig, Key, OnlineSmoother, OnlineStart, OnlineWindow,
+    RobustKernel, SmootherConfig, SolveReport, SolverConfig, Values, batch_problem, optimize,
+    run_online_smoother,
 };
 use bearing_slam_core::trace::{EstimateSnapshot, TimedSlamEvent};
 use bearing_slam_io::mrclam::{ROBOT_COUNT, load_mrclam_with};
@@ -95,33 +95,22 @@ struct SameGraph<'a> {
     /// scan's own, at a keyframe; else the next keyframe's or the run's
     /// last).
     keyframe_scan_updates: Vec<usize>,
-    /// For each scan, the online smoother's work outside its solve,
-    /// seconds: its `update` (and the `predict`s since the previous scan)
-    /// minus the same filter's step run alone in lockstep, minus the solve
-    /// — adding the pose, odometry and bearing factors, landmarks entering,
-    /// the window's own triangulation at keyframes. Not in
-    /// `keyframe_update_times_s`.
+    /// For each scan, the online smoother's work outside its solve and its
+    /// filter, seconds (`SmootherReport::scan_graph_times_s`): adding the
+    /// pose, odometry and bearing factors, landmarks entering, the window's
+    /// own triangulation at keyframes. Not in `keyframe_update_times_s`.
     keyframe_scan_graph_times_s: Vec<f64>,
-    /// For each scan, the filter's (EKF) own step, seconds, timed alone in
-    /// lockstep (its `predict`s since the previous scan and its `update`).
+    /// For each scan, the filter's (EKF) own step, seconds
+    /// (`SmootherReport::scan_filter_times_s`: its `predict`s since the
+    /// previous scan and its `update`).
     keyframe_scan_filter_times_s: Vec<f64>,
 }
 
-/// The online smoother with its work per scan timed: its solves are in
-/// its report; the rest of its step (adding poses, factors and landmarks)
-/// is measured as the time of its `predict`/`update` minus that of the
-/// same filter stepped alone in lockstep (deterministic: both filters stay
-/// identical, checked at the end) minus the solve. Also notes the pose node
-/// of each scan and solve, and each new pose's odometry, for the check
-/// against the batch graph.
+/// The online smoother with the pose node of each scan and solve noted
+/// (its report times each scan's work and each solve), and each new pose's
+/// odometry, for the check against the batch graph.
 struct TimedOnline {
     smoother: OnlineSmoother,
-    /// The filter that starts `smoother`, stepped alone on the same events.
-    filter: BearingSlam,
-    /// The smoother's own work since the latest scan (the `predict`s).
-    pending_graph_s: f64,
-    /// The filter's own time since the latest scan (the `predict`s).
-    pending_filter_s: f64,
     /// Pose nodes seen so far (ids `0..nodes`).
     nodes: u64,
     /// The odometry `delta` of each new pose's factor, for node `1..`.
@@ -129,42 +118,22 @@ struct TimedOnline {
     update_nodes: Vec<u64>,
     scan_nodes: Vec<u64>,
     scan_updates: Vec<usize>,
-    scan_graph_s: Vec<f64>,
-    scan_filter_s: Vec<f64>,
-}
-
-/// The `delta` of an odometry factor (its fields are private: read from
-/// its serialized form, as the export writes it).
-fn odometry_delta(f: &OdometryFactor) -> SlamResult<(u64, [f64; 3])> {
-    let value = serde_json::to_value(f)
-        .map_err(|_| SlamError::Mismatch("an odometry factor that does not serialize"))?;
-    let to = value.get("to").and_then(serde_json::Value::as_u64);
-    let delta: Option<Vec<f64>> = value
-        .get("delta")
-        .and_then(serde_json::Value::as_array)
-        .and_then(|d| d.iter().map(serde_json::Value::as_f64).collect());
-    match (to, delta.as_deref()) {
-        (Some(to), Some(&[x, y, theta])) => Ok((to, [x, y, theta])),
-        _ => Err(SlamError::Mismatch(
-            "an odometry factor without to or delta",
-        )),
-    }
 }
 
 /// The odometry factor of `graph` that ends on pose `node` (the newest
 /// such, searching from the end).
 fn odometry_into(graph: &FactorGraph, node: u64) -> SlamResult<[f64; 3]> {
-    for factor in graph.factors().iter().rev() {
-        if let Factor::Odometry(f) = factor {
-            let (to, delta) = odometry_delta(f)?;
-            if to == node {
-                return Ok(delta);
-            }
-        }
-    }
-    Err(SlamError::Mismatch(
-        "a new pose without its odometry factor",
-    ))
+    graph
+        .factors()
+        .iter()
+        .rev()
+        .find_map(|factor| match factor {
+            Factor::Odometry(f) if f.to() == node => Some(f.delta().into()),
+            _ => None,
+        })
+        .ok_or(SlamError::Mismatch(
+            "a new pose without its odometry factor",
+        ))
 }
 
 impl TimedOnline {
@@ -175,17 +144,12 @@ impl TimedOnline {
         fixed_lag: FixedLagConfig,
     ) -> SlamResult<Self> {
         let mut this = Self {
-            smoother: OnlineSmoother::new(slam.clone(), run_config, config, fixed_lag)?,
-            filter: BearingSlam::new(slam)?,
-            pending_graph_s: 0.0,
-            pending_filter_s: 0.0,
+            smoother: OnlineSmoother::new(slam, run_config, config, fixed_lag)?,
             nodes: 1,
             node_deltas: Vec::new(),
             update_nodes: Vec::new(),
             scan_nodes: Vec::new(),
             scan_updates: Vec::new(),
-            scan_graph_s: Vec::new(),
-            scan_filter_s: Vec::new(),
         };
         // The start's solve, on pose 0.
         this.note_solves(0);
@@ -222,15 +186,7 @@ impl OnlineEstimator for TimedOnline {
         M: MotionModel<3> + Sync,
         M::Control: Sync,
     {
-        let t = Instant::now();
-        OnlineEstimator::predict(&mut self.smoother, time, model, control)?;
-        let with_smoother = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        OnlineEstimator::predict(&mut self.filter, time, model, control)?;
-        let alone = t.elapsed().as_secs_f64();
-        self.pending_graph_s += with_smoother - alone;
-        self.pending_filter_s += alone;
-        Ok(())
+        OnlineEstimator::predict(&mut self.smoother, time, model, control)
     }
 
     fn update(
@@ -240,17 +196,7 @@ impl OnlineEstimator for TimedOnline {
         use_range: bool,
     ) -> SlamResult<ScanCounts> {
         let solves = self.solves();
-        let t = Instant::now();
         let counts = OnlineEstimator::update(&mut self.smoother, time, scan, use_range)?;
-        let with_smoother = t.elapsed().as_secs_f64();
-        let t = Instant::now();
-        OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
-        let alone = t.elapsed().as_secs_f64();
-        let solved: f64 = self.smoother.report().update_times_s[solves..].iter().sum();
-        self.scan_graph_s
-            .push(std::mem::take(&mut self.pending_graph_s) + with_smoother - alone - solved);
-        self.scan_filter_s
-            .push(std::mem::take(&mut self.pending_filter_s) + alone);
         self.note_new_poses()?;
         self.scan_nodes.push(self.nodes - 1);
         // This scan's solve, or else the next one.
@@ -280,7 +226,7 @@ impl OnlineEstimator for TimedOnline {
     }
 }
 
-/// [`run_online_smoother`] with the work per scan timed ([`TimedOnline`]).
+/// [`run_online_smoother`] with the pose nodes noted ([`TimedOnline`]).
 fn run_timed_online(
     log: &SensorLog,
     run_config: &RunConfig,
@@ -290,13 +236,7 @@ fn run_timed_online(
     let run = run_online_from(log, run_config, |slam| {
         TimedOnline::new(slam, run_config, config, fixed_lag)
     })?;
-    let timed = run.estimator;
-    if timed.filter.pose().to_vector() != timed.smoother.filter().pose().to_vector() {
-        return Err(SlamError::Mismatch(
-            "the filter stepped alone left the online smoother's filter",
-        ));
-    }
-    Ok(timed)
+    Ok(run.estimator)
 }
 
 /// Checks that the online run's pose nodes are the batch graph's: as many,
@@ -307,13 +247,12 @@ fn check_nodes(timed: &TimedOnline, graph: &FactorGraph, initial: &Values) -> Sl
             "the online window's pose nodes are not the batch graph's",
         ));
     }
-    let mut batch = vec![None; initial.poses().len()];
+    let mut batch: Vec<Option<[f64; 3]>> = vec![None; initial.poses().len()];
     for factor in graph.factors() {
-        if let Factor::Odometry(f) = factor {
-            let (to, delta) = odometry_delta(f)?;
-            if let Some(slot) = batch.get_mut(to as usize) {
-                *slot = Some(delta);
-            }
+        if let Factor::Odometry(f) = factor
+            && let Some(slot) = batch.get_mut(f.to() as usize)
+        {
+            *slot = Some(f.delta().into());
         }
     }
     for (online, batch) in timed.node_deltas.iter().zip(batch.iter().skip(1)) {
@@ -459,8 +398,8 @@ pub fn export_same_graph(
                 keyframe_update_nodes: timed.update_nodes,
                 keyframe_scan_nodes: timed.scan_nodes,
                 keyframe_scan_updates: timed.scan_updates,
-                keyframe_scan_graph_times_s: timed.scan_graph_s,
-                keyframe_scan_filter_times_s: timed.scan_filter_s,
+                keyframe_scan_graph_times_s: timed.smoother.report().scan_graph_times_s.clone(),
+                keyframe_scan_filter_times_s: timed.smoother.report().scan_filter_times_s.clone(),
             };
             let path = out_dir.join(format!("robot{robot}_cut{fraction}.json"));
             let file =
