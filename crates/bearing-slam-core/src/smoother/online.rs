@@ -455,7 +455,7 @@ impl OnlineEstimator for OnlineSmoother {
         self.pending.integrate(model, control)?;
         self.since_keyframe.integrate(model, control)?;
         self.pending_filter_s += filter_s;
-        self.pending_graph_s += clock.elapsed().as_secs_f64() - filter_s;
+        self.pending_graph_s += (clock.elapsed().as_secs_f64() - filter_s).max(0.0);
         Ok(())
     }
 
@@ -471,7 +471,9 @@ impl OnlineEstimator for OnlineSmoother {
         let filter_s = clock.elapsed().as_secs_f64();
         self.scan_step(time, scan)?;
         let solved_s: f64 = self.report.update_times_s[solves..].iter().sum();
-        let graph_s = clock.elapsed().as_secs_f64() - filter_s - solved_s;
+        // The solves lie inside the step's interval: never below zero but
+        // for the rounding of the subtraction.
+        let graph_s = (clock.elapsed().as_secs_f64() - filter_s - solved_s).max(0.0);
         let report = &mut self.report;
         report
             .scan_graph_times_s
