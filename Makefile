@@ -41,6 +41,7 @@ help:
 	@echo "make mutants     - cargo-mutants on the estimator's core modules (hours; MUTANTS_ARGS='--shard 0/20')"
 	@echo "make soak        - long runs: 1e6 filter steps (RSS), 1e6 random operations (PSD), 6 h simulated (Rust, then the CLI)"
 	@echo "make mono-montecarlo - the 6-DOF monocular filter, delayed vs undelayed, 50 synthetic seeds (docs/results/mono-synthetic-table.md)"
+	@echo "make mono-fps    - frames per second of the monocular loop, room and KITTI, 30 and 100 features (benches/mono_fps.py)"
 
 rust-setup:
 	@command -v rustup >/dev/null 2>&1 && rustup component add rustfmt clippy >/dev/null 2>&1 || true
@@ -291,3 +292,11 @@ soak: develop
 MONO_SEEDS ?= 50
 mono-montecarlo:
 	nice -n 10 $(CARGO) run --release -p bearing-slam-core --example mono_montecarlo -- $(MONO_SEEDS) docs/results/mono-synthetic-table.md
+
+# Issue 17's speed target: the whole loop (release build) on the rendered room
+# and the KITTI clips; CPU fps is load-independent, the loop's own fps is not.
+.PHONY: mono-fps
+KITTI_CLIPS ?= ../shared/datasets/kitti-clips
+mono-fps: $(NATIVE_STAMP)
+	$(CARGO) build --release -p bearing-slam-vision --examples
+	$(VPY) benches/mono_fps.py $(KITTI_CLIPS)

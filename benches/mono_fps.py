@@ -23,6 +23,7 @@ configuration of ``mono.md`` (undelayed, body-frame velocity, features out of vi
 forgotten, the motion noise fitted on the *other* clip's ground truth by
 ``bs.mono.motion_noise``).
 
+    make mono-fps    # or, by hand:
     cargo build --release -p bearing-slam-vision --examples
     make develop
     python benches/mono_fps.py ../shared/datasets/kitti-clips
