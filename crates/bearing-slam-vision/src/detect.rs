@@ -336,4 +336,34 @@ mod tests {
         assert_eq!(compared, 54);
         assert!(nonempty >= 40, "most cases found features: {nonempty}");
     }
+
+    /// The same on real frames: KITTI's road, cars and trees at 1226×370
+    /// (the clips beside the clone, `shared/datasets/kitti-clips`).
+    #[test]
+    fn per_cell_search_finds_what_the_whole_image_search_finds_on_kitti() {
+        let clips = concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/../../../shared/datasets/kitti-clips"
+        );
+        let config = DetectorConfig::default();
+        for (clip, frame) in [("KITTI_sequence_1", 10), ("KITTI_sequence_2", 30)] {
+            let path = format!("{clips}/{clip}/image_l/{frame:06}.png");
+            let image = image::open(&path)
+                .unwrap_or_else(|e| {
+                    panic!("{path}: {e} (the KITTI clips must be beside the clone)")
+                })
+                .to_luma8();
+            let (w, h) = image.dimensions();
+            for (count, max_new) in [(0, 30), (30, 30), (90, 10), (60, 100)] {
+                let avoid = tracked(count, w, h, frame + count as u64);
+                let new = detect_features(&image, &avoid, max_new, 8, &config);
+                let old = whole_image_reference(&image, &avoid, max_new, 8, &config);
+                assert!(!new.is_empty(), "{clip}: {count} tracked");
+                assert_eq!(
+                    new, old,
+                    "{clip} frame {frame}: {count} tracked, {max_new} wanted"
+                );
+            }
+        }
+    }
 }
