@@ -18,8 +18,9 @@
 //! window (`EstimatorConfig::default()`: keyframes, every scan's pose in
 //! the window, solved at keyframes) with its solves, the pose node of the
 //! batch graph each solve ends on (checked against the batch graph's
-//! odometry), and the rest of its work per scan, timed apart
-//! ([`TimedOnline`]), so that iSAM2 can be run on the same schedule.
+//! odometry), and the rest of its work per scan (timed apart by its report,
+//! `SmootherReport::scan_graph_times_s`), so that iSAM2 can be run on the
+//! same schedule ([`NodeNotingOnline`] notes the nodes).
 
 use super::{EvalOptions, FilterParameters, Method, RealDataError, filter_log};
 use crate::stats::median;
@@ -109,7 +110,7 @@ struct SameGraph<'a> {
 /// The online smoother with the pose node of each scan and solve noted
 /// (its report times each scan's work and each solve), and each new pose's
 /// odometry, for the check against the batch graph.
-struct TimedOnline {
+struct NodeNotingOnline {
     smoother: OnlineSmoother,
     /// Pose nodes seen so far (ids `0..nodes`).
     nodes: u64,
@@ -136,7 +137,7 @@ fn odometry_into(graph: &FactorGraph, node: u64) -> SlamResult<[f64; 3]> {
         ))
 }
 
-impl TimedOnline {
+impl NodeNotingOnline {
     fn new(
         slam: SlamConfig,
         run_config: &RunConfig,
@@ -180,7 +181,7 @@ impl TimedOnline {
     }
 }
 
-impl OnlineEstimator for TimedOnline {
+impl OnlineEstimator for NodeNotingOnline {
     fn predict<M>(&mut self, time: f64, model: &M, control: &M::Control) -> SlamResult<()>
     where
         M: MotionModel<3> + Sync,
@@ -226,23 +227,27 @@ impl OnlineEstimator for TimedOnline {
     }
 }
 
-/// [`run_online_smoother`] with the pose nodes noted ([`TimedOnline`]).
-fn run_timed_online(
+/// [`run_online_smoother`] with the pose nodes noted ([`NodeNotingOnline`]).
+fn run_online_noting_nodes(
     log: &SensorLog,
     run_config: &RunConfig,
     config: &SmootherConfig,
     fixed_lag: FixedLagConfig,
-) -> SlamResult<TimedOnline> {
+) -> SlamResult<NodeNotingOnline> {
     let run = run_online_from(log, run_config, |slam| {
-        TimedOnline::new(slam, run_config, config, fixed_lag)
+        NodeNotingOnline::new(slam, run_config, config, fixed_lag)
     })?;
     Ok(run.estimator)
 }
 
 /// Checks that the online run's pose nodes are the batch graph's: as many,
 /// and each new pose's odometry the batch's factor into the same node.
-fn check_nodes(timed: &TimedOnline, graph: &FactorGraph, initial: &Values) -> SlamResult<()> {
-    if timed.nodes as usize != initial.poses().len() {
+fn check_nodes(
+    keyframed: &NodeNotingOnline,
+    graph: &FactorGraph,
+    initial: &Values,
+) -> SlamResult<()> {
+    if keyframed.nodes as usize != initial.poses().len() {
         return Err(SlamError::Mismatch(
             "the online window's pose nodes are not the batch graph's",
         ));
@@ -255,7 +260,7 @@ fn check_nodes(timed: &TimedOnline, graph: &FactorGraph, initial: &Values) -> Sl
             *slot = Some(f.delta().into());
         }
     }
-    for (online, batch) in timed.node_deltas.iter().zip(batch.iter().skip(1)) {
+    for (online, batch) in keyframed.node_deltas.iter().zip(batch.iter().skip(1)) {
         let same = batch.is_some_and(|b| {
             b.iter()
                 .zip(online)
@@ -267,11 +272,11 @@ fn check_nodes(timed: &TimedOnline, graph: &FactorGraph, initial: &Values) -> Sl
             ));
         }
     }
-    if timed
+    if keyframed
         .scan_updates
         .iter()
-        .any(|&u| u >= timed.update_nodes.len())
-        || timed.update_nodes.len() != timed.smoother.report().update_times_s.len()
+        .any(|&u| u >= keyframed.update_nodes.len())
+        || keyframed.update_nodes.len() != keyframed.smoother.report().update_times_s.len()
     {
         return Err(SlamError::Mismatch("a scan that no solve includes"));
     }
@@ -357,8 +362,9 @@ pub fn export_same_graph(
                 run_online_smoother(&log, &config, &converging_smoother, converging_fixed_lag())?;
             let online_converging_update_times_s =
                 converging.estimator.report().update_times_s.clone();
-            let timed = run_timed_online(&log, &config, &keyframes.smoother, keyframes.fixed_lag)?;
-            check_nodes(&timed, &problem.graph, &problem.initial)?;
+            let keyframed =
+                run_online_noting_nodes(&log, &config, &keyframes.smoother, keyframes.fixed_lag)?;
+            check_nodes(&keyframed, &problem.graph, &problem.initial)?;
             let SolverConfig {
                 max_iterations,
                 relative_tolerance,
@@ -393,13 +399,17 @@ pub fn export_same_graph(
                 solve_times_s: times,
                 online_update_times_s,
                 online_converging_update_times_s,
-                scans: timed.scan_nodes.len(),
-                keyframe_update_times_s: timed.smoother.report().update_times_s.clone(),
-                keyframe_update_nodes: timed.update_nodes,
-                keyframe_scan_nodes: timed.scan_nodes,
-                keyframe_scan_updates: timed.scan_updates,
-                keyframe_scan_graph_times_s: timed.smoother.report().scan_graph_times_s.clone(),
-                keyframe_scan_filter_times_s: timed.smoother.report().scan_filter_times_s.clone(),
+                scans: keyframed.scan_nodes.len(),
+                keyframe_update_times_s: keyframed.smoother.report().update_times_s.clone(),
+                keyframe_update_nodes: keyframed.update_nodes,
+                keyframe_scan_nodes: keyframed.scan_nodes,
+                keyframe_scan_updates: keyframed.scan_updates,
+                keyframe_scan_graph_times_s: keyframed.smoother.report().scan_graph_times_s.clone(),
+                keyframe_scan_filter_times_s: keyframed
+                    .smoother
+                    .report()
+                    .scan_filter_times_s
+                    .clone(),
             };
             let path = out_dir.join(format!("robot{robot}_cut{fraction}.json"));
             let file =
