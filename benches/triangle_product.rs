@@ -2,9 +2,9 @@
 //! n×n covariance (U n×m: `U = P Hᵀ L⁻ᵀ`, m measurement rows), by the
 //! library's own register-tiled kernel (`ekf::kernel::triangle_update`, with
 //! the packing the update does) and by faer's triangular matrix product
-//! (`faer::linalg::matmul::triangular::matmul`, single-threaded), in the same
-//! run: a markdown table of the per-call minima over interleaved rounds, and
-//! faer / ours.
+//! (`ekf::kernel::faer_triangle_update`, the compressed EKF's global update;
+//! single-threaded), in the same run: a markdown table of the per-call
+//! minima over interleaved rounds, and faer / ours.
 //!
 //! Why it is here: the monocular filter updates ~600 states with ~190 rows a
 //! frame, where this product is 29 % of the loop (docs/results/mono.md,
@@ -15,6 +15,7 @@
 //! `cargo bench -p bearing-slam-benches --bench triangle_product`
 
 use bearing_slam::core::ekf::kernel;
+use bearing_slam::core::nalgebra::DMatrix;
 use std::hint::black_box;
 use std::time::Instant;
 
@@ -37,24 +38,6 @@ fn ours(p: &mut [f64], u: &[f64], n: usize, m: usize, a: &mut Vec<f64>, b: &mut 
     kernel::triangle_update(p, n, n, a, b, m, wide);
 }
 
-/// faer's triangular product into the lower triangle.
-fn faer_product(p: &mut [f64], u: &[f64], n: usize, m: usize) {
-    use faer::linalg::matmul::triangular::{BlockStructure, matmul};
-    let dst = faer::MatMut::from_column_major_slice_mut(p, n, n);
-    let lhs = faer::MatRef::from_column_major_slice(u, n, m);
-    matmul(
-        dst,
-        BlockStructure::TriangularLower,
-        faer::Accum::Add,
-        lhs,
-        BlockStructure::Rectangular,
-        lhs.transpose(),
-        BlockStructure::Rectangular,
-        -1.0,
-        faer::Par::Seq,
-    );
-}
-
 fn main() {
     println!("| n | m | ours (µs) | faer (µs) | faer / ours |");
     println!("|---|---|---|---|---|");
@@ -64,6 +47,7 @@ fn main() {
             let u: Vec<f64> = (0..n * m)
                 .map(|i| ((i * 7919) % 1000) as f64 * 1e-6)
                 .collect();
+            let u_matrix = DMatrix::from_column_slice(n, m, &u);
             let mut p = vec![1.0; n * n];
             let (mut a, mut b) = (Vec::new(), Vec::new());
             let reps = ((2e7 / (n * n * m) as f64) as usize).clamp(1, 10_000);
@@ -76,7 +60,7 @@ fn main() {
                 best[0] = best[0].min(start.elapsed().as_secs_f64() / reps as f64);
                 let start = Instant::now();
                 for _ in 0..reps {
-                    faer_product(black_box(&mut p), &u, n, m);
+                    kernel::faer_triangle_update(black_box(&mut p), n, n, &u_matrix, &u_matrix);
                 }
                 best[1] = best[1].min(start.elapsed().as_secs_f64() / reps as f64);
             }

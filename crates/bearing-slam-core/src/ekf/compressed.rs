@@ -22,7 +22,7 @@
 //! dense N×a, with the A rows zeroed), `Φ` and `Ψ` beside the covariance
 //! storage; the storage itself holds `P(0)` until the global update, which
 //! applies `P_BB −= P_BA(0) (Ψ P_AB(0))` on the lower triangle with faer's
-//! triangular matrix product (`lower_rank_update`), writes `P_AB = Φ P_AB(0)`
+//! triangular matrix product (`kernel::faer_triangle_update`), writes `P_AB = Φ P_AB(0)`
 //! and `P_AA` back, and ends the phase.
 //!
 //! **Choosing A: growth, and a global update only at a cap.** When an
@@ -48,6 +48,7 @@
 //! local phase are exact too: single entries are evaluated from the auxiliary
 //! matrices in O(a²), [`Ekf::covariance`] runs the global update on a copy.
 
+use super::kernel::faer_triangle_update;
 use super::{Ekf, LinearizedMeasurement, UpdateStats};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::model::MotionPrediction;
@@ -71,30 +72,6 @@ crate::named_enum!(UpdateMode, "update mode", [
     Full => "full",
     Compressed => "compressed",
 ]);
-
-/// `P −= X Yᵀ` on the lower triangle (diagonal included) of the `n×n`
-/// column-major matrix stored in `p` with leading dimension `ld`, with `X`
-/// and `Y` both n×a: the O(n² a) heart of the global update, run by faer's
-/// triangular matrix product (packed, register-tiled, fused multiply-adds
-/// where the CPU has them; single-threaded). Fusing changes the rounding
-/// against the full EKF's unfused kernel, inside the 1e-9 the tests allow.
-fn lower_rank_update(p: &mut [f64], n: usize, ld: usize, x: &DMatrix<f64>, y: &DMatrix<f64>) {
-    use faer::linalg::matmul::triangular::{BlockStructure, matmul};
-    let dst = faer::MatMut::from_column_major_slice_with_stride_mut(p, n, n, ld);
-    let lhs = faer::MatRef::from_column_major_slice(x.as_slice(), n, x.ncols());
-    let rhs = faer::MatRef::from_column_major_slice(y.as_slice(), n, y.ncols()).transpose();
-    matmul(
-        dst,
-        BlockStructure::TriangularLower,
-        faer::Accum::Add,
-        lhs,
-        BlockStructure::Rectangular,
-        rhs,
-        BlockStructure::Rectangular,
-        -1.0,
-        faer::Par::Seq,
-    );
-}
 
 /// Visits, column by column in storage order, every lower-triangle entry
 /// `(r, c)` (`r ≥ c`) of an `n×n` matrix that lies in an active row or an
@@ -333,7 +310,7 @@ impl Ekf {
         // P_BB −= cross (cross Ψ)ᵀ: the active rows of cross are zero, so the
         // active rows and columns of P are left alone by the kernel.
         let cross_psi = &local.cross * &local.psi;
-        lower_rank_update(self.cov.as_mut_slice(), n, ld, &local.cross, &cross_psi);
+        faer_triangle_update(self.cov.as_mut_slice(), n, ld, &local.cross, &cross_psi);
         // P_AB = Φ P_AB(0), i.e. P_BA = cross Φᵀ, into the lower triangle.
         let p_ba = &local.cross * local.phi.transpose();
         let p = self.cov.as_mut_slice();
