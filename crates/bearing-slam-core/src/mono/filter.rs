@@ -368,6 +368,9 @@ impl MonoSlam {
             .filter_map(|id| self.landmarks.get(id))
             .map(|f| (f.offset, f.kind.dim()))
             .collect();
+        if blocks.is_empty() {
+            return Ok(());
+        }
         self.ekf.remove_blocks(&blocks)?;
         for id in ids {
             self.landmarks.remove(id);
