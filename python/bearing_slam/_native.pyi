@@ -117,6 +117,7 @@ class Config:
     history_phi: float
     history_sigma: float | None
     history_decimate_every: int
+    auto_visits: int
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

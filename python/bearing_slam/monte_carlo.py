@@ -80,13 +80,14 @@ def initializer_spec(
     sigma_rho: float = DEFAULT_PRIOR["sigma_rho"],
 ) -> dict[str, Any]:
     """The initializer part of a spec: ``"mte"``, ``"mte-clone"``,
-    ``"mte-history"`` (MTE-clone keeping the bearings seen while waiting), ``"pi-sr"``
+    ``"mte-history"`` (MTE-clone keeping the bearings seen while waiting), ``"auto"``
+    (MTE, then undelayed after a visit without parallax), ``"pi-sr"``
     (prior ``rho_ini``, ``sigma_rho``), ``"pi-sr-mixed"`` (that prior for the
     near landmarks, (0.01, 0.005) for the scenario's far ones), or a dict such
     as ``{"method": "pi-sr", "rho_ini": 0.01, "sigma_rho": 0.005}`` (kept as is)."""
     if isinstance(init, Mapping):
         return dict(init)
-    if init in ("mte", "mte-clone", "mte-history"):
+    if init in ("mte", "mte-clone", "mte-history", "auto"):
         return {"method": init}
     if init == "pi-sr":
         return {"method": "pi-sr", "rho_ini": rho_ini, "sigma_rho": sigma_rho}

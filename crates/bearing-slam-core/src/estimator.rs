@@ -21,7 +21,7 @@ use crate::association::reassociate::{ReassociationRule, reassociate};
 use crate::association::relabel::{ScanLabels, apply_labels, final_labels};
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, score};
 use crate::error::{Result, SlamError};
-use crate::init::InverseDepthPrior;
+use crate::init::{InverseDepthPrior, TriangulationConfig};
 use crate::log::{EventKind, SensorLog};
 use crate::names::Named;
 use crate::particle::existence::ExistenceConfig;
@@ -269,7 +269,8 @@ impl EstimatorConfig {
 
     /// The FastSLAM configuration matching the filter's `slam`
     /// configuration: its start, sensor noise and conversion threshold, MTE
-    /// (either form) as per-particle triangulation, PI-SR as per-particle
+    /// (either form, and `auto` without its undelayed fallback) as
+    /// per-particle triangulation, PI-SR as per-particle
     /// inverse depth with the same prior; the variant of [`Self::kind`]
     /// (2.0 unless it is `fastslam1`).
     ///
@@ -291,8 +292,12 @@ impl EstimatorConfig {
             {
                 ParticleInitializer::InverseDepth(InverseDepthPrior::PAPER_NEAR)
             }
+            // FastSLAM triangulates the paper's way: `auto` runs as MTE there.
             InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) => {
-                ParticleInitializer::Triangulation(*t)
+                ParticleInitializer::Triangulation(TriangulationConfig {
+                    undelayed_fallback: None,
+                    ..*t
+                })
             }
             InitializerConfig::PiSr { prior, .. } => ParticleInitializer::InverseDepth(*prior),
         };

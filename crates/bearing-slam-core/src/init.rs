@@ -283,6 +283,53 @@ pub struct TriangulationConfig {
     /// of consecutive scans of one landmark (`history` > 0 only).
     #[serde(default)]
     pub correlation: HistoryCorrelation,
+    /// What becomes of a landmark whose visits end before the parallax
+    /// suffices: `None` (the paper) starts a new candidate at every visit;
+    /// [`UndelayedFallback`] lets it enter undelayed after that many
+    /// expired candidates (the `auto` initializer).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub undelayed_fallback: Option<UndelayedFallback>,
+}
+
+/// The `auto` initializer's rule: delayed triangulation where the parallax
+/// builds within a visit, undelayed inverse depth (13)(15) where it does
+/// not.
+///
+/// A candidate expires when its landmark has not been seen for
+/// [`TriangulationConfig::candidate_timeout`]: the visit ended without the
+/// parallax `α_min` or the far rule (24). After `expired_visits` such
+/// visits, the landmark's next sighting puts it in the state at once with
+/// `prior`, PI-SR's way, so a landmark seen only in short visits (MRCLAM:
+/// a median 27 s blind stretch between visits of a few seconds) is still
+/// mapped and its bearings used. Where candidates never expire (every
+/// paper experiment) the filter is the paper's MTE exactly.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct UndelayedFallback {
+    /// Expired candidates of one landmark before it enters undelayed (≥ 1).
+    pub expired_visits: usize,
+    /// The inverse-depth prior it enters with.
+    pub prior: InverseDepthPrior,
+}
+
+impl UndelayedFallback {
+    /// One visit to triangulate, then the paper's near prior `(0.5, 0.25)`
+    /// 1/m: the `auto` initializer's rule.
+    pub const ONE_VISIT: Self = Self {
+        expired_visits: 1,
+        prior: InverseDepthPrior::PAPER_NEAR,
+    };
+
+    /// Checks the visit count and the prior.
+    pub fn validate(&self) -> Result<()> {
+        if self.expired_visits == 0 {
+            return Err(SlamError::InvalidParameter {
+                name: "expired_visits",
+                value: 0.0,
+                reason: "must be at least 1 (0 would never wait: use the pi-sr initializer)",
+            });
+        }
+        InverseDepthPrior::new(self.prior.rho_ini, self.prior.sigma_rho).map(|_| ())
+    }
 }
 
 impl Default for TriangulationConfig {
@@ -297,6 +344,7 @@ impl Default for TriangulationConfig {
             min_depth: 0.1,
             history: 0,
             correlation: HistoryCorrelation::DEFAULT,
+            undelayed_fallback: None,
         }
     }
 }
@@ -324,7 +372,25 @@ impl TriangulationConfig {
             ("min_depth", self.min_depth, self.min_depth > 0.0),
         ];
         crate::error::ensure_in_range(&checks)?;
+        if let Some(fallback) = &self.undelayed_fallback {
+            fallback.validate()?;
+        }
         self.correlation.validate()
+    }
+
+    /// Refuses an [`UndelayedFallback`] in an estimator that has none (the
+    /// 6-DOF filter and FastSLAM run the paper's MTE only), rather than
+    /// ignoring it.
+    pub fn refuse_fallback(&self) -> Result<()> {
+        match self.undelayed_fallback {
+            None => Ok(()),
+            Some(f) => Err(SlamError::InvalidParameter {
+                name: "undelayed_fallback",
+                value: f.expired_visits as f64,
+                reason: "only the 2-D EKF (BearingSlam) has the auto initializer's \
+                         undelayed fallback",
+            }),
+        }
     }
 
     /// The decision for a triangle with too little parallax to triangulate

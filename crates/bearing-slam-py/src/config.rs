@@ -10,6 +10,7 @@ use bearing_slam::core::ekf::{CovarianceUpdate, UpdateMode};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::init::{
     HistoryCorrelation, HistoryTreatment, InverseDepthPrior, MTE_HISTORY, TriangulationConfig,
+    UndelayedFallback,
 };
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
@@ -92,10 +93,15 @@ pub(crate) struct PyConfig {
     /// cloned) and applied once the landmark is in; 0 discards them (the paper).
     #[pyo3(get, set)]
     pub history: usize,
-    /// PI-SR: initial inverse depth ρ_ini, 1/m.
+    /// auto: visits of a landmark that end without the parallax to
+    /// triangulate before it enters undelayed with `(rho_ini, sigma_rho)`
+    /// (≥ 1, default 1).
+    #[pyo3(get, set)]
+    pub auto_visits: usize,
+    /// PI-SR (and auto's undelayed entry): initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
-    /// PI-SR: σ_ρ, 1/m.
+    /// PI-SR (and auto's undelayed entry): σ_ρ, 1/m.
     #[pyo3(get, set)]
     pub sigma_rho: f64,
     /// PI-SR: per-landmark `(ρ_ini, σ_ρ)` by id.
@@ -201,7 +207,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 42] = [
+const FIELDS: [&str; 43] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -223,6 +229,7 @@ const FIELDS: [&str; 42] = [
     "history_phi",
     "history_sigma",
     "history_decimate_every",
+    "auto_visits",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -274,6 +281,7 @@ impl Default for PyConfig {
             history_phi: tri.correlation.phi,
             history_sigma: tri.correlation.sigma,
             history_decimate_every: tri.correlation.decimate_every,
+            auto_visits: UndelayedFallback::ONE_VISIT.expired_visits,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -352,6 +360,11 @@ impl PyConfig {
             c.history_phi = t.correlation.phi;
             c.history_sigma = t.correlation.sigma;
             c.history_decimate_every = t.correlation.decimate_every;
+            if let Some(f) = t.undelayed_fallback {
+                c.auto_visits = f.expired_visits;
+                c.rho_ini = f.prior.rho_ini;
+                c.sigma_rho = f.prior.sigma_rho;
+            }
         }
         match &rc.odometry {
             OdometryConfig::Wheels(m) => {
@@ -388,6 +401,7 @@ impl PyConfig {
                 decimate_every: self.history_decimate_every,
                 ..HistoryCorrelation::DEFAULT
             },
+            undelayed_fallback: None,
         })
     }
 
@@ -395,6 +409,13 @@ impl PyConfig {
     pub(crate) fn slam_config(&self) -> PyResult<SlamConfig> {
         let initializer = match parse_name::<InitializerKind>(&self.init)? {
             InitializerKind::Mte => InitializerConfig::Triangulation(self.triangulation()?),
+            InitializerKind::Auto => InitializerConfig::auto(TriangulationConfig {
+                undelayed_fallback: Some(UndelayedFallback {
+                    expired_visits: self.auto_visits,
+                    prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
+                }),
+                ..self.triangulation()?
+            }),
             InitializerKind::MteClone => {
                 InitializerConfig::TriangulationWithClone(self.triangulation()?)
             }
@@ -581,8 +602,15 @@ impl PyConfig {
         let pi_sr = matches!(self.init.as_str(), "pi-sr" | "pi-sr-mixed");
         let init = &self.init;
         match key {
-            "rho_ini" | "sigma_rho" | "per_landmark_priors" if !pi_sr => Some(format!(
+            "rho_ini" | "sigma_rho" if !pi_sr && init != "auto" => Some(format!(
+                "it is a parameter of PI-SR (init \"pi-sr\", \"pi-sr-mixed\" or \"auto\"), \
+                 and init is {init:?}"
+            )),
+            "per_landmark_priors" if !pi_sr => Some(format!(
                 "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
+            )),
+            "auto_visits" if init != "auto" => Some(format!(
+                "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
             )),
             "history_correlation" | "history_phi" | "history_sigma" | "history_decimate_every"
                 if init != "mte-history" && !(init == "mte-clone" && self.history > 0) =>
@@ -596,8 +624,8 @@ impl PyConfig {
                 if pi_sr =>
             {
                 Some(format!(
-                    "it is a parameter of MTE's triangulation (init \"mte\", \"mte-clone\" \
-                     or \"mte-history\"), and init is {init:?}"
+                    "it is a parameter of MTE's triangulation (init \"mte\", \"mte-clone\", \
+                     \"mte-history\" or \"auto\"), and init is {init:?}"
                 ))
             }
             "wheel_base" | "wheel_floor_sigma" | "wheel_scale_sqrt"

@@ -83,6 +83,7 @@ impl MonoConfig {
                 min_depth: 0.1,
                 history: 0,
                 correlation: crate::init::HistoryCorrelation::DEFAULT,
+                undelayed_fallback: None,
             }),
             linearity_threshold: 0.1,
             max_consecutive_misses: 5,
@@ -165,6 +166,7 @@ impl MonoConfig {
                 if t.candidate_timeout == f64::INFINITY {
                     t.candidate_timeout = 1.0;
                 }
+                t.refuse_fallback()?;
                 t.validate()
             }
         }

@@ -122,7 +122,10 @@ impl FastSlamConfig {
         }
         self.noise.validate()?;
         match &self.initializer {
-            ParticleInitializer::Triangulation(c) => c.validate()?,
+            ParticleInitializer::Triangulation(c) => {
+                c.refuse_fallback()?;
+                c.validate()?;
+            }
             ParticleInitializer::InverseDepth(p) => {
                 InverseDepthPrior::new(p.rho_ini, p.sigma_rho)?;
             }

@@ -8,7 +8,7 @@ use crate::association::AssociationConfig;
 use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
-use crate::init::{InverseDepthPrior, TriangulationConfig};
+use crate::init::{InverseDepthPrior, TriangulationConfig, UndelayedFallback};
 use crate::landmark::MAX_CONVERSION_THRESHOLD;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -45,13 +45,32 @@ impl InitializerConfig {
         }
     }
 
+    /// The `auto` initializer: MTE from `triangulation`, whose landmarks
+    /// enter undelayed after [`UndelayedFallback::ONE_VISIT`] (one visit
+    /// without enough parallax, then the paper's near prior) unless
+    /// `triangulation` sets its own fallback.
+    #[must_use]
+    pub fn auto(triangulation: TriangulationConfig) -> Self {
+        Self::Triangulation(TriangulationConfig {
+            undelayed_fallback: Some(
+                triangulation
+                    .undelayed_fallback
+                    .unwrap_or(UndelayedFallback::ONE_VISIT),
+            ),
+            ..triangulation
+        })
+    }
+
     /// Which initializer this is, by name: PI-SR with per-landmark priors
-    /// is `pi-sr-mixed`, MTE-clone keeping waiting bearings `mte-history`.
+    /// is `pi-sr-mixed`, MTE-clone keeping waiting bearings `mte-history`,
+    /// MTE with an [`UndelayedFallback`] `auto` (the cloned variants keep
+    /// their names with a fallback).
     #[must_use]
     pub fn kind(&self) -> InitializerKind {
         match self {
             Self::PiSr { per_landmark, .. } if per_landmark.is_empty() => InitializerKind::PiSr,
             Self::PiSr { .. } => InitializerKind::PiSrMixed,
+            Self::Triangulation(t) if t.undelayed_fallback.is_some() => InitializerKind::Auto,
             Self::Triangulation(_) => InitializerKind::Mte,
             Self::TriangulationWithClone(t) if t.history > 0 => InitializerKind::MteHistory,
             Self::TriangulationWithClone(_) => InitializerKind::MteClone,
@@ -76,6 +95,9 @@ pub enum InitializerKind {
     /// PI-SR with one prior for the near landmarks and another for the far
     /// ones (the paper's mixed setting, Fig. 4d).
     PiSrMixed,
+    /// MTE where the parallax builds within a visit, PI-SR for a landmark
+    /// whose visit ended without it: [`InitializerConfig::auto`].
+    Auto,
 }
 
 crate::named_enum!(InitializerKind, "initializer", [
@@ -84,6 +106,7 @@ crate::named_enum!(InitializerKind, "initializer", [
     MteHistory => "mte-history",
     PiSr => "pi-sr",
     PiSrMixed => "pi-sr-mixed",
+    Auto => "auto",
 ]);
 
 impl InitializerKind {
@@ -96,6 +119,7 @@ impl InitializerKind {
             Self::MteHistory => "MTE-history",
             Self::PiSr => "PI-SR",
             Self::PiSrMixed => "PI-SR mixed",
+            Self::Auto => "auto",
         }
     }
 

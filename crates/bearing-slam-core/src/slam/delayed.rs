@@ -93,6 +93,13 @@ impl BearingSlam {
             InitializerConfig::Triangulation(c) => (*c, false),
             InitializerConfig::TriangulationWithClone(c) => (*c, true),
         };
+        if let Some(fallback) = config.undelayed_fallback
+            && !self.candidates.contains_key(&id)
+            && self.expired_visits.get(&id).copied().unwrap_or(0) >= fallback.expired_visits
+        {
+            // `auto`: its visits ended without parallax; in at once, (13)(15).
+            return self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr);
+        }
         let time = self.time.unwrap_or(0.0);
         let pose = self.ekf.block::<3>(0)?;
         let Some(mut pending) = self.candidates.get(&id).cloned() else {
@@ -372,6 +379,7 @@ impl BearingSlam {
             // Only fails on an internal offset error, which would be a bug.
             if self.drop_candidate_lost(id, DiscardReason::Expired).is_ok() {
                 self.record(SlamEvent::CandidateExpired { id });
+                *self.expired_visits.entry(id).or_default() += 1;
             }
         }
     }

@@ -128,6 +128,9 @@ pub struct BearingSlam {
     anonymous: Option<Anonymous>,
     /// Robust gating: each landmark's bearings gated out in a row.
     gated_in_row: BTreeMap<u64, usize>,
+    /// Each unmapped landmark's expired candidates (visits that ended
+    /// without triangulating), for [`UndelayedFallback`](crate::init::UndelayedFallback).
+    expired_visits: BTreeMap<u64, usize>,
 }
 
 impl BearingSlam {
@@ -171,6 +174,7 @@ impl BearingSlam {
             fej_pose,
             anonymous,
             gated_in_row: BTreeMap::new(),
+            expired_visits: BTreeMap::new(),
         })
     }
 

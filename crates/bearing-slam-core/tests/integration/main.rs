@@ -7,6 +7,7 @@
 
 mod association_ransac;
 mod association_run;
+mod auto_initializer;
 mod bad_input;
 mod covariance_and_errors;
 mod estimator_config_bounds;

@@ -189,6 +189,9 @@ pub enum InitializerSpec {
     /// a candidate waits ([`MTE_HISTORY`] of them, each with its pose cloned)
     /// and applies them once the landmark is in.
     MteHistory,
+    /// MTE whose landmarks enter undelayed with the paper's near prior after
+    /// one visit without enough parallax ([`InitializerConfig::auto`]).
+    Auto,
     /// Undelayed inverse depth with one fixed prior for every landmark.
     PiSr {
         /// Initial inverse depth, 1/m.
@@ -228,6 +231,7 @@ impl InitializerSpec {
             Self::Mte => InitializerKind::Mte,
             Self::MteClone => InitializerKind::MteClone,
             Self::MteHistory => InitializerKind::MteHistory,
+            Self::Auto => InitializerKind::Auto,
             Self::PiSr { .. } => InitializerKind::PiSr,
             Self::PiSrMixed { .. } => InitializerKind::PiSrMixed,
         }
@@ -238,7 +242,9 @@ impl InitializerSpec {
     #[must_use]
     pub fn label(&self) -> String {
         match self {
-            Self::Mte | Self::MteClone | Self::MteHistory => self.kind().label().into(),
+            Self::Mte | Self::MteClone | Self::MteHistory | Self::Auto => {
+                self.kind().label().into()
+            }
             Self::PiSr { rho_ini, sigma_rho } => format!("PI-SR ({rho_ini}, {sigma_rho})"),
             Self::PiSrMixed { near, far, .. } => format!(
                 "PI-SR mixed (near {}, {}; far {}, {})",
@@ -262,6 +268,7 @@ impl InitializerSpec {
                 history: MTE_HISTORY,
                 ..TriangulationConfig::default()
             }),
+            Self::Auto => InitializerConfig::auto(TriangulationConfig::default()),
             Self::PiSr { rho_ini, sigma_rho } => {
                 InitializerConfig::pi_sr(InverseDepthPrior::new(*rho_ini, *sigma_rho)?)
             }

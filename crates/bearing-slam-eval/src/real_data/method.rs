@@ -17,6 +17,12 @@ pub enum Method {
     MteClone,
     /// Bearing-only EKF with undelayed inverse depth, prior `(0.5, 0.25)` m⁻¹.
     PiSr,
+    /// Bearing-only EKF that triangulates where a visit gives the parallax
+    /// and enters a landmark undelayed with PI-SR's prior after one visit
+    /// without it (`auto`, [`UndelayedFallback::ONE_VISIT`]).
+    ///
+    /// [`UndelayedFallback::ONE_VISIT`]: bearing_slam_core::init::UndelayedFallback::ONE_VISIT
+    Auto,
     /// The classic range-bearing EKF-SLAM (uses the ranges too): a reference.
     RangeBearing,
 }
@@ -26,6 +32,7 @@ bearing_slam_core::named_enum!(Method, "method", [
     Mte => "mte",
     MteClone => "mte-clone",
     PiSr => "pi-sr",
+    Auto => "auto",
     RangeBearing => "range-bearing",
 ]);
 
@@ -38,6 +45,7 @@ impl Method {
             Method::Mte => "MTE",
             Method::MteClone => "MTE-clone",
             Method::PiSr => "PI-SR (0.5, 0.25)",
+            Method::Auto => "auto",
             Method::RangeBearing => "range-bearing EKF",
         }
     }

@@ -4,7 +4,9 @@
 use super::{CommandModel, Method};
 use bearing_slam_core::SlamError;
 use bearing_slam_core::geometry::Pose2;
-use bearing_slam_core::init::{HistoryCorrelation, InverseDepthPrior, TriangulationConfig};
+use bearing_slam_core::init::{
+    HistoryCorrelation, InverseDepthPrior, TriangulationConfig, UndelayedFallback,
+};
 use bearing_slam_core::motion::{VelocityModel, VelocityNoise};
 use bearing_slam_core::runner::{OdometryConfig, RunConfig};
 use bearing_slam_core::slam::{InitializerConfig, SlamConfig};
@@ -71,6 +73,7 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
         min_depth: 0.1,
         history: 0,
         correlation: HistoryCorrelation::DEFAULT,
+        undelayed_fallback: None,
     },
     pi_sr_prior: InverseDepthPrior {
         rho_ini: 0.5,
@@ -106,6 +109,14 @@ impl FilterParameters {
         let initializer = match method {
             Method::MteClone => InitializerConfig::TriangulationWithClone(self.triangulation),
             Method::PiSr => InitializerConfig::pi_sr(self.pi_sr_prior),
+            Method::Auto => InitializerConfig::auto(TriangulationConfig {
+                history: 0,
+                undelayed_fallback: Some(UndelayedFallback {
+                    prior: self.pi_sr_prior,
+                    ..UndelayedFallback::ONE_VISIT
+                }),
+                ..self.triangulation
+            }),
             // The waiting bearings need pose clones: plain MTE is the paper's.
             _ => InitializerConfig::Triangulation(TriangulationConfig {
                 history: 0,

@@ -17,12 +17,35 @@ use std::fmt::Write as _;
 pub const COMMAND: &str = "nice -n 10 cargo run --release -p bearing-slam-eval -- tables";
 
 /// The bearing-only and range-bearing methods (dead reckoning maps nothing).
-const SLAM: [Method; 4] = [
+const SLAM: [Method; 5] = [
     Method::Mte,
     Method::MteClone,
     Method::PiSr,
+    Method::Auto,
     Method::RangeBearing,
 ];
+
+/// A method's column name (PI-SR without its prior, given once in the
+/// Dataset 6 ATE table).
+fn column(m: Method) -> &'static str {
+    match m {
+        Method::PiSr => "PI-SR",
+        _ => m.label(),
+    }
+}
+
+/// ` MTE | MTE-clone | … |`: the header cells of `methods`.
+fn columns(methods: &[Method]) -> String {
+    methods
+        .iter()
+        .map(|&m| format!(" {} |", column(m)))
+        .collect()
+}
+
+/// `---|` once per column.
+fn rule(n: usize) -> String {
+    "---|".repeat(n)
+}
 
 type Result<T> = std::result::Result<T, std::fmt::Error>;
 
@@ -66,8 +89,8 @@ fn header(s: &mut String, title: &str) -> Result<()> {
 /// Aligned landmark RMSE with the landmarks mapped, per robot and method,
 /// and a mean row.
 fn map_table(s: &mut String, results: &[RealDataResult]) -> Result<()> {
-    writeln!(s, "| robot | MTE | MTE-clone | PI-SR | range-bearing EKF |")?;
-    writeln!(s, "|---|---|---|---|---|")?;
+    writeln!(s, "| robot |{}", columns(&SLAM))?;
+    writeln!(s, "|---|{}", rule(SLAM.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let mut row = format!("| R{robot}");
         for m in SLAM {
@@ -100,11 +123,8 @@ fn use_table(s: &mut String, results: &[RealDataResult]) -> Result<()> {
         s,
         "landmark bearings after the loader / used in updates / rejected by the gate\n"
     )?;
-    writeln!(
-        s,
-        "| robot | bearings | MTE | MTE-clone | PI-SR | range-bearing EKF |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|")?;
+    writeln!(s, "| robot | bearings |{}", columns(&SLAM))?;
+    writeln!(s, "|---|---|{}", rule(SLAM.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let n = find(results, robot, Method::Mte).map_or(0, |r| r.n_measurements);
         let mut row = format!("| R{robot} | {n}");
@@ -131,13 +151,11 @@ fn time_table(
 ) -> Result<()> {
     writeln!(s, "## Run time of the filter alone [s] (release build)\n")?;
     let extra_name = extra.map_or(String::new(), |(n, _)| format!(" {n} |"));
+    writeln!(s, "| robot |{}{extra_name}", columns(Method::ALL))?;
     writeln!(
         s,
-        "| robot | dead reckoning | MTE | MTE-clone | PI-SR | range-bearing EKF |{extra_name}"
-    )?;
-    writeln!(
-        s,
-        "|---|---|---|---|---|---|{}",
+        "|---|{}{}",
+        rule(Method::ALL.len()),
         if extra.is_some() { "---|" } else { "" }
     )?;
     for robot in 1..=ROBOT_COUNT {
@@ -177,11 +195,12 @@ pub fn dataset6_markdown(
         s,
         "## ATE RMSE [m] (no alignment; filter started at the Vicon pose)\n"
     )?;
-    writeln!(
-        s,
-        "| robot | dead reckoning | MTE | MTE-clone | PI-SR (0.5, 0.25) | range-bearing EKF | GTSAM batch (bearing-only) |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|")?;
+    let labels: String = Method::ALL
+        .iter()
+        .map(|m| format!(" {} |", m.label()))
+        .collect();
+    writeln!(s, "| robot |{labels} GTSAM batch (bearing-only) |")?;
+    writeln!(s, "|---|{}---|", rule(Method::ALL.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let mut row = format!(
             "| R{robot} | {}",
@@ -204,11 +223,8 @@ pub fn dataset6_markdown(
         s,
         "\n## Landmark RMSE [m], raw (Vicon frame) / after SE(2) alignment of the map\n"
     )?;
-    writeln!(
-        s,
-        "| robot | MTE | MTE-clone | PI-SR | range-bearing EKF | GTSAM batch |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|")?;
+    writeln!(s, "| robot |{} GTSAM batch |", columns(&SLAM))?;
+    writeln!(s, "|---|{}---|", rule(SLAM.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let mut row = format!("| R{robot}");
         for m in SLAM {
@@ -238,11 +254,8 @@ pub fn dataset6_markdown(
          1 mm and 1 mrad (`metrics::pose_nees_series`); the same numbers as `metrics.json` \
          and the NEES plots.\n"
     )?;
-    writeln!(
-        s,
-        "| robot | bearings | dead reckoning | MTE | MTE-clone | PI-SR | range-bearing EKF |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|")?;
+    writeln!(s, "| robot | bearings |{}", columns(Method::ALL))?;
+    writeln!(s, "|---|---|{}", rule(Method::ALL.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let n = find(d6, robot, Method::Mte).map_or(0, |r| r.n_measurements);
         let mut row = format!("| R{robot} | {n}");
@@ -377,11 +390,8 @@ pub fn index_markdown(tables: &Tables) -> Result<String> {
         s,
         "## Mean over robots 1–5: landmark RMSE after SE(2) alignment [m] (mean landmarks mapped, of 15)\n"
     )?;
-    writeln!(
-        s,
-        "| dataset | MTE | MTE-clone | PI-SR | range-bearing EKF |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|")?;
+    writeln!(s, "| dataset |{}", columns(&SLAM))?;
+    writeln!(s, "|---|{}", rule(SLAM.len()))?;
     for d in &tables.datasets {
         let label = match d.landmark_truth {
             LandmarkTruth::AsDistributed => format!("[{}]({})", d.dataset, file_name(&d.dataset)),
@@ -410,10 +420,7 @@ pub fn index_markdown(tables: &Tables) -> Result<String> {
         s,
         "\n## Dataset 6, mean over robots 1–5: ATE RMSE [m] / fraction of the scored times under the χ² 95 % bound\n"
     )?;
-    writeln!(
-        s,
-        "| dead reckoning | MTE | MTE-clone | PI-SR | range-bearing EKF |\n|---|---|---|---|---|"
-    )?;
+    writeln!(s, "|{}\n|{}", columns(Method::ALL), rule(Method::ALL.len()))?;
     let mut row = String::new();
     for &m in Method::ALL {
         let of_m = || d6.iter().filter(move |r| r.method == m);

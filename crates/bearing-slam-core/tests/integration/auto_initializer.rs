@@ -1,0 +1,205 @@
+//! The `auto` initializer (`InitializerConfig::auto`): MTE where a visit
+//! gives the parallax, undelayed inverse depth for a landmark whose visit
+//! ended without it, and the paper's MTE exactly where no visit ends.
+
+use bearing_slam_core::SlamError;
+use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig, UndelayedFallback};
+use bearing_slam_core::log::EventKind;
+use bearing_slam_core::particle::{FastSlamConfig, ParticleInitializer};
+use bearing_slam_core::slam::{BearingSlam, InitializerConfig, InitializerKind, SlamConfig};
+use bearing_slam_core::testing::kinematic::KinematicScenario;
+use bearing_slam_core::trace::{InitMethod, SlamEvent};
+
+const LANDMARK: u64 = 7;
+const BEARING: f64 = 0.3;
+
+fn filter(initializer: InitializerConfig) -> BearingSlam {
+    BearingSlam::new(SlamConfig {
+        initializer,
+        ..SlamConfig::default()
+    })
+    .expect("valid config")
+}
+
+/// A robot standing still (no parallax ever) sees landmark 7 for 1 s, sees
+/// nothing for 6 s (one empty scan at 7 s, past the 5 s timeout), then sees
+/// it again for 1 s. Returns the filter and, per scan of the second visit,
+/// the bearings of mapped landmarks the update used.
+fn two_short_visits(initializer: InitializerConfig) -> (BearingSlam, Vec<usize>) {
+    let mut slam = filter(initializer);
+    for k in 0..=10 {
+        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, BEARING)])
+            .expect("first visit");
+    }
+    slam.update_bearings(7.0, &[]).expect("the gap");
+    let used = (0..=10)
+        .map(|k| {
+            slam.update_bearings(8.0 + 0.1 * f64::from(k), &[(LANDMARK, BEARING)])
+                .expect("second visit")
+                .used
+        })
+        .collect();
+    (slam, used)
+}
+
+fn count(slam: &BearingSlam, matches: impl Fn(&SlamEvent) -> bool) -> usize {
+    slam.events().iter().filter(|e| matches(&e.event)).count()
+}
+
+#[test]
+fn mte_never_maps_a_landmark_seen_only_without_parallax() {
+    let (slam, used) = two_short_visits(InitializerConfig::Triangulation(
+        TriangulationConfig::default(),
+    ));
+    assert!(slam.landmark_ids().is_empty());
+    assert_eq!(slam.candidate_count(), 1, "the second visit waits again");
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateCreated { .. })),
+        2
+    );
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateExpired { .. })),
+        1
+    );
+    assert!(used.iter().all(|&u| u == 0));
+}
+
+#[test]
+fn auto_enters_the_landmark_undelayed_at_the_visit_after_an_expired_one() {
+    let auto = InitializerConfig::auto(TriangulationConfig::default());
+    assert_eq!(auto.kind(), InitializerKind::Auto);
+    let (slam, used) = two_short_visits(auto);
+    assert_eq!(slam.landmark_ids(), vec![LANDMARK]);
+    assert_eq!(slam.candidate_count(), 0);
+    // Created and expired once, then in at the first sighting of visit 2.
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateCreated { .. })),
+        1
+    );
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateExpired { .. })),
+        1
+    );
+    let entered: Vec<f64> = slam
+        .events()
+        .iter()
+        .filter(|e| {
+            matches!(
+                e.event,
+                SlamEvent::LandmarkInitialized {
+                    id: LANDMARK,
+                    method: InitMethod::PiSr,
+                    ..
+                }
+            )
+        })
+        .map(|e| e.time)
+        .collect();
+    assert_eq!(entered, vec![8.0]);
+    // Every later bearing of the visit updates it.
+    assert_eq!(used[0], 0, "the entering bearing places it");
+    assert!(used[1..].iter().all(|&u| u == 1), "used per scan: {used:?}");
+    // On the ray, at the prior's depth 1/ρ_ini = 2 m (the robot never moved
+    // and every bearing agrees, so the updates leave the depth alone).
+    let l = slam.landmark(LANDMARK).expect("mapped");
+    let depth = 1.0 / InverseDepthPrior::PAPER_NEAR.rho_ini;
+    assert!((l.position.x - depth * BEARING.cos()).abs() < 1e-9, "{l:?}");
+    assert!((l.position.y - depth * BEARING.sin()).abs() < 1e-9, "{l:?}");
+}
+
+#[test]
+fn two_expired_visits_are_needed_when_asked_for() {
+    let auto = InitializerConfig::auto(TriangulationConfig {
+        undelayed_fallback: Some(UndelayedFallback {
+            expired_visits: 2,
+            ..UndelayedFallback::ONE_VISIT
+        }),
+        ..TriangulationConfig::default()
+    });
+    let (slam, _) = two_short_visits(auto);
+    assert!(slam.landmark_ids().is_empty(), "only one visit expired");
+    assert_eq!(slam.candidate_count(), 1);
+}
+
+/// Without expiries (the landmarks of the paper's Fig. 4 scene stay in
+/// view) `auto` is MTE to the last bit.
+#[test]
+fn auto_is_mte_where_no_visit_ends() {
+    let scenario = KinematicScenario::paper_fig4(true);
+    let log = scenario.simulate(5);
+    let model = scenario.wheel_model().expect("valid model");
+    let run = |initializer: InitializerConfig| {
+        let mut slam = filter(initializer);
+        for event in &log.events {
+            match &event.kind {
+                EventKind::Wheels(w) => {
+                    slam.predict(event.time, &model, w).expect("predicts");
+                }
+                EventKind::Bearings(obs) => {
+                    let pairs: Vec<(u64, f64)> =
+                        obs.iter().map(|o| (o.landmark_id, o.bearing)).collect();
+                    slam.update_bearings(event.time, &pairs).expect("updates");
+                }
+                _ => {}
+            }
+        }
+        slam
+    };
+    let mte = run(InitializerConfig::Triangulation(
+        TriangulationConfig::default(),
+    ));
+    let auto = run(InitializerConfig::auto(TriangulationConfig::default()));
+    assert_eq!(
+        count(&mte, |e| matches!(e, SlamEvent::CandidateExpired { .. })),
+        0
+    );
+    assert!(!mte.landmark_ids().is_empty());
+    assert_eq!(mte.ekf().mean(), auto.ekf().mean());
+    assert_eq!(mte.pose_covariance(), auto.pose_covariance());
+    assert_eq!(mte.events(), auto.events());
+}
+
+#[test]
+fn a_fallback_without_a_visit_or_outside_the_2d_filter_is_refused() {
+    let zero = TriangulationConfig {
+        undelayed_fallback: Some(UndelayedFallback {
+            expired_visits: 0,
+            ..UndelayedFallback::ONE_VISIT
+        }),
+        ..TriangulationConfig::default()
+    };
+    let err = BearingSlam::new(SlamConfig {
+        initializer: InitializerConfig::Triangulation(zero),
+        ..SlamConfig::default()
+    })
+    .expect_err("zero visits");
+    assert!(
+        matches!(
+            err,
+            SlamError::InvalidParameter {
+                name: "expired_visits",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+    let auto = TriangulationConfig {
+        undelayed_fallback: Some(UndelayedFallback::ONE_VISIT),
+        ..TriangulationConfig::default()
+    };
+    let particles = FastSlamConfig {
+        initializer: ParticleInitializer::Triangulation(auto),
+        ..FastSlamConfig::default()
+    };
+    let err = particles.validate().expect_err("FastSLAM has no fallback");
+    assert!(
+        matches!(
+            err,
+            SlamError::InvalidParameter {
+                name: "undelayed_fallback",
+                ..
+            }
+        ),
+        "{err:?}"
+    );
+}
