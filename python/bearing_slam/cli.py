@@ -63,6 +63,7 @@ from bearing_slam.outputs import (
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
     ASSOCIATIONS,
+    DEFAULT_INIT,
     DEFAULT_PRIOR,
     FAR_PRIOR,
     HISTORY_CORRELATIONS,
@@ -544,7 +545,7 @@ def _parser() -> argparse.ArgumentParser:
     runp.add_argument(
         "--init",
         choices=RUN_INITS,
-        default="mte",
+        default=DEFAULT_INIT,
         help="landmark initializer (default: %(default)s; mte-history: mte-clone keeping "
         f"up to {MTE_HISTORY} bearings seen while a landmark waits)",
     )
@@ -620,7 +621,7 @@ def _parser() -> argparse.ArgumentParser:
     mr.add_argument(
         "--init",
         choices=MRCLAM_INITS,
-        default="mte",
+        default=DEFAULT_INIT,
         help="landmark initializer (default: %(default)s; PI-SR with the prior "
         f"{DEFAULT_PRIOR['rho_ini']:g}, {DEFAULT_PRIOR['sigma_rho']:g})",
     )

@@ -25,6 +25,7 @@ from bearing_slam.estimators import add_estimator_options, estimator_problem, es
 from bearing_slam.outputs import write_text_atomic
 from bearing_slam.vocabulary import (
     ASSOCIATIONS,
+    DEFAULT_INIT,
     DEFAULT_PRIOR,
     DEFAULT_THRESHOLDS,
     EXPERIMENT_DEFAULT_RUNS,
@@ -148,7 +149,7 @@ def add_batch_parsers(sub: Any) -> None:
     mc.add_argument(
         "--init",
         choices=INIT_NAMES,
-        default="mte",
+        default=DEFAULT_INIT,
         help="landmark initializer (default: %(default)s)",
     )
     mc.add_argument(

@@ -37,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from bearing_slam._native import RunResult, SensorLog, evaluate_mrclam
-from bearing_slam.vocabulary import MRCLAM_METHOD_LABELS, MRCLAM_METHODS
+from bearing_slam.vocabulary import DEFAULT_INIT, MRCLAM_METHOD_LABELS, MRCLAM_METHODS
 
 __all__ = [
     "DATA_ENV",
@@ -102,7 +102,7 @@ def data_dir(path: str | os.PathLike[str] | None = None) -> Path:
 def evaluate(
     dataset_dir: str | os.PathLike[str],
     robot: int,
-    method: str = "mte",
+    method: str = DEFAULT_INIT,
     start: float | None = None,
     end: float | None = None,
     estimator: str = "filter",

@@ -21,6 +21,7 @@ __all__ = [
     "CLASSES",
     "CONFIG_INITS",
     "COVARIANCE_UPDATES",
+    "DEFAULT_INIT",
     "DEFAULT_PRIOR",
     "DEFAULT_THRESHOLDS",
     "ESTIMATORS",
@@ -48,6 +49,10 @@ _RUST = _native.vocabulary()
 
 #: Every initializer by name (Rust: ``InitializerKind::ALL``).
 INIT_NAMES: tuple[str, ...] = tuple(_RUST["initializers"])
+
+#: The default initializer (Rust: ``SlamConfig::default()``'s): ``Config()``'s
+#: and every command line's ``--init``.
+DEFAULT_INIT: str = str(_RUST["default_initializer"])
 
 #: The initializers of one run on one log (``Config(init=...)``,
 #: ``bearing-slam run --init``): all but ``pi-sr-mixed``, which needs to know

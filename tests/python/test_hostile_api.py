@@ -62,7 +62,10 @@ def test_experiment_fig5_refuses_bad_parameters(kwargs: dict[str, object], name:
 @pytest.mark.parametrize(
     ("kwargs", "name", "why"),
     [
-        ({"rho_ini": -1.0}, "rho_ini", "PI-SR"),
+        ({"init": "mte", "rho_ini": -1.0}, "rho_ini", "PI-SR"),
+        ({"init": "mte", "auto_visits": 2}, "auto_visits", "auto initializer"),
+        ({"rho_ini": -1.0}, "rho_ini", "positive"),
+        ({"auto_visits": 0}, "expired_visits", "at least 1"),
         ({"init": "mte-clone", "sigma_rho": 0.3}, "sigma_rho", "PI-SR"),
         ({"per_landmark_priors": {7: (0.01, 0.005)}}, "per_landmark_priors", "PI-SR"),
         ({"init": "pi-sr", "alpha_min": 0.2}, "alpha_min", "triangulation"),

@@ -128,8 +128,12 @@ def test_from_arrays_builds_a_runnable_log(fig4_log: bs.SensorLog) -> None:
 
 
 def test_config_defaults_are_the_papers() -> None:
+    """The default initializer is ``auto`` (the paper's MTE wherever no
+    landmark's visit ends untriangulated), every parameter the paper's."""
     c = bs.Config()
-    assert c.init == "mte"
+    assert c.init == "auto" == bs.vocabulary.DEFAULT_INIT
+    assert c.auto_visits == 1
+    assert (c.rho_ini, c.sigma_rho) == (0.5, 0.25)
     assert c.alpha_min == pytest.approx(np.radians(10.0))
     assert c.beta_min == pytest.approx(np.radians(20.0))
     assert c.baseline_min == 1.0

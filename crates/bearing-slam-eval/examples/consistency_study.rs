@@ -32,10 +32,13 @@
 //! gating (re-admission after `K` gated bearings in a row, Huber threshold
 //! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
 //! prior σ rad).
+//!
+//! `AUTO_VISITS=N` gives MTE and MTE-clone the `auto` initializer's
+//! undelayed fallback after `N` expired visits (the paper's near prior).
 
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::init::{
-    DEFAULT_VISIT_GAP_S, HistoryCorrelation, HistoryTreatment, MTE_HISTORY,
+    DEFAULT_VISIT_GAP_S, HistoryCorrelation, HistoryTreatment, MTE_HISTORY, UndelayedFallback,
 };
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::pose_nees;
@@ -177,6 +180,15 @@ fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
             sigma_per_sqrt_s: walk,
         });
     }
+    if let Ok(visits) = std::env::var("AUTO_VISITS")
+        && let InitializerConfig::Triangulation(t) | InitializerConfig::TriangulationWithClone(t) =
+            &mut slam.initializer
+    {
+        t.undelayed_fallback = Some(UndelayedFallback {
+            expired_visits: visits.parse()?,
+            ..UndelayedFallback::ONE_VISIT
+        });
+    }
     Ok(())
 }
 
@@ -200,7 +212,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
     let dir = dir.unwrap_or_else(|| {
         PathBuf::from(concat!(
             env!("CARGO_MANIFEST_DIR"),
-            "/../../../../shared/datasets/mrclam/MRCLAM_Dataset6"
+            "/../../../shared/datasets/mrclam/MRCLAM_Dataset6"
         ))
     });
     let options = EvalOptions::default();

@@ -37,7 +37,7 @@ fn main() -> Result<(), BoxError> {
         || {
             PathBuf::from(concat!(
                 env!("CARGO_MANIFEST_DIR"),
-                "/../../../../shared/datasets/mrclam/MRCLAM_Dataset6"
+                "/../../../shared/datasets/mrclam/MRCLAM_Dataset6"
             ))
         },
         PathBuf::from,

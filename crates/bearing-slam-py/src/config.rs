@@ -260,7 +260,7 @@ impl Default for PyConfig {
         let tri = TriangulationConfig::default();
         let a = DEFAULT_VELOCITY_NOISE.alpha;
         Self {
-            init: InitializerKind::Mte.to_string(),
+            init: slam.initializer.kind().to_string(),
             bearing_sigma: slam.bearing_sigma,
             range_sigma: slam.range_sigma,
             initial_pose: (0.0, 0.0, 0.0),
@@ -679,17 +679,21 @@ impl PyConfig {
 
 #[pymethods]
 impl PyConfig {
-    /// A configuration with the paper's defaults, any parameter overridden by keyword.
+    /// A configuration with the defaults (`SlamConfig::default()`'s: the
+    /// `auto` initializer, which is the paper's MTE where no landmark's
+    /// visit ends before it triangulates, and the paper's parameters), any
+    /// parameter overridden by keyword.
     #[new]
-    #[pyo3(signature = (init = "mte", **kwargs))]
+    #[pyo3(signature = (init = None, **kwargs))]
     fn py_new(
         py: Python<'_>,
-        init: &str,
+        init: Option<&str>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<Self>> {
+        let default = Self::default();
         let cfg = Self {
-            init: init.to_owned(),
-            ..Self::default()
+            init: init.map_or(default.init.clone(), str::to_owned),
+            ..default
         };
         let obj = Bound::new(py, cfg)?;
         Self::apply(&obj, kwargs, true)?;
@@ -700,16 +704,18 @@ impl PyConfig {
     /// bearing σ), as the Rust `default_run_config`, with `init` and any
     /// parameter overridden by keyword.
     #[staticmethod]
-    #[pyo3(signature = (log, init = "mte", **kwargs))]
+    #[pyo3(signature = (log, init = None, **kwargs))]
     fn for_log(
         py: Python<'_>,
         log: &PySensorLog,
-        init: &str,
+        init: Option<&str>,
         kwargs: Option<&Bound<'_, PyDict>>,
     ) -> PyResult<Py<Self>> {
         let rc = bearing_slam::default_run_config(&log.inner).py()?;
         let mut cfg = Self::from_run_config(&rc);
-        cfg.init = init.to_owned();
+        if let Some(init) = init {
+            cfg.init = init.to_owned();
+        }
         let obj = Bound::new(py, cfg)?;
         Self::apply(&obj, kwargs, true)?;
         Ok(obj.unbind())

@@ -14,6 +14,7 @@ use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
+use bearing_slam::core::slam::SlamConfig;
 use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow};
 use bearing_slam::eval::real_data::{
     CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
@@ -32,8 +33,9 @@ fn real_data_error(e: RealDataError) -> PyErr {
     }
 }
 
-/// Runs `method` (`"dead-reckoning"`, `"mte"`, `"mte-clone"`, `"pi-sr"` or
-/// `"range-bearing"`) on robot `robot` (1–5) of an MRCLAM dataset directory
+/// Runs `method` (`"dead-reckoning"`, `"mte"`, `"mte-clone"`, `"pi-sr"`,
+/// `"auto"` or `"range-bearing"`; `None`: the default initializer,
+/// `SlamConfig::default()`'s) on robot `robot` (1–5) of an MRCLAM dataset directory
 /// (`MRCLAM_DatasetN/`), optionally on the window `[start, end)` in seconds
 /// since the robot's first command, with the parameters calibrated on
 /// Dataset 6 (command delay and turn-dependent speed scale
@@ -58,12 +60,12 @@ fn real_data_error(e: RealDataError) -> PyErr {
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = "mte", start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None))]
+#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
     robot: i64,
-    method: &str,
+    method: Option<&str>,
     start: Option<f64>,
     end: Option<f64>,
     estimator: &str,
@@ -73,7 +75,8 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     online_window: Option<&str>,
     landmark_chart: Option<&str>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
-    let method = parse_name::<Method>(method)?;
+    let default = SlamConfig::default().initializer.kind().name();
+    let method = parse_name::<Method>(method.unwrap_or(default))?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
     let mut estimator = EstimatorConfig {

@@ -11,7 +11,7 @@ use bearing_slam::core::init::{HistoryTreatment, InverseDepthPrior, MTE_HISTORY}
 use bearing_slam::core::metrics;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::OdometryKind;
-use bearing_slam::core::slam::{Consistency, InitializerKind};
+use bearing_slam::core::slam::{Consistency, InitializerKind, SlamConfig};
 use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow};
 use bearing_slam::eval::experiments::Experiment;
 use bearing_slam::eval::montecarlo::{RunClass, RunMetrics, Thresholds};
@@ -24,7 +24,8 @@ fn names<T: Named>() -> Vec<&'static str> {
     T::names()
 }
 
-/// The vocabulary as a dict: `initializers`, `prior_initializers`,
+/// The vocabulary as a dict: `initializers`, `default_initializer`
+/// (`SlamConfig::default()`'s), `prior_initializers`,
 /// `covariance_updates`, `update_modes`, `consistencies`, `odometries`, `estimators`,
 /// `associations`, `mrclam_methods` (with
 /// `mrclam_method_labels`), `run_classes`, `experiments`, `run_metrics`,
@@ -37,6 +38,10 @@ fn names<T: Named>() -> Vec<&'static str> {
 pub(crate) fn py_vocabulary(py: Python<'_>) -> PyResult<Bound<'_, PyDict>> {
     let d = PyDict::new(py);
     d.set_item("initializers", names::<InitializerKind>())?;
+    d.set_item(
+        "default_initializer",
+        SlamConfig::default().initializer.kind().name(),
+    )?;
     d.set_item(
         "prior_initializers",
         InitializerKind::ALL

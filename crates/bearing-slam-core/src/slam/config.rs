@@ -151,7 +151,9 @@ pub struct SlamConfig {
     pub bearing_sigma: f64,
     /// Standard deviation of the range noise for range-bearing updates, metres.
     pub range_sigma: f64,
-    /// The landmark initializer.
+    /// The landmark initializer (default [`InitializerConfig::auto`] with
+    /// the paper's thresholds: MTE wherever no landmark's visit ends
+    /// untriangulated).
     pub initializer: InitializerConfig,
     /// Probability of the chi-square gate (e.g. 0.999); `None` disables gating.
     pub gate_probability: Option<f64>,
@@ -214,7 +216,7 @@ impl Default for SlamConfig {
             initial_pose_sigma: [1e-3, 1e-3, 1e-3],
             bearing_sigma: 1f64.to_radians(),
             range_sigma: 0.1,
-            initializer: InitializerConfig::Triangulation(TriangulationConfig::default()),
+            initializer: InitializerConfig::auto(TriangulationConfig::default()),
             gate_probability: Some(0.999),
             conversion_threshold: Some(0.1),
             covariance_update: CovarianceUpdate::Symmetric,
