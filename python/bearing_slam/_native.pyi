@@ -118,6 +118,7 @@ class Config:
     history_sigma: float | None
     history_decimate_every: int
     auto_visits: int
+    auto_max_wait: float | None
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

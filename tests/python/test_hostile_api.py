@@ -66,6 +66,8 @@ def test_experiment_fig5_refuses_bad_parameters(kwargs: dict[str, object], name:
         ({"init": "mte", "auto_visits": 2}, "auto_visits", "auto initializer"),
         ({"rho_ini": -1.0}, "rho_ini", "positive"),
         ({"auto_visits": 0}, "expired_visits", "at least 1"),
+        ({"init": "pi-sr", "auto_max_wait": 1.0}, "auto_max_wait", "auto initializer"),
+        ({"auto_max_wait": 0.0}, "max_wait_s", "positive"),
         ({"init": "mte-clone", "sigma_rho": 0.3}, "sigma_rho", "PI-SR"),
         ({"per_landmark_priors": {7: (0.01, 0.005)}}, "per_landmark_priors", "PI-SR"),
         ({"init": "pi-sr", "alpha_min": 0.2}, "alpha_min", "triangulation"),

@@ -303,12 +303,24 @@ pub struct TriangulationConfig {
 /// a median 27 s blind stretch between visits of a few seconds) is still
 /// mapped and its bearings used. Where candidates never expire (every
 /// paper experiment) the filter is the paper's MTE exactly.
+///
+/// With a wait budget ([`Self::max_wait_s`]) a candidate still in view
+/// that has waited that long without the parallax also enters undelayed,
+/// from its current bearing (its kept waiting bearings replayed, its first
+/// one reported unused as [`DiscardReason::WaitBudget`]).
+///
+/// [`DiscardReason::WaitBudget`]: crate::trace::DiscardReason::WaitBudget
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UndelayedFallback {
     /// Expired candidates of one landmark before it enters undelayed (≥ 1).
     pub expired_visits: usize,
     /// The inverse-depth prior it enters with.
     pub prior: InverseDepthPrior,
+    /// Longest a candidate waits for the parallax before it enters
+    /// undelayed, seconds since it was created (> 0); `None`: no budget
+    /// (the default).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_wait_s: Option<f64>,
 }
 
 impl UndelayedFallback {
@@ -317,10 +329,28 @@ impl UndelayedFallback {
     pub const ONE_VISIT: Self = Self {
         expired_visits: 1,
         prior: InverseDepthPrior::PAPER_NEAR,
+        max_wait_s: None,
     };
 
-    /// Checks the visit count and the prior.
+    /// Whether a candidate created at `created` has used up the wait
+    /// budget at `time`.
+    #[must_use]
+    pub fn waited_out(&self, created: f64, time: f64) -> bool {
+        self.max_wait_s
+            .is_some_and(|budget| time - created > budget)
+    }
+
+    /// Checks the visit count, the wait budget and the prior.
     pub fn validate(&self) -> Result<()> {
+        if let Some(budget) = self.max_wait_s
+            && !(budget.is_finite() && budget > 0.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "max_wait_s",
+                value: budget,
+                reason: "must be positive and finite (None: no wait budget)",
+            });
+        }
         if self.expired_visits == 0 {
             return Err(SlamError::InvalidParameter {
                 name: "expired_visits",

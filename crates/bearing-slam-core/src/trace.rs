@@ -130,6 +130,10 @@ pub enum DiscardReason {
     /// The far rule placed the landmark from the current bearing; the
     /// candidate's first bearing was not used.
     FarFirstBearing,
+    /// The `auto` initializer's wait budget ran out: the landmark entered
+    /// undelayed from the current bearing; the candidate's first bearing
+    /// was not used.
+    WaitBudget,
 }
 
 /// A [`SlamEvent`] with the time it happened.

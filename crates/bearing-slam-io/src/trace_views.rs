@@ -182,6 +182,8 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
                     DiscardReason::Restarted => "the candidate restarted",
                     DiscardReason::Expired => "the candidate expired",
                     DiscardReason::FarFirstBearing => "first bearing of a far landmark",
+                    DiscardReason::WaitBudget =>
+                        "first bearing of a landmark that waited out its budget",
                 }
             ),
         ),

@@ -98,6 +98,10 @@ pub(crate) struct PyConfig {
     /// (≥ 1, default 1).
     #[pyo3(get, set)]
     pub auto_visits: usize,
+    /// auto: longest a landmark waits for the parallax before it enters
+    /// undelayed, s (> 0); None (default): no wait budget.
+    #[pyo3(get, set)]
+    pub auto_max_wait: Option<f64>,
     /// PI-SR (and auto's undelayed entry): initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
@@ -207,7 +211,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 43] = [
+const FIELDS: [&str; 44] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -230,6 +234,7 @@ const FIELDS: [&str; 43] = [
     "history_sigma",
     "history_decimate_every",
     "auto_visits",
+    "auto_max_wait",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -282,6 +287,7 @@ impl Default for PyConfig {
             history_sigma: tri.correlation.sigma,
             history_decimate_every: tri.correlation.decimate_every,
             auto_visits: UndelayedFallback::ONE_VISIT.expired_visits,
+            auto_max_wait: UndelayedFallback::ONE_VISIT.max_wait_s,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -362,6 +368,7 @@ impl PyConfig {
             c.history_decimate_every = t.correlation.decimate_every;
             if let Some(f) = t.undelayed_fallback {
                 c.auto_visits = f.expired_visits;
+                c.auto_max_wait = f.max_wait_s;
                 c.rho_ini = f.prior.rho_ini;
                 c.sigma_rho = f.prior.sigma_rho;
             }
@@ -413,6 +420,7 @@ impl PyConfig {
                 undelayed_fallback: Some(UndelayedFallback {
                     expired_visits: self.auto_visits,
                     prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
+                    max_wait_s: self.auto_max_wait,
                 }),
                 ..self.triangulation()?
             }),
@@ -609,7 +617,7 @@ impl PyConfig {
             "per_landmark_priors" if !pi_sr => Some(format!(
                 "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
             )),
-            "auto_visits" if init != "auto" => Some(format!(
+            "auto_visits" | "auto_max_wait" if init != "auto" => Some(format!(
                 "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
             )),
             "history_correlation" | "history_phi" | "history_sigma" | "history_decimate_every"

@@ -110,6 +110,21 @@ impl BearingSlam {
         // the offset estimated now, like the current one.
         pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
+        if let Some(fallback) = config.undelayed_fallback
+            && matches!(decision, CandidateDecision::Wait)
+            && fallback.waited_out(pending.candidate.created, time)
+        {
+            // `auto`'s wait budget: no parallax yet, in now, (13)(15).
+            let inserted = self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)?;
+            self.replay_history(id, &pending.history, &config.correlation)?;
+            self.record(SlamEvent::BearingsDiscarded {
+                id,
+                count: 1,
+                reason: DiscardReason::WaitBudget,
+            });
+            self.drop_candidate(id)?;
+            return Ok(inserted);
+        }
         match decision {
             CandidateDecision::Wait => {
                 let keeping = cloning && config.history > 0;

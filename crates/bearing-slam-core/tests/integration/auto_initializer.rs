@@ -8,7 +8,7 @@ use bearing_slam_core::log::EventKind;
 use bearing_slam_core::particle::{FastSlamConfig, ParticleInitializer};
 use bearing_slam_core::slam::{BearingSlam, InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam_core::testing::kinematic::KinematicScenario;
-use bearing_slam_core::trace::{InitMethod, SlamEvent};
+use bearing_slam_core::trace::{DiscardReason, InitMethod, SlamEvent};
 
 const LANDMARK: u64 = 7;
 const BEARING: f64 = 0.3;
@@ -119,6 +119,66 @@ fn two_expired_visits_are_needed_when_asked_for() {
     let (slam, _) = two_short_visits(auto);
     assert!(slam.landmark_ids().is_empty(), "only one visit expired");
     assert_eq!(slam.candidate_count(), 1);
+}
+
+#[test]
+fn a_wait_budget_enters_the_landmark_within_its_first_visit() {
+    let auto = InitializerConfig::auto(TriangulationConfig {
+        undelayed_fallback: Some(UndelayedFallback {
+            max_wait_s: Some(0.45),
+            ..UndelayedFallback::ONE_VISIT
+        }),
+        ..TriangulationConfig::default()
+    });
+    let (slam, _) = two_short_visits(auto);
+    assert_eq!(slam.landmark_ids(), vec![LANDMARK]);
+    let entered: Vec<f64> = slam
+        .events()
+        .iter()
+        .filter(|e| matches!(e.event, SlamEvent::LandmarkInitialized { .. }))
+        .map(|e| e.time)
+        .collect();
+    // Created at 0 s; 0.5 s is the first sighting past the 0.45 s budget.
+    assert_eq!(entered.len(), 1);
+    assert!((entered[0] - 0.5).abs() < 1e-12, "{entered:?}");
+    assert_eq!(
+        count(&slam, |e| matches!(
+            e,
+            SlamEvent::BearingsDiscarded {
+                reason: DiscardReason::WaitBudget,
+                count: 1,
+                ..
+            }
+        )),
+        1
+    );
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateExpired { .. })),
+        0
+    );
+    for budget in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        let err = BearingSlam::new(SlamConfig {
+            initializer: InitializerConfig::auto(TriangulationConfig {
+                undelayed_fallback: Some(UndelayedFallback {
+                    max_wait_s: Some(budget),
+                    ..UndelayedFallback::ONE_VISIT
+                }),
+                ..TriangulationConfig::default()
+            }),
+            ..SlamConfig::default()
+        })
+        .expect_err("a budget must be positive and finite");
+        assert!(
+            matches!(
+                err,
+                SlamError::InvalidParameter {
+                    name: "max_wait_s",
+                    ..
+                }
+            ),
+            "{budget}: {err:?}"
+        );
+    }
 }
 
 /// Without expiries (the landmarks of the paper's Fig. 4 scene stay in
