@@ -119,6 +119,7 @@ class Config:
     history_decimate_every: int
     auto_visits: int
     auto_max_wait: float | None
+    auto_stalled_parallax: bool
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

@@ -74,7 +74,9 @@ def test_run_killed_at_random_moments_leaves_old_or_new_files(tmp_path: Path) ->
     timed(command("run", log, "--init", "mte", "--out", old_dir, "--quiet"))
     new_dir = tmp_path / "new"
     rewrite = command("run", log, "--init", "pi-sr", "--out", new_dir, "--quiet")
-    duration = timed(rewrite)
+    # The shortest of three runs: one slowed by a busy machine would put
+    # every kill after the run ended.
+    duration = min(timed(rewrite) for _ in range(3))
     old, new = snapshot(old_dir), snapshot(new_dir)
     assert sorted(old) == sorted(RUN_FILES) == sorted(new)
     assert all(old[n] != new[n] for n in ("metrics.json", "estimate.mcap"))

@@ -133,6 +133,8 @@ def test_config_defaults_are_the_papers() -> None:
     c = bs.Config()
     assert c.init == "auto" == bs.vocabulary.DEFAULT_INIT
     assert c.auto_visits == 1
+    assert c.auto_stalled_parallax is False
+    assert c.auto_max_wait is None
     assert (c.rho_ini, c.sigma_rho) == (0.5, 0.25)
     assert c.alpha_min == pytest.approx(np.radians(10.0))
     assert c.beta_min == pytest.approx(np.radians(20.0))

@@ -304,12 +304,14 @@ pub struct TriangulationConfig {
 /// mapped and its bearings used. Where candidates never expire (every
 /// paper experiment) the filter is the paper's MTE exactly.
 ///
-/// With a wait budget ([`Self::max_wait_s`]) a candidate still in view
-/// that has waited that long without the parallax also enters undelayed,
-/// from its current bearing (its kept waiting bearings replayed, its first
-/// one reported unused as [`DiscardReason::WaitBudget`]).
+/// A candidate still in view also enters undelayed from its current
+/// bearing (its kept waiting bearings replayed, its first one reported
+/// unused) when its parallax has stalled ([`Self::stalled_parallax`],
+/// [`DiscardReason::ParallaxStalled`]) or its wait budget ran out
+/// ([`Self::max_wait_s`], [`DiscardReason::WaitBudget`]).
 ///
 /// [`DiscardReason::WaitBudget`]: crate::trace::DiscardReason::WaitBudget
+/// [`DiscardReason::ParallaxStalled`]: crate::trace::DiscardReason::ParallaxStalled
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct UndelayedFallback {
     /// Expired candidates of one landmark before it enters undelayed (≥ 1).
@@ -321,6 +323,13 @@ pub struct UndelayedFallback {
     /// (the default).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub max_wait_s: Option<f64>,
+    /// Enter undelayed once the parallax has stalled
+    /// ([`Self::parallax_stalled`]): at the fastest rate its observed value
+    /// allows, `α_min` would not be reached within the candidate timeout.
+    /// Off in [`Self::ONE_VISIT`] (opt-in: better maps on MRCLAM, a higher
+    /// ATE in simulation; docs/results/filter-consistency.md).
+    #[serde(default)]
+    pub stalled_parallax: bool,
 }
 
 impl UndelayedFallback {
@@ -330,7 +339,33 @@ impl UndelayedFallback {
         expired_visits: 1,
         prior: InverseDepthPrior::PAPER_NEAR,
         max_wait_s: None,
+        stalled_parallax: false,
     };
+
+    /// Standard deviations of the parallax added to its observed value to
+    /// bound its rate (about 95 %, one-sided 97.7 %).
+    pub const STALL_SIGMAS: f64 = 2.0;
+
+    /// Whether a candidate's parallax `alpha` (rad), `elapsed` seconds after
+    /// its first sighting, has stalled: even growing at the fastest rate
+    /// the observation allows, `(α + k σ_α) / elapsed` with `k` =
+    /// [`Self::STALL_SIGMAS`] and `σ_α = √2 σ_z` (two bearings), it would
+    /// not reach `α_min` within `config.candidate_timeout`:
+    /// `(α_min − α) · elapsed > timeout · (α + k σ_α)`. Needs the rule on.
+    #[must_use]
+    pub fn parallax_stalled(
+        &self,
+        config: &TriangulationConfig,
+        alpha: f64,
+        elapsed: f64,
+        bearing_sigma: f64,
+    ) -> bool {
+        let sigma_alpha = std::f64::consts::SQRT_2 * bearing_sigma;
+        self.stalled_parallax
+            && elapsed > 0.0
+            && (config.alpha_min - alpha) * elapsed
+                > config.candidate_timeout * (alpha + Self::STALL_SIGMAS * sigma_alpha)
+    }
 
     /// Whether a candidate created at `created` has used up the wait
     /// budget at `time`.

@@ -134,6 +134,11 @@ pub enum DiscardReason {
     /// undelayed from the current bearing; the candidate's first bearing
     /// was not used.
     WaitBudget,
+    /// The `auto` initializer saw the parallax stall (it could not reach
+    /// `α_min` within the candidate timeout): the landmark entered
+    /// undelayed from the current bearing; the candidate's first bearing
+    /// was not used.
+    ParallaxStalled,
 }
 
 /// A [`SlamEvent`] with the time it happened.

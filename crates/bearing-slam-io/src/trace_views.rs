@@ -184,6 +184,9 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
                     DiscardReason::FarFirstBearing => "first bearing of a far landmark",
                     DiscardReason::WaitBudget =>
                         "first bearing of a landmark that waited out its budget",
+                    DiscardReason::ParallaxStalled => {
+                        "first bearing of a landmark whose parallax stalled"
+                    }
                 }
             ),
         ),

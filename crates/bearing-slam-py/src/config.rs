@@ -102,6 +102,11 @@ pub(crate) struct PyConfig {
     /// undelayed, s (> 0); None (default): no wait budget.
     #[pyo3(get, set)]
     pub auto_max_wait: Option<f64>,
+    /// auto: a landmark whose parallax stalls (it could not reach
+    /// `alpha_min` within `candidate_timeout` at the fastest rate its
+    /// observed value allows) enters undelayed at once (default False).
+    #[pyo3(get, set)]
+    pub auto_stalled_parallax: bool,
     /// PI-SR (and auto's undelayed entry): initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
@@ -211,7 +216,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 44] = [
+const FIELDS: [&str; 45] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -235,6 +240,7 @@ const FIELDS: [&str; 44] = [
     "history_decimate_every",
     "auto_visits",
     "auto_max_wait",
+    "auto_stalled_parallax",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -288,6 +294,7 @@ impl Default for PyConfig {
             history_decimate_every: tri.correlation.decimate_every,
             auto_visits: UndelayedFallback::ONE_VISIT.expired_visits,
             auto_max_wait: UndelayedFallback::ONE_VISIT.max_wait_s,
+            auto_stalled_parallax: UndelayedFallback::ONE_VISIT.stalled_parallax,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -369,6 +376,7 @@ impl PyConfig {
             if let Some(f) = t.undelayed_fallback {
                 c.auto_visits = f.expired_visits;
                 c.auto_max_wait = f.max_wait_s;
+                c.auto_stalled_parallax = f.stalled_parallax;
                 c.rho_ini = f.prior.rho_ini;
                 c.sigma_rho = f.prior.sigma_rho;
             }
@@ -421,6 +429,7 @@ impl PyConfig {
                     expired_visits: self.auto_visits,
                     prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
                     max_wait_s: self.auto_max_wait,
+                    stalled_parallax: self.auto_stalled_parallax,
                 }),
                 ..self.triangulation()?
             }),
@@ -617,9 +626,11 @@ impl PyConfig {
             "per_landmark_priors" if !pi_sr => Some(format!(
                 "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
             )),
-            "auto_visits" | "auto_max_wait" if init != "auto" => Some(format!(
-                "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
-            )),
+            "auto_visits" | "auto_max_wait" | "auto_stalled_parallax" if init != "auto" => {
+                Some(format!(
+                    "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
+                ))
+            }
             "history_correlation" | "history_phi" | "history_sigma" | "history_decimate_every"
                 if init != "mte-history" && !(init == "mte-clone" && self.history > 0) =>
             {

@@ -112,18 +112,34 @@ impl BearingSlam {
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         if let Some(fallback) = config.undelayed_fallback
             && matches!(decision, CandidateDecision::Wait)
-            && fallback.waited_out(pending.candidate.created, time)
         {
-            // `auto`'s wait budget: no parallax yet, in now, (13)(15).
-            let inserted = self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)?;
-            self.replay_history(id, &pending.history, &config.correlation)?;
-            self.record(SlamEvent::BearingsDiscarded {
-                id,
-                count: 1,
-                reason: DiscardReason::WaitBudget,
-            });
-            self.drop_candidate(id)?;
-            return Ok(inserted);
+            let elapsed = time - pending.candidate.created;
+            let stalled = fallback.parallax_stalled(
+                &config,
+                parallax.alpha,
+                elapsed,
+                self.config.bearing_sigma,
+            );
+            let reason = if stalled {
+                Some(DiscardReason::ParallaxStalled)
+            } else if fallback.waited_out(pending.candidate.created, time) {
+                Some(DiscardReason::WaitBudget)
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                // `auto`: no parallax coming, in now, (13)(15).
+                let inserted =
+                    self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)?;
+                self.replay_history(id, &pending.history, &config.correlation)?;
+                self.record(SlamEvent::BearingsDiscarded {
+                    id,
+                    count: 1,
+                    reason,
+                });
+                self.drop_candidate(id)?;
+                return Ok(inserted);
+            }
         }
         match decision {
             CandidateDecision::Wait => {

@@ -181,8 +181,58 @@ fn a_wait_budget_enters_the_landmark_within_its_first_visit() {
     }
 }
 
+#[test]
+fn a_stalled_parallax_enters_the_landmark_within_its_visit() {
+    // Standing still, the parallax stays 0: with σ_z = 1°, α_min = 10° and
+    // the 5 s timeout, (α_min − 0)·t > 5 s · 2·√2·σ_z from t = √2 s on.
+    let rule = UndelayedFallback {
+        stalled_parallax: true,
+        ..UndelayedFallback::ONE_VISIT
+    };
+    let mut slam = filter(InitializerConfig::auto(TriangulationConfig {
+        undelayed_fallback: Some(rule),
+        ..TriangulationConfig::default()
+    }));
+    for k in 0..=30 {
+        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, BEARING)])
+            .expect("one long visit");
+    }
+    assert_eq!(slam.landmark_ids(), vec![LANDMARK]);
+    let entered: Vec<f64> = slam
+        .events()
+        .iter()
+        .filter(|e| matches!(e.event, SlamEvent::LandmarkInitialized { .. }))
+        .map(|e| e.time)
+        .collect();
+    assert_eq!(entered.len(), 1);
+    assert!((entered[0] - 1.5).abs() < 1e-12, "{entered:?}");
+    assert_eq!(
+        count(&slam, |e| matches!(
+            e,
+            SlamEvent::BearingsDiscarded {
+                reason: DiscardReason::ParallaxStalled,
+                ..
+            }
+        )),
+        1
+    );
+    // The rule in numbers: stalled just past √2 s, not just before; a
+    // parallax growing fast enough is not stalled.
+    let config = TriangulationConfig::default();
+    let sigma = 1f64.to_radians();
+    assert!(rule.parallax_stalled(&config, 0.0, 1.42, sigma));
+    assert!(!rule.parallax_stalled(&config, 0.0, 1.41, sigma));
+    assert!(!rule.parallax_stalled(&config, 5f64.to_radians(), 1.5, sigma));
+    let off = UndelayedFallback {
+        stalled_parallax: false,
+        ..rule
+    };
+    assert!(!off.parallax_stalled(&config, 0.0, 100.0, sigma));
+}
+
 /// Without expiries (the landmarks of the paper's Fig. 4 scene stay in
-/// view) `auto` is MTE to the last bit.
+/// view) `auto` (the stalled-parallax rule off, its default) is MTE to the
+/// last bit.
 #[test]
 fn auto_is_mte_where_no_visit_ends() {
     let scenario = KinematicScenario::paper_fig4(true);

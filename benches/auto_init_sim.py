@@ -1,0 +1,49 @@
+"""The ``auto`` initializer's options in simulation (issue 13, the default's evidence).
+
+``auto`` is MTE whose landmarks enter undelayed after a visit that ended without the
+parallax (the default). Two opt-in rules make them enter earlier: the stalled-parallax
+rule (``auto_stalled_parallax=True``) and a wait budget (``auto_max_wait=T``). On MRCLAM
+they help (docs/results/filter-consistency.md); this script shows what they cost where
+the paper's MTE works, on the built-in scenarios: mean ATE and mean pose NEES over the
+seeds, one row per configuration, as a markdown table.
+
+    make develop
+    python benches/auto_init_sim.py [SEEDS]    # default 20 (seeds 0..SEEDS-1)
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import numpy as np
+
+import bearing_slam as bs
+
+SCENARIOS = ("paper_fig4", "slip_patch", "paper_fig8")
+CONFIGS: tuple[tuple[str, dict[str, Any]], ...] = (
+    ("mte", {"init": "mte"}),
+    ("auto (default)", {"init": "auto"}),
+    ("auto + stalled parallax", {"init": "auto", "auto_stalled_parallax": True}),
+    ("auto + 1 s budget", {"init": "auto", "auto_max_wait": 1.0}),
+    ("auto + 2 s budget", {"init": "auto", "auto_max_wait": 2.0}),
+)
+
+
+def main(seeds: int) -> None:
+    print("| scenario | initializer | mean ATE m | mean pose NEES |")
+    print("|---|---|---|---|")
+    for scenario in SCENARIOS:
+        logs = [bs.simulate(scenario, seed) for seed in range(seeds)]
+        for label, kwargs in CONFIGS:
+            ate, nees = [], []
+            for log in logs:
+                summary = bs.run(log, bs.Config.for_log(log, **kwargs)).summary
+                assert summary is not None
+                ate.append(summary["ate_rmse_m"])
+                nees.append(summary["mean_nees_pose"])
+            print(f"| {scenario} | {label} | {np.mean(ate):.3f} | {np.mean(nees):.2f} |")
+
+
+if __name__ == "__main__":
+    main(int(sys.argv[1]) if len(sys.argv) > 1 else 20)
