@@ -1,0 +1,91 @@
+//! Which `Config` parameters an initializer, odometry model, estimator or
+//! association does not use: `Config(...)` and `replace` refuse a parameter
+//! given where it would have no effect, naming why.
+
+use crate::config::{PyConfig, parse_name};
+use bearing_slam::core::association::AssociationMethod;
+use bearing_slam::core::estimator::EstimatorKind;
+
+impl PyConfig {
+    /// Why parameter `key` has no effect with this configuration's
+    /// initializer, odometry model or `use_range`, or None when it is used.
+    pub(crate) fn unused_because(&self, key: &str) -> Option<String> {
+        let pi_sr = matches!(self.init.as_str(), "pi-sr" | "pi-sr-mixed");
+        let init = &self.init;
+        match key {
+            "rho_ini" | "sigma_rho" if !pi_sr && init != "auto" => Some(format!(
+                "it is a parameter of PI-SR (init \"pi-sr\", \"pi-sr-mixed\" or \"auto\"), \
+                 and init is {init:?}"
+            )),
+            "per_landmark_priors" if !pi_sr => Some(format!(
+                "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
+            )),
+            "auto_visits" | "auto_max_wait" | "auto_stalled_parallax" if init != "auto" => {
+                Some(format!(
+                    "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
+                ))
+            }
+            "history_correlation" | "history_phi" | "history_sigma" | "history_decimate_every"
+                if init != "mte-history" && !(init == "mte-clone" && self.history > 0) =>
+            {
+                Some(format!(
+                    "it is a parameter of the waiting bearings' replay (init \"mte-history\"), \
+                     and init is {init:?}"
+                ))
+            }
+            "alpha_min" | "baseline_min" | "beta_min" | "candidate_timeout" | "min_depth"
+                if pi_sr =>
+            {
+                Some(format!(
+                    "it is a parameter of MTE's triangulation (init \"mte\", \"mte-clone\", \
+                     \"mte-history\" or \"auto\"), and init is {init:?}"
+                ))
+            }
+            "wheel_base" | "wheel_floor_sigma" | "wheel_scale_sqrt"
+                if self.odometry != "wheels" =>
+            {
+                Some(format!(
+                    "it is a parameter of the wheel odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "velocity_alpha" | "velocity_sigma_v_min" | "velocity_sigma_omega_min"
+                if self.odometry != "velocity" =>
+            {
+                Some(format!(
+                    "it is a parameter of the velocity odometry model, and odometry is {:?}",
+                    self.odometry
+                ))
+            }
+            "particles"
+                if !parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(EstimatorKind::is_particle_filter) =>
+            {
+                Some(format!(
+                    "it is a parameter of FastSLAM (estimator \"fastslam1\" or \"fastslam2\"), \
+                     and estimator is {:?}",
+                    self.estimator
+                ))
+            }
+            "online_window" | "landmark_chart"
+                if parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(|e| e != EstimatorKind::FilterSmoother) =>
+            {
+                Some(format!(
+                    "it is a parameter of the online smoother (estimator \"filter+smoother\"), \
+                     and estimator is {:?}",
+                    self.estimator
+                ))
+            }
+            "descriptor_sigma" if self.association == AssociationMethod::Known.to_string() => Some(
+                "it is a parameter of the association with the ids hidden \
+                 (association \"nn\", \"jcbb\" or \"ransac\"), and association is \"known\""
+                    .to_owned(),
+            ),
+            "range_sigma" if !self.use_range => {
+                Some("it applies to range-bearing runs (use_range=True) only".to_owned())
+            }
+            _ => None,
+        }
+    }
+}
