@@ -296,8 +296,8 @@ def api_cases(
         ),
         (
             "unknown id/name",
-            "`Config(rho_ini=-1)` (MTE: a PI-SR parameter)",
-            lambda: attempt(lambda: bs.Config(rho_ini=-1.0)),
+            "`Config(init='mte', rho_ini=-1)` (a PI-SR parameter)",
+            lambda: attempt(lambda: bs.Config(init="mte", rho_ini=-1.0)),
         ),
         (
             "unknown id/name",
