@@ -12,7 +12,10 @@ use super::replay::WaitingBearing;
 use super::{BearingSlam, InitializerConfig, VEHICLE_DIM};
 use crate::ekf::BlockJacobian;
 use crate::error::Result;
-use crate::init::{Candidate, CandidateDecision, decide, triangulate_candidate};
+use crate::init::{
+    Candidate, CandidateDecision, InverseDepthPrior, TriangulationConfig, decide,
+    triangulate_candidate,
+};
 use crate::trace::{DiscardReason, InitMethod, SlamEvent};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 
@@ -129,16 +132,8 @@ impl BearingSlam {
             };
             if let Some(reason) = reason {
                 // `auto`: no parallax coming, in now, (13)(15).
-                let inserted =
-                    self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)?;
-                self.replay_history(id, &pending.history, &config.correlation)?;
-                self.record(SlamEvent::BearingsDiscarded {
-                    id,
-                    count: 1,
-                    reason,
-                });
-                self.drop_candidate(id)?;
-                return Ok(inserted);
+                let entry = (fallback.prior, InitMethod::PiSr, reason);
+                return self.enter_from_current_bearing(id, z, &pending, &config, entry);
             }
         }
         match decision {
@@ -165,20 +160,12 @@ impl BearingSlam {
                 Ok(false)
             }
             CandidateDecision::Far => {
-                let inserted = self.initialize_with_prior(
-                    id,
-                    z,
+                let entry = (
                     config.far_prior(&parallax)?,
                     InitMethod::Far,
-                )?;
-                self.replay_history(id, &pending.history, &config.correlation)?;
-                self.record(SlamEvent::BearingsDiscarded {
-                    id,
-                    count: 1,
-                    reason: DiscardReason::FarFirstBearing,
-                });
-                self.drop_candidate(id)?;
-                Ok(inserted)
+                    DiscardReason::FarFirstBearing,
+                );
+                self.enter_from_current_bearing(id, z, &pending, &config, entry)
             }
             CandidateDecision::Triangulate => {
                 let init = triangulate_candidate(&pending.candidate, &pose, z)?;
@@ -232,6 +219,29 @@ impl BearingSlam {
                 Ok(inserted)
             }
         }
+    }
+
+    /// A waiting candidate enters from its current bearing `z` with an
+    /// inverse-depth prior (the far rule (24), or `auto`'s undelayed entry):
+    /// its kept waiting bearings are replayed, its first bearing is reported
+    /// unused for `reason`, and the candidate is dropped.
+    fn enter_from_current_bearing(
+        &mut self,
+        id: u64,
+        z: f64,
+        pending: &PendingCandidate,
+        config: &TriangulationConfig,
+        (prior, method, reason): (InverseDepthPrior, InitMethod, DiscardReason),
+    ) -> Result<bool> {
+        let inserted = self.initialize_with_prior(id, z, prior, method)?;
+        self.replay_history(id, &pending.history, &config.correlation)?;
+        self.record(SlamEvent::BearingsDiscarded {
+            id,
+            count: 1,
+            reason,
+        });
+        self.drop_candidate(id)?;
+        Ok(inserted)
     }
 
     /// (16): store the first sighting. The clone variant also clones the pose
