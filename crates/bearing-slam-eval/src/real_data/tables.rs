@@ -36,10 +36,12 @@ fn column(m: Method) -> &'static str {
 
 /// ` MTE | MTE-clone | … |`: the header cells of `methods`.
 fn columns(methods: &[Method]) -> String {
-    methods
-        .iter()
-        .map(|&m| format!(" {} |", column(m)))
-        .collect()
+    cells(methods, column)
+}
+
+/// The header cells of `methods`, each named by `name`.
+fn cells(methods: &[Method], name: fn(Method) -> &'static str) -> String {
+    methods.iter().map(|&m| format!(" {} |", name(m))).collect()
 }
 
 /// `---|` once per column.
@@ -195,11 +197,11 @@ pub fn dataset6_markdown(
         s,
         "## ATE RMSE [m] (no alignment; filter started at the Vicon pose)\n"
     )?;
-    let labels: String = Method::ALL
-        .iter()
-        .map(|m| format!(" {} |", m.label()))
-        .collect();
-    writeln!(s, "| robot |{labels} GTSAM batch (bearing-only) |")?;
+    writeln!(
+        s,
+        "| robot |{} GTSAM batch (bearing-only) |",
+        cells(Method::ALL, Method::label)
+    )?;
     writeln!(s, "|---|{}---|", rule(Method::ALL.len()))?;
     for robot in 1..=ROBOT_COUNT {
         let mut row = format!(
