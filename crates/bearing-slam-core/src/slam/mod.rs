@@ -770,12 +770,15 @@ impl BearingSlam {
         Ok(())
     }
 
-    /// Removes a landmark from the map (marginalization).
+    /// Removes a landmark from the map (marginalization). Its count of
+    /// expired visits goes with it: if it is seen again it starts afresh,
+    /// a new candidate for the `auto` initializer as for MTE.
     pub fn remove_landmark(&mut self, id: u64) -> Result<()> {
         let slot = self
             .landmarks
             .remove(&id)
             .ok_or(SlamError::UnknownLandmark(id))?;
+        self.expired_visits.remove(&id);
         self.remove_state_block(slot.offset, slot.parameterization.dim())
     }
 }

@@ -117,6 +117,23 @@ fn auto_enters_the_landmark_undelayed_at_the_visit_after_an_expired_one() {
 }
 
 #[test]
+fn a_removed_landmark_seen_again_waits_as_a_new_candidate() {
+    let (mut slam, _) = two_short_visits(InitializerConfig::auto(TriangulationConfig::default()));
+    assert_eq!(slam.landmark_ids(), vec![LANDMARK]);
+    slam.remove_landmark(LANDMARK).expect("mapped");
+    // Seen again right away: its expired visit went with it, so it waits
+    // for parallax like any new landmark instead of entering undelayed.
+    slam.update_bearings(9.1, &[(LANDMARK, BEARING)])
+        .expect("seen again");
+    assert!(slam.landmark_ids().is_empty());
+    assert_eq!(slam.candidate_count(), 1);
+    assert_eq!(
+        count(&slam, |e| matches!(e, SlamEvent::CandidateCreated { .. })),
+        2
+    );
+}
+
+#[test]
 fn two_expired_visits_are_needed_when_asked_for() {
     let auto = InitializerConfig::auto(TriangulationConfig {
         undelayed_fallback: Some(UndelayedFallback {
