@@ -380,6 +380,9 @@ def evaluate_mrclam(
     association: str = "known",
     online_window: str | None = None,
     landmark_chart: str | None = None,
+    auto_visits: int | None = None,
+    auto_max_wait: float | None = None,
+    auto_stalled_parallax: bool | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...
 def vocabulary() -> dict[str, Any]: ...
 

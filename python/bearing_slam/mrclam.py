@@ -111,6 +111,9 @@ def evaluate(
     association: str = "known",
     online_window: str | None = None,
     landmark_chart: str | None = None,
+    auto_visits: int | None = None,
+    auto_max_wait: float | None = None,
+    auto_stalled_parallax: bool | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
@@ -123,7 +126,10 @@ def evaluate(
     the filter (they then only score it: ``result.association``).
     ``online_window`` (``"keyframes"``, the default, or ``"scans"``) and ``landmark_chart``
     (``"inverse-depth"``, ``"point"``): the online smoother's
-    (``estimator="filter+smoother"`` only; None: the defaults)."""
+    (``estimator="filter+smoother"`` only; None: the defaults).
+    ``auto_visits``, ``auto_max_wait``, ``auto_stalled_parallax``: the ``auto``
+    initializer's options, as :class:`~bearing_slam.Config`'s fields (method
+    ``"auto"`` only; None: the defaults)."""
     t0 = time.perf_counter()
     result, metrics, log = evaluate_mrclam(
         dataset_dir,
@@ -137,6 +143,9 @@ def evaluate(
         association=association,
         online_window=online_window,
         landmark_chart=landmark_chart,
+        auto_visits=auto_visits,
+        auto_max_wait=auto_max_wait,
+        auto_stalled_parallax=auto_stalled_parallax,
     )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 

@@ -3,6 +3,7 @@ with one line naming the argument and exit status 2, never a traceback."""
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import time
@@ -94,7 +95,18 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     assert_refused(r, "--rho-ini", "PI-SR")
     r = cli("run", log, "--init", "pi-sr", "--alpha-min-deg", "3", "--out", tmp_path / "o")
     assert_refused(r, "--alpha-min-deg")
+    r = cli("run", log, "--init", "mte", "--auto-stalled-parallax", "--out", tmp_path / "o")
+    assert_refused(r, "--auto-stalled-parallax", "--init auto only")
+    r = cli("run", log, "--auto-max-wait", "0", "--out", tmp_path / "o")
+    assert_refused(r, "--auto-max-wait")
     assert not (tmp_path / "o").exists()
+    # With the default --init auto the options reach the run's config.
+    out = tmp_path / "auto"
+    r = cli("run", log, "--auto-visits", "2", "--auto-max-wait", "1.5", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    config = json.loads((out / "metrics.json").read_text())["config"]
+    assert (config["init"], config["auto_visits"], config["auto_max_wait"]) == ("auto", 2, 1.5)
+    assert config["auto_stalled_parallax"] is False
 
 
 def test_demo_refuses_a_folder_of_other_files(tmp_path: Path) -> None:

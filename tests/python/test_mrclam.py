@@ -147,6 +147,8 @@ def test_dataset1_without_ground_truth(tmp_path: Path) -> None:
         (["MISSING", "--robot", "1"], "no such MRCLAM dataset directory"),
         (["D6", "--robot", "1", "--start", "500", "--end", "100"], "--end (100 s) must be"),
         (["D6", "--robot", "1", "--start", "5000"], "contains no odometry row"),
+        (["D6", "--robot", "1", "--init", "mte", "--auto-max-wait", "1"], "--init auto only"),
+        (["D6", "--robot", "1", "--use-range", "--auto-visits", "2"], "not to --init range"),
     ],
 )
 def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
@@ -159,6 +161,33 @@ def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
     assert lines[0].startswith("bearing-slam: error:")
     assert message in lines[0]
     assert not (tmp_path / "o" / "metrics.json").exists()
+
+
+def test_auto_wait_budget_from_the_cli_and_python(tmp_path: Path) -> None:
+    """``--auto-max-wait`` (``auto_max_wait=``) reaches the filter: its
+    candidates enter by the budget, the config and parameters say so, and
+    on robot 2's 300–600 s it beats the default auto (1.40 → 0.56 m)."""
+    out = tmp_path / "budget"
+    r = mrclam_cli(D6, "--robot", "2", *WINDOW, "--auto-max-wait", "1", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    m = outputs(out)
+    assert m["config"]["init"] == "auto"
+    assert m["config"]["auto_max_wait"] == 1.0
+    assert m["parameters"]["auto_fallback"]["max_wait_s"] == 1.0
+    budget, metrics, _ = bs.evaluate_mrclam(D6, 2, "auto", 300.0, 600.0, auto_max_wait=1.0)
+    assert metrics["ate_rmse_m"] == pytest.approx(m["ate_rmse_m"])
+    default, plain, _ = bs.evaluate_mrclam(D6, 2, "auto", 300.0, 600.0)
+    assert plain["parameters"]["auto_fallback"].get("max_wait_s") is None
+    assert default.config.auto_max_wait is None
+    reasons = [e.get("reason") for e in budget.events if e["kind"] == "bearings_discarded"]
+    assert reasons.count("wait_budget") >= 5, reasons
+    assert not [e for e in default.events if e.get("reason") == "wait_budget"]
+    assert metrics["n_measurements_used"] > plain["n_measurements_used"]
+    assert metrics["ate_rmse_m"] < 0.6 * plain["ate_rmse_m"]
+    with pytest.raises(ValueError, match='method "auto" only'):
+        bs.evaluate_mrclam(D6, 2, "mte", 300.0, 600.0, auto_stalled_parallax=True)
+    with pytest.raises(bs.InvalidParameterError, match="expired_visits"):
+        bs.evaluate_mrclam(D6, 2, "auto", 300.0, 600.0, auto_visits=0)
 
 
 def test_help_says_what_it_writes() -> None:

@@ -12,18 +12,46 @@ use crate::run::PyRunResult;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::association::{AssociationConfig, AssociationMethod};
 use bearing_slam::core::estimator::{EstimatorConfig, EstimatorKind};
+use bearing_slam::core::init::UndelayedFallback;
 use bearing_slam::core::names::Named;
 use bearing_slam::core::score::summarize;
 use bearing_slam::core::slam::SlamConfig;
 use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow};
 use bearing_slam::eval::real_data::{
-    CALIBRATED_PARAMETERS, EvalOptions, Method, RealDataError, align_landmarks_se2,
-    evaluate_run_associated, evaluate_run_observed, filter_log,
+    CALIBRATED_PARAMETERS, EvalOptions, FilterParameters, Method, RealDataError,
+    align_landmarks_se2, evaluate_run_associated, evaluate_run_observed, filter_log,
 };
 use bearing_slam::io::mrclam::{LoadOptions, ROBOT_COUNT, load_mrclam_with};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
+
+/// The `auto` initializer's undelayed entry with the options given
+/// (`Config`'s `auto_*` fields), which apply to method `auto` only.
+fn auto_fallback(
+    method: Method,
+    visits: Option<usize>,
+    max_wait_s: Option<f64>,
+    stalled_parallax: Option<bool>,
+) -> PyResult<UndelayedFallback> {
+    let default = CALIBRATED_PARAMETERS.auto_fallback;
+    let given = visits.is_some() || max_wait_s.is_some() || stalled_parallax.is_some();
+    if given && method != Method::Auto {
+        return Err(PyValueError::new_err(format!(
+            "auto_visits, auto_max_wait and auto_stalled_parallax apply to method \"auto\" \
+             only, not to {:?}",
+            method.name()
+        )));
+    }
+    let fallback = UndelayedFallback {
+        expired_visits: visits.unwrap_or(default.expired_visits),
+        max_wait_s: max_wait_s.or(default.max_wait_s),
+        stalled_parallax: stalled_parallax.unwrap_or(default.stalled_parallax),
+        ..default
+    };
+    fallback.validate().map_err(errors::slam)?;
+    Ok(fallback)
+}
 
 fn real_data_error(e: RealDataError) -> PyErr {
     match e {
@@ -56,11 +84,14 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// filter and only score it (`result.association`). `online_window` and
 /// `landmark_chart` (`"filter+smoother"` only; `None`: the defaults) choose
 /// the online smoother's window and landmark chart, as `Config`'s fields.
+/// `auto_visits`, `auto_max_wait`, `auto_stalled_parallax` (method `"auto"`
+/// only; `None`: `UndelayedFallback::ONE_VISIT`'s): the `auto` initializer's
+/// options, as `Config`'s fields of those names.
 // The Python signature: the dataset, the robot, the window, the estimator
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None))]
+#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -74,9 +105,13 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     association: &str,
     online_window: Option<&str>,
     landmark_chart: Option<&str>,
+    auto_visits: Option<usize>,
+    auto_max_wait: Option<f64>,
+    auto_stalled_parallax: Option<bool>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let default = SlamConfig::default().initializer.kind().name();
     let method = parse_name::<Method>(method.unwrap_or(default))?;
+    let auto_fallback = auto_fallback(method, auto_visits, auto_max_wait, auto_stalled_parallax)?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
     let mut estimator = EstimatorConfig {
@@ -118,7 +153,10 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         end_s: end,
         ..defaults.load
     };
-    let parameters = defaults.parameters;
+    let parameters = FilterParameters {
+        auto_fallback,
+        ..defaults.parameters
+    };
     if on_scan.is_some() && association.ignores_ids() {
         return Err(pyo3::exceptions::PyValueError::new_err(
             "on_scan shows the known-association run as it goes; association must be \"known\"",
@@ -177,7 +215,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     metrics.set_item("start", start)?;
     metrics.set_item("end", end)?;
     let mut config = PyConfig::from_run_config(
-        &CALIBRATED_PARAMETERS
+        &parameters
             .run_config(method, log.info.initial_pose.unwrap_or_default())
             .map_err(errors::slam)?,
     );

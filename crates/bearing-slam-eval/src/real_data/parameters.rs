@@ -33,6 +33,11 @@ pub struct FilterParameters {
     pub triangulation: TriangulationConfig,
     /// PI-SR's prior.
     pub pi_sr_prior: InverseDepthPrior,
+    /// The `auto` initializer's undelayed entry (method [`Method::Auto`]
+    /// only): [`UndelayedFallback::ONE_VISIT`], whose prior is PI-SR's
+    /// above, unless a run asks for its opt-in rules (a wait budget, the
+    /// stalled-parallax rule) or more expired visits.
+    pub auto_fallback: UndelayedFallback,
 }
 
 /// The parameters [`calibrate_parameters`] derives from Dataset 6 by the rule
@@ -75,10 +80,8 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
         correlation: HistoryCorrelation::DEFAULT,
         undelayed_fallback: None,
     },
-    pi_sr_prior: InverseDepthPrior {
-        rho_ini: 0.5,
-        sigma_rho: 0.25,
-    },
+    pi_sr_prior: InverseDepthPrior::PAPER_NEAR,
+    auto_fallback: UndelayedFallback::ONE_VISIT,
 };
 
 /// The parameters of the first quick run (before this module): the 1 s
@@ -96,6 +99,7 @@ pub const NAIVE_PARAMETERS: FilterParameters = FilterParameters {
     gate_probability: 0.999,
     triangulation: CALIBRATED_PARAMETERS.triangulation,
     pi_sr_prior: CALIBRATED_PARAMETERS.pi_sr_prior,
+    auto_fallback: CALIBRATED_PARAMETERS.auto_fallback,
 };
 
 impl FilterParameters {
@@ -111,10 +115,7 @@ impl FilterParameters {
             Method::PiSr => InitializerConfig::pi_sr(self.pi_sr_prior),
             Method::Auto => InitializerConfig::auto(TriangulationConfig {
                 history: 0,
-                undelayed_fallback: Some(UndelayedFallback {
-                    prior: self.pi_sr_prior,
-                    ..UndelayedFallback::ONE_VISIT
-                }),
+                undelayed_fallback: Some(self.auto_fallback),
                 ..self.triangulation
             }),
             // The waiting bearings need pose clones: plain MTE is the paper's.
