@@ -30,6 +30,9 @@
 //! (`triangulate_online`). `ESTIMATORS=a,b` (`a;b` when a name part has a
 //! comma) keeps only the rows
 //! whose estimator name contains `a` or `b`; `ROBOTS=1,3` only those robots.
+//! `METHOD=auto` (any `Method` name) runs the filter, and so starts the
+//! smoothers, with that initializer instead of MTE (`auto` is the library's
+//! default since 2026-11-29; the tables before it are MTE's).
 //! `DATA_DIR` holds `MRCLAM_Dataset{1,2,4,6}` (default: the shared datasets
 //! beside the repository); `DATASETS` is a comma list (default `6,2,4,1`).
 
@@ -66,6 +69,11 @@ fn main() -> Result<(), BoxError> {
         .map(|a| a.parse())
         .transpose()?
         .unwrap_or_default();
+    let method: Method = std::env::var("METHOD")
+        .ok()
+        .map(|m| m.parse())
+        .transpose()?
+        .unwrap_or(Method::Mte);
     let options = EvalOptions::default();
     let mut params = CALIBRATED_PARAMETERS;
     // `TURN_SPEED=a,b`: a what-if that replaces the command model's speed
@@ -166,7 +174,7 @@ fn main() -> Result<(), BoxError> {
             };
             for (name, estimator) in &estimators {
                 let r: RealDataResult =
-                    evaluate_run_anchored(&run, Method::Mte, &params, estimator, anchor)?;
+                    evaluate_run_anchored(&run, method, &params, estimator, anchor)?;
                 println!(
                     "| {d} | {robot} | {name} | {} | {} | {} / {} | {} |",
                     cell(r.ate_rmse_m, 3),
