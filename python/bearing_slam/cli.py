@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
 import shutil
 import sys
 import time
@@ -689,6 +690,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         status: int = args.func(args)
+    except BrokenPipeError:
+        # The reader of stdout left (`bearing-slam ... | head -1`): every
+        # output file is written by then; only the printing stops. Python's
+        # own advice: point stdout at devnull so the exit flush stays quiet.
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 1
     except (UserError, BearingSlamError, OSError) as e:
         print(f"bearing-slam: error: {e}", file=sys.stderr)
         return 2

@@ -174,3 +174,31 @@ def test_mrclam_window_of_ten_milliseconds(tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr
     for name in ("metrics.json", "trajectory.png", "pose_errors.png", "nees.png", "estimate.mcap"):
         assert (out / name).stat().st_size > 0, name
+
+
+class _ClosedPipe:
+    """A stdout whose reader has gone (``bearing-slam ... | head -1``)."""
+
+    def __init__(self, fd: int) -> None:
+        self._fd = fd
+
+    def write(self, _text: str) -> int:
+        raise BrokenPipeError(32, "Broken pipe")
+
+    def flush(self) -> None:
+        pass
+
+    def fileno(self) -> int:
+        return self._fd
+
+
+def test_a_closed_stdout_ends_quietly(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from bearing_slam.cli import main
+
+    with (tmp_path / "stdout").open("w") as sink:
+        monkeypatch.setattr("sys.stdout", _ClosedPipe(sink.fileno()))
+        status = main(["scenarios"])
+    assert status == 1
+    assert capsys.readouterr().err == ""
