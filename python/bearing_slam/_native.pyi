@@ -105,6 +105,7 @@ class Config:
     update: str
     consistency: str
     update_iterations: int
+    second_order: bool
     alpha_min: float
     baseline_min: float
     beta_min: float

@@ -29,3 +29,24 @@ def test_consistency_names_are_the_rust_enum_and_reach_the_filter() -> None:
     assert nees["fej"] != nees["standard"]
     assert nees["oc"] != nees["standard"]
     assert nees["invariant"] != nees["standard"]
+
+
+def test_second_order_reaches_the_filter_and_is_refused_where_unused() -> None:
+    """``Config(second_order=True)``: the Gaussian second-order bearing
+    update, in the config's dict, changing the run; refused with ranges and
+    with FastSLAM, whose updates are first order."""
+    log = bs.simulate("paper_fig8", seed=4)
+    runs = {}
+    for second_order in (False, True):
+        config = bs.Config.for_log(log, second_order=second_order)
+        assert config.second_order is second_order
+        assert config.to_dict()["second_order"] is second_order
+        summary = bs.run(log, config).summary
+        assert summary is not None
+        runs[second_order] = summary
+    assert runs[True]["mean_nees_pose"] != runs[False]["mean_nees_pose"]
+    assert bs.Config().replace(second_order=True).second_order is True
+    with pytest.raises(bs.InvalidParameterError, match="use_range"):
+        bs.Config(use_range=True, second_order=not bs.Config().second_order)
+    with pytest.raises(bs.InvalidParameterError, match="FastSLAM"):
+        bs.Config(estimator="fastslam2", second_order=not bs.Config().second_order)

@@ -33,6 +33,9 @@
 //! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
 //! prior σ rad).
 //!
+//! `SECOND_ORDER=1` turns on the second-order bearing update
+//! (`SlamConfig::second_order`).
+//!
 //! `AUTO_VISITS=N` gives MTE and MTE-clone the `auto` initializer's
 //! undelayed fallback after `N` expired visits (the paper's near prior),
 //! `AUTO_WAIT=T` with a wait budget of `T` seconds too, `AUTO_STALL=1`
@@ -172,6 +175,9 @@ fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
         let (a, b) = v.split_once(',').ok_or(format!("{name}=A,B"))?;
         Ok(Some((a.trim().parse()?, b.trim().parse()?)))
     };
+    if std::env::var("SECOND_ORDER").is_ok_and(|v| v == "1") {
+        slam.second_order = true;
+    }
     if let Some((after, k)) = pair("ROBUST")? {
         slam.robust_gate = Some(RobustGate {
             readmit_after: Some(after as usize),

@@ -74,6 +74,10 @@ pub(crate) struct PyConfig {
     /// iterated EKF.
     #[pyo3(get, set)]
     pub update_iterations: usize,
+    /// The Gaussian second-order filter's bearing update (the prediction's
+    /// curvature over P added to its mean and variance); False: the EKF.
+    #[pyo3(get, set)]
+    pub second_order: bool,
     /// MTE: minimum parallax α_min, rad.
     #[pyo3(get, set)]
     pub alpha_min: f64,
@@ -216,7 +220,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 45] = [
+const FIELDS: [&str; 46] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -228,6 +232,7 @@ const FIELDS: [&str; 45] = [
     "update",
     "consistency",
     "update_iterations",
+    "second_order",
     "alpha_min",
     "baseline_min",
     "beta_min",
@@ -282,6 +287,7 @@ impl Default for PyConfig {
             update: slam.update.to_string(),
             consistency: slam.consistency.to_string(),
             update_iterations: slam.update_iterations,
+            second_order: slam.second_order,
             alpha_min: tri.alpha_min,
             baseline_min: tri.baseline_min,
             beta_min: tri.beta_min,
@@ -336,6 +342,7 @@ impl PyConfig {
         c.update = s.update.to_string();
         c.consistency = s.consistency.to_string();
         c.update_iterations = s.update_iterations;
+        c.second_order = s.second_order;
         c.association = s.association.method.to_string();
         c.descriptor_sigma = s.association.descriptors.map(|d| d.sigma);
         c.readmit_after = s.robust_gate.and_then(|r| r.readmit_after);
@@ -481,6 +488,7 @@ impl PyConfig {
             update,
             consistency,
             update_iterations: self.update_iterations,
+            second_order: self.second_order,
             association: AssociationConfig {
                 descriptors: self.descriptor_sigma.map(|sigma| DescriptorModel { sigma }),
                 ..AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?)

@@ -57,6 +57,21 @@ impl PyConfig {
                     self.odometry
                 ))
             }
+            "second_order" if self.use_range => Some(
+                "it is an option of the bearing-only update, and use_range is True (the \
+                 range-bearing update is first order)"
+                    .to_owned(),
+            ),
+            "second_order"
+                if parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(EstimatorKind::is_particle_filter) =>
+            {
+                Some(format!(
+                    "it is an option of the EKF's update, and estimator is {:?} (FastSLAM's \
+                     per-landmark filters are first order)",
+                    self.estimator
+                ))
+            }
             "particles"
                 if !parse_name::<EstimatorKind>(&self.estimator)
                     .is_ok_and(EstimatorKind::is_particle_filter) =>

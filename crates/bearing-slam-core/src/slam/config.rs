@@ -183,6 +183,11 @@ pub struct SlamConfig {
     /// the iterated EKF, relinearized at each iterate).
     #[serde(default = "one")]
     pub update_iterations: usize,
+    /// The Gaussian second-order filter's bearing update: the prediction's
+    /// curvature over the pose and landmark covariance added to its mean
+    /// and variance (`slam/second_order.rs`); `false` (default) is the EKF.
+    #[serde(default)]
+    pub second_order: bool,
     /// How bearings are associated with landmarks: the log's ids (known,
     /// the default) or, ignoring them, nearest neighbour or JCBB with the
     /// tracks of new landmarks (see [`crate::association`] and
@@ -223,6 +228,7 @@ impl Default for SlamConfig {
             update: UpdateMode::Full,
             consistency: Consistency::Standard,
             update_iterations: 1,
+            second_order: false,
             association: AssociationConfig::default(),
             robust_gate: None,
             bearing_offset: None,

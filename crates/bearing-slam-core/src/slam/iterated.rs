@@ -4,9 +4,12 @@
 //! one scan. Used for every scan when
 //! [`SlamConfig::update_iterations`](super::SlamConfig::update_iterations)
 //! is above 1; the replay of waiting bearings has its own loop
-//! (`replay.rs`).
+//! (`replay.rs`). With [`SlamConfig::second_order`](super::SlamConfig::second_order)
+//! each pass takes the bearing's second-order bias at its iterate, with the
+//! prior's covariance, and keeps the first pass's variance.
 
 use super::consistency::{Consistency, PoseAt};
+use super::second_order::SecondOrderTerms;
 use super::{BearingSlam, LandmarkSlot, linearize_bearing};
 use crate::ekf::{Ekf, LinearizedMeasurement};
 use crate::error::Result;
@@ -31,13 +34,21 @@ impl BearingSlam {
             return Ok(());
         }
         let consistency = self.config.consistency;
+        let second_order = self.config.second_order;
         self.iterate_passes(prior, iterations, |slam| {
             accepted
                 .iter()
                 .zip(variances)
                 .map(|(&(pose, slot, z), &variance)| {
                     let noise = Matrix1::new(variance);
-                    relinearize_about(prior, &slam.ekf, consistency, pose, slot, z, &noise)
+                    let mut m =
+                        relinearize_about(prior, &slam.ekf, consistency, pose, slot, z, &noise)?;
+                    // The variance (of the prior's P) is in `variance` from
+                    // the first pass; the bias moves with the iterate.
+                    if second_order {
+                        SecondOrderTerms::of(&slam.ekf, prior, pose, slot)?.apply_bias(&mut m);
+                    }
+                    Ok(m)
                 })
                 .collect()
         })

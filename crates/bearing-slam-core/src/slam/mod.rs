@@ -28,6 +28,7 @@ mod replay_tests;
 mod robust;
 #[cfg(test)]
 mod robust_tests;
+mod second_order;
 
 use anonymous::Anonymous;
 pub use anonymous::AnonymousReport;
@@ -39,6 +40,7 @@ use consistency::{converted_first_estimate, linearize_bearing, linearize_consist
 use delayed::{PendingCandidate, PoseClone};
 pub use offset::BearingOffset;
 pub use robust::RobustGate;
+use second_order::SecondOrderTerms;
 
 use crate::divergence::DivergenceMonitor;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
@@ -407,8 +409,13 @@ impl BearingSlam {
             };
             let pose = self.vehicle_at();
             let z = wrap_angle(z);
-            let linearized =
+            let mut linearized =
                 linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
+            if self.config.second_order
+                && let Ok(l) = linearized.as_mut()
+            {
+                SecondOrderTerms::of(&self.ekf, &self.ekf, pose, slot)?.apply(l);
+            }
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
             if let Some(used) = batch.get(before) {

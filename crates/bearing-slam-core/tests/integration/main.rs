@@ -26,6 +26,7 @@ mod particle_mcl;
 mod particle_ml_association;
 mod particle_resampling;
 mod runner_observed;
+mod second_order;
 mod smoother_common;
 mod smoother_factors;
 mod smoother_fixed_lag;
