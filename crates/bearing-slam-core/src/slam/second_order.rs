@@ -29,7 +29,7 @@ use crate::geometry::wrap_angle;
 use crate::landmark::Parameterization;
 use crate::measurement::{BearingToInverseDepth, BearingToPoint};
 use crate::model::MeasurementModel;
-use nalgebra::{DMatrix, DVector, SVector};
+use nalgebra::{SMatrix, SVector};
 
 /// The second-order terms of one bearing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -71,6 +71,11 @@ impl SecondOrderTerms {
     }
 }
 
+/// State entries a bearing depends on, at most: the pose (3) and an
+/// inverse-depth landmark (4); a point landmark's pads with zeros, which
+/// leave both traces unchanged.
+const MAX_ENTRIES: usize = 7;
+
 fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
     estimate: &Ekf,
     prior: &Ekf,
@@ -80,14 +85,18 @@ fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
     let vehicle = estimate.block::<3>(vehicle_offset)?;
     let landmark = estimate.block::<L>(landmark_offset)?;
     let n = 3 + L;
-    let gradient = |v: &SVector<f64, 3>, l: &SVector<f64, L>| -> Result<DVector<f64>> {
+    let gradient = |v: &SVector<f64, 3>, l: &SVector<f64, L>| -> Result<Entries> {
         let p = model.predict(v, l)?;
-        Ok(DVector::from_iterator(
-            n,
-            p.j_z_vehicle.iter().chain(p.j_z_landmark.iter()).copied(),
-        ))
+        let mut g = Entries::zeros();
+        for (slot, value) in g
+            .iter_mut()
+            .zip(p.j_z_vehicle.iter().chain(p.j_z_landmark.iter()))
+        {
+            *slot = *value;
+        }
+        Ok(g)
     };
-    let mut hessian = DMatrix::<f64>::zeros(n, n);
+    let mut hessian = Square::zeros();
     for k in 0..n {
         let (mut v_plus, mut v_minus, mut l_plus, mut l_minus) =
             (vehicle, vehicle, landmark, landmark);
@@ -103,7 +112,7 @@ fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
         let column = (gradient(&v_plus, &l_plus)? - gradient(&v_minus, &l_minus)?) / (2.0 * step);
         hessian.set_column(k, &column);
     }
-    let hessian = 0.5 * (&hessian + hessian.transpose());
+    let hessian = 0.5 * (hessian + hessian.transpose());
     let index = |i: usize| {
         if i < 3 {
             vehicle_offset + i
@@ -111,13 +120,22 @@ fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
             landmark_offset + i - 3
         }
     };
-    let covariance = DMatrix::from_fn(n, n, |i, j| prior.covariance_entry(index(i), index(j)));
+    let covariance = Square::from_fn(|i, j| {
+        if i < n && j < n {
+            prior.covariance_entry(index(i), index(j))
+        } else {
+            0.0
+        }
+    });
     let hp = hessian * covariance;
     Ok(SecondOrderTerms {
         bias: 0.5 * hp.trace(),
-        variance: 0.5 * (&hp * &hp).trace(),
+        variance: 0.5 * (hp * hp).trace(),
     })
 }
+
+type Entries = SVector<f64, MAX_ENTRIES>;
+type Square = SMatrix<f64, MAX_ENTRIES, MAX_ENTRIES>;
 
 #[cfg(test)]
 mod tests {
