@@ -33,8 +33,9 @@
 //! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
 //! prior σ rad).
 //!
-//! `SECOND_ORDER=1` turns on the second-order bearing update
-//! (`SlamConfig::second_order`).
+//! `SECOND_ORDER=0` runs the first-order EKF update instead of the
+//! second-order one (`SlamConfig::second_order`, the default since
+//! 2026-11-29); `SECOND_ORDER=1` the second-order one.
 //!
 //! `AUTO_VISITS=N` gives MTE and MTE-clone the `auto` initializer's
 //! undelayed fallback after `N` expired visits (the paper's near prior),
@@ -175,8 +176,8 @@ fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
         let (a, b) = v.split_once(',').ok_or(format!("{name}=A,B"))?;
         Ok(Some((a.trim().parse()?, b.trim().parse()?)))
     };
-    if std::env::var("SECOND_ORDER").is_ok_and(|v| v == "1") {
-        slam.second_order = true;
+    if let Ok(v) = std::env::var("SECOND_ORDER") {
+        slam.second_order = v == "1";
     }
     if let Some((after, k)) = pair("ROBUST")? {
         slam.robust_gate = Some(RobustGate {

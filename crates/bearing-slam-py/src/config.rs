@@ -75,7 +75,8 @@ pub(crate) struct PyConfig {
     #[pyo3(get, set)]
     pub update_iterations: usize,
     /// The Gaussian second-order filter's bearing update (the prediction's
-    /// curvature over P added to its mean and variance); False: the EKF.
+    /// curvature over P added to its mean and variance): True, the default
+    /// since 2026-11-29; False: the paper's first-order EKF update.
     #[pyo3(get, set)]
     pub second_order: bool,
     /// MTE: minimum parallax α_min, rad.

@@ -40,6 +40,7 @@ _COLORS = {
     "mte": "#1f77b4",
     "mte-clone": "#17becf",
     "pi-sr": "#ff7f0e",
+    "auto": "#d62728",
     "range-bearing": "#9467bd",
     "gtsam": "#8c564b",
 }

@@ -185,8 +185,11 @@ pub struct SlamConfig {
     pub update_iterations: usize,
     /// The Gaussian second-order filter's bearing update: the prediction's
     /// curvature over the pose and landmark covariance added to its mean
-    /// and variance (`slam/second_order.rs`); `false` (default) is the EKF.
-    #[serde(default)]
+    /// and variance (`slam/second_order.rs`). `true` (the default since
+    /// 2026-11-29: better maps and consistency on MRCLAM, the same or better
+    /// in simulation; docs/results/filter-consistency.md); `false` is the
+    /// paper's first-order EKF update.
+    #[serde(default = "yes")]
     pub second_order: bool,
     /// How bearings are associated with landmarks: the log's ids (known,
     /// the default) or, ignoring them, nearest neighbour or JCBB with the
@@ -210,6 +213,10 @@ fn one() -> usize {
     1
 }
 
+fn yes() -> bool {
+    true
+}
+
 impl Default for SlamConfig {
     fn default() -> Self {
         Self {
@@ -228,7 +235,7 @@ impl Default for SlamConfig {
             update: UpdateMode::Full,
             consistency: Consistency::Standard,
             update_iterations: 1,
-            second_order: false,
+            second_order: true,
             association: AssociationConfig::default(),
             robust_gate: None,
             bearing_offset: None,
