@@ -17,7 +17,14 @@
 //!
 //! `H` is the central difference of the model's analytic Jacobian (the
 //! models here give no second derivatives), one pair of evaluations per
-//! state entry (7 entries for a point landmark, 7 for inverse depth).
+//! state entry (5 entries with a point landmark, 7 with inverse depth).
+//!
+//! Where it applies: the bearings of mapped landmarks in
+//! [`BearingSlam::update_bearings`](super::BearingSlam::update_bearings)
+//! (so also the unknown-identity mode's, which pairs and then calls it), and
+//! the iterated update's passes. The replay of a new landmark's waiting
+//! bearings (MTE-history), the range-bearing update and the bearing-offset
+//! state (linear in the bearing) stay first order.
 //!
 //! [`SlamConfig::second_order`]: super::SlamConfig::second_order
 
