@@ -72,7 +72,9 @@ struct Row {
 /// prior: the setup's landmark count, clutter rate and field of view).
 /// `ASSOCIATION_DESCRIPTORS=σ,c` gives the simulated sensor appearance
 /// descriptors of noise σ with confusion rate c ([`descriptor_setting`]) and
-/// the association the sensor's stated σ.
+/// the association the sensor's stated σ. `SECOND_ORDER=0` runs the
+/// first-order bearing update (the default until 2026-11-29), `1` the
+/// second-order one.
 fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDensity) -> RunConfig {
     let switch = |name: &str, default: bool| match std::env::var(name).as_deref() {
         Ok("0") => false,
@@ -117,6 +119,9 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
         descriptors: descriptor_setting().map(|s| DescriptorModel { sigma: s.sigma }),
         ..d
     };
+    if let Ok(v) = std::env::var("SECOND_ORDER") {
+        config.slam.second_order = v == "1";
+    }
     config
 }
 
