@@ -384,6 +384,7 @@ def evaluate_mrclam(
     auto_visits: int | None = None,
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
+    second_order: bool | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...
 def vocabulary() -> dict[str, Any]: ...
 

@@ -46,7 +46,6 @@ from bearing_slam.arg_types import (
     robot_number,
     seed,
 )
-from bearing_slam.auto_options import add_auto_options, auto_options, auto_problem
 from bearing_slam.cli_batch import add_batch_parsers
 from bearing_slam.estimators import (
     add_estimator_options,
@@ -54,6 +53,7 @@ from bearing_slam.estimators import (
     estimator_problem,
     with_estimator,
 )
+from bearing_slam.filter_options import add_filter_options, filter_options, filter_problem
 from bearing_slam.live import add_live_arguments, stream_if_asked  # --live
 from bearing_slam.outputs import (
     metrics_record,
@@ -143,7 +143,7 @@ def _config(log: SensorLog, args: argparse.Namespace) -> Config:
         overrides["use_range"] = True
     if args.history_correlation is not None:
         overrides["history_correlation"] = args.history_correlation
-    return _run_config(log, args.init, **overrides, **auto_options(args))
+    return _run_config(log, args.init, **overrides, **filter_options(args))
 
 
 def _run_config(log: SensorLog, init: str, **overrides: Any) -> Config:
@@ -327,7 +327,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise UserError("--alpha-min-deg applies to the MTE initializers only, not to PI-SR")
     if args.init != "mte-history" and args.history_correlation is not None:
         raise UserError("--history-correlation applies to --init mte-history only")
-    if problem := auto_problem(args, args.init):
+    init = "range-bearing" if args.use_range else args.init
+    if problem := filter_problem(args, init):
         raise UserError(problem)
     path = Path(args.log)
     if not path.is_file():
@@ -378,7 +379,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
     if args.start is not None and args.end is not None and args.end <= args.start:
         raise UserError(f"--end ({args.end:g} s) must be greater than --start ({args.start:g} s)")
     method = "range-bearing" if args.use_range else args.init
-    if problem := estimator_problem(args) or auto_problem(args, method):
+    if problem := estimator_problem(args) or filter_problem(args, method):
         raise UserError(problem)
     out = Path(args.out)
     with tqdm(total=2, desc=f"robot {args.robot} {method}", unit="step", disable=args.quiet) as bar:
@@ -396,7 +397,7 @@ def _cmd_mrclam(args: argparse.Namespace) -> int:
             association=args.association,
             online_window=args.online_window,
             landmark_chart=args.landmark_chart,
-            **auto_options(args),
+            **filter_options(args),
         )
         bar.update()
         bar.set_postfix_str("metrics.json, plots, estimate.mcap")
@@ -554,7 +555,7 @@ def _parser() -> argparse.ArgumentParser:
         help="landmark initializer (default: %(default)s; mte-history: mte-clone keeping "
         f"up to {MTE_HISTORY} bearings seen while a landmark waits)",
     )
-    add_auto_options(runp)
+    add_filter_options(runp)
     runp.add_argument(
         "--rho-ini", type=positive_named("rho_ini"), help="PI-SR initial inverse depth, 1/m"
     )
@@ -631,7 +632,7 @@ def _parser() -> argparse.ArgumentParser:
         help="landmark initializer (default: %(default)s; PI-SR with the prior "
         f"{DEFAULT_PRIOR['rho_ini']:g}, {DEFAULT_PRIOR['sigma_rho']:g})",
     )
-    add_auto_options(mr)
+    add_filter_options(mr)
     mr.add_argument(
         "--use-range",
         action="store_true",

@@ -114,6 +114,7 @@ def evaluate(
     auto_visits: int | None = None,
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
+    second_order: bool | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
@@ -129,7 +130,8 @@ def evaluate(
     (``estimator="filter+smoother"`` only; None: the defaults).
     ``auto_visits``, ``auto_max_wait``, ``auto_stalled_parallax``: the ``auto``
     initializer's options, as :class:`~bearing_slam.Config`'s fields (method
-    ``"auto"`` only; None: the defaults)."""
+    ``"auto"`` only; None: the defaults). ``second_order``: the bearing update
+    (None: the default, second order; False: the paper's first-order one)."""
     t0 = time.perf_counter()
     result, metrics, log = evaluate_mrclam(
         dataset_dir,
@@ -146,6 +148,7 @@ def evaluate(
         auto_visits=auto_visits,
         auto_max_wait=auto_max_wait,
         auto_stalled_parallax=auto_stalled_parallax,
+        second_order=second_order,
     )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 

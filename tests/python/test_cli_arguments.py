@@ -107,6 +107,12 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     config = json.loads((out / "metrics.json").read_text())["config"]
     assert (config["init"], config["auto_visits"], config["auto_max_wait"]) == ("auto", 2, 1.5)
     assert config["auto_stalled_parallax"] is False
+    assert config["second_order"] is True
+    r = cli("run", log, "--first-order", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out / "metrics.json").read_text())["config"]["second_order"] is False
+    r = cli("run", log, "--use-range", "--first-order", "--out", tmp_path / "o")
+    assert_refused(r, "--first-order", "--use-range")
 
 
 def test_demo_refuses_a_folder_of_other_files(tmp_path: Path) -> None:

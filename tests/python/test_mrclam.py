@@ -152,6 +152,7 @@ def test_dataset1_without_ground_truth(tmp_path: Path) -> None:
         (["D6", "--robot", "1", "--start", "5000"], "contains no odometry row"),
         (["D6", "--robot", "1", "--init", "mte", "--auto-max-wait", "1"], "--init auto only"),
         (["D6", "--robot", "1", "--use-range", "--auto-visits", "2"], "not to --init range"),
+        (["D6", "--robot", "1", "--use-range", "--first-order"], "not to --use-range"),
     ],
 )
 def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
@@ -192,6 +193,24 @@ def test_auto_wait_budget_from_the_cli_and_python(tmp_path: Path) -> None:
         bs.evaluate_mrclam(D6, 2, "mte", 300.0, 600.0, auto_stalled_parallax=True)
     with pytest.raises(bs.InvalidParameterError, match="expired_visits"):
         bs.evaluate_mrclam(D6, 2, "auto", 300.0, 600.0, auto_visits=0)
+
+
+def test_first_order_update_from_the_cli_and_python(tmp_path: Path) -> None:
+    """``--first-order`` (``second_order=False``) runs the paper's update:
+    the config and parameters say so, and the run is not the default's."""
+    out = tmp_path / "first"
+    r = mrclam_cli(D6, "--robot", "2", *WINDOW, "--first-order", "--out", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    m = outputs(out)
+    assert m["config"]["second_order"] is False
+    assert m["parameters"]["second_order"] is False
+    _, first, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0, second_order=False)
+    assert first["ate_rmse_m"] == pytest.approx(m["ate_rmse_m"])
+    default, second, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0)
+    assert default.config.second_order is True
+    assert second["ate_rmse_m"] != pytest.approx(first["ate_rmse_m"])
+    with pytest.raises(ValueError, match="range-bearing"):
+        bs.evaluate_mrclam(D6, 2, "range-bearing", 300.0, 600.0, second_order=False)
 
 
 def test_help_says_what_it_writes() -> None:

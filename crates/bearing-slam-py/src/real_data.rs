@@ -86,12 +86,13 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// the online smoother's window and landmark chart, as `Config`'s fields.
 /// `auto_visits`, `auto_max_wait`, `auto_stalled_parallax` (method `"auto"`
 /// only; `None`: `UndelayedFallback::ONE_VISIT`'s): the `auto` initializer's
-/// options, as `Config`'s fields of those names.
+/// options, as `Config`'s fields of those names. `second_order` (`None`:
+/// the default, `True`): the bearing update, `False` the paper's first-order.
 // The Python signature: the dataset, the robot, the window, the estimator
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None))]
+#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None, second_order = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -108,6 +109,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     auto_visits: Option<usize>,
     auto_max_wait: Option<f64>,
     auto_stalled_parallax: Option<bool>,
+    second_order: Option<bool>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let default = SlamConfig::default().initializer.kind().name();
     let method = parse_name::<Method>(method.unwrap_or(default))?;
@@ -153,8 +155,14 @@ pub(crate) fn py_evaluate_mrclam<'py>(
         end_s: end,
         ..defaults.load
     };
+    if second_order.is_some() && method == Method::RangeBearing {
+        return Err(PyValueError::new_err(
+            "second_order is an option of the bearing-only update, not of method \"range-bearing\"",
+        ));
+    }
     let parameters = FilterParameters {
         auto_fallback,
+        second_order: second_order.unwrap_or(defaults.parameters.second_order),
         ..defaults.parameters
     };
     if on_scan.is_some() && association.ignores_ids() {

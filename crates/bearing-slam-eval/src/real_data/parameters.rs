@@ -38,6 +38,9 @@ pub struct FilterParameters {
     /// above, unless a run asks for its opt-in rules (a wait budget, the
     /// stalled-parallax rule) or more expired visits.
     pub auto_fallback: UndelayedFallback,
+    /// The bearing update: second order (the library default,
+    /// [`SlamConfig::second_order`]) or the paper's first-order one.
+    pub second_order: bool,
 }
 
 /// The parameters [`calibrate_parameters`] derives from Dataset 6 by the rule
@@ -82,6 +85,7 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
     },
     pi_sr_prior: InverseDepthPrior::PAPER_NEAR,
     auto_fallback: UndelayedFallback::ONE_VISIT,
+    second_order: true,
 };
 
 /// The parameters of the first quick run (before this module): the 1 s
@@ -100,6 +104,7 @@ pub const NAIVE_PARAMETERS: FilterParameters = FilterParameters {
     triangulation: CALIBRATED_PARAMETERS.triangulation,
     pi_sr_prior: CALIBRATED_PARAMETERS.pi_sr_prior,
     auto_fallback: CALIBRATED_PARAMETERS.auto_fallback,
+    second_order: CALIBRATED_PARAMETERS.second_order,
 };
 
 impl FilterParameters {
@@ -132,6 +137,7 @@ impl FilterParameters {
             initializer,
             gate_probability: Some(self.gate_probability),
             conversion_threshold: Some(0.1),
+            second_order: self.second_order,
             ..SlamConfig::default()
         };
         let config = RunConfig {

@@ -1,7 +1,10 @@
-"""The ``auto`` initializer's options on the command line (issue 13).
+"""The filter's options on the command line (issue 13): the bearing update and
+the ``auto`` initializer's rules.
 
-``bearing-slam run`` and ``mrclam`` take, with ``--init auto`` (the default),
-the options of Rust's ``UndelayedFallback`` under ``Config``'s names:
+``bearing-slam run`` and ``mrclam`` take ``--first-order`` (the paper's
+first-order bearing update, ``Config(second_order=False)``, instead of the
+second-order default) and, with ``--init auto`` (the default), the options
+of Rust's ``UndelayedFallback`` under ``Config``'s names:
 ``--auto-visits N`` (expired visits before a landmark enters undelayed,
 default 1), ``--auto-max-wait SECONDS`` (a wait budget: a candidate still
 waiting for parallax after that long enters undelayed from its current
@@ -17,13 +20,21 @@ from typing import Any
 
 from bearing_slam.arg_types import positive_float, positive_int
 
-__all__ = ["add_auto_options", "auto_options", "auto_problem"]
+__all__ = ["add_filter_options", "filter_options", "filter_problem"]
 
 _AUTO_FLAGS = ("--auto-visits", "--auto-max-wait", "--auto-stalled-parallax")
 
 
-def add_auto_options(parser: argparse.ArgumentParser) -> None:
-    """Adds the ``auto`` initializer's ``--auto-*`` options to a subcommand."""
+def add_filter_options(parser: argparse.ArgumentParser) -> None:
+    """Adds ``--first-order`` and the ``auto`` initializer's ``--auto-*``
+    options to a subcommand."""
+    parser.add_argument(
+        "--first-order",
+        action="store_true",
+        help="the paper's first-order (EKF) bearing update instead of the second-order "
+        "default (which adds the bearing's curvature over the pose and landmark "
+        "uncertainty to its mean and variance)",
+    )
     parser.add_argument(
         "--auto-visits",
         type=positive_int,
@@ -48,10 +59,12 @@ def add_auto_options(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def auto_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The ``--auto-*`` options given, as ``Config``'s ``auto_*`` fields
-    (empty when none was given)."""
+def filter_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The options given, as ``Config``'s fields (``second_order``,
+    ``auto_*``; empty when none was given)."""
     options: dict[str, Any] = {}
+    if args.first_order:
+        options["second_order"] = False
     if args.auto_visits is not None:
         options["auto_visits"] = args.auto_visits
     if args.auto_max_wait is not None:
@@ -61,8 +74,12 @@ def auto_options(args: argparse.Namespace) -> dict[str, Any]:
     return options
 
 
-def auto_problem(args: argparse.Namespace, init: str) -> str | None:
-    """Why the ``--auto-*`` options cannot be used with ``init``, or None."""
-    if auto_options(args) and init != "auto":
+def filter_problem(args: argparse.Namespace, init: str) -> str | None:
+    """Why the options cannot be used with ``init`` (a ``--init`` name, or
+    ``range-bearing`` for ``--use-range``), or None."""
+    options = filter_options(args)
+    if init == "range-bearing" and args.first_order:
+        return "--first-order applies to the bearing-only update, not to --use-range"
+    if any(k.startswith("auto_") for k in options) and init != "auto":
         return f"{', '.join(_AUTO_FLAGS)} apply to --init auto only, not to --init {init}"
     return None
