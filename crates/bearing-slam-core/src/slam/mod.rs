@@ -409,13 +409,16 @@ impl BearingSlam {
             };
             let pose = self.vehicle_at();
             let z = wrap_angle(z);
-            let mut linearized =
-                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise);
-            if self.config.second_order
-                && let Ok(l) = linearized.as_mut()
-            {
-                SecondOrderTerms::of(&self.ekf, &self.ekf, pose, slot)?.apply(l);
-            }
+            // A degenerate geometry in the second-order terms (a landmark
+            // at the sensor) is the linearization's: the gate rejects it.
+            let linearized =
+                linearize_bearing(&self.ekf, self.config.consistency, pose, slot, z, &noise)
+                    .and_then(|mut l| {
+                        if self.config.second_order {
+                            SecondOrderTerms::of(&self.ekf, &self.ekf, pose, slot)?.apply(&mut l);
+                        }
+                        Ok(l)
+                    });
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut pending_events)?;
             if let Some(used) = batch.get(before) {
