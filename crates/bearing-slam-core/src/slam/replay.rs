@@ -45,6 +45,7 @@
 
 use super::consistency::PoseAt;
 use super::iterated::relinearize_about;
+use super::second_order::SecondOrderTerms;
 use super::{BatchReport, BearingSlam, LandmarkSlot, linearize_bearing};
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
 use crate::error::Result;
@@ -273,8 +274,13 @@ impl BearingSlam {
             let linearized = self.linearize_item(&self.ekf, None, slot, &bearings, &item);
             let before = batch.len();
             self.gate(id, linearized, &mut batch, &mut report, &mut events)?;
-            if batch.len() > before {
-                accepted.push(item);
+            if let Some(gated) = batch.get(before) {
+                // The passes keep the variance the gate accepted it with (the
+                // second-order term of the prior's P, a robust inflation).
+                accepted.push(ReplayItem {
+                    variance: gated.noise[(0, 0)],
+                    ..item
+                });
             }
         }
         for e in events {
@@ -296,7 +302,12 @@ impl BearingSlam {
     }
 
     /// One replayed measurement linearized at `estimate` (for an update of
-    /// `prior` when given: an iterated pass).
+    /// `prior` when given: an iterated pass), with the second-order terms of
+    /// the combination when [`SlamConfig::second_order`] (the bias and the
+    /// variance on the first pass, the bias alone on the others, as
+    /// `iterated.rs` does).
+    ///
+    /// [`SlamConfig::second_order`]: super::SlamConfig::second_order
     fn linearize_item(
         &self,
         estimate: &Ekf,
@@ -319,6 +330,24 @@ impl BearingSlam {
                 Ok((w, m))
             })
             .collect::<Result<Vec<_>>>()?;
-        Ok(combine(&terms, item.variance))
+        let mut measurement = combine(&terms, item.variance);
+        if self.config.second_order {
+            let poses: Vec<(f64, PoseAt)> = item
+                .terms
+                .iter()
+                .filter_map(|&(i, w)| bearings.get(i).map(|(pose, _)| (w, *pose)))
+                .collect();
+            let second = SecondOrderTerms::of_combination(
+                estimate,
+                prior.unwrap_or(estimate),
+                &poses,
+                slot,
+            )?;
+            match prior {
+                None => second.apply(&mut measurement),
+                Some(_) => second.apply_bias(&mut measurement),
+            }
+        }
+        Ok(measurement)
     }
 }

@@ -6,10 +6,11 @@
 use super::replay::{ar1_mean_variance, replay_plan};
 use super::{BearingSlam, InitializerConfig, SlamConfig};
 use crate::init::{HistoryCorrelation, HistoryTreatment, TriangulationConfig};
+use crate::landmark::Parameterization;
 use crate::log::EventKind;
 use crate::testing::kinematic::KinematicScenario;
 use crate::trace::{DiscardReason, SlamEvent};
-use nalgebra::{Matrix2, Vector2};
+use nalgebra::{Matrix2, Matrix4, Vector2};
 use rand::SeedableRng;
 use rand::rngs::StdRng;
 use rand_distr::{Distribution, StandardNormal};
@@ -270,4 +271,61 @@ fn the_papers_mte_reports_the_waiting_bearings_it_does_not_use() {
         })
         .sum();
     assert!(unused > 0, "MTE waited without saying so");
+}
+
+/// The first landmark's inverse-depth covariance right after the scan
+/// that entered it, on paper_fig4 (seed 3) with MTE-history: before that
+/// scan no landmark is mapped, so the two runs differ only in that scan's
+/// replay.
+fn first_landmark_after_its_replay(second_order: bool) -> Matrix4<f64> {
+    let scenario = KinematicScenario::paper_fig4(true);
+    let log = scenario.simulate(3);
+    let model = scenario.wheel_model().expect("valid model");
+    let config = SlamConfig {
+        initializer: InitializerConfig::TriangulationWithClone(TriangulationConfig {
+            history: 8,
+            ..TriangulationConfig::default()
+        }),
+        second_order,
+        ..SlamConfig::default()
+    };
+    let mut slam = BearingSlam::new(config).expect("valid config");
+    for event in &log.events {
+        match &event.kind {
+            EventKind::Wheels(w) => {
+                slam.predict(event.time, &model, w).expect("predicts");
+            }
+            EventKind::Bearings(obs) => {
+                let pairs: Vec<(u64, f64)> =
+                    obs.iter().map(|o| (o.landmark_id, o.bearing)).collect();
+                slam.update_bearings(event.time, &pairs).expect("updates");
+                if let Some(slot) = slam.landmarks.values().next() {
+                    assert_eq!(slot.parameterization, Parameterization::InverseDepth);
+                    return slam
+                        .ekf
+                        .covariance_block::<4>(slot.offset)
+                        .expect("a block");
+                }
+            }
+            _ => {}
+        }
+    }
+    panic!("no landmark entered the map");
+}
+
+#[test]
+fn the_replay_takes_the_second_order_variance() {
+    // A landmark triangulated a moment ago is uncertain along its ray, so
+    // each replayed bearing's curvature term adds variance: the landmark
+    // (inverse depth ρ, entry 3) keeps more of its uncertainty than the
+    // first-order replay leaves it (the same without the terms).
+    let first = first_landmark_after_its_replay(false);
+    let second = first_landmark_after_its_replay(true);
+    assert!(
+        second[(3, 3)] > first[(3, 3)] * (1.0 + 1e-4),
+        "σ_ρ² {} vs {}",
+        second[(3, 3)],
+        first[(3, 3)]
+    );
+    assert!(second.determinant() > first.determinant());
 }

@@ -22,9 +22,11 @@
 //! Where it applies: the bearings of mapped landmarks in
 //! [`BearingSlam::update_bearings`](super::BearingSlam::update_bearings)
 //! (so also the unknown-identity mode's, which pairs and then calls it), and
-//! the iterated update's passes. The replay of a new landmark's waiting
-//! bearings (MTE-history), the range-bearing update and the bearing-offset
-//! state (linear in the bearing) stay first order.
+//! the iterated update's passes, and the replay of a new landmark's waiting
+//! bearings (MTE-history, `replay.rs`), whose combined measurements
+//! `Σ w_t h_t` (whitening, visit means) take the terms of `Σ w_t H_t` over
+//! all their poses. The range-bearing update and the bearing-offset state
+//! (linear in the bearing) stay first order.
 //!
 //! [`SlamConfig::second_order`]: super::SlamConfig::second_order
 
@@ -36,7 +38,8 @@ use crate::geometry::wrap_angle;
 use crate::landmark::Parameterization;
 use crate::measurement::{BearingToInverseDepth, BearingToPoint};
 use crate::model::MeasurementModel;
-use nalgebra::{SMatrix, SVector};
+use nalgebra::{DMatrix, SMatrix, SVector};
+use std::collections::BTreeMap;
 
 /// The second-order terms of one bearing.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -57,13 +60,71 @@ impl SecondOrderTerms {
         pose: PoseAt,
         slot: LandmarkSlot,
     ) -> Result<Self> {
-        let offsets = (pose.offset, slot.offset);
-        match slot.parameterization {
-            Parameterization::Euclidean => terms::<2, _>(estimate, prior, &BearingToPoint, offsets),
-            Parameterization::InverseDepth => {
-                terms::<4, _>(estimate, prior, &BearingToInverseDepth, offsets)
+        let local = LocalHessian::of(estimate, pose, slot)?;
+        let covariance = Square::from_fn(|i, j| {
+            if i < local.entries && j < local.entries {
+                prior.covariance_entry(local.indices[i], local.indices[j])
+            } else {
+                0.0
+            }
+        });
+        let hp = local.hessian * covariance;
+        Ok(Self {
+            bias: 0.5 * hp.trace(),
+            variance: 0.5 * (hp * hp).trace(),
+        })
+    }
+
+    /// The terms of the combination `Σ w_t h_t` of bearings of `slot`, each
+    /// from its own pose (the replay of waiting bearings, each on the clone of
+    /// the pose it was taken from): with `M = Σ w_t H_t` over the union of
+    /// their state entries, `½ tr(M P)` and `½ tr(M P M P)`, so the
+    /// curvature shared through the landmark is counted once with its
+    /// correlations. One term of weight 1 is [`SecondOrderTerms::of`].
+    pub(super) fn of_combination(
+        estimate: &Ekf,
+        prior: &Ekf,
+        terms: &[(f64, PoseAt)],
+        slot: LandmarkSlot,
+    ) -> Result<Self> {
+        if let [(w, pose)] = terms
+            && *w == 1.0
+        {
+            return Self::of(estimate, prior, *pose, slot);
+        }
+        let mut hessians = Vec::with_capacity(terms.len());
+        let mut union: BTreeMap<usize, usize> = BTreeMap::new();
+        for &(w, pose) in terms {
+            let local = LocalHessian::of(estimate, pose, slot)?;
+            for &index in &local.indices[..local.entries] {
+                let next = union.len();
+                union.entry(index).or_insert(next);
+            }
+            hessians.push((w, local));
+        }
+        let n = union.len();
+        let mut combined = DMatrix::<f64>::zeros(n, n);
+        for (w, local) in &hessians {
+            let at = |i: usize| union[&local.indices[i]];
+            for i in 0..local.entries {
+                for j in 0..local.entries {
+                    combined[(at(i), at(j))] += w * local.hessian[(i, j)];
+                }
             }
         }
+        // `union` maps a state index to its row in `combined`.
+        let mut index_of_row = vec![0; n];
+        for (&index, &row) in &union {
+            index_of_row[row] = index;
+        }
+        let covariance = DMatrix::from_fn(n, n, |i, j| {
+            prior.covariance_entry(index_of_row[i], index_of_row[j])
+        });
+        let mp = combined * covariance;
+        Ok(Self {
+            bias: 0.5 * mp.trace(),
+            variance: 0.5 * (&mp * &mp).trace(),
+        })
     }
 
     /// Takes the bias from `measurement`'s innovation (`z − h − ½ tr(H P)`).
@@ -83,12 +144,33 @@ impl SecondOrderTerms {
 /// leave both traces unchanged.
 const MAX_ENTRIES: usize = 7;
 
-fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
+/// `H = ∇²h` of one bearing over the state entries it depends on.
+struct LocalHessian {
+    /// `H`, symmetric, zero past `entries`.
+    hessian: Square,
+    /// The state index of each row and column.
+    indices: [usize; MAX_ENTRIES],
+    /// How many entries: 5 with a point landmark, 7 with inverse depth.
+    entries: usize,
+}
+
+impl LocalHessian {
+    fn of(estimate: &Ekf, pose: PoseAt, slot: LandmarkSlot) -> Result<Self> {
+        let offsets = (pose.offset, slot.offset);
+        match slot.parameterization {
+            Parameterization::Euclidean => hessian::<2, _>(estimate, &BearingToPoint, offsets),
+            Parameterization::InverseDepth => {
+                hessian::<4, _>(estimate, &BearingToInverseDepth, offsets)
+            }
+        }
+    }
+}
+
+fn hessian<const L: usize, Model: MeasurementModel<3, L, 1>>(
     estimate: &Ekf,
-    prior: &Ekf,
     model: &Model,
     (vehicle_offset, landmark_offset): (usize, usize),
-) -> Result<SecondOrderTerms> {
+) -> Result<LocalHessian> {
     let vehicle = estimate.block::<3>(vehicle_offset)?;
     let landmark = estimate.block::<L>(landmark_offset)?;
     let n = 3 + L;
@@ -119,25 +201,18 @@ fn terms<const L: usize, Model: MeasurementModel<3, L, 1>>(
         let column = (gradient(&v_plus, &l_plus)? - gradient(&v_minus, &l_minus)?) / (2.0 * step);
         hessian.set_column(k, &column);
     }
-    let hessian = 0.5 * (hessian + hessian.transpose());
-    let index = |i: usize| {
-        if i < 3 {
+    let mut indices = [0; MAX_ENTRIES];
+    for (i, index) in indices.iter_mut().enumerate().take(n) {
+        *index = if i < 3 {
             vehicle_offset + i
         } else {
             landmark_offset + i - 3
-        }
-    };
-    let covariance = Square::from_fn(|i, j| {
-        if i < n && j < n {
-            prior.covariance_entry(index(i), index(j))
-        } else {
-            0.0
-        }
-    });
-    let hp = hessian * covariance;
-    Ok(SecondOrderTerms {
-        bias: 0.5 * hp.trace(),
-        variance: 0.5 * (hp * hp).trace(),
+        };
+    }
+    Ok(LocalHessian {
+        hessian: 0.5 * (hessian + hessian.transpose()),
+        indices,
+        entries: n,
     })
 }
 
@@ -264,6 +339,70 @@ mod tests {
             (terms.variance - variance).abs() < 1e-4 * variance,
             "{terms:?} {variance}"
         );
+    }
+
+    #[test]
+    fn a_combination_over_two_poses_matches_second_differences_of_its_bearing() {
+        // A whitened replay item `h_2 − φ h_1`: the bearings of one
+        // inverse-depth landmark (entries 6..10) from two pose clones
+        // (entries 0..3 and 3..6), all correlated. Its H over the 10
+        // entries, by second differences of the combined bearing itself.
+        let mean = [0.1, 0.2, -0.4, 0.6, 0.1, -0.2, 0.5, -0.3, 0.6, 0.35];
+        let p = correlated(10, 0.15);
+        let ekf = filter(&mean, &p);
+        let pose = |offset: usize| PoseAt {
+            offset,
+            ..vehicle()
+        };
+        let landmark = LandmarkSlot {
+            offset: 6,
+            ..slot(Parameterization::InverseDepth)
+        };
+        let phi = 0.64;
+        let weighted = [(1.0, pose(3)), (-phi, pose(0))];
+        let terms =
+            SecondOrderTerms::of_combination(&ekf, &ekf, &weighted, landmark).expect("terms");
+        let g = |x: &DVector<f64>| -> f64 {
+            let l = Vector4::new(x[6], x[7], x[8], x[9]);
+            let bearing = |o: usize| {
+                BearingToInverseDepth
+                    .predict(&Vector3::new(x[o], x[o + 1], x[o + 2]), &l)
+                    .expect("predicts")
+                    .value[0]
+            };
+            bearing(3) - phi * bearing(0)
+        };
+        let x0 = DVector::from_column_slice(&mean);
+        let e = 1e-4;
+        let hessian = DMatrix::from_fn(10, 10, |i, j| {
+            let at = |si: f64, sj: f64| {
+                let mut x = x0.clone();
+                x[i] += si * e;
+                x[j] += sj * e;
+                g(&x)
+            };
+            (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0)) / (4.0 * e * e)
+        });
+        let hp = hessian * &p;
+        let (bias, variance) = (0.5 * hp.trace(), 0.5 * (&hp * &hp).trace());
+        assert!(variance > 1e-5, "{variance}");
+        assert!(
+            (terms.bias - bias).abs() < 1e-4 * bias.abs().max(1e-3),
+            "{terms:?} {bias}"
+        );
+        assert!(
+            (terms.variance - variance).abs() < 1e-4 * variance,
+            "{terms:?} {variance}"
+        );
+        // Not the sum of each bearing's own terms: the landmark's curvature
+        // is shared, so the variance has cross terms.
+        let alone = |o: usize| SecondOrderTerms::of(&ekf, &ekf, pose(o), landmark).expect("terms");
+        let summed = alone(3).variance + phi * phi * alone(0).variance;
+        assert!((summed - terms.variance).abs() > 1e-3 * terms.variance);
+        // One term of weight 1 is the single bearing's terms.
+        let single = SecondOrderTerms::of_combination(&ekf, &ekf, &[(1.0, pose(3))], landmark)
+            .expect("terms");
+        assert_eq!(single, alone(3));
     }
 
     #[test]
