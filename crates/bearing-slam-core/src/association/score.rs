@@ -12,6 +12,11 @@
 //! the same true id beyond the first are duplicates; landmarks owned by
 //! clutter or a distractor are spurious; static landmarks seen at least
 //! `min_sightings` times but owning no mapped landmark are missed.
+//!
+//! The pairings are also kept as a confusion matrix (true id against the
+//! owner of the landmark it was paired with), so a precision can be counted
+//! by groups of look-alike landmarks ([`look_alike_groups`],
+//! [`AssociationScore::precision_within`]) as well as by id.
 
 use crate::log::{TruthKind, truth_kind};
 use serde::{Deserialize, Serialize};
@@ -106,6 +111,69 @@ pub struct AssociationScore {
     /// of its bearings carry (to compare the map with the true landmarks).
     #[serde(default)]
     pub owners: BTreeMap<u64, u64>,
+    /// The confusion matrix of the pairings: `confusion[truth][owner]` is
+    /// how many bearings of static landmark `truth` were paired with a
+    /// mapped landmark owned by `owner` (the diagonal holds the correct
+    /// ones). With [`AssociationScore::precision_within`] it tells a
+    /// confusion between look-alike neighbours from a gross one.
+    #[serde(default)]
+    pub confusion: BTreeMap<u64, BTreeMap<u64, usize>>,
+}
+
+impl AssociationScore {
+    /// The precision with a pairing counted correct when its landmark's
+    /// owner and the bearing's true id are in the same group (`group` maps
+    /// a true id to its group, [`look_alike_groups`]; an id it leaves out
+    /// is its own group). `group = identity` is [`AssociationScore::precision`].
+    #[must_use]
+    pub fn precision_within(&self, group: &BTreeMap<u64, u64>) -> f64 {
+        if self.paired == 0 {
+            return 1.0;
+        }
+        let of = |id: u64| group.get(&id).copied().unwrap_or(id);
+        let correct: usize = self
+            .confusion
+            .iter()
+            .flat_map(|(truth, row)| {
+                row.iter()
+                    .filter(move |&(&owner, _)| of(owner) == of(*truth))
+                    .map(|(_, &n)| n)
+            })
+            .sum();
+        correct as f64 / self.paired as f64
+    }
+}
+
+/// Groups of true landmarks closer than `radius_m` to one another (single
+/// linkage: a chain of neighbours each within `radius_m` is one group):
+/// `group[id]` is the smallest id of its group. Landmarks that a bearing
+/// sensor with an uncertain pose cannot tell apart (MRCLAM Dataset 6: 15
+/// landmarks in 6 clusters, neighbours 0.12–0.25 m apart) share a group.
+#[must_use]
+pub fn look_alike_groups(landmarks: &[(u64, f64, f64)], radius_m: f64) -> BTreeMap<u64, u64> {
+    let mut group: BTreeMap<u64, u64> = landmarks.iter().map(|l| (l.0, l.0)).collect();
+    // Merge until no pair within the radius straddles two groups.
+    loop {
+        let mut merged = false;
+        for a in landmarks {
+            for b in landmarks {
+                let close = (a.1 - b.1).hypot(a.2 - b.2) <= radius_m;
+                let (ga, gb) = (group[&a.0], group[&b.0]);
+                if close && ga != gb {
+                    let (keep, drop) = (ga.min(gb), ga.max(gb));
+                    for g in group.values_mut() {
+                        if *g == drop {
+                            *g = keep;
+                        }
+                    }
+                    merged = true;
+                }
+            }
+        }
+        if !merged {
+            return group;
+        }
+    }
 }
 
 /// Scores `records`, with `births[id]` the time mapped landmark `id` entered
@@ -169,6 +237,13 @@ pub fn score(
             out.false_bearings_paired += usize::from(!is_landmark);
             if is_landmark && owner.get(&id) == Some(&r.truth) {
                 out.correct += 1;
+            }
+            if let (true, Some(&o)) = (is_landmark, owner.get(&id)) {
+                *out.confusion
+                    .entry(r.truth)
+                    .or_default()
+                    .entry(o)
+                    .or_default() += 1;
             }
         }
         if is_landmark && mapped_since.get(&r.truth).is_some_and(|&t| r.time > t) {
@@ -267,5 +342,56 @@ mod tests {
         assert!((s.precision - 0.6).abs() < 1e-12);
         // Landmark 1's bearings after t = 1.5: 2, 3, 4, 5 → 3 correct of 4.
         assert!((s.recall - 0.75).abs() < 1e-12, "{}", s.recall);
+    }
+
+    #[test]
+    fn the_confusion_matrix_and_group_precision() {
+        // Landmarks 1 and 2 are neighbours, 3 is far. Mapped 10 (owned by
+        // 1) and 12 (owned by 3).
+        let clutter = CLUTTER_ID_START;
+        let records = vec![
+            rec(0.0, 1, Assignment::Tracks(vec![10])),
+            rec(1.0, 1, Assignment::Landmark(10)),
+            rec(1.0, 3, Assignment::Tracks(vec![12])),
+            rec(2.0, 3, Assignment::Landmark(12)),
+            rec(3.0, 2, Assignment::Landmark(10)),
+            rec(4.0, 2, Assignment::Landmark(10)),
+            rec(5.0, 3, Assignment::Landmark(10)),
+            rec(5.0, clutter, Assignment::Landmark(12)),
+        ];
+        let births = BTreeMap::from([(10, 0.5), (12, 1.5)]);
+        let s = score(&records, &births, &BTreeMap::new(), &[], 1);
+        assert_eq!(s.owners, BTreeMap::from([(10, 1), (12, 3)]));
+        // The clutter bearing is paired but in no row.
+        assert_eq!(s.paired, 6);
+        assert_eq!(
+            s.confusion,
+            BTreeMap::from([
+                (1, BTreeMap::from([(1, 1)])),
+                (2, BTreeMap::from([(1, 2)])),
+                (3, BTreeMap::from([(1, 1), (3, 1)])),
+            ])
+        );
+        let groups = look_alike_groups(&[(1, 0.0, 0.0), (2, 0.2, 0.0), (3, 5.0, 0.0)], 0.5);
+        assert_eq!(groups, BTreeMap::from([(1, 1), (2, 1), (3, 3)]));
+        // By id: 1→1 and 3→3 of 6; by group the two of landmark 2 count too.
+        assert!((s.precision - 2.0 / 6.0).abs() < 1e-12);
+        assert!((s.precision_within(&BTreeMap::new()) - s.precision).abs() < 1e-12);
+        assert!((s.precision_within(&groups) - 4.0 / 6.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn look_alike_groups_chain_neighbours() {
+        // 1–2 and 2–3 within 0.3 m, 1–3 not: one group by single linkage.
+        let chain = [(5, 0.0, 0.0), (6, 0.25, 0.0), (7, 0.5, 0.0), (9, 2.0, 0.0)];
+        let groups = look_alike_groups(&chain, 0.3);
+        assert_eq!(groups, BTreeMap::from([(5, 5), (6, 5), (7, 5), (9, 9)]));
+        assert_eq!(
+            look_alike_groups(&chain, 0.1)
+                .values()
+                .copied()
+                .collect::<Vec<_>>(),
+            vec![5, 6, 7, 9]
+        );
     }
 }
