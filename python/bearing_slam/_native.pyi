@@ -121,6 +121,7 @@ class Config:
     auto_visits: int
     auto_max_wait: float | None
     auto_stalled_parallax: bool
+    auto_insignificant_parallax: bool
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]

@@ -134,6 +134,7 @@ def test_config_defaults_are_the_papers() -> None:
     assert c.init == "auto" == bs.vocabulary.DEFAULT_INIT
     assert c.auto_visits == 1
     assert c.auto_stalled_parallax is False
+    assert c.auto_insignificant_parallax is True
     assert c.auto_max_wait is None
     assert (c.rho_ini, c.sigma_rho) == (0.5, 0.25)
     assert c.alpha_min == pytest.approx(np.radians(10.0))
@@ -164,3 +165,26 @@ def test_symmetric_covariance_update_matches_joseph(fig4_log: bs.SensorLog) -> N
     np.testing.assert_allclose(
         symmetric.trace.pose_covariances, joseph.trace.pose_covariances, rtol=1e-8, atol=1e-15
     )
+
+
+def test_auto_enters_landmarks_undelayed_when_the_bearing_noise_decides_the_parallax() -> None:
+    """On ``paper_fig8`` (σ_z = 5° > 10°/(3√2)) the default enters every landmark at
+    its first sighting, undelayed; with the rule off it is the paper's MTE to the bit,
+    which triangulates some of them from noise at the very start."""
+    log = bs.simulate("paper_fig8", 0, landmark_count=10)
+    default = bs.run(log, bs.Config.for_log(log))
+    entries = [e for e in default.events if e["kind"] == "landmark_initialized"]
+    assert len(entries) == 10
+    assert {e["method"] for e in entries} == {"pi_sr"}
+    assert not [e for e in default.events if e["kind"] == "candidate_created"]
+    off = bs.run(log, bs.Config.for_log(log, auto_insignificant_parallax=False))
+    mte = bs.run(log, bs.Config.for_log(log, init="mte"))
+    np.testing.assert_array_equal(off.estimate, mte.estimate)
+    first = min(e["time"] for e in mte.events if e["kind"] == "landmark_initialized")
+    assert first < 1.0
+    assert default.summary is not None
+    assert mte.summary is not None
+    assert default.summary["ate_rmse_m"] < mte.summary["ate_rmse_m"]
+    # A parameter of auto only: refused with another initializer.
+    with pytest.raises(ValueError, match="auto_insignificant_parallax"):
+        bs.Config(init="mte", auto_insignificant_parallax=False)

@@ -304,6 +304,14 @@ pub struct TriangulationConfig {
 /// mapped and its bearings used. Where candidates never expire (every
 /// paper experiment) the filter is the paper's MTE exactly.
 ///
+/// Where the bearing noise decides the parallax test
+/// ([`Self::insignificant_parallax`]: `α_min` within
+/// [`Self::SIGNIFICANT_SIGMAS`] standard deviations of the measured
+/// parallax, `σ_α = √2 σ_z`), every landmark enters undelayed at its first
+/// sighting: a two-ray parallax measured that noisily crosses `α_min` by
+/// chance (on `paper_fig8`, σ_z = 5°, within 0.3 s of the start, from a
+/// 4 cm baseline) and triangulates the landmark at a fraction of its depth.
+///
 /// A candidate still in view also enters undelayed from its current
 /// bearing (its kept waiting bearings replayed, its first one reported
 /// unused) when its parallax has stalled ([`Self::stalled_parallax`],
@@ -330,6 +338,13 @@ pub struct UndelayedFallback {
     /// ATE in simulation; docs/results/filter-consistency.md).
     #[serde(default)]
     pub stalled_parallax: bool,
+    /// Enter every landmark undelayed at its first sighting when the
+    /// parallax test cannot be trusted with this bearing noise
+    /// ([`Self::parallax_insignificant`]). On in [`Self::ONE_VISIT`];
+    /// `false` (and a serialized configuration without the field) keeps
+    /// the delayed triangulation at any noise.
+    #[serde(default)]
+    pub insignificant_parallax: bool,
 }
 
 impl UndelayedFallback {
@@ -340,7 +355,26 @@ impl UndelayedFallback {
         prior: InverseDepthPrior::PAPER_NEAR,
         max_wait_s: None,
         stalled_parallax: false,
+        insignificant_parallax: true,
     };
+
+    /// Standard deviations of the measured parallax that `α_min` must
+    /// clear for the two-ray test to be decided by the geometry rather
+    /// than the noise: 3, so that a landmark triangulated at `α_min` has
+    /// its inverse depth to about a third (`σ_ρ/ρ ≈ σ_α/α`; the paper's
+    /// Fig. 5 setting, σ_z = 1° at 10°, has 0.14).
+    pub const SIGNIFICANT_SIGMAS: f64 = 3.0;
+
+    /// Whether `config.alpha_min` is within [`Self::SIGNIFICANT_SIGMAS`]
+    /// standard deviations `σ_α = √2 σ_z` of the parallax of two bearings
+    /// of noise `bearing_sigma`, `α_min < 3 √2 σ_z` (σ_z above 2.36° at the
+    /// paper's 10°), and the rule is on: the landmark enters undelayed.
+    #[must_use]
+    pub fn parallax_insignificant(&self, config: &TriangulationConfig, bearing_sigma: f64) -> bool {
+        self.insignificant_parallax
+            && config.alpha_min
+                < Self::SIGNIFICANT_SIGMAS * std::f64::consts::SQRT_2 * bearing_sigma
+    }
 
     /// Standard deviations of the parallax added to its observed value to
     /// bound its rate (about 95 %, one-sided 97.7 %).

@@ -112,6 +112,11 @@ pub(crate) struct PyConfig {
     /// observed value allows) enters undelayed at once (default False).
     #[pyo3(get, set)]
     pub auto_stalled_parallax: bool,
+    /// auto: with a bearing σ above `alpha_min / (3√2)` the parallax test
+    /// is decided by the noise, and every landmark enters undelayed at its
+    /// first sighting (default True; False triangulates at any noise).
+    #[pyo3(get, set)]
+    pub auto_insignificant_parallax: bool,
     /// PI-SR (and auto's undelayed entry): initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
@@ -221,7 +226,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 46] = [
+const FIELDS: [&str; 47] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -247,6 +252,7 @@ const FIELDS: [&str; 46] = [
     "auto_visits",
     "auto_max_wait",
     "auto_stalled_parallax",
+    "auto_insignificant_parallax",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -302,6 +308,7 @@ impl Default for PyConfig {
             auto_visits: UndelayedFallback::ONE_VISIT.expired_visits,
             auto_max_wait: UndelayedFallback::ONE_VISIT.max_wait_s,
             auto_stalled_parallax: UndelayedFallback::ONE_VISIT.stalled_parallax,
+            auto_insignificant_parallax: UndelayedFallback::ONE_VISIT.insignificant_parallax,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -385,6 +392,7 @@ impl PyConfig {
                 c.auto_visits = f.expired_visits;
                 c.auto_max_wait = f.max_wait_s;
                 c.auto_stalled_parallax = f.stalled_parallax;
+                c.auto_insignificant_parallax = f.insignificant_parallax;
                 c.rho_ini = f.prior.rho_ini;
                 c.sigma_rho = f.prior.sigma_rho;
             }
@@ -438,6 +446,7 @@ impl PyConfig {
                     prior: InverseDepthPrior::new(self.rho_ini, self.sigma_rho).py()?,
                     max_wait_s: self.auto_max_wait,
                     stalled_parallax: self.auto_stalled_parallax,
+                    insignificant_parallax: self.auto_insignificant_parallax,
                 }),
                 ..self.triangulation()?
             }),

@@ -20,7 +20,12 @@ impl PyConfig {
             "per_landmark_priors" if !pi_sr => Some(format!(
                 "it is a parameter of PI-SR (init \"pi-sr\" or \"pi-sr-mixed\"), and init is {init:?}"
             )),
-            "auto_visits" | "auto_max_wait" | "auto_stalled_parallax" if init != "auto" => {
+            "auto_visits"
+            | "auto_max_wait"
+            | "auto_stalled_parallax"
+            | "auto_insignificant_parallax"
+                if init != "auto" =>
+            {
                 Some(format!(
                     "it is a parameter of the auto initializer (init \"auto\"), and init is {init:?}"
                 ))

@@ -98,9 +98,11 @@ impl BearingSlam {
         };
         if let Some(fallback) = config.undelayed_fallback
             && !self.candidates.contains_key(&id)
-            && self.expired_visits.get(&id).copied().unwrap_or(0) >= fallback.expired_visits
+            && (self.expired_visits.get(&id).copied().unwrap_or(0) >= fallback.expired_visits
+                || fallback.parallax_insignificant(&config, self.config.bearing_sigma))
         {
-            // `auto`: its visits ended without parallax; in at once, (13)(15).
+            // `auto`: its visits ended without parallax, or the bearing
+            // noise would decide the parallax test; in at once, (13)(15).
             return self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr);
         }
         let time = self.time.unwrap_or(0.0);

@@ -1,6 +1,7 @@
 //! The `auto` initializer (`InitializerConfig::auto`): MTE where a visit
 //! gives the parallax, undelayed inverse depth for a landmark whose visit
-//! ended without it, and the paper's MTE exactly where no visit ends.
+//! ended without it or when the bearing noise would decide the parallax
+//! test, and the paper's MTE exactly where no visit ends.
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig, UndelayedFallback};
@@ -271,6 +272,67 @@ fn auto_is_mte_where_no_visit_ends() {
     assert_eq!(expired, 0);
     assert!(mte.counts.measurements_used > 0);
     assert_eq!(mte, auto);
+}
+
+#[test]
+fn the_parallax_test_is_insignificant_above_a_third_of_alpha_min_over_root_two() {
+    // α_min = 10°: 3 √2 σ_z crosses it at σ_z = 10°/(3√2) = 2.357°.
+    let config = TriangulationConfig::default();
+    let rule = UndelayedFallback::ONE_VISIT;
+    assert!(rule.insignificant_parallax);
+    assert!(!rule.parallax_insignificant(&config, 2.35f64.to_radians()));
+    assert!(rule.parallax_insignificant(&config, 2.36f64.to_radians()));
+    assert!(rule.parallax_insignificant(&config, 5f64.to_radians()));
+    // A larger α_min is measurable at more noise; the rule off never fires.
+    let wide = TriangulationConfig {
+        alpha_min: 25f64.to_radians(),
+        ..config
+    };
+    assert!(!rule.parallax_insignificant(&wide, 5f64.to_radians()));
+    let off = UndelayedFallback {
+        insignificant_parallax: false,
+        ..rule
+    };
+    assert!(!off.parallax_insignificant(&config, 5f64.to_radians()));
+}
+
+#[test]
+fn with_noisy_bearings_auto_enters_each_landmark_at_its_first_sighting() {
+    let noisy = |initializer: InitializerConfig, sigma_deg: f64| {
+        let mut slam = BearingSlam::new(SlamConfig {
+            initializer,
+            bearing_sigma: sigma_deg.to_radians(),
+            ..SlamConfig::default()
+        })
+        .expect("valid config");
+        slam.update_bearings(0.0, &[(LANDMARK, BEARING)])
+            .expect("first sighting");
+        slam
+    };
+    let auto = || InitializerConfig::auto(TriangulationConfig::default());
+    // 5° (paper_fig8): in at once, PI-SR's way, with the fallback's prior.
+    let slam = noisy(auto(), 5.0);
+    assert_eq!(slam.landmark_ids(), vec![LANDMARK]);
+    assert_eq!(slam.candidate_count(), 0);
+    assert!(slam.events().iter().any(|e| matches!(
+        e.event,
+        SlamEvent::LandmarkInitialized {
+            id: LANDMARK,
+            method: InitMethod::PiSr,
+            ..
+        }
+    )));
+    // 2° (slip_patch) and the paper's MTE at 5°: a waiting candidate.
+    for slam in [
+        noisy(auto(), 2.0),
+        noisy(
+            InitializerConfig::Triangulation(TriangulationConfig::default()),
+            5.0,
+        ),
+    ] {
+        assert!(slam.landmark_ids().is_empty());
+        assert_eq!(slam.candidate_count(), 1);
+    }
 }
 
 #[test]
