@@ -188,16 +188,16 @@ fn run_fig4(treatment: HistoryTreatment) -> Vec<SlamEvent> {
     run_fig4_with(initializer, &treatment.to_string())
 }
 
-/// paper_fig4 (seed 3) with `initializer`, the covariance checked after
-/// every scan; the filter's events.
-fn run_fig4_with(initializer: InitializerConfig, treatment: &str) -> Vec<SlamEvent> {
+/// Runs paper_fig4 (seed 3) through a filter of `config`, calling
+/// `after_scan(filter, time)` after every scan of bearings until it returns
+/// true; the filter at that point (or at the end).
+fn drive_fig4(
+    config: SlamConfig,
+    mut after_scan: impl FnMut(&BearingSlam, f64) -> bool,
+) -> BearingSlam {
     let scenario = KinematicScenario::paper_fig4(true);
     let log = scenario.simulate(3);
     let model = scenario.wheel_model().expect("valid model");
-    let config = SlamConfig {
-        initializer,
-        ..SlamConfig::default()
-    };
     let mut slam = BearingSlam::new(config).expect("valid config");
     for event in &log.events {
         match &event.kind {
@@ -208,19 +208,34 @@ fn run_fig4_with(initializer: InitializerConfig, treatment: &str) -> Vec<SlamEve
                 let pairs: Vec<(u64, f64)> =
                     obs.iter().map(|o| (o.landmark_id, o.bearing)).collect();
                 slam.update_bearings(event.time, &pairs).expect("updates");
-                let p = slam.ekf().covariance();
-                let asymmetry = (&p - p.transpose()).abs().max();
-                assert!(asymmetry < 1e-9, "{treatment}: asymmetry {asymmetry}");
-                let smallest = p.clone().symmetric_eigenvalues().min();
-                assert!(
-                    smallest > -1e-9 * p.diagonal().abs().max().max(1.0),
-                    "{treatment}: eigenvalue {smallest} at t = {}",
-                    event.time
-                );
+                if after_scan(&slam, event.time) {
+                    break;
+                }
             }
             _ => {}
         }
     }
+    slam
+}
+
+/// paper_fig4 (seed 3) with `initializer`, the covariance checked after
+/// every scan; the filter's events.
+fn run_fig4_with(initializer: InitializerConfig, treatment: &str) -> Vec<SlamEvent> {
+    let config = SlamConfig {
+        initializer,
+        ..SlamConfig::default()
+    };
+    let slam = drive_fig4(config, |slam, time| {
+        let p = slam.ekf().covariance();
+        let asymmetry = (&p - p.transpose()).abs().max();
+        assert!(asymmetry < 1e-9, "{treatment}: asymmetry {asymmetry}");
+        let smallest = p.clone().symmetric_eigenvalues().min();
+        assert!(
+            smallest > -1e-9 * p.diagonal().abs().max().max(1.0),
+            "{treatment}: eigenvalue {smallest} at t = {time}"
+        );
+        false
+    });
     slam.events().iter().map(|e| e.event.clone()).collect()
 }
 
@@ -278,9 +293,6 @@ fn the_papers_mte_reports_the_waiting_bearings_it_does_not_use() {
 /// scan no landmark is mapped, so the two runs differ only in that scan's
 /// replay.
 fn first_landmark_after_its_replay(second_order: bool) -> Matrix4<f64> {
-    let scenario = KinematicScenario::paper_fig4(true);
-    let log = scenario.simulate(3);
-    let model = scenario.wheel_model().expect("valid model");
     let config = SlamConfig {
         initializer: InitializerConfig::TriangulationWithClone(TriangulationConfig {
             history: 8,
@@ -289,28 +301,16 @@ fn first_landmark_after_its_replay(second_order: bool) -> Matrix4<f64> {
         second_order,
         ..SlamConfig::default()
     };
-    let mut slam = BearingSlam::new(config).expect("valid config");
-    for event in &log.events {
-        match &event.kind {
-            EventKind::Wheels(w) => {
-                slam.predict(event.time, &model, w).expect("predicts");
-            }
-            EventKind::Bearings(obs) => {
-                let pairs: Vec<(u64, f64)> =
-                    obs.iter().map(|o| (o.landmark_id, o.bearing)).collect();
-                slam.update_bearings(event.time, &pairs).expect("updates");
-                if let Some(slot) = slam.landmarks.values().next() {
-                    assert_eq!(slot.parameterization, Parameterization::InverseDepth);
-                    return slam
-                        .ekf
-                        .covariance_block::<4>(slot.offset)
-                        .expect("a block");
-                }
-            }
-            _ => {}
-        }
-    }
-    panic!("no landmark entered the map");
+    let slam = drive_fig4(config, |slam, _| !slam.landmarks.is_empty());
+    let slot = slam
+        .landmarks
+        .values()
+        .next()
+        .expect("a landmark entered the map");
+    assert_eq!(slot.parameterization, Parameterization::InverseDepth);
+    slam.ekf
+        .covariance_block::<4>(slot.offset)
+        .expect("a block")
 }
 
 #[test]

@@ -261,6 +261,40 @@ mod tests {
         &l * l.transpose()
     }
 
+    /// `terms` against `½ tr(H P)` and `½ tr(H P H P)` with `H` the central
+    /// second differences of the bearing function `h` at `mean`: an
+    /// independent route to the same `H`, not through the models' Jacobians.
+    fn assert_matches_second_differences(
+        terms: &SecondOrderTerms,
+        mean: &[f64],
+        p: &DMatrix<f64>,
+        h: impl Fn(&DVector<f64>) -> f64,
+    ) {
+        let n = mean.len();
+        let x0 = DVector::from_column_slice(mean);
+        let e = 1e-4;
+        let hessian = DMatrix::from_fn(n, n, |i, j| {
+            let at = |si: f64, sj: f64| {
+                let mut x = x0.clone();
+                x[i] += si * e;
+                x[j] += sj * e;
+                h(&x)
+            };
+            (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0)) / (4.0 * e * e)
+        });
+        let hp = hessian * p;
+        let (bias, variance) = (0.5 * hp.trace(), 0.5 * (&hp * &hp).trace());
+        assert!(variance > 1e-5, "{variance}");
+        assert!(
+            (terms.bias - bias).abs() < 1e-4 * bias.abs().max(1e-3),
+            "{terms:?} {bias}"
+        );
+        assert!(
+            (terms.variance - variance).abs() < 1e-4 * variance,
+            "{terms:?} {variance}"
+        );
+    }
+
     #[test]
     fn point_terms_match_the_closed_form() {
         // h = atan2(d_y, d_x) − θ with d = l − p: H = Aᵀ H_d A (θ enters
@@ -317,28 +351,7 @@ mod tests {
                 .expect("predicts")
                 .value[0]
         };
-        let x0 = DVector::from_column_slice(&mean);
-        let e = 1e-4;
-        let hessian = DMatrix::from_fn(7, 7, |i, j| {
-            let at = |si: f64, sj: f64| {
-                let mut x = x0.clone();
-                x[i] += si * e;
-                x[j] += sj * e;
-                h(&x)
-            };
-            (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0)) / (4.0 * e * e)
-        });
-        let hp = hessian * &p;
-        let (bias, variance) = (0.5 * hp.trace(), 0.5 * (&hp * &hp).trace());
-        assert!(variance > 1e-5, "{variance}");
-        assert!(
-            (terms.bias - bias).abs() < 1e-4 * bias.abs().max(1e-3),
-            "{terms:?} {bias}"
-        );
-        assert!(
-            (terms.variance - variance).abs() < 1e-4 * variance,
-            "{terms:?} {variance}"
-        );
+        assert_matches_second_differences(&terms, &mean, &p, h);
     }
 
     #[test]
@@ -372,28 +385,7 @@ mod tests {
             };
             bearing(3) - phi * bearing(0)
         };
-        let x0 = DVector::from_column_slice(&mean);
-        let e = 1e-4;
-        let hessian = DMatrix::from_fn(10, 10, |i, j| {
-            let at = |si: f64, sj: f64| {
-                let mut x = x0.clone();
-                x[i] += si * e;
-                x[j] += sj * e;
-                g(&x)
-            };
-            (at(1.0, 1.0) - at(1.0, -1.0) - at(-1.0, 1.0) + at(-1.0, -1.0)) / (4.0 * e * e)
-        });
-        let hp = hessian * &p;
-        let (bias, variance) = (0.5 * hp.trace(), 0.5 * (&hp * &hp).trace());
-        assert!(variance > 1e-5, "{variance}");
-        assert!(
-            (terms.bias - bias).abs() < 1e-4 * bias.abs().max(1e-3),
-            "{terms:?} {bias}"
-        );
-        assert!(
-            (terms.variance - variance).abs() < 1e-4 * variance,
-            "{terms:?} {variance}"
-        );
+        assert_matches_second_differences(&terms, &mean, &p, g);
         // Not the sum of each bearing's own terms: the landmark's curvature
         // is shared, so the variance has cross terms.
         let alone = |o: usize| SecondOrderTerms::of(&ekf, &ekf, pose(o), landmark).expect("terms");
