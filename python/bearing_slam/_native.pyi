@@ -101,6 +101,7 @@ class Config:
     initial_pose_sigma: tuple[float, float, float]
     gate_probability: float | None
     conversion_threshold: float | None
+    conversion_depth_linearity: bool
     covariance_update: str
     update: str
     consistency: str

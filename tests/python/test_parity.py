@@ -135,6 +135,7 @@ def test_config_defaults_are_the_papers() -> None:
     assert c.auto_visits == 1
     assert c.auto_stalled_parallax is False
     assert c.auto_insignificant_parallax is True
+    assert c.conversion_depth_linearity is True
     assert c.auto_max_wait is None
     assert (c.rho_ini, c.sigma_rho) == (0.5, 0.25)
     assert c.alpha_min == pytest.approx(np.radians(10.0))

@@ -104,6 +104,31 @@ pub fn linearity_index(
     Ok(4.0 * sigma_d * cos_alpha.abs() / d1)
 }
 
+/// The linearity index of the conversion itself, `d = 1/ρ` over the ±2σ
+/// interval of `ρ`, in Civera et al.'s sense (the second-order term of the
+/// mapping over its first-order term): `½ |d''| (2σ_ρ)² / (|d'| 2σ_ρ) =
+/// 2 σ_ρ / ρ`. [`linearity_index`] asks whether the *measurement* of the
+/// point is linear enough from where the sensor stands (side-on it is, at
+/// any depth uncertainty, `|cos α| = 0`); this asks whether a Gaussian in
+/// `ρ` stays a Gaussian in depth, which (11)'s `J P Jᵀ` assumes. With
+/// `ρ = 0.5 ± 0.25` (the paper's near prior) it is 1: the point at 2 m
+/// with σ_d = 1 m that the conversion makes of it is not that ρ's
+/// uncertainty, which reaches to infinity.
+pub fn depth_linearity_index(rho: f64, rho_variance: f64) -> Result<f64> {
+    if !(rho_variance >= 0.0 && rho_variance.is_finite()) {
+        return Err(SlamError::InvalidNoise {
+            what: "inverse-depth variance",
+            value: rho_variance,
+        });
+    }
+    if !(rho > 0.0 && rho.is_finite()) {
+        return Err(SlamError::Degenerate(
+            "inverse depth not positive and finite: no depth to linearize",
+        ));
+    }
+    Ok(2.0 * rho_variance.sqrt() / rho)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -132,6 +157,31 @@ mod tests {
         assert!(matches!(
             linearity_index(&landmark, 1e-4, &Vector2::new(10.0, 0.0)),
             Err(SlamError::Degenerate(_))
+        ));
+    }
+
+    #[test]
+    fn the_depth_linearity_index_is_two_sigma_over_rho() {
+        // The paper's near prior (0.5, 0.25): 1, far from linear.
+        assert!((depth_linearity_index(0.5, 0.0625).expect("valid") - 1.0).abs() < 1e-12);
+        // ρ = 0.2 ± 0.004: 0.04, below Civera's 0.1.
+        assert!((depth_linearity_index(0.2, 1.6e-5).expect("valid") - 0.04).abs() < 1e-12);
+        // It is the ratio of the mapping's terms: d = 1/ρ at ρ ± 2σ against
+        // the tangent, relative to the tangent's excursion.
+        let (rho, sigma) = (0.3_f64, 0.01_f64);
+        let exact = 1.0 / (rho - 2.0 * sigma) - 1.0 / rho;
+        let tangent = 2.0 * sigma / (rho * rho);
+        let index = depth_linearity_index(rho, sigma * sigma).expect("valid");
+        assert!(((exact - tangent) / tangent - index).abs() < 0.1 * index);
+        for (r, v) in [(0.0, 1e-4), (-0.1, 1e-4), (f64::INFINITY, 1e-4)] {
+            assert!(matches!(
+                depth_linearity_index(r, v),
+                Err(SlamError::Degenerate(_))
+            ));
+        }
+        assert!(matches!(
+            depth_linearity_index(0.5, -1.0),
+            Err(SlamError::InvalidNoise { .. })
         ));
     }
 

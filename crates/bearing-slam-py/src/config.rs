@@ -57,6 +57,10 @@ pub(crate) struct PyConfig {
     /// (Civera et al. use 0.1), or None.
     #[pyo3(get, set)]
     pub conversion_threshold: Option<f64>,
+    /// The conversion also waits for its own linearity, `2 σ_ρ/ρ` below
+    /// the threshold (default True; False: Civera et al.'s test alone).
+    #[pyo3(get, set)]
+    pub conversion_depth_linearity: bool,
     /// `"symmetric"` (default, the optimal-gain form) or `"joseph"`.
     #[pyo3(get, set)]
     pub covariance_update: String,
@@ -226,7 +230,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 47] = [
+const FIELDS: [&str; 48] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -234,6 +238,7 @@ const FIELDS: [&str; 47] = [
     "initial_pose_sigma",
     "gate_probability",
     "conversion_threshold",
+    "conversion_depth_linearity",
     "covariance_update",
     "update",
     "consistency",
@@ -290,6 +295,7 @@ impl Default for PyConfig {
             initial_pose_sigma: (0.0, 0.0, 0.0),
             gate_probability: slam.gate_probability,
             conversion_threshold: slam.conversion_threshold,
+            conversion_depth_linearity: slam.conversion_depth_linearity,
             covariance_update: slam.covariance_update.to_string(),
             update: slam.update.to_string(),
             consistency: slam.consistency.to_string(),
@@ -346,6 +352,7 @@ impl PyConfig {
         c.initial_pose_sigma = (sg[0], sg[1], sg[2]);
         c.gate_probability = s.gate_probability;
         c.conversion_threshold = s.conversion_threshold;
+        c.conversion_depth_linearity = s.conversion_depth_linearity;
         c.covariance_update = s.covariance_update.to_string();
         c.update = s.update.to_string();
         c.consistency = s.consistency.to_string();
@@ -494,6 +501,7 @@ impl PyConfig {
             initializer,
             gate_probability: self.gate_probability,
             conversion_threshold: self.conversion_threshold,
+            conversion_depth_linearity: self.conversion_depth_linearity,
             covariance_update,
             update,
             consistency,

@@ -353,3 +353,43 @@ fn iterated_updates_relinearize_and_keep_the_covariance_psd() {
     };
     assert!(BearingSlam::new(zero).is_err(), "0 iterations refused");
 }
+
+/// A landmark entered with the paper's near prior (ρ = 0.5 ± 0.25: a point
+/// 2 m out whose depth reaches to infinity) and then seen side-on: Civera's
+/// index is 0 there whatever the depth uncertainty, the depth linearity
+/// index 2σ_ρ/ρ = 1. Only the paper's test alone converts it (MRCLAM Dataset
+/// 6 robot 1's landmark 19, converted 5.5 m off).
+#[test]
+fn a_landmark_whose_depth_is_still_an_interval_is_not_converted_side_on() {
+    for depth_rule in [true, false] {
+        let mut slam = BearingSlam::new(SlamConfig {
+            initializer: InitializerConfig::pi_sr(InverseDepthPrior::PAPER_NEAR),
+            conversion_depth_linearity: depth_rule,
+            ..SlamConfig::default()
+        })
+        .expect("valid config");
+        // From the origin along +x: the point (2, 0).
+        slam.update_bearings(0.0, &[(1, 0.0)]).expect("enters");
+        assert_eq!(
+            slam.landmarks[&1].parameterization,
+            Parameterization::InverseDepth
+        );
+        // A ray, not yet a point: ρ − 2σ_ρ = 0, so not on the map.
+        assert!(slam.landmark(1).is_ok());
+        assert!(slam.snapshot().landmarks.is_empty());
+        // The robot now stands side-on to that ray, at (2, −2).
+        slam.ekf
+            .set_block::<3>(0, &nalgebra::Vector3::new(2.0, -2.0, 0.0))
+            .expect("a pose");
+        slam.update_bearings(1.0, &[]).expect("an empty scan");
+        let expected = if depth_rule {
+            Parameterization::InverseDepth
+        } else {
+            Parameterization::Euclidean
+        };
+        assert_eq!(
+            slam.landmarks[&1].parameterization, expected,
+            "{depth_rule}"
+        );
+    }
+}

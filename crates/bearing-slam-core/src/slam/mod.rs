@@ -47,7 +47,9 @@ use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{InverseDepthPrior, pi_sr};
-use crate::landmark::{Parameterization, inverse_depth_to_point, linearity_index};
+use crate::landmark::{
+    Parameterization, depth_linearity_index, inverse_depth_to_point, linearity_index,
+};
 use crate::log::ensure_bearing;
 use crate::measurement::{RangeBearing, inverse_range_bearing};
 use crate::model::MotionModel;
@@ -289,7 +291,29 @@ impl BearingSlam {
             .collect()
     }
 
-    /// The estimate now, as plain data for logs and plots.
+    /// Whether landmark `id`'s depth is bounded at 95 %: a point, or an
+    /// inverse depth with `ρ − 2σ_ρ > 0` (its depth interval does not reach
+    /// infinity; the depth linearity index below 1).
+    fn depth_bounded(&self, id: u64) -> bool {
+        let Some(slot) = self.landmarks.get(&id) else {
+            return false;
+        };
+        match slot.parameterization {
+            Parameterization::Euclidean => true,
+            Parameterization::InverseDepth => {
+                let rho = self.ekf.mean()[slot.offset + 3];
+                let variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
+                depth_linearity_index(rho, variance).is_ok_and(|index| index < 1.0)
+            }
+        }
+    }
+
+    /// The estimate now, as plain data for logs and plots. Its map holds
+    /// the landmarks with a point whose depth is bounded at 95 %: a
+    /// landmark still known only as a ray (an inverse depth whose ±2σ
+    /// interval reaches `ρ = 0`, e.g. one just entered with the paper's
+    /// near prior, or never seen again) stays in the state and in
+    /// [`Self::landmark`] but is not drawn or scored as a point.
     #[must_use]
     pub fn snapshot(&self) -> EstimateSnapshot {
         let c = self.pose_covariance();
@@ -300,6 +324,7 @@ impl BearingSlam {
             landmarks: self
                 .landmarks()
                 .into_iter()
+                .filter(|l| self.depth_bounded(l.id))
                 .map(|l| LandmarkSnapshot {
                     id: l.id,
                     x: l.position.x,
@@ -724,7 +749,9 @@ impl BearingSlam {
     }
 
     /// Converts inverse-depth landmarks whose linearity index is below the
-    /// threshold into Euclidean points (4 → 2 state entries).
+    /// threshold into Euclidean points (4 → 2 state entries), and, with
+    /// [`SlamConfig::conversion_depth_linearity`], whose depth linearity
+    /// index `2 σ_ρ/ρ` is too.
     fn convert_linear_landmarks(&mut self) -> Result<()> {
         let Some(threshold) = self.config.conversion_threshold else {
             return Ok(());
@@ -746,6 +773,11 @@ impl BearingSlam {
                 continue;
             };
             if index >= threshold {
+                continue;
+            }
+            if self.config.conversion_depth_linearity
+                && !depth_linearity_index(y[3], rho_variance).is_ok_and(|d| d < threshold)
+            {
                 continue;
             }
             let converted = inverse_depth_to_point(&y)?;

@@ -87,8 +87,10 @@ fn inverse_depth_landmarks_bring_a_short_window_close_to_the_batch() {
         "ATE batch {:.4} m, 10 scans point {:.4} m, inverse depth {:.4} m",
         b.ate_rmse_m, p.ate_rmse_m, c.ate_rmse_m
     );
-    // Measured: batch 0.015 m, point 0.42 m, inverse depth 0.067 m.
-    assert!(c.ate_rmse_m <= 0.25 * p.ate_rmse_m, "{c:?} vs point {p:?}");
+    // Measured: batch 0.015 m, point 0.42 m, inverse depth 0.067 m; since
+    // the filter's conversion rule and depth-bounded maps (2026-11-29) the
+    // point chart's window ends at 0.25 m, the inverse-depth one at 0.066 m.
+    assert!(c.ate_rmse_m <= 0.4 * p.ate_rmse_m, "{c:?} vs point {p:?}");
     for snapshot in &charted.output.trace.snapshots {
         for l in &snapshot.landmarks {
             let [[a, b], [c, d]] = l.covariance;
