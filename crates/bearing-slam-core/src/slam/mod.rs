@@ -15,6 +15,7 @@ mod config;
 mod consistency;
 #[cfg(test)]
 mod consistency_tests;
+mod conversion;
 mod delayed;
 mod invariant;
 #[cfg(test)]
@@ -36,7 +37,7 @@ pub use config::{
     InitializerConfig, InitializerKind, MAX_RANGE_SIGMA, MIN_MEASUREMENT_SIGMA, SlamConfig,
 };
 pub use consistency::Consistency;
-use consistency::{converted_first_estimate, linearize_bearing, linearize_consistent};
+use consistency::{linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};
 pub use offset::BearingOffset;
 pub use robust::RobustGate;
@@ -47,9 +48,7 @@ use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::init::{InverseDepthPrior, pi_sr};
-use crate::landmark::{
-    Parameterization, depth_linearity_index, inverse_depth_to_point, linearity_index,
-};
+use crate::landmark::{Parameterization, inverse_depth_to_point};
 use crate::log::ensure_bearing;
 use crate::measurement::{RangeBearing, inverse_range_bearing};
 use crate::model::MotionModel;
@@ -289,23 +288,6 @@ impl BearingSlam {
             .keys()
             .filter_map(|&id| self.landmark(id).ok())
             .collect()
-    }
-
-    /// Whether landmark `id`'s depth is bounded at 95 %: a point, or an
-    /// inverse depth with `ρ − 2σ_ρ > 0` (its depth interval does not reach
-    /// infinity; the depth linearity index below 1).
-    fn depth_bounded(&self, id: u64) -> bool {
-        let Some(slot) = self.landmarks.get(&id) else {
-            return false;
-        };
-        match slot.parameterization {
-            Parameterization::Euclidean => true,
-            Parameterization::InverseDepth => {
-                let rho = self.ekf.mean()[slot.offset + 3];
-                let variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
-                depth_linearity_index(rho, variance).is_ok_and(|index| index < 1.0)
-            }
-        }
     }
 
     /// The estimate now, as plain data for logs and plots. Its map holds
@@ -746,70 +728,6 @@ impl BearingSlam {
                 *o -= len;
             }
         }
-    }
-
-    /// Converts inverse-depth landmarks whose linearity index is below the
-    /// threshold into Euclidean points (4 → 2 state entries), and, with
-    /// [`SlamConfig::conversion_depth_linearity`], whose depth linearity
-    /// index `2 σ_ρ/ρ` is too.
-    fn convert_linear_landmarks(&mut self) -> Result<()> {
-        let Some(threshold) = self.config.conversion_threshold else {
-            return Ok(());
-        };
-        let sensor = self.ekf.block::<2>(0)?;
-        let ids: Vec<u64> = self
-            .landmarks
-            .iter()
-            .filter(|(_, s)| s.parameterization == Parameterization::InverseDepth)
-            .map(|(&id, _)| id)
-            .collect();
-        for id in ids {
-            let Some(slot) = self.landmarks.get(&id).copied() else {
-                continue;
-            };
-            let y = self.ekf.block::<4>(slot.offset)?;
-            let rho_variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
-            let Ok(index) = linearity_index(&y, rho_variance, &sensor) else {
-                continue;
-            };
-            if index >= threshold {
-                continue;
-            }
-            if self.config.conversion_depth_linearity
-                && !depth_linearity_index(y[3], rho_variance).is_ok_and(|d| d < threshold)
-            {
-                continue;
-            }
-            let converted = inverse_depth_to_point(&y)?;
-            let j_point_landmark =
-                DMatrix::from_column_slice(2, 4, converted.j_point_landmark.as_slice());
-            match self.ekf.reparameterize(
-                slot.offset,
-                4,
-                &DVector::from_column_slice(converted.point.as_slice()),
-                &j_point_landmark,
-            ) {
-                Ok(()) => {}
-                // A point too far for f64 (ρ near zero) stays in inverse
-                // depth, the parameterization made for it; nothing changed.
-                Err(SlamError::NonFinite { .. }) => continue,
-                Err(e) => return Err(e),
-            }
-            self.shift_offsets_after(slot.offset, 2);
-            if let Some(s) = self.landmarks.get_mut(&id) {
-                s.parameterization = Parameterization::Euclidean;
-                s.first = converted_first_estimate(
-                    converted.point.as_slice(),
-                    &slot.first,
-                    &j_point_landmark,
-                );
-            }
-            self.record(SlamEvent::LandmarkConverted {
-                id,
-                linearity_index: index,
-            });
-        }
-        Ok(())
     }
 
     /// Removes a landmark from the map (marginalization). Its count of
