@@ -318,11 +318,15 @@ impl BearingSlam {
     ) -> Result<LinearizedMeasurement> {
         let noise = Matrix1::new(item.variance);
         let consistency = self.config.consistency;
-        let terms = item
+        // The item's bearings as `(weight, pose, z)`, looked up once.
+        let weighted: Vec<(f64, PoseAt, f64)> = item
             .terms
             .iter()
             .filter_map(|&(i, w)| bearings.get(i).map(|(pose, b)| (w, *pose, b.z)))
-            .map(|(w, pose, z)| {
+            .collect();
+        let terms = weighted
+            .iter()
+            .map(|&(w, pose, z)| {
                 let m = match prior {
                     Some(p) => relinearize_about(p, estimate, consistency, pose, slot, z, &noise),
                     None => linearize_bearing(estimate, consistency, pose, slot, z, &noise),
@@ -332,11 +336,8 @@ impl BearingSlam {
             .collect::<Result<Vec<_>>>()?;
         let mut measurement = combine(&terms, item.variance);
         if self.config.second_order {
-            let poses: Vec<(f64, PoseAt)> = item
-                .terms
-                .iter()
-                .filter_map(|&(i, w)| bearings.get(i).map(|(pose, _)| (w, *pose)))
-                .collect();
+            let poses: Vec<(f64, PoseAt)> =
+                weighted.iter().map(|&(w, pose, _)| (w, pose)).collect();
             let second = SecondOrderTerms::of_combination(
                 estimate,
                 prior.unwrap_or(estimate),
