@@ -386,7 +386,9 @@ def evaluate_mrclam(
     auto_visits: int | None = None,
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
+    auto_insignificant_parallax: bool | None = None,
     second_order: bool | None = None,
+    conversion_depth_linearity: bool | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...
 def vocabulary() -> dict[str, Any]: ...
 

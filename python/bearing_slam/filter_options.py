@@ -8,9 +8,14 @@ of Rust's ``UndelayedFallback`` under ``Config``'s names:
 ``--auto-visits N`` (expired visits before a landmark enters undelayed,
 default 1), ``--auto-max-wait SECONDS`` (a wait budget: a candidate still
 waiting for parallax after that long enters undelayed from its current
-bearing) and ``--auto-stalled-parallax`` (it enters once its parallax has
-stalled). The last two are opt-in: on MRCLAM they give better maps and
-trajectories, in simulation a higher ATE (docs/results/filter-consistency.md).
+bearing), ``--auto-stalled-parallax`` (it enters once its parallax has
+stalled) and ``--no-auto-insignificant-parallax`` (it waits for parallax
+even where the bearing noise makes the parallax test insignificant). The
+wait budget and the stalled-parallax rule are opt-in: on MRCLAM they give
+better maps and trajectories, in simulation a higher ATE
+(docs/results/filter-consistency.md). ``--no-conversion-depth-linearity``
+converts an inverse-depth landmark to a point by Civera et al.'s test alone,
+as the paper does, without waiting for the conversion's own linearity.
 """
 
 from __future__ import annotations
@@ -22,12 +27,17 @@ from bearing_slam.arg_types import positive_float, positive_int
 
 __all__ = ["add_filter_options", "filter_options", "filter_problem"]
 
-_AUTO_FLAGS = ("--auto-visits", "--auto-max-wait", "--auto-stalled-parallax")
+_AUTO_FLAGS = (
+    "--auto-visits",
+    "--auto-max-wait",
+    "--auto-stalled-parallax",
+    "--no-auto-insignificant-parallax",
+)
 
 
 def add_filter_options(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--first-order`` and the ``auto`` initializer's ``--auto-*``
-    options to a subcommand."""
+    """Adds ``--first-order``, ``--no-conversion-depth-linearity`` and the
+    ``auto`` initializer's ``--auto-*`` options to a subcommand."""
     parser.add_argument(
         "--first-order",
         action="store_true",
@@ -47,9 +57,8 @@ def add_filter_options(parser: argparse.ArgumentParser) -> None:
         type=positive_float,
         metavar="SECONDS",
         help="--init auto: a wait budget; a landmark still waiting for parallax after "
-        "SECONDS enters undelayed from its current bearing (default: none; on MRCLAM "
-        "Dataset 6, 1 s gives mean ATE 0.71 m against 1.12 m without, and a higher "
-        "ATE in simulation)",
+        "SECONDS enters undelayed from its current bearing (default: none; better on "
+        "MRCLAM, a higher ATE in simulation: docs/results/filter-consistency.md)",
     )
     parser.add_argument(
         "--auto-stalled-parallax",
@@ -57,20 +66,42 @@ def add_filter_options(parser: argparse.ArgumentParser) -> None:
         help="--init auto: a landmark whose parallax has stalled (it would not reach "
         "the minimum within the candidate timeout) enters undelayed (default: off)",
     )
+    parser.add_argument(
+        "--no-auto-insignificant-parallax",
+        dest="auto_insignificant_parallax",
+        action="store_false",
+        default=None,
+        help="--init auto: wait for parallax even when the bearing noise makes the "
+        "parallax test insignificant (alpha_min < 3*sqrt(2)*sigma); by default such a "
+        "landmark enters undelayed at once",
+    )
+    parser.add_argument(
+        "--no-conversion-depth-linearity",
+        dest="conversion_depth_linearity",
+        action="store_false",
+        default=None,
+        help="convert an inverse-depth landmark to a point by Civera et al.'s linearity "
+        "test alone, as the paper does; by default the conversion also waits for its "
+        "own linearity (2*sigma_rho/rho below the threshold)",
+    )
 
 
 def filter_options(args: argparse.Namespace) -> dict[str, Any]:
     """The options given, as ``Config``'s fields (``second_order``,
-    ``auto_*``; empty when none was given)."""
+    ``conversion_depth_linearity``, ``auto_*``; empty when none was given)."""
     options: dict[str, Any] = {}
     if args.first_order:
         options["second_order"] = False
+    if args.conversion_depth_linearity is not None:
+        options["conversion_depth_linearity"] = args.conversion_depth_linearity
     if args.auto_visits is not None:
         options["auto_visits"] = args.auto_visits
     if args.auto_max_wait is not None:
         options["auto_max_wait"] = args.auto_max_wait
     if args.auto_stalled_parallax:
         options["auto_stalled_parallax"] = True
+    if args.auto_insignificant_parallax is not None:
+        options["auto_insignificant_parallax"] = args.auto_insignificant_parallax
     return options
 
 
@@ -80,6 +111,11 @@ def filter_problem(args: argparse.Namespace, init: str) -> str | None:
     options = filter_options(args)
     if init == "range-bearing" and args.first_order:
         return "--first-order applies to the bearing-only update, not to --use-range"
+    if init == "range-bearing" and args.conversion_depth_linearity is not None:
+        return (
+            "--no-conversion-depth-linearity applies to inverse-depth landmarks, "
+            "not to --use-range (its landmarks are points from the start)"
+        )
     if any(k.startswith("auto_") for k in options) and init != "auto":
         return f"{', '.join(_AUTO_FLAGS)} apply to --init auto only, not to --init {init}"
     return None

@@ -78,7 +78,10 @@ def run(
     reference), ``velocity_sigma``,
     ``angular_velocity_sigma``, ``rho_ini``, ``sigma_rho``, ``baseline_min_m``,
     ``alpha_min_deg``, ``candidate_depth_m``, ``candidate_sigma_px``, ``max_frames``,
-    ``one_point_ransac``, ``ransac_seed``, ``epipolar_search`` and ``front_end`` (``search``:
+    ``one_point_ransac``, ``ransac_seed``, ``epipolar_search``,
+    ``conversion_depth_linearity`` (an inverse-depth landmark becomes a point only
+    once the conversion is linear too: the default, as in every filter; False:
+    Civera et al.'s test alone) and ``front_end`` (``search``:
     ``confidence``, ``min_ncc``, ``refresh_ncc``, ``refresh_shift_px``,
     ``max_half_axis_px``, ``patch_half``, ``subpixel``, ``warp``,
     ``warp_window_half``; ``detector``:

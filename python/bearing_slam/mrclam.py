@@ -114,7 +114,9 @@ def evaluate(
     auto_visits: int | None = None,
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
+    auto_insignificant_parallax: bool | None = None,
     second_order: bool | None = None,
+    conversion_depth_linearity: bool | None = None,
 ) -> MrclamRun:
     """Runs ``method`` (one of :data:`METHODS`) on robot ``robot`` (1–5) of
     the dataset in ``dataset_dir``, optionally on ``[start, end)`` seconds
@@ -128,10 +130,13 @@ def evaluate(
     ``online_window`` (``"keyframes"``, the default, or ``"scans"``) and ``landmark_chart``
     (``"inverse-depth"``, ``"point"``): the online smoother's
     (``estimator="filter+smoother"`` only; None: the defaults).
-    ``auto_visits``, ``auto_max_wait``, ``auto_stalled_parallax``: the ``auto``
-    initializer's options, as :class:`~bearing_slam.Config`'s fields (method
-    ``"auto"`` only; None: the defaults). ``second_order``: the bearing update
-    (None: the default, second order; False: the paper's first-order one)."""
+    ``auto_visits``, ``auto_max_wait``, ``auto_stalled_parallax``,
+    ``auto_insignificant_parallax``: the ``auto`` initializer's options, as
+    :class:`~bearing_slam.Config`'s fields (method ``"auto"`` only; None: the
+    defaults). ``second_order``: the bearing update (None: the default, second
+    order; False: the paper's first-order one). ``conversion_depth_linearity``:
+    an inverse-depth landmark becomes a point only once the conversion is
+    linear too (None: the default, True; False: Civera et al.'s test alone)."""
     t0 = time.perf_counter()
     result, metrics, log = evaluate_mrclam(
         dataset_dir,
@@ -148,7 +153,9 @@ def evaluate(
         auto_visits=auto_visits,
         auto_max_wait=auto_max_wait,
         auto_stalled_parallax=auto_stalled_parallax,
+        auto_insignificant_parallax=auto_insignificant_parallax,
         second_order=second_order,
+        conversion_depth_linearity=conversion_depth_linearity,
     )
     return MrclamRun(result, metrics, log, time.perf_counter() - t0)
 

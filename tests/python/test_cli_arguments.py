@@ -113,6 +113,30 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     assert json.loads((out / "metrics.json").read_text())["config"]["second_order"] is False
     r = cli("run", log, "--use-range", "--first-order", "--out", tmp_path / "o")
     assert_refused(r, "--first-order", "--use-range")
+    # The two rules on by default can be switched off by name.
+    assert (config["auto_insignificant_parallax"], config["conversion_depth_linearity"]) == (
+        True,
+        True,
+    )
+    r = cli(
+        "run",
+        log,
+        "--no-auto-insignificant-parallax",
+        "--no-conversion-depth-linearity",
+        "--out",
+        out,
+        "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    config = json.loads((out / "metrics.json").read_text())["config"]
+    assert (config["auto_insignificant_parallax"], config["conversion_depth_linearity"]) == (
+        False,
+        False,
+    )
+    r = cli("run", log, "--init", "pi-sr", "--no-auto-insignificant-parallax", "--out", out)
+    assert_refused(r, "--no-auto-insignificant-parallax", "--init auto only")
+    r = cli("run", log, "--use-range", "--no-conversion-depth-linearity", "--out", out)
+    assert_refused(r, "--no-conversion-depth-linearity", "--use-range")
 
 
 def test_demo_refuses_a_folder_of_other_files(tmp_path: Path) -> None:

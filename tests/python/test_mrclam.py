@@ -213,6 +213,43 @@ def test_first_order_update_from_the_cli_and_python(tmp_path: Path) -> None:
         bs.evaluate_mrclam(D6, 2, "range-bearing", 300.0, 600.0, second_order=False)
 
 
+def test_the_default_rules_switched_off_from_the_cli_and_python(tmp_path: Path) -> None:
+    """``--no-conversion-depth-linearity`` and ``--no-auto-insignificant-parallax``
+    (``conversion_depth_linearity=False``, ``auto_insignificant_parallax=False``)
+    reach the filter: the config and parameters say so, and without the
+    conversion's own linearity a landmark whose depth is not yet bounded
+    becomes a point, so robot 2's 300–600 s maps one more (14 against 13).
+    MRCLAM's bearing σ makes the parallax test significant, so the second
+    rule changes nothing there."""
+    out = tmp_path / "off"
+    r = mrclam_cli(
+        D6,
+        "--robot",
+        "2",
+        *WINDOW,
+        "--no-conversion-depth-linearity",
+        "--no-auto-insignificant-parallax",
+        "--out",
+        out,
+        "--quiet",
+    )
+    assert r.returncode == 0, r.stderr
+    m = outputs(out)
+    assert m["config"]["conversion_depth_linearity"] is False
+    assert m["config"]["auto_insignificant_parallax"] is False
+    assert m["parameters"]["conversion_depth_linearity"] is False
+    assert m["parameters"]["auto_fallback"]["insignificant_parallax"] is False
+    _, on, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0)
+    assert on["parameters"]["conversion_depth_linearity"] is True
+    _, off, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0, conversion_depth_linearity=False)
+    assert off["n_landmarks_mapped"] == m["n_landmarks_mapped"]
+    assert off["n_landmarks_mapped"] > on["n_landmarks_mapped"]
+    with pytest.raises(ValueError, match="range-bearing"):
+        bs.evaluate_mrclam(D6, 2, "range-bearing", 300.0, 600.0, conversion_depth_linearity=False)
+    with pytest.raises(ValueError, match='method "auto" only'):
+        bs.evaluate_mrclam(D6, 2, "pi-sr", 300.0, 600.0, auto_insignificant_parallax=False)
+
+
 def test_help_says_what_it_writes() -> None:
     r = mrclam_cli("--help")
     assert r.returncode == 0, r.stderr

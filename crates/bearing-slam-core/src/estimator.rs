@@ -330,6 +330,7 @@ impl EstimatorConfig {
             },
             initializer,
             conversion_threshold: slam.conversion_threshold,
+            conversion_depth_linearity: slam.conversion_depth_linearity,
             existence: hidden.then_some(existence),
             association,
             ..FastSlamConfig::default()

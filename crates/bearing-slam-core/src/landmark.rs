@@ -129,9 +129,95 @@ pub fn depth_linearity_index(rho: f64, rho_variance: f64) -> Result<f64> {
     Ok(2.0 * rho_variance.sqrt() / rho)
 }
 
+/// Whether an inverse depth `ρ` with variance `σ_ρ²` bounds the depth at
+/// 95 %: `ρ − 2σ_ρ > 0`, its depth interval does not reach infinity
+/// ([`depth_linearity_index`] below 1). A map holds such landmarks as
+/// points; the others are still rays (e.g. one just entered with the
+/// paper's near prior `ρ = 0.5 ± 0.25`, exactly on the bound).
+#[must_use]
+pub fn depth_bounded(rho: f64, rho_variance: f64) -> bool {
+    depth_linearity_index(rho, rho_variance).is_ok_and(|index| index < 1.0)
+}
+
+/// When an inverse-depth landmark becomes a point: the one rule of every
+/// filter that holds inverse depths (the 2-D EKF, FastSLAM's per-particle
+/// landmark filters, the 6-DOF monocular EKF). It converts when the
+/// measurement's linearity index (Civera et al.; [`linearity_index`] in 2-D,
+/// `mono::linearity_index_3d` in 3-D) is below `threshold` and, with
+/// `depth_linearity`, so is the conversion's own,
+/// [`depth_linearity_index`] `= 2σ_ρ/ρ`: (11)'s `J P Jᵀ` then stays the
+/// depth's uncertainty instead of a Gaussian cut from one reaching to
+/// infinity.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ConversionRule {
+    /// Below this linearity index a landmark converts (Civera et al.: 0.1;
+    /// at most [`MAX_CONVERSION_THRESHOLD`]).
+    pub threshold: f64,
+    /// Whether the conversion's own linearity must be below `threshold`
+    /// too.
+    pub depth_linearity: bool,
+}
+
+/// The default of every filter's `conversion_depth_linearity` (the
+/// [`ConversionRule`]'s `depth_linearity`), and serde's for configurations
+/// written before the option.
+#[must_use]
+pub const fn depth_linearity_by_default() -> bool {
+    true
+}
+
+impl ConversionRule {
+    /// Whether a landmark whose measurement has linearity index
+    /// `measurement_index` and whose inverse depth is `rho` with variance
+    /// `rho_variance` converts. A `ρ` that is not positive (a point at or
+    /// beyond infinity) or a variance that is not a variance never does.
+    #[must_use]
+    pub fn converts(&self, measurement_index: f64, rho: f64, rho_variance: f64) -> bool {
+        if measurement_index.is_nan() || measurement_index >= self.threshold {
+            return false;
+        }
+        !self.depth_linearity
+            || depth_linearity_index(rho, rho_variance).is_ok_and(|index| index < self.threshold)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_conversion_rule_asks_both_indices_only_when_told_to() {
+        let measurement_only = ConversionRule {
+            threshold: 0.1,
+            depth_linearity: false,
+        };
+        let both = ConversionRule {
+            depth_linearity: true,
+            ..measurement_only
+        };
+        // ρ = 0.5 ± 0.05: depth index 0.2, side-on measurement index 0.01.
+        assert!(measurement_only.converts(0.01, 0.5, 0.0025));
+        assert!(!both.converts(0.01, 0.5, 0.0025));
+        // ρ = 0.5 ± 0.02: depth index 0.08, both below 0.1.
+        assert!(both.converts(0.01, 0.5, 0.0004));
+        // The measurement index decides first, and a NaN never converts.
+        assert!(!measurement_only.converts(0.1, 0.5, 0.0));
+        assert!(!both.converts(f64::NAN, 0.5, 0.0));
+        // A point beyond infinity is no point.
+        assert!(!both.converts(0.01, -0.5, 0.0));
+    }
+
+    #[test]
+    fn a_depth_is_bounded_when_its_two_sigma_interval_stays_off_infinity() {
+        assert!(depth_bounded(0.5, 0.2f64.powi(2)));
+        assert!(
+            !depth_bounded(0.5, 0.25f64.powi(2)),
+            "the near prior, on the bound"
+        );
+        assert!(!depth_bounded(0.5, 0.3f64.powi(2)));
+        assert!(!depth_bounded(-0.1, 1e-6), "behind the sensor");
+        assert!(!depth_bounded(0.5, f64::NAN));
+    }
 
     /// `L = 4 σ_d |cos α| / d₁` for a point 10 m out along its ray with
     /// σ_d = 1 m, seen along the ray, at 53° to it and side-on (a mutation

@@ -33,13 +33,17 @@ fn auto_fallback(
     visits: Option<usize>,
     max_wait_s: Option<f64>,
     stalled_parallax: Option<bool>,
+    insignificant_parallax: Option<bool>,
 ) -> PyResult<UndelayedFallback> {
     let default = CALIBRATED_PARAMETERS.auto_fallback;
-    let given = visits.is_some() || max_wait_s.is_some() || stalled_parallax.is_some();
+    let given = visits.is_some()
+        || max_wait_s.is_some()
+        || stalled_parallax.is_some()
+        || insignificant_parallax.is_some();
     if given && method != Method::Auto {
         return Err(PyValueError::new_err(format!(
-            "auto_visits, auto_max_wait and auto_stalled_parallax apply to method \"auto\" \
-             only, not to {:?}",
+            "auto_visits, auto_max_wait, auto_stalled_parallax and auto_insignificant_parallax \
+             apply to method \"auto\" only, not to {:?}",
             method.name()
         )));
     }
@@ -47,6 +51,7 @@ fn auto_fallback(
         expired_visits: visits.unwrap_or(default.expired_visits),
         max_wait_s: max_wait_s.or(default.max_wait_s),
         stalled_parallax: stalled_parallax.unwrap_or(default.stalled_parallax),
+        insignificant_parallax: insignificant_parallax.unwrap_or(default.insignificant_parallax),
         ..default
     };
     fallback.validate().map_err(errors::slam)?;
@@ -84,15 +89,19 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// filter and only score it (`result.association`). `online_window` and
 /// `landmark_chart` (`"filter+smoother"` only; `None`: the defaults) choose
 /// the online smoother's window and landmark chart, as `Config`'s fields.
-/// `auto_visits`, `auto_max_wait`, `auto_stalled_parallax` (method `"auto"`
-/// only; `None`: `UndelayedFallback::ONE_VISIT`'s): the `auto` initializer's
-/// options, as `Config`'s fields of those names. `second_order` (`None`:
-/// the default, `True`): the bearing update, `False` the paper's first-order.
+/// `auto_visits`, `auto_max_wait`, `auto_stalled_parallax`,
+/// `auto_insignificant_parallax` (method `"auto"` only; `None`:
+/// `UndelayedFallback::ONE_VISIT`'s): the `auto` initializer's options, as
+/// `Config`'s fields of those names. `second_order` (`None`: the default,
+/// `True`): the bearing update, `False` the paper's first-order.
+/// `conversion_depth_linearity` (`None`: the default, `True`): whether an
+/// inverse-depth landmark converts only once the conversion is linear too
+/// (`Config`'s field; bearing-only methods only).
 // The Python signature: the dataset, the robot, the window, the estimator
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None, second_order = None))]
+#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None, auto_insignificant_parallax = None, second_order = None, conversion_depth_linearity = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -109,11 +118,19 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     auto_visits: Option<usize>,
     auto_max_wait: Option<f64>,
     auto_stalled_parallax: Option<bool>,
+    auto_insignificant_parallax: Option<bool>,
     second_order: Option<bool>,
+    conversion_depth_linearity: Option<bool>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
     let default = SlamConfig::default().initializer.kind().name();
     let method = parse_name::<Method>(method.unwrap_or(default))?;
-    let auto_fallback = auto_fallback(method, auto_visits, auto_max_wait, auto_stalled_parallax)?;
+    let auto_fallback = auto_fallback(
+        method,
+        auto_visits,
+        auto_max_wait,
+        auto_stalled_parallax,
+        auto_insignificant_parallax,
+    )?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
     let mut estimator = EstimatorConfig {
@@ -160,9 +177,17 @@ pub(crate) fn py_evaluate_mrclam<'py>(
             "second_order is an option of the bearing-only update, not of method \"range-bearing\"",
         ));
     }
+    if conversion_depth_linearity.is_some() && method == Method::RangeBearing {
+        return Err(PyValueError::new_err(
+            "conversion_depth_linearity is an option of inverse-depth landmarks, not of method \
+             \"range-bearing\" (its landmarks are points from the start)",
+        ));
+    }
     let parameters = FilterParameters {
         auto_fallback,
         second_order: second_order.unwrap_or(defaults.parameters.second_order),
+        conversion_depth_linearity: conversion_depth_linearity
+            .unwrap_or(defaults.parameters.conversion_depth_linearity),
         ..defaults.parameters
     };
     if on_scan.is_some() && association.ignores_ids() {

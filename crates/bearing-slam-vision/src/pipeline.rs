@@ -99,6 +99,11 @@ pub struct MonoRunConfig {
     /// instead of the ellipse of `S` or a candidate's nominal depth
     /// ([`bearing_slam_core::mono::epipolar`]).
     pub epipolar_search: bool,
+    /// An inverse-depth landmark becomes a point only once the conversion
+    /// is linear too (`2σ_ρ/ρ` below the threshold;
+    /// [`bearing_slam_core::landmark::ConversionRule`], the default as in
+    /// every filter); `false`: Civera et al.'s linearity index alone.
+    pub conversion_depth_linearity: bool,
 }
 
 impl Default for MonoRunConfig {
@@ -124,6 +129,7 @@ impl Default for MonoRunConfig {
             one_point_ransac: true,
             ransac_seed: bearing_slam_core::mono::OnePointRansac::default().seed,
             epipolar_search: false,
+            conversion_depth_linearity: bearing_slam_core::landmark::depth_linearity_by_default(),
         }
     }
 }
@@ -175,6 +181,7 @@ fn filter_config(seq: &FrameSequence, config: &MonoRunConfig) -> Result<MonoConf
     core.motion = ConstantVelocity::new(config.linear_accel_sigma, config.angular_accel_sigma)?
         .in_frame(config.velocity_frame);
     core.forget_out_of_view = config.forget_out_of_view;
+    core.conversion_depth_linearity = config.conversion_depth_linearity;
     if let bearing_slam_core::mono::MonoInitializer::Delayed(ref mut t)
     | bearing_slam_core::mono::MonoInitializer::DelayedWithClone(ref mut t) = core.initializer
     {

@@ -8,7 +8,7 @@ use super::motion::ConstantVelocity;
 use super::ransac::OnePointRansac;
 use crate::error::{Result, SlamError, ensure_in_range, ensure_positive_noise};
 use crate::init::TriangulationConfig;
-use crate::landmark::MAX_CONVERSION_THRESHOLD;
+use crate::landmark::{MAX_CONVERSION_THRESHOLD, depth_linearity_by_default};
 use nalgebra::{Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
@@ -27,8 +27,13 @@ pub struct MonoConfig {
     /// (`max_consecutive_misses`), as a frame-driven filter has no clock.
     pub initializer: MonoInitializer,
     /// Inverse-depth landmarks whose linearity index (Civera) falls below
-    /// this become Euclidean points; 0 never converts.
+    /// this become Euclidean points (28); 0 never converts.
     pub linearity_threshold: f64,
+    /// The conversion also waits for its own linearity, `2 σ_ρ/ρ` below
+    /// `linearity_threshold`: the 2-D filters' rule
+    /// ([`crate::landmark::ConversionRule`]).
+    #[serde(default = "depth_linearity_by_default")]
+    pub conversion_depth_linearity: bool,
     /// A feature (landmark or candidate) searched for and not found this
     /// many times in a row leaves the map.
     pub max_consecutive_misses: u32,
@@ -86,6 +91,7 @@ impl MonoConfig {
                 undelayed_fallback: None,
             }),
             linearity_threshold: 0.1,
+            conversion_depth_linearity: depth_linearity_by_default(),
             max_consecutive_misses: 5,
             forget_out_of_view: false,
             gate_probability: 0.9999,

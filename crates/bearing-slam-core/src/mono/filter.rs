@@ -18,6 +18,7 @@ use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, Reparameterization};
 use crate::error::{Result, SlamError, ensure_finite};
+use crate::landmark::ConversionRule;
 use crate::model::MeasurementModel;
 use crate::stats::chi2_quantile;
 use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, UnitQuaternion, Vector2, Vector3, Vector4};
@@ -604,8 +605,10 @@ impl MonoSlam {
         Ok(false)
     }
 
-    /// Converts the inverse-depth landmarks whose linearity index is below
-    /// the threshold to Euclidean points (28), `P` through its Jacobian.
+    /// Converts the inverse-depth landmarks that the shared
+    /// [`ConversionRule`] passes (the linearity index below the threshold,
+    /// and the conversion's own with `conversion_depth_linearity`) to
+    /// Euclidean points (28), `P` through its Jacobian.
     fn convert_linear_landmarks(&mut self) -> Result<usize> {
         if self.config.linearity_threshold <= 0.0 {
             return Ok(0);
@@ -634,7 +637,11 @@ impl MonoSlam {
             let Ok(index) = linearity_index_3d(&y, var_rho, &camera) else {
                 continue;
             };
-            if index >= self.config.linearity_threshold {
+            let rule = ConversionRule {
+                threshold: self.config.linearity_threshold,
+                depth_linearity: self.config.conversion_depth_linearity,
+            };
+            if !rule.converts(index, y[5], var_rho) {
                 continue;
             }
             let (point, j) = match inverse_depth_to_xyz(&y) {

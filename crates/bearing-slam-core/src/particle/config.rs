@@ -6,7 +6,7 @@ use super::ml_association::MaximumLikelihoodConfig;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig};
-use crate::landmark::MAX_CONVERSION_THRESHOLD;
+use crate::landmark::{ConversionRule, MAX_CONVERSION_THRESHOLD, depth_linearity_by_default};
 use serde::{Deserialize, Serialize};
 
 /// Which FastSLAM.
@@ -54,6 +54,13 @@ pub struct FastSlamConfig {
     /// Linearity index below which an inverse-depth landmark becomes
     /// Euclidean (Civera et al. use 0.1); `None` keeps inverse depth.
     pub conversion_threshold: Option<f64>,
+    /// The conversion also waits for its own linearity, `2 σ_ρ/ρ` below
+    /// `conversion_threshold`: the EKF's rule
+    /// ([`crate::landmark::ConversionRule`],
+    /// [`crate::slam::SlamConfig::conversion_depth_linearity`]), default
+    /// `true` as there.
+    #[serde(default = "depth_linearity_by_default")]
+    pub conversion_depth_linearity: bool,
     /// Resample when `N_eff < resample_threshold · M`, in `(0, 1]`
     /// (1 = after every measurement batch).
     pub resample_threshold: f64,
@@ -87,6 +94,7 @@ impl Default for FastSlamConfig {
             },
             initializer: ParticleInitializer::Triangulation(TriangulationConfig::default()),
             conversion_threshold: Some(0.1),
+            conversion_depth_linearity: depth_linearity_by_default(),
             resample_threshold: 0.5,
             resample_before_proposal: false,
             existence: None,
@@ -96,6 +104,16 @@ impl Default for FastSlamConfig {
 }
 
 impl FastSlamConfig {
+    /// The conversion rule of `conversion_threshold` and
+    /// `conversion_depth_linearity`; `None` keeps inverse depth.
+    #[must_use]
+    pub fn conversion_rule(&self) -> Option<ConversionRule> {
+        self.conversion_threshold.map(|threshold| ConversionRule {
+            threshold,
+            depth_linearity: self.conversion_depth_linearity,
+        })
+    }
+
     /// Checks every parameter.
     ///
     /// # Errors

@@ -25,6 +25,7 @@ use crate::association::appearance::{Appearance, Background};
 use crate::association::score::AssociationScore;
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
+use crate::landmark::ConversionRule;
 use crate::log::{BearingObservation, Descriptor};
 use crate::model::MotionModel;
 use crate::trace::{EstimateSnapshot, LandmarkSnapshot};
@@ -507,7 +508,7 @@ impl FastSlam {
                             {
                                 d.confirmed.push(*id);
                             }
-                            let filter = convert(filter, &p.pose, config.conversion_threshold);
+                            let filter = convert(filter, &p.pose, config.conversion_rule());
                             let appearance =
                                 Appearance::extended(landmark.appearance, descriptor.as_ref());
                             p.map.insert(
@@ -543,7 +544,7 @@ impl FastSlam {
                         {
                             d.confirmed.push(*id);
                         }
-                        let filter = convert(filter, &p.pose, config.conversion_threshold);
+                        let filter = convert(filter, &p.pose, config.conversion_rule());
                         let appearance = descriptor.as_ref().map(Appearance::of);
                         p.map.insert(
                             *id,
@@ -629,15 +630,17 @@ impl FastSlam {
         Ok((Pose2::from_vector(&mean), cov))
     }
 
-    /// The best particle's landmarks as Euclidean points with covariances
-    /// (inverse-depth ones with `ρ ≤ 0` are left out; under unknown
-    /// association, the confirmed ones only).
+    /// The best particle's landmarks as Euclidean points with covariances:
+    /// those whose depth is bounded at 95 % (as the EKF's map,
+    /// [`LandmarkEkf::depth_bounded`]; a landmark still a ray is left out)
+    /// and, under unknown association, confirmed.
     #[must_use]
     pub fn landmark_estimates(&self) -> Vec<LandmarkSnapshot> {
         let ml = self.config.association;
         self.best_particle()
             .map
             .iter()
+            .filter(|(_, l)| l.filter.depth_bounded())
             .filter(|(_, l)| ml.is_none_or(|ml| ml.confirmed(l)))
             .filter_map(|(id, l)| {
                 let (p, c): (Vector2<f64>, Matrix2<f64>) = l.filter.point().ok()?;
@@ -678,10 +681,9 @@ fn argmax(weights: &[f64]) -> usize {
     best
 }
 
-/// An inverse-depth landmark becomes Euclidean once linear enough.
-fn convert(filter: LandmarkEkf, pose: &Vector3<f64>, threshold: Option<f64>) -> LandmarkEkf {
-    threshold
-        .and_then(|t| filter.converted_if_linear(&pose.fixed_rows::<2>(0).into_owned(), t))
+/// An inverse-depth landmark becomes Euclidean once `rule` passes it.
+fn convert(filter: LandmarkEkf, pose: &Vector3<f64>, rule: Option<ConversionRule>) -> LandmarkEkf {
+    rule.and_then(|r| filter.converted_if_linear(&pose.fixed_rows::<2>(0).into_owned(), &r))
         .unwrap_or(filter)
 }
 

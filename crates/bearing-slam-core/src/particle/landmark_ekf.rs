@@ -8,7 +8,7 @@
 
 use crate::error::{Result, SlamError, ensure_positive_noise};
 use crate::init::{Candidate, InverseDepthPrior, pi_sr, triangulate_candidate};
-use crate::landmark::{inverse_depth_to_point, linearity_index};
+use crate::landmark::{ConversionRule, depth_bounded, inverse_depth_to_point, linearity_index};
 use crate::measurement::{
     BearingToInverseDepth, BearingToPoint, RangeBearing, inverse_range_bearing,
 };
@@ -252,6 +252,16 @@ impl LandmarkEkf {
         }
     }
 
+    /// Whether its depth is bounded at 95 %: a point, or an inverse depth
+    /// that [`depth_bounded`] passes (`ρ − 2σ_ρ > 0`); the EKF's map rule.
+    #[must_use]
+    pub fn depth_bounded(&self) -> bool {
+        match self {
+            Self::Euclidean { .. } => true,
+            Self::InverseDepth { mean, cov } => depth_bounded(mean[3], cov[(3, 3)]),
+        }
+    }
+
     /// What this landmark can use of `observation`: an inverse-depth landmark
     /// uses only the bearing of a range-bearing measurement.
     #[must_use]
@@ -363,16 +373,21 @@ impl LandmarkEkf {
         }
     }
 
-    /// The Euclidean form of an inverse-depth landmark once Civera et al.'s
-    /// linearity index seen from `sensor` is below `threshold`; `None` when it
-    /// stays (or already is Euclidean, or has `ρ ≤ 0`).
+    /// The Euclidean form of an inverse-depth landmark once `rule` passes it
+    /// seen from `sensor` (Civera et al.'s linearity index, and the
+    /// conversion's own when the rule asks); `None` when it stays (or
+    /// already is Euclidean, or has `ρ ≤ 0`).
     #[must_use]
-    pub fn converted_if_linear(&self, sensor: &Vector2<f64>, threshold: f64) -> Option<Self> {
+    pub fn converted_if_linear(
+        &self,
+        sensor: &Vector2<f64>,
+        rule: &ConversionRule,
+    ) -> Option<Self> {
         let Self::InverseDepth { mean, cov } = self else {
             return None;
         };
         let index = linearity_index(mean, cov[(3, 3)], sensor).ok()?;
-        if index >= threshold {
+        if !rule.converts(index, mean[3], cov[(3, 3)]) {
             return None;
         }
         let (mean, cov) = self.point().ok()?;
@@ -462,18 +477,35 @@ mod tests {
             cov: Matrix4::from_diagonal(&Vector4::new(1e-6, 1e-6, 1e-6, sigma_rho * sigma_rho)),
         };
         let sensor = Vector2::zeros();
-        match at(0.001).converted_if_linear(&sensor, 0.1) {
+        let civera = ConversionRule {
+            threshold: 0.1,
+            depth_linearity: false,
+        };
+        let both = ConversionRule {
+            depth_linearity: true,
+            ..civera
+        };
+        match at(0.001).converted_if_linear(&sensor, &both) {
             Some(LandmarkEkf::Euclidean { mean, .. }) => {
                 assert!((mean - Vector2::new(5.0, 0.0)).norm() < 1e-12, "{mean}");
             }
-            other => panic!("L = 0.02 < 0.1 converts: {other:?}"),
+            other => panic!("L = 0.02 and 2σ_ρ/ρ = 0.01, both < 0.1, converts: {other:?}"),
         }
-        assert_eq!(at(0.01).converted_if_linear(&sensor, 0.1), None, "L = 0.2");
+        assert_eq!(
+            at(0.01).converted_if_linear(&sensor, &civera),
+            None,
+            "L = 0.2"
+        );
+        // Side-on (sensor at (5, 5)) the measurement is linear at any depth
+        // uncertainty; with σ_ρ = 0.02 the depth is not (2σ_ρ/ρ = 0.2).
+        let side_on = Vector2::new(5.0, 5.0);
+        assert!(at(0.02).converted_if_linear(&side_on, &civera).is_some());
+        assert_eq!(at(0.02).converted_if_linear(&side_on, &both), None);
         let euclidean = LandmarkEkf::Euclidean {
             mean: Vector2::new(5.0, 0.0),
             cov: Matrix2::identity(),
         };
-        assert_eq!(euclidean.converted_if_linear(&sensor, 0.1), None);
+        assert_eq!(euclidean.converted_if_linear(&sensor, &both), None);
     }
 
     #[test]

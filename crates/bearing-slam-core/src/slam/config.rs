@@ -9,7 +9,7 @@ use crate::ekf::{CovarianceUpdate, UpdateMode};
 use crate::error::{Result, SlamError, ensure_finite, ensure_positive_noise};
 use crate::geometry::Pose2;
 use crate::init::{InverseDepthPrior, TriangulationConfig, UndelayedFallback};
-use crate::landmark::MAX_CONVERSION_THRESHOLD;
+use crate::landmark::{ConversionRule, MAX_CONVERSION_THRESHOLD, depth_linearity_by_default};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
@@ -168,7 +168,7 @@ pub struct SlamConfig {
     /// 0.30 and 0.17 → 0.09 and 0.06 m, the same in simulation;
     /// docs/results/filter-consistency.md); `false` is Civera et al.'s
     /// test alone, as in the paper.
-    #[serde(default = "yes")]
+    #[serde(default = "depth_linearity_by_default")]
     pub conversion_depth_linearity: bool,
     /// How each update corrects the covariance: the optimal-gain symmetric
     /// form (default, about half the flops per update) or the Joseph form
@@ -241,7 +241,7 @@ impl Default for SlamConfig {
             initializer: InitializerConfig::auto(TriangulationConfig::default()),
             gate_probability: Some(0.999),
             conversion_threshold: Some(0.1),
-            conversion_depth_linearity: true,
+            conversion_depth_linearity: depth_linearity_by_default(),
             covariance_update: CovarianceUpdate::Symmetric,
             update: UpdateMode::Full,
             consistency: Consistency::Standard,
@@ -255,6 +255,16 @@ impl Default for SlamConfig {
 }
 
 impl SlamConfig {
+    /// The conversion rule of `conversion_threshold` and
+    /// `conversion_depth_linearity`; `None` keeps inverse depth forever.
+    #[must_use]
+    pub fn conversion_rule(&self) -> Option<ConversionRule> {
+        self.conversion_threshold.map(|threshold| ConversionRule {
+            threshold,
+            depth_linearity: self.conversion_depth_linearity,
+        })
+    }
+
     /// Checks every parameter's range.
     pub fn validate(&self) -> Result<()> {
         for (what, v) in [

@@ -1,26 +1,23 @@
 //! When an inverse-depth landmark becomes a point, and which landmarks a
-//! map holds. A landmark converts (Munguía & Grau (11), `J P Jᵀ`) when
-//! Civera et al.'s linearity index of its measurement is below
-//! [`SlamConfig::conversion_threshold`](super::SlamConfig::conversion_threshold)
-//! and, with [`SlamConfig::conversion_depth_linearity`](super::SlamConfig::conversion_depth_linearity),
-//! so is the conversion's own,
-//! `2 σ_ρ/ρ` ([`depth_linearity_index`]); a map
+//! map holds. A landmark converts (Munguía & Grau (11), `J P Jᵀ`) by the
+//! shared [`ConversionRule`](crate::landmark::ConversionRule) of
+//! [`SlamConfig::conversion_rule`](super::SlamConfig::conversion_rule):
+//! Civera et al.'s linearity index of its measurement below the threshold
+//! and, by default, the conversion's own, `2 σ_ρ/ρ`
+//! ([`depth_linearity_index`](crate::landmark::depth_linearity_index)), too; a map
 //! ([`BearingSlam::snapshot`]) holds the landmarks whose depth is bounded
 //! at 95 %.
 
 use super::BearingSlam;
 use super::consistency::converted_first_estimate;
 use crate::error::{Result, SlamError};
-use crate::landmark::{
-    Parameterization, depth_linearity_index, inverse_depth_to_point, linearity_index,
-};
+use crate::landmark::{Parameterization, depth_bounded, inverse_depth_to_point, linearity_index};
 use crate::trace::SlamEvent;
 use nalgebra::{DMatrix, DVector};
 
 impl BearingSlam {
     /// Whether landmark `id`'s depth is bounded at 95 %: a point, or an
-    /// inverse depth with `ρ − 2σ_ρ > 0` (its depth interval does not reach
-    /// infinity; the depth linearity index below 1).
+    /// inverse depth that [`depth_bounded`] passes (`ρ − 2σ_ρ > 0`).
     pub(super) fn depth_bounded(&self, id: u64) -> bool {
         let Some(slot) = self.landmarks.get(&id) else {
             return false;
@@ -30,17 +27,17 @@ impl BearingSlam {
             Parameterization::InverseDepth => {
                 let rho = self.ekf.mean()[slot.offset + 3];
                 let variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
-                depth_linearity_index(rho, variance).is_ok_and(|index| index < 1.0)
+                depth_bounded(rho, variance)
             }
         }
     }
 
-    /// Converts inverse-depth landmarks whose linearity index is below the
-    /// threshold into Euclidean points (4 → 2 state entries), and, with
-    /// [`SlamConfig::conversion_depth_linearity`](super::SlamConfig::conversion_depth_linearity), whose depth linearity
-    /// index `2 σ_ρ/ρ` is too.
+    /// Converts the inverse-depth landmarks that the configured
+    /// [`ConversionRule`](crate::landmark::ConversionRule) passes, seen from
+    /// the current sensor position, into Euclidean points (4 → 2 state
+    /// entries).
     pub(super) fn convert_linear_landmarks(&mut self) -> Result<()> {
-        let Some(threshold) = self.config.conversion_threshold else {
+        let Some(rule) = self.config.conversion_rule() else {
             return Ok(());
         };
         let sensor = self.ekf.block::<2>(0)?;
@@ -59,12 +56,7 @@ impl BearingSlam {
             let Ok(index) = linearity_index(&y, rho_variance, &sensor) else {
                 continue;
             };
-            if index >= threshold {
-                continue;
-            }
-            if self.config.conversion_depth_linearity
-                && !depth_linearity_index(y[3], rho_variance).is_ok_and(|d| d < threshold)
-            {
+            if !rule.converts(index, y[3], rho_variance) {
                 continue;
             }
             let converted = inverse_depth_to_point(&y)?;

@@ -7,6 +7,7 @@ use bearing_slam_core::geometry::Pose2;
 use bearing_slam_core::init::{
     HistoryCorrelation, InverseDepthPrior, TriangulationConfig, UndelayedFallback,
 };
+use bearing_slam_core::landmark::depth_linearity_by_default;
 use bearing_slam_core::motion::{VelocityModel, VelocityNoise};
 use bearing_slam_core::runner::{OdometryConfig, RunConfig};
 use bearing_slam_core::slam::{InitializerConfig, SlamConfig};
@@ -41,6 +42,11 @@ pub struct FilterParameters {
     /// The bearing update: second order (the library default,
     /// [`SlamConfig::second_order`]) or the paper's first-order one.
     pub second_order: bool,
+    /// The conversion waits for its own linearity too (the library default,
+    /// [`SlamConfig::conversion_depth_linearity`]) or not (Civera et al.'s
+    /// test alone).
+    #[serde(default = "bearing_slam_core::landmark::depth_linearity_by_default")]
+    pub conversion_depth_linearity: bool,
 }
 
 /// The parameters [`calibrate_parameters`] derives from Dataset 6 by the rule
@@ -86,6 +92,7 @@ pub const CALIBRATED_PARAMETERS: FilterParameters = FilterParameters {
     pi_sr_prior: InverseDepthPrior::PAPER_NEAR,
     auto_fallback: UndelayedFallback::ONE_VISIT,
     second_order: true,
+    conversion_depth_linearity: depth_linearity_by_default(),
 };
 
 /// The parameters of the first quick run (before this module): the 1 s
@@ -105,6 +112,7 @@ pub const NAIVE_PARAMETERS: FilterParameters = FilterParameters {
     pi_sr_prior: CALIBRATED_PARAMETERS.pi_sr_prior,
     auto_fallback: CALIBRATED_PARAMETERS.auto_fallback,
     second_order: CALIBRATED_PARAMETERS.second_order,
+    conversion_depth_linearity: CALIBRATED_PARAMETERS.conversion_depth_linearity,
 };
 
 impl FilterParameters {
@@ -137,6 +145,7 @@ impl FilterParameters {
             initializer,
             gate_probability: Some(self.gate_probability),
             conversion_threshold: Some(0.1),
+            conversion_depth_linearity: self.conversion_depth_linearity,
             second_order: self.second_order,
             ..SlamConfig::default()
         };
