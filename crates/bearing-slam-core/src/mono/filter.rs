@@ -18,7 +18,7 @@ use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, Reparameterization};
 use crate::error::{Result, SlamError, ensure_finite};
-use crate::landmark::ConversionRule;
+use crate::landmark::{ConversionRule, depth_bounded};
 use crate::model::MeasurementModel;
 use crate::stats::chi2_quantile;
 use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, UnitQuaternion, Vector2, Vector3, Vector4};
@@ -682,6 +682,23 @@ impl MonoSlam {
         match failure {
             Some(e) => Err(e),
             None => Ok(converted),
+        }
+    }
+
+    /// Whether landmark `id`'s depth is bounded at 95 %: a point, or an
+    /// inverse depth that [`depth_bounded`] passes (`ρ − 2σ_ρ > 0`); what
+    /// the map ([`super::MonoFilter::landmarks`]) holds.
+    fn depth_bounded(&self, id: u64) -> bool {
+        let Some(feature) = self.landmarks.get(&id) else {
+            return false;
+        };
+        match feature.kind {
+            Parameterization3::Xyz => true,
+            Parameterization3::InverseDepth => depth_bounded(
+                self.ekf.mean()[feature.offset + 5],
+                self.ekf
+                    .covariance_entry(feature.offset + 5, feature.offset + 5),
+            ),
         }
     }
 

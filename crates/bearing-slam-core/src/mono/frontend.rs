@@ -155,8 +155,10 @@ pub trait MonoFilter {
     /// The camera's current pose estimate.
     fn camera_pose(&self) -> CameraPose;
 
-    /// The map as Euclidean points with covariances (landmarks at or beyond
-    /// infinity left out). Defaults to none, for filters without a map.
+    /// The map as Euclidean points with covariances: the landmarks whose
+    /// depth is bounded at 95 % ([`crate::landmark::depth_bounded`], the
+    /// 2-D filters' map rule; a landmark still a ray is left out). Defaults
+    /// to none, for filters without a map.
     fn landmarks(&self) -> Vec<MapPoint> {
         Vec::new()
     }

@@ -400,3 +400,28 @@ fn delayed_rules_on_3d_rays_wait_triangulate_place_far_and_restart() {
         decide_3d(&config, &camera, &candidate, &at(0.6), &diverging).expect("decision");
     assert_eq!(decision, CandidateDecision::Restart);
 }
+
+#[test]
+fn the_map_holds_points_and_depth_bounded_rays_only() {
+    // The 2-D filters' map rule (landmark::depth_bounded): a feature entered
+    // with Civera's prior ρ = 0.1 ± 0.5 is a ray (ρ − 2σ_ρ < 0), in the
+    // state but not on the map; one entered with 0.3 ± 0.1 is bounded.
+    let scenario = MonoScenario::desk(3, 2, 10);
+    for (rho, sigma, on_map) in [(0.1, 0.5, false), (0.3, 0.1, true)] {
+        let config = MonoConfig::undelayed(scenario.camera, rho, sigma);
+        let mut filter = MonoSlam::new(config, &scenario.start()).expect("filter");
+        filter
+            .add_known_points(&scenario.points[..4], 0.0)
+            .expect("reference");
+        filter
+            .add_features(&[Vector2::new(320.0, 240.0)])
+            .expect("add");
+        assert_eq!(filter.landmark_ids().len(), 5, "ρ = {rho} ± {sigma}");
+        let map = filter.landmarks();
+        assert_eq!(map.len(), if on_map { 5 } else { 4 }, "ρ = {rho} ± {sigma}");
+        assert_eq!(
+            map.iter().filter(|p| p.inverse_depth).count(),
+            usize::from(on_map)
+        );
+    }
+}

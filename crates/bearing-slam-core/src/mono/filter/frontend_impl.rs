@@ -153,6 +153,7 @@ impl MonoFilter for MonoSlam {
     fn landmarks(&self) -> Vec<MapPoint> {
         self.landmarks
             .keys()
+            .filter(|&&id| self.depth_bounded(id))
             .filter_map(|&id| self.map_point(id).ok().flatten())
             .collect()
     }
