@@ -8,12 +8,11 @@ of Rust's ``UndelayedFallback`` under ``Config``'s names:
 ``--auto-visits N`` (expired visits before a landmark enters undelayed,
 default 1), ``--auto-max-wait SECONDS`` (a wait budget: a candidate still
 waiting for parallax after that long enters undelayed from its current
-bearing), ``--auto-stalled-parallax`` (it enters once its parallax has
-stalled) and ``--no-auto-insignificant-parallax`` (it waits for parallax
-even where the bearing noise makes the parallax test insignificant). The
-wait budget and the stalled-parallax rule are opt-in: on MRCLAM they give
-better maps and trajectories, in simulation a higher ATE
-(docs/results/filter-consistency.md). ``--no-conversion-depth-linearity``
+bearing; opt-in: better on MRCLAM, a higher ATE in simulation),
+``--no-auto-stalled-parallax`` (it waits for its visit to expire even when
+its parallax has stalled) and ``--no-auto-insignificant-parallax`` (it waits
+for parallax even where the bearing noise makes the parallax test
+insignificant); docs/results/filter-consistency.md. ``--no-conversion-depth-linearity``
 converts an inverse-depth landmark to a point by Civera et al.'s test alone,
 as the paper does, without waiting for the conversion's own linearity.
 """
@@ -30,7 +29,7 @@ __all__ = ["add_filter_options", "filter_options", "filter_problem"]
 _AUTO_FLAGS = (
     "--auto-visits",
     "--auto-max-wait",
-    "--auto-stalled-parallax",
+    "--no-auto-stalled-parallax",
     "--no-auto-insignificant-parallax",
 )
 
@@ -61,10 +60,13 @@ def add_filter_options(parser: argparse.ArgumentParser) -> None:
         "MRCLAM, a higher ATE in simulation: docs/results/filter-consistency.md)",
     )
     parser.add_argument(
-        "--auto-stalled-parallax",
-        action="store_true",
+        "--no-auto-stalled-parallax",
+        dest="auto_stalled_parallax",
+        action="store_false",
+        default=None,
         help="--init auto: a landmark whose parallax has stalled (it would not reach "
-        "the minimum within the candidate timeout) enters undelayed (default: off)",
+        "the minimum within the candidate timeout) waits for its visit to expire; by "
+        "default it enters undelayed at once",
     )
     parser.add_argument(
         "--no-auto-insignificant-parallax",
@@ -98,8 +100,8 @@ def filter_options(args: argparse.Namespace) -> dict[str, Any]:
         options["auto_visits"] = args.auto_visits
     if args.auto_max_wait is not None:
         options["auto_max_wait"] = args.auto_max_wait
-    if args.auto_stalled_parallax:
-        options["auto_stalled_parallax"] = True
+    if args.auto_stalled_parallax is not None:
+        options["auto_stalled_parallax"] = args.auto_stalled_parallax
     if args.auto_insignificant_parallax is not None:
         options["auto_insignificant_parallax"] = args.auto_insignificant_parallax
     return options

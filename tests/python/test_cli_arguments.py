@@ -95,8 +95,8 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     assert_refused(r, "--rho-ini", "PI-SR")
     r = cli("run", log, "--init", "pi-sr", "--alpha-min-deg", "3", "--out", tmp_path / "o")
     assert_refused(r, "--alpha-min-deg")
-    r = cli("run", log, "--init", "mte", "--auto-stalled-parallax", "--out", tmp_path / "o")
-    assert_refused(r, "--auto-stalled-parallax", "--init auto only")
+    r = cli("run", log, "--init", "mte", "--no-auto-stalled-parallax", "--out", tmp_path / "o")
+    assert_refused(r, "--no-auto-stalled-parallax", "--init auto only")
     r = cli("run", log, "--auto-max-wait", "0", "--out", tmp_path / "o")
     assert_refused(r, "--auto-max-wait")
     assert not (tmp_path / "o").exists()
@@ -106,7 +106,7 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     assert r.returncode == 0, r.stderr
     config = json.loads((out / "metrics.json").read_text())["config"]
     assert (config["init"], config["auto_visits"], config["auto_max_wait"]) == ("auto", 2, 1.5)
-    assert config["auto_stalled_parallax"] is False
+    assert config["auto_stalled_parallax"] is True
     assert config["second_order"] is True
     r = cli("run", log, "--first-order", "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
@@ -122,6 +122,7 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
         "run",
         log,
         "--no-auto-insignificant-parallax",
+        "--no-auto-stalled-parallax",
         "--no-conversion-depth-linearity",
         "--out",
         out,
@@ -129,10 +130,11 @@ def test_run_with_a_parameter_the_initializer_does_not_use_is_refused(tmp_path: 
     )
     assert r.returncode == 0, r.stderr
     config = json.loads((out / "metrics.json").read_text())["config"]
-    assert (config["auto_insignificant_parallax"], config["conversion_depth_linearity"]) == (
-        False,
-        False,
-    )
+    assert (
+        config["auto_insignificant_parallax"],
+        config["auto_stalled_parallax"],
+        config["conversion_depth_linearity"],
+    ) == (False, False, False)
     r = cli("run", log, "--init", "pi-sr", "--no-auto-insignificant-parallax", "--out", out)
     assert_refused(r, "--no-auto-insignificant-parallax", "--init auto only")
     r = cli("run", log, "--use-range", "--no-conversion-depth-linearity", "--out", out)

@@ -67,7 +67,7 @@ def test_experiment_fig5_refuses_bad_parameters(kwargs: dict[str, object], name:
         ({"rho_ini": -1.0}, "rho_ini", "positive"),
         ({"auto_visits": 0}, "expired_visits", "at least 1"),
         ({"init": "pi-sr", "auto_max_wait": 1.0}, "auto_max_wait", "auto initializer"),
-        ({"init": "mte", "auto_stalled_parallax": True}, "auto_stalled_parallax", "auto"),
+        ({"init": "mte", "auto_stalled_parallax": False}, "auto_stalled_parallax", "auto"),
         ({"auto_max_wait": 0.0}, "max_wait_s", "positive"),
         ({"init": "mte-clone", "sigma_rho": 0.3}, "sigma_rho", "PI-SR"),
         ({"per_landmark_priors": {7: (0.01, 0.005)}}, "per_landmark_priors", "PI-SR"),

@@ -170,8 +170,9 @@ def test_user_errors(tmp_path: Path, args: list[str], message: str) -> None:
 def test_auto_wait_budget_from_the_cli_and_python(tmp_path: Path) -> None:
     """``--auto-max-wait`` (``auto_max_wait=``) reaches the filter: its
     candidates enter by the budget, the config and parameters say so, and
-    on robot 2's 300–600 s it beats the default auto (0.65 → 0.37 m;
-    1.40 → 0.56 m with the first-order EKF)."""
+    on robot 2's 300–600 s it beats the default auto (0.57 → 0.37 m;
+    1.40 → 0.56 m with the first-order EKF and without the stalled-parallax
+    rule)."""
     out = tmp_path / "budget"
     r = mrclam_cli(D6, "--robot", "2", *WINDOW, "--auto-max-wait", "1", "--out", out, "--quiet")
     assert r.returncode == 0, r.stderr
@@ -188,7 +189,7 @@ def test_auto_wait_budget_from_the_cli_and_python(tmp_path: Path) -> None:
     assert reasons.count("wait_budget") >= 5, reasons
     assert not [e for e in default.events if e.get("reason") == "wait_budget"]
     assert metrics["n_measurements_used"] > plain["n_measurements_used"]
-    assert metrics["ate_rmse_m"] < 0.6 * plain["ate_rmse_m"]
+    assert metrics["ate_rmse_m"] < 0.7 * plain["ate_rmse_m"]
     with pytest.raises(ValueError, match='method "auto" only'):
         bs.evaluate_mrclam(D6, 2, "mte", 300.0, 600.0, auto_stalled_parallax=True)
     with pytest.raises(bs.InvalidParameterError, match="expired_visits"):
@@ -214,13 +215,15 @@ def test_first_order_update_from_the_cli_and_python(tmp_path: Path) -> None:
 
 
 def test_the_default_rules_switched_off_from_the_cli_and_python(tmp_path: Path) -> None:
-    """``--no-conversion-depth-linearity`` and ``--no-auto-insignificant-parallax``
-    (``conversion_depth_linearity=False``, ``auto_insignificant_parallax=False``)
-    reach the filter: the config and parameters say so, and without the
-    conversion's own linearity a landmark whose depth is not yet bounded
-    becomes a point, so robot 2's 300–600 s maps one more (14 against 13).
-    MRCLAM's bearing σ makes the parallax test significant, so the second
-    rule changes nothing there."""
+    """``--no-conversion-depth-linearity``, ``--no-auto-stalled-parallax`` and
+    ``--no-auto-insignificant-parallax`` (``conversion_depth_linearity=False``,
+    ``auto_stalled_parallax=False``, ``auto_insignificant_parallax=False``)
+    reach the filter: the config and parameters say so. On robot 2's
+    300–600 s the stalled-parallax rule maps 15 landmarks (13 without) and
+    ends at 0.57 m (0.65 m without); without it, dropping the conversion's
+    own linearity makes a landmark whose depth is not yet bounded a point,
+    so one more is mapped (14 against 13). MRCLAM's bearing σ makes the
+    parallax test significant, so the last rule changes nothing there."""
     out = tmp_path / "off"
     r = mrclam_cli(
         D6,
@@ -228,6 +231,7 @@ def test_the_default_rules_switched_off_from_the_cli_and_python(tmp_path: Path) 
         "2",
         *WINDOW,
         "--no-conversion-depth-linearity",
+        "--no-auto-stalled-parallax",
         "--no-auto-insignificant-parallax",
         "--out",
         out,
@@ -236,14 +240,22 @@ def test_the_default_rules_switched_off_from_the_cli_and_python(tmp_path: Path) 
     assert r.returncode == 0, r.stderr
     m = outputs(out)
     assert m["config"]["conversion_depth_linearity"] is False
+    assert m["config"]["auto_stalled_parallax"] is False
     assert m["config"]["auto_insignificant_parallax"] is False
     assert m["parameters"]["conversion_depth_linearity"] is False
+    assert m["parameters"]["auto_fallback"]["stalled_parallax"] is False
     assert m["parameters"]["auto_fallback"]["insignificant_parallax"] is False
-    _, on, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0)
-    assert on["parameters"]["conversion_depth_linearity"] is True
-    _, off, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0, conversion_depth_linearity=False)
+    _, default, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0)
+    assert default["parameters"]["conversion_depth_linearity"] is True
+    assert default["parameters"]["auto_fallback"]["stalled_parallax"] is True
+    _, waiting, _ = bs.evaluate_mrclam(D6, 2, None, 300.0, 600.0, auto_stalled_parallax=False)
+    assert default["n_landmarks_mapped"] > waiting["n_landmarks_mapped"]
+    assert default["ate_rmse_m"] < waiting["ate_rmse_m"]
+    _, off, _ = bs.evaluate_mrclam(
+        D6, 2, None, 300.0, 600.0, auto_stalled_parallax=False, conversion_depth_linearity=False
+    )
     assert off["n_landmarks_mapped"] == m["n_landmarks_mapped"]
-    assert off["n_landmarks_mapped"] > on["n_landmarks_mapped"]
+    assert off["n_landmarks_mapped"] > waiting["n_landmarks_mapped"]
     with pytest.raises(ValueError, match="range-bearing"):
         bs.evaluate_mrclam(D6, 2, "range-bearing", 300.0, 600.0, conversion_depth_linearity=False)
     with pytest.raises(ValueError, match='method "auto" only'):

@@ -133,7 +133,7 @@ def test_config_defaults_are_the_papers() -> None:
     c = bs.Config()
     assert c.init == "auto" == bs.vocabulary.DEFAULT_INIT
     assert c.auto_visits == 1
-    assert c.auto_stalled_parallax is False
+    assert c.auto_stalled_parallax is True
     assert c.auto_insignificant_parallax is True
     assert c.conversion_depth_linearity is True
     assert c.auto_max_wait is None

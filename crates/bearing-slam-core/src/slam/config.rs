@@ -47,7 +47,8 @@ impl InitializerConfig {
 
     /// The `auto` initializer: MTE from `triangulation`, whose landmarks
     /// enter undelayed after [`UndelayedFallback::ONE_VISIT`] (one visit
-    /// without enough parallax, then the paper's near prior) unless
+    /// without enough parallax, or a stalled parallax, then the paper's
+    /// near prior) unless
     /// `triangulation` sets its own fallback.
     #[must_use]
     pub fn auto(triangulation: TriangulationConfig) -> Self {

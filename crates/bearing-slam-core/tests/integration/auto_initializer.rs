@@ -248,8 +248,9 @@ fn a_stalled_parallax_enters_the_landmark_within_its_visit() {
 }
 
 /// Without expiries (the landmarks of the paper's Fig. 4 scene stay in
-/// view) `auto` (the stalled-parallax rule off, its default) is MTE to the
-/// last bit.
+/// view) `auto` with the stalled-parallax rule off is MTE to the last bit;
+/// with the rule (the default) a landmark whose parallax stalls enters
+/// undelayed within its visit.
 #[test]
 fn auto_is_mte_where_no_visit_ends() {
     let scenario = KinematicScenario::paper_fig4(true);
@@ -262,7 +263,31 @@ fn auto_is_mte_where_no_visit_ends() {
     let mte = run_with(InitializerConfig::Triangulation(
         TriangulationConfig::default(),
     ));
-    let auto = run_with(InitializerConfig::auto(TriangulationConfig::default()));
+    let rule_off = UndelayedFallback {
+        stalled_parallax: false,
+        ..UndelayedFallback::ONE_VISIT
+    };
+    let auto = run_with(InitializerConfig::auto(TriangulationConfig {
+        undelayed_fallback: Some(rule_off),
+        ..TriangulationConfig::default()
+    }));
+    let default = run_with(InitializerConfig::auto(TriangulationConfig::default()));
+    let stalled = default
+        .trace
+        .events
+        .iter()
+        .filter(|e| {
+            matches!(
+                e.event,
+                SlamEvent::BearingsDiscarded {
+                    reason: DiscardReason::ParallaxStalled,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert!(stalled > 0, "the default's rule enters a stalled landmark");
+    assert_ne!(mte, default);
     let expired = mte
         .trace
         .events

@@ -160,12 +160,16 @@ fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
     // The window (10 keyframes) did marginalize.
     assert!(keyframed.report.n_poses > 10);
     assert!(k.finite);
-    // Measured: batch 0.015 m, 10 scans 0.42 m, 10 keyframes 0.027 m.
+    // Measured from MTE's start: batch 0.015 m, 10 scans 0.42 m, 10
+    // keyframes 0.027 m; from the default `auto`'s since the
+    // stalled-parallax rule (2026-11-29): 0.015, 0.065 and 0.034 m (the
+    // landmarks enter earlier, which the short per-scan window gains most
+    // from).
     assert!(
-        k.ate_rmse_m <= 0.25 * p.ate_rmse_m,
+        k.ate_rmse_m <= 0.6 * p.ate_rmse_m,
         "{k:?} vs per scan {p:?}"
     );
-    assert!(k.ate_rmse_m <= 2.0 * b.ate_rmse_m, "{k:?} vs batch {b:?}");
+    assert!(k.ate_rmse_m <= 2.5 * b.ate_rmse_m, "{k:?} vs batch {b:?}");
     // Snapshots between keyframes are the keyframe composed with the
     // odometry since: they move with the scan, not stuck at the keyframe.
     let poses: Vec<_> = keyframed
