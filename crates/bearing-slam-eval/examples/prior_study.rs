@@ -1,57 +1,198 @@
-//! Scratch: the auto fallback's / PI-SR's inverse-depth prior on MRCLAM.
-//! `PRIOR=rho,sigma cargo run --release -p bearing-slam-eval --example prior_study -- DIR`
+//! The inverse-depth prior on MRCLAM (docs/results/filter-consistency.md,
+//! "A depth prior from Dataset 6's ground truth"):
+//!
+//! ```text
+//! cargo run --release -p bearing-slam-eval --example prior_study -- depths ../shared/datasets/mrclam
+//! PRIOR=0.21,0.072 cargo run --release -p bearing-slam-eval --example prior_study -- runs ../shared/datasets/mrclam
+//! ```
+//!
+//! `depths`: the stated rule's statistic, the true inverse depth (Vicon
+//! pose to surveyed landmark) at each landmark's first sighting by each
+//! robot of Dataset 6: mean, standard deviation and percentiles.
+//!
+//! `runs`: `auto` and PI-SR on every robot of Datasets 6, 1 (scored with
+//! subjects 11 and 17 swapped), 2 and 4 with the calibrated parameters,
+//! the undelayed prior replaced by `PRIOR=ρ,σ` (PI-SR's and `auto`'s
+//! fallback's; unset: the paper's `(0.5, 0.25)`). `AUTO_WAIT=T` adds a wait
+//! budget, `AUTO_STALL=0|1` sets the stalled-parallax rule, `METHODS=auto,pi-sr`
+//! chooses the methods.
+
 use bearing_slam_core::init::InverseDepthPrior;
+use bearing_slam_core::log::EventKind;
 use bearing_slam_core::names::Named;
 use bearing_slam_eval::real_data::report::swap_truth;
-use bearing_slam_eval::real_data::{EvalOptions, Method, align_landmarks_se2, evaluate_run};
-use bearing_slam_io::mrclam::load_mrclam_with;
-use std::path::PathBuf;
+use bearing_slam_eval::real_data::{
+    EvalOptions, Method, RealDataResult, align_landmarks_se2, evaluate_run,
+};
+use bearing_slam_io::mrclam::{MrclamRun, ROBOT_COUNT, load_mrclam_with};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let data = PathBuf::from(std::env::args().nth(1).expect("DIR"));
+type BoxError = Box<dyn std::error::Error>;
+
+const DATASETS: [&str; 4] = [
+    "MRCLAM_Dataset6",
+    "MRCLAM_Dataset1",
+    "MRCLAM_Dataset2",
+    "MRCLAM_Dataset4",
+];
+
+fn main() -> Result<(), BoxError> {
+    let mut args = std::env::args().skip(1);
+    let usage = "usage: prior_study depths|runs MRCLAM_DIR";
+    let (mode, data) = match (args.next(), args.next()) {
+        (Some(mode), Some(dir)) => (mode, PathBuf::from(dir)),
+        _ => return Err(usage.into()),
+    };
+    match mode.as_str() {
+        "depths" => depths(&data),
+        "runs" => runs(&data),
+        _ => Err(usage.into()),
+    }
+}
+
+/// The true inverse depth at each landmark's first sighting by each robot
+/// of Dataset 6.
+fn depths(data: &Path) -> Result<(), BoxError> {
+    let options = EvalOptions::default();
+    let mut first = Vec::new();
+    for robot in 1..=ROBOT_COUNT {
+        let run = load_mrclam_with(&data.join("MRCLAM_Dataset6"), robot, &options.load)?;
+        first.extend(first_sighting_inverse_depths(&run));
+    }
+    if first.is_empty() {
+        return Err("no sighting with ground truth in Dataset 6".into());
+    }
+    let n = first.len() as f64;
+    let mean = first.iter().sum::<f64>() / n;
+    let sd = (first.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n).sqrt();
+    first.sort_by(f64::total_cmp);
+    let pct = |p: f64| first[((p / 100.0) * (n - 1.0)).round() as usize];
+    println!(
+        "{} first sightings: inverse depth mean {mean:.3} 1/m, sd {sd:.3}; \
+         percentiles 2.5/50/97.5: {:.3} / {:.3} / {:.3} (depth median {:.2} m)",
+        first.len(),
+        pct(2.5),
+        pct(50.0),
+        pct(97.5),
+        1.0 / pct(50.0)
+    );
+    Ok(())
+}
+
+/// `1/d` from the ground-truth pose to the surveyed landmark at the first
+/// bearing of each landmark (robots without ground truth give none).
+fn first_sighting_inverse_depths(run: &MrclamRun) -> Vec<f64> {
+    let landmarks: BTreeMap<u64, (f64, f64)> = run
+        .log
+        .landmarks
+        .iter()
+        .map(|l| (l.id, (l.x, l.y)))
+        .collect();
+    let truth = &run.ground_truth;
+    let mut seen = BTreeMap::new();
+    for event in &run.log.events {
+        let EventKind::Bearings(bearings) = &event.kind else {
+            continue;
+        };
+        let at = truth.partition_point(|(t, _)| *t < event.time);
+        let Some((_, pose)) = truth.get(at) else {
+            continue;
+        };
+        for b in bearings {
+            if let Some(&(x, y)) = landmarks.get(&b.landmark_id) {
+                seen.entry(b.landmark_id)
+                    .or_insert_with(|| 1.0 / (x - pose.x).hypot(y - pose.y));
+            }
+        }
+    }
+    seen.into_values().collect()
+}
+
+fn runs(data: &Path) -> Result<(), BoxError> {
     let mut options = EvalOptions::default();
     if let Ok(p) = std::env::var("PRIOR") {
-        let v: Vec<f64> = p.split(',').map(|s| s.parse().expect("f64")).collect();
-        let prior = InverseDepthPrior::new(v[0], v[1])?;
+        let v: Vec<f64> = p
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()
+            .map_err(|e| format!("PRIOR={p}: {e} (expected ρ,σ)"))?;
+        let [rho, sigma] = v[..] else {
+            return Err(format!("PRIOR={p}: expected two numbers ρ,σ").into());
+        };
+        let prior = InverseDepthPrior::new(rho, sigma)?;
         options.parameters.auto_fallback.prior = prior;
         options.parameters.pi_sr_prior = prior;
     }
     if let Ok(w) = std::env::var("AUTO_WAIT") {
         options.parameters.auto_fallback.max_wait_s = Some(w.parse()?);
     }
-    if std::env::var("AUTO_STALL").is_ok() {
-        options.parameters.auto_fallback.stalled_parallax = true;
+    if let Ok(s) = std::env::var("AUTO_STALL") {
+        options.parameters.auto_fallback.stalled_parallax = s == "1";
     }
-    let methods: Vec<Method> = std::env::var("METHODS").unwrap_or("auto,pi-sr".into()).split(',').map(|m| m.parse().expect("method")).collect();
-    for ds in ["MRCLAM_Dataset6", "MRCLAM_Dataset1", "MRCLAM_Dataset2", "MRCLAM_Dataset4"] {
+    let methods: Vec<Method> = std::env::var("METHODS")
+        .unwrap_or_else(|_| "auto,pi-sr".into())
+        .split(',')
+        .map(str::parse)
+        .collect::<Result<_, _>>()?;
+    for dataset in DATASETS {
         for &method in &methods {
-            let mut ates = Vec::new();
-            let mut maps = Vec::new();
-            let mut nees = Vec::new();
-            let mut mapped = Vec::new();
-            for robot in 1..=5u8 {
-                let run = load_mrclam_with(&data.join(ds), robot, &options.load)?;
-                let r = evaluate_run(&run, method, &options.parameters)?;
-                ates.push(r.ate_rmse_m.unwrap_or(f64::NAN));
-                nees.push(r.nees_within_95.unwrap_or(f64::NAN));
-                mapped.push(r.n_landmarks_mapped);
-                let mut map = r.landmark_rmse_aligned_m.unwrap_or(f64::NAN);
-                if ds == "MRCLAM_Dataset1" {
-                    let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
-                    let est: Vec<(u64, f64, f64)> = r
-                        .output
-                        .as_ref()
-                        .and_then(|o| o.trace.snapshots.last())
-                        .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
-                        .unwrap_or_default();
-                    map = align_landmarks_se2(&est, &swap_truth(&truth, (11, 17))).map_or(f64::NAN, |(_, e)| e);
-                }
-                maps.push(map);
+            let mut rows = Vec::new();
+            for robot in 1..=ROBOT_COUNT {
+                let run = load_mrclam_with(&data.join(dataset), robot, &options.load)?;
+                let result = evaluate_run(&run, method, &options.parameters)?;
+                let map = if dataset == "MRCLAM_Dataset1" {
+                    swapped_map_rmse(&run, &result)
+                } else {
+                    result.landmark_rmse_aligned_m
+                };
+                rows.push((
+                    result.ate_rmse_m,
+                    map,
+                    result.n_landmarks_mapped,
+                    result.nees_within_95,
+                ));
             }
-            let f = |v: &[f64]| v.iter().map(|x| format!("{x:.2}")).collect::<Vec<_>>().join("/");
-            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
-            println!("{ds} {:>6} ATE {} (mean {:.2}) map {} (mean {:.2}) mapped {:?} nees {}", method.name(), f(&ates), mean(&ates), f(&maps), mean(&maps), mapped, f(&nees));
+            print_rows(dataset, method, &rows);
         }
     }
     Ok(())
+}
+
+/// Dataset 1's map scored with subjects 11 and 17 exchanged.
+fn swapped_map_rmse(run: &MrclamRun, result: &RealDataResult) -> Option<f64> {
+    let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
+    let estimated: Vec<(u64, f64, f64)> = result
+        .output
+        .as_ref()
+        .and_then(|o| o.trace.snapshots.last())
+        .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
+        .unwrap_or_default();
+    align_landmarks_se2(&estimated, &swap_truth(&truth, (11, 17))).map(|(_, rmse)| rmse)
+}
+
+type Row = (Option<f64>, Option<f64>, usize, Option<f64>);
+
+fn print_rows(dataset: &str, method: Method, rows: &[Row]) {
+    let join = |values: Vec<Option<f64>>| {
+        let text: Vec<String> = values
+            .iter()
+            .map(|v| v.map_or("-".into(), |x| format!("{x:.2}")))
+            .collect();
+        let known: Vec<f64> = values.iter().flatten().copied().collect();
+        let mean = (!known.is_empty()).then(|| known.iter().sum::<f64>() / known.len() as f64);
+        format!(
+            "{} (mean {})",
+            text.join("/"),
+            mean.map_or("-".into(), |m| format!("{m:.2}"))
+        )
+    };
+    println!(
+        "{dataset} {:>6}: ATE {}, aligned map {}, mapped {:?}, NEES under the bound {}",
+        method.name(),
+        join(rows.iter().map(|r| r.0).collect()),
+        join(rows.iter().map(|r| r.1).collect()),
+        rows.iter().map(|r| r.2).collect::<Vec<_>>(),
+        join(rows.iter().map(|r| r.3).collect()),
+    );
 }
