@@ -15,7 +15,9 @@
 //! the undelayed prior replaced by `PRIOR=ρ,σ` (PI-SR's and `auto`'s
 //! fallback's; unset: the paper's `(0.5, 0.25)`). `AUTO_WAIT=T` adds a wait
 //! budget, `AUTO_STALL=0|1` sets the stalled-parallax rule, `METHODS=auto,pi-sr`
-//! chooses the methods.
+//! chooses the methods. `SIGMA_W=σ` and `ALPHA4=α` (what-ifs) replace the
+//! velocity noise's turn-rate floor `σ_ω_min` and set its `α4` (the
+//! turn-rate variance per (rad/s)², `benches/turn_noise_fit.py`).
 
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::EventKind;
@@ -126,6 +128,12 @@ fn runs(data: &Path) -> Result<(), BoxError> {
     }
     if let Ok(w) = std::env::var("AUTO_WAIT") {
         options.parameters.auto_fallback.max_wait_s = Some(w.parse()?);
+    }
+    if let Ok(a) = std::env::var("ALPHA4") {
+        options.parameters.velocity_noise.alpha[3] = a.parse()?;
+    }
+    if let Ok(a) = std::env::var("SIGMA_W") {
+        options.parameters.velocity_noise.sigma_omega_min = a.parse()?;
     }
     if let Ok(s) = std::env::var("AUTO_STALL") {
         options.parameters.auto_fallback.stalled_parallax = s == "1";
