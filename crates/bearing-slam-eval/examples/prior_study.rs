@@ -22,10 +22,8 @@
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::EventKind;
 use bearing_slam_core::names::Named;
-use bearing_slam_eval::real_data::report::swap_truth;
-use bearing_slam_eval::real_data::{
-    EvalOptions, Method, RealDataResult, align_landmarks_se2, evaluate_run,
-};
+use bearing_slam_eval::real_data::report::swapped_landmark_rmse;
+use bearing_slam_eval::real_data::{EvalOptions, Method, RealDataResult, evaluate_run};
 use bearing_slam_io::mrclam::{MrclamRun, ROBOT_COUNT, load_mrclam_with};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -170,13 +168,7 @@ fn runs(data: &Path) -> Result<(), BoxError> {
 /// Dataset 1's map scored with subjects 11 and 17 exchanged.
 fn swapped_map_rmse(run: &MrclamRun, result: &RealDataResult) -> Option<f64> {
     let truth: Vec<(u64, f64, f64)> = run.log.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect();
-    let estimated: Vec<(u64, f64, f64)> = result
-        .output
-        .as_ref()
-        .and_then(|o| o.trace.snapshots.last())
-        .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
-        .unwrap_or_default();
-    align_landmarks_se2(&estimated, &swap_truth(&truth, (11, 17))).map(|(_, rmse)| rmse)
+    swapped_landmark_rmse(result, &truth)
 }
 
 type Row = (Option<f64>, Option<f64>, usize, Option<f64>);

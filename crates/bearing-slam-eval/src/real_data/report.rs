@@ -137,10 +137,11 @@ pub fn swap_truth(truth: &[(u64, f64, f64)], (a, b): (u64, u64)) -> Vec<(u64, f6
         .collect()
 }
 
-/// `result` scored against the landmark truth with [`SWAPPED_SUBJECTS`]
-/// exchanged: its aligned landmark RMSE recomputed from its run's final map
-/// (the run itself is not repeated; the filter never sees the truth).
-fn rescored_swapped(result: &RealDataResult, truth: &[(u64, f64, f64)]) -> RealDataResult {
+/// The aligned landmark RMSE of `result`'s final map against the landmark
+/// truth with [`SWAPPED_SUBJECTS`] exchanged (the run itself is not
+/// repeated; the filter never sees the truth). `None` without a map.
+#[must_use]
+pub fn swapped_landmark_rmse(result: &RealDataResult, truth: &[(u64, f64, f64)]) -> Option<f64> {
     let estimated: Vec<(u64, f64, f64)> = result
         .output
         .as_ref()
@@ -148,9 +149,15 @@ fn rescored_swapped(result: &RealDataResult, truth: &[(u64, f64, f64)]) -> RealD
         .map(|s| s.landmarks.iter().map(|l| (l.id, l.x, l.y)).collect())
         .unwrap_or_default();
     let swapped = swap_truth(truth, SWAPPED_SUBJECTS);
+    align_landmarks_se2(&estimated, &swapped).map(|(_, rmse)| rmse)
+}
+
+/// `result` scored against the landmark truth with [`SWAPPED_SUBJECTS`]
+/// exchanged ([`swapped_landmark_rmse`]).
+fn rescored_swapped(result: &RealDataResult, truth: &[(u64, f64, f64)]) -> RealDataResult {
     let mut r = result.clone();
     r.output = None;
-    r.landmark_rmse_aligned_m = align_landmarks_se2(&estimated, &swapped).map(|(_, rmse)| rmse);
+    r.landmark_rmse_aligned_m = swapped_landmark_rmse(result, truth);
     r
 }
 
