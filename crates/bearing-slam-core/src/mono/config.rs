@@ -8,7 +8,7 @@ use super::motion::ConstantVelocity;
 use super::ransac::OnePointRansac;
 use crate::error::{Result, SlamError, ensure_in_range, ensure_positive_noise};
 use crate::init::TriangulationConfig;
-use crate::landmark::{MAX_CONVERSION_THRESHOLD, depth_linearity_by_default};
+use crate::landmark::{ConversionRule, MAX_CONVERSION_THRESHOLD, depth_linearity_by_default};
 use nalgebra::{Vector3, Vector4};
 use serde::{Deserialize, Serialize};
 
@@ -30,8 +30,8 @@ pub struct MonoConfig {
     /// this become Euclidean points (28); 0 never converts.
     pub linearity_threshold: f64,
     /// The conversion also waits for its own linearity, `2 σ_ρ/ρ` below
-    /// `linearity_threshold`: the 2-D filters' rule
-    /// ([`crate::landmark::ConversionRule`]).
+    /// `linearity_threshold`: every filter's rule
+    /// ([`crate::landmark::ConversionRule`]), default on as in the others.
     #[serde(default = "depth_linearity_by_default")]
     pub conversion_depth_linearity: bool,
     /// A feature (landmark or candidate) searched for and not found this
@@ -68,6 +68,16 @@ pub struct MonoConfig {
 }
 
 impl MonoConfig {
+    /// The conversion rule of `linearity_threshold` and
+    /// `conversion_depth_linearity`; `None` (threshold 0) never converts.
+    #[must_use]
+    pub fn conversion_rule(&self) -> Option<ConversionRule> {
+        (self.linearity_threshold > 0.0).then_some(ConversionRule {
+            threshold: self.linearity_threshold,
+            depth_linearity: self.conversion_depth_linearity,
+        })
+    }
+
     /// Defaults for a hand-held camera at 30 Hz with the delayed initializer
     /// (the paper's `α_min`, `β_min`; `b_min` scaled to a hand-held motion).
     #[must_use]

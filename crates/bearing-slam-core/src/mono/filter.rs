@@ -18,7 +18,7 @@ use super::observation::{InverseDepthPixel, XyzPixel};
 use super::quaternion::normalize;
 use crate::ekf::{BlockJacobian, Ekf, LinearizedMeasurement, Reparameterization};
 use crate::error::{Result, SlamError, ensure_finite};
-use crate::landmark::{ConversionRule, depth_bounded};
+use crate::landmark::depth_bounded;
 use crate::model::MeasurementModel;
 use crate::stats::chi2_quantile;
 use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, UnitQuaternion, Vector2, Vector3, Vector4};
@@ -606,13 +606,14 @@ impl MonoSlam {
     }
 
     /// Converts the inverse-depth landmarks that the shared
-    /// [`ConversionRule`] passes (the linearity index below the threshold,
+    /// [`ConversionRule`](crate::landmark::ConversionRule) of
+    /// [`MonoConfig::conversion_rule`] passes (the linearity index below the threshold,
     /// and the conversion's own with `conversion_depth_linearity`) to
     /// Euclidean points (28), `P` through its Jacobian.
     fn convert_linear_landmarks(&mut self) -> Result<usize> {
-        if self.config.linearity_threshold <= 0.0 {
+        let Some(rule) = self.config.conversion_rule() else {
             return Ok(0);
-        }
+        };
         let camera = self.ekf.block::<3>(POSITION)?;
         let ids: Vec<u64> = self
             .landmarks
@@ -636,10 +637,6 @@ impl MonoSlam {
                 .covariance_entry(feature.offset + 5, feature.offset + 5);
             let Ok(index) = linearity_index_3d(&y, var_rho, &camera) else {
                 continue;
-            };
-            let rule = ConversionRule {
-                threshold: self.config.linearity_threshold,
-                depth_linearity: self.config.conversion_depth_linearity,
             };
             if !rule.converts(index, y[5], var_rho) {
                 continue;
