@@ -113,7 +113,8 @@ pub(crate) struct PyConfig {
     pub auto_max_wait: Option<f64>,
     /// auto: a landmark whose parallax stalls (it could not reach
     /// `alpha_min` within `candidate_timeout` at the fastest rate its
-    /// observed value allows) enters undelayed at once (default False).
+    /// observed value allows) enters undelayed at once (default True since
+    /// 2026-11-29; False waits for the visit to expire).
     #[pyo3(get, set)]
     pub auto_stalled_parallax: bool,
     /// auto: with a bearing σ above `alpha_min / (3√2)` the parallax test
