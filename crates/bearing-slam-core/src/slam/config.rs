@@ -97,7 +97,8 @@ pub enum InitializerKind {
     /// ones (the paper's mixed setting, Fig. 4d).
     PiSrMixed,
     /// MTE where the parallax builds within a visit, PI-SR for a landmark
-    /// whose visit ended without it: [`InitializerConfig::auto`].
+    /// whose visit ended without it or whose parallax has stalled:
+    /// [`InitializerConfig::auto`].
     Auto,
 }
 

@@ -19,7 +19,8 @@ pub enum Method {
     PiSr,
     /// Bearing-only EKF that triangulates where a visit gives the parallax
     /// and enters a landmark undelayed with PI-SR's prior after one visit
-    /// without it (`auto`, [`UndelayedFallback::ONE_VISIT`]).
+    /// without it, or within the visit once its parallax has stalled
+    /// (`auto`, [`UndelayedFallback::ONE_VISIT`]).
     ///
     /// [`UndelayedFallback::ONE_VISIT`]: bearing_slam_core::init::UndelayedFallback::ONE_VISIT
     Auto,
