@@ -167,6 +167,16 @@ pub const fn depth_linearity_by_default() -> bool {
 }
 
 impl ConversionRule {
+    /// The rule of a filter's options: `threshold` (`None`: never convert)
+    /// and whether the conversion's own linearity is asked too.
+    #[must_use]
+    pub fn configured(threshold: Option<f64>, depth_linearity: bool) -> Option<Self> {
+        threshold.map(|threshold| Self {
+            threshold,
+            depth_linearity,
+        })
+    }
+
     /// Whether a landmark whose measurement has linearity index
     /// `measurement_index` and whose inverse depth is `rho` with variance
     /// `rho_variance` converts. A `ρ` that is not positive (a point at or

@@ -142,24 +142,27 @@ fn runs(data: &Path) -> Result<(), BoxError> {
         .map(str::parse)
         .collect::<Result<_, _>>()?;
     for dataset in DATASETS {
-        for &method in &methods {
-            let mut rows = Vec::new();
-            for robot in 1..=ROBOT_COUNT {
-                let run = load_mrclam_with(&data.join(dataset), robot, &options.load)?;
+        // One load per robot, every method on it; rows by method.
+        let mut rows: Vec<Vec<Row>> = vec![Vec::new(); methods.len()];
+        for robot in 1..=ROBOT_COUNT {
+            let run = load_mrclam_with(&data.join(dataset), robot, &options.load)?;
+            for (&method, method_rows) in methods.iter().zip(&mut rows) {
                 let result = evaluate_run(&run, method, &options.parameters)?;
                 let map = if dataset == "MRCLAM_Dataset1" {
                     swapped_map_rmse(&run, &result)
                 } else {
                     result.landmark_rmse_aligned_m
                 };
-                rows.push((
+                method_rows.push((
                     result.ate_rmse_m,
                     map,
                     result.n_landmarks_mapped,
                     result.nees_within_95,
                 ));
             }
-            print_rows(dataset, method, &rows);
+        }
+        for (&method, method_rows) in methods.iter().zip(&rows) {
+            print_rows(dataset, method, method_rows);
         }
     }
     Ok(())

@@ -72,10 +72,10 @@ impl MonoConfig {
     /// `conversion_depth_linearity`; `None` (threshold 0) never converts.
     #[must_use]
     pub fn conversion_rule(&self) -> Option<ConversionRule> {
-        (self.linearity_threshold > 0.0).then_some(ConversionRule {
-            threshold: self.linearity_threshold,
-            depth_linearity: self.conversion_depth_linearity,
-        })
+        ConversionRule::configured(
+            (self.linearity_threshold > 0.0).then_some(self.linearity_threshold),
+            self.conversion_depth_linearity,
+        )
     }
 
     /// Defaults for a hand-held camera at 30 Hz with the delayed initializer

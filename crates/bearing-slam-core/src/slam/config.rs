@@ -261,10 +261,7 @@ impl SlamConfig {
     /// `conversion_depth_linearity`; `None` keeps inverse depth forever.
     #[must_use]
     pub fn conversion_rule(&self) -> Option<ConversionRule> {
-        self.conversion_threshold.map(|threshold| ConversionRule {
-            threshold,
-            depth_linearity: self.conversion_depth_linearity,
-        })
+        ConversionRule::configured(self.conversion_threshold, self.conversion_depth_linearity)
     }
 
     /// Checks every parameter's range.
