@@ -2,7 +2,10 @@
 
 ``auto`` is MTE whose landmarks enter undelayed after a visit that ended without the
 parallax, or within the visit once their parallax has stalled (the stalled-parallax
-rule, on by default since 2026-11-29; ``auto_stalled_parallax=False`` turns it off).
+rule, on by default since 2026-11-29; ``auto_stalled_parallax=False`` turns it off),
+and whose candidates keep their first ray across visits (``auto_keep_first_ray``, on
+by default since 2026-11-29: triangulated against at the next visit, or applied once
+the depth is bounded).
 An opt-in wait budget (``auto_max_wait=T``) makes them enter earlier still. On MRCLAM
 they help (docs/results/filter-consistency.md); this script shows what they cost where
 the paper's MTE works, on the built-in scenarios: mean ATE and mean pose NEES over the
@@ -24,8 +27,13 @@ import bearing_slam as bs
 SCENARIOS = ("paper_fig4", "slip_patch", "paper_fig8")
 CONFIGS: tuple[tuple[str, dict[str, Any]], ...] = (
     ("mte", {"init": "mte"}),
+    (
+        "auto, no stalled-parallax rule, first rays dropped",
+        {"init": "auto", "auto_stalled_parallax": False, "auto_keep_first_ray": False},
+    ),
+    ("auto, first rays dropped", {"init": "auto", "auto_keep_first_ray": False}),
     ("auto without the stalled-parallax rule", {"init": "auto", "auto_stalled_parallax": False}),
-    ("auto (default: stalled-parallax rule)", {"init": "auto"}),
+    ("auto (default: stalled-parallax rule, kept first ray)", {"init": "auto"}),
     ("auto + 1 s budget", {"init": "auto", "auto_max_wait": 1.0}),
     ("auto + 2 s budget", {"init": "auto", "auto_max_wait": 2.0}),
 )

@@ -123,6 +123,7 @@ class Config:
     auto_max_wait: float | None
     auto_stalled_parallax: bool
     auto_insignificant_parallax: bool
+    auto_keep_first_ray: bool
     rho_ini: float
     sigma_rho: float
     per_landmark_priors: dict[int, tuple[float, float]]
@@ -387,6 +388,7 @@ def evaluate_mrclam(
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
     auto_insignificant_parallax: bool | None = None,
+    auto_keep_first_ray: bool | None = None,
     second_order: bool | None = None,
     conversion_depth_linearity: bool | None = None,
 ) -> tuple[RunResult, dict[str, Any], SensorLog]: ...

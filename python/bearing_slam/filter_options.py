@@ -31,6 +31,7 @@ _AUTO_FLAGS = (
     "--auto-max-wait",
     "--no-auto-stalled-parallax",
     "--no-auto-insignificant-parallax",
+    "--[no-]auto-keep-first-ray",
 )
 
 
@@ -78,6 +79,16 @@ def add_filter_options(parser: argparse.ArgumentParser) -> None:
         "landmark enters undelayed at once",
     )
     parser.add_argument(
+        "--auto-keep-first-ray",
+        dest="auto_keep_first_ray",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="--init auto: a candidate whose visit ends without parallax keeps its "
+        "first ray (its pose cloned into the state) for the landmark's next visit, "
+        "which triangulates against it or applies it once the depth is bounded "
+        "(default: the library's, Config().auto_keep_first_ray)",
+    )
+    parser.add_argument(
         "--no-conversion-depth-linearity",
         dest="conversion_depth_linearity",
         action="store_false",
@@ -104,6 +115,8 @@ def filter_options(args: argparse.Namespace) -> dict[str, Any]:
         options["auto_stalled_parallax"] = args.auto_stalled_parallax
     if args.auto_insignificant_parallax is not None:
         options["auto_insignificant_parallax"] = args.auto_insignificant_parallax
+    if args.auto_keep_first_ray is not None:
+        options["auto_keep_first_ray"] = args.auto_keep_first_ray
     return options
 
 

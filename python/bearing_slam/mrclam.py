@@ -115,6 +115,7 @@ def evaluate(
     auto_max_wait: float | None = None,
     auto_stalled_parallax: bool | None = None,
     auto_insignificant_parallax: bool | None = None,
+    auto_keep_first_ray: bool | None = None,
     second_order: bool | None = None,
     conversion_depth_linearity: bool | None = None,
 ) -> MrclamRun:
@@ -131,7 +132,8 @@ def evaluate(
     (``"inverse-depth"``, ``"point"``): the online smoother's
     (``estimator="filter+smoother"`` only; None: the defaults).
     ``auto_visits``, ``auto_max_wait``, ``auto_stalled_parallax``,
-    ``auto_insignificant_parallax``: the ``auto`` initializer's options, as
+    ``auto_insignificant_parallax``, ``auto_keep_first_ray``: the ``auto``
+    initializer's options, as
     :class:`~bearing_slam.Config`'s fields (method ``"auto"`` only; None: the
     defaults). ``second_order``: the bearing update (None: the default, second
     order; False: the paper's first-order one). ``conversion_depth_linearity``:
@@ -154,6 +156,7 @@ def evaluate(
         auto_max_wait=auto_max_wait,
         auto_stalled_parallax=auto_stalled_parallax,
         auto_insignificant_parallax=auto_insignificant_parallax,
+        auto_keep_first_ray=auto_keep_first_ray,
         second_order=second_order,
         conversion_depth_linearity=conversion_depth_linearity,
     )

@@ -170,15 +170,19 @@ def test_symmetric_covariance_update_matches_joseph(fig4_log: bs.SensorLog) -> N
 
 def test_auto_enters_landmarks_undelayed_when_the_bearing_noise_decides_the_parallax() -> None:
     """On ``paper_fig8`` (σ_z = 5° > 10°/(3√2)) the default enters every landmark at
-    its first sighting, undelayed; with the rule off it is the paper's MTE to the bit,
-    which triangulates some of them from noise at the very start."""
+    its first sighting, undelayed; with the rule and the kept first ray off it is the
+    paper's MTE to the bit, which triangulates some of them from noise at the very
+    start."""
     log = bs.simulate("paper_fig8", 0, landmark_count=10)
     default = bs.run(log, bs.Config.for_log(log))
     entries = [e for e in default.events if e["kind"] == "landmark_initialized"]
     assert len(entries) == 10
     assert {e["method"] for e in entries} == {"pi_sr"}
     assert not [e for e in default.events if e["kind"] == "candidate_created"]
-    off = bs.run(log, bs.Config.for_log(log, auto_insignificant_parallax=False))
+    off = bs.run(
+        log,
+        bs.Config.for_log(log, auto_insignificant_parallax=False, auto_keep_first_ray=False),
+    )
     mte = bs.run(log, bs.Config.for_log(log, init="mte"))
     np.testing.assert_array_equal(off.estimate, mte.estimate)
     first = min(e["time"] for e in mte.events if e["kind"] == "landmark_initialized")

@@ -120,7 +120,9 @@ pub struct Candidate {
     pub bearing: f64,
     /// `[σ²_x₁, σ²_y₁, σ²_θ₁]`.
     pub pose_variances: Vector3<f64>,
-    /// When it was created, seconds.
+    /// When it was created, seconds (for a candidate woken from dormancy
+    /// by the kept first ray, [`UndelayedFallback::keep_first_ray`], when
+    /// its current wait began).
     pub created: f64,
     /// When it was last seen, seconds.
     pub last_seen: f64,
@@ -349,19 +351,47 @@ pub struct UndelayedFallback {
     /// the delayed triangulation at any noise.
     #[serde(default)]
     pub insignificant_parallax: bool,
+    /// A candidate keeps its first ray when its visit expires: the first
+    /// pose is cloned into the state at the first sighting (as MTE-clone
+    /// does), and an expired candidate stays, dormant, with that clone
+    /// instead of being dropped. The landmark's next sighting resumes it:
+    /// triangulated (21)–(23) between the kept ray, at the clone's current
+    /// estimate, and the current one when the parallax allows; otherwise
+    /// entered from the current bearing as the rule says, with the first
+    /// bearing applied against its clone rather than discarded. Whatever
+    /// entry the candidate takes from its current bearing (far rule,
+    /// stalled parallax, wait budget), its first bearing is applied the
+    /// same way, once the landmark's depth is bounded. At most
+    /// [`Self::MAX_DORMANT`] candidates stay dormant (the longest unseen is
+    /// dropped). On in [`Self::ONE_VISIT`] since 2026-11-29 (MRCLAM
+    /// Dataset 6 mean ATE 0.78 → 0.58 m, every held-out map still within
+    /// 0.3 m with all 15 landmarks; `paper_fig4` 0.097 → 0.058 m and
+    /// `slip_patch` 0.104 → 0.079 m, held-out seeds alike;
+    /// docs/results/filter-consistency.md, "The kept first ray"). `false`
+    /// (and a serialized configuration without the field): an expired
+    /// candidate is dropped with its first bearing, as in the paper.
+    #[serde(default)]
+    pub keep_first_ray: bool,
 }
 
 impl UndelayedFallback {
     /// One visit to triangulate, or less when its parallax has stalled or
     /// cannot be told from the noise, then the paper's near prior
-    /// `(0.5, 0.25)` 1/m: the `auto` initializer's rule.
+    /// `(0.5, 0.25)` 1/m, with the first ray kept for the next visit
+    /// ([`Self::keep_first_ray`]): the `auto` initializer's rule.
     pub const ONE_VISIT: Self = Self {
         expired_visits: 1,
         prior: InverseDepthPrior::PAPER_NEAR,
         max_wait_s: None,
         stalled_parallax: true,
         insignificant_parallax: true,
+        keep_first_ray: true,
     };
+
+    /// Most candidates kept dormant by [`Self::keep_first_ray`]; each holds
+    /// a pose clone (three states, shared by the candidates of one scan)
+    /// until its landmark is seen again.
+    pub const MAX_DORMANT: usize = 64;
 
     /// Standard deviations of the measured parallax that `α_min` must
     /// clear for the two-ray test to be decided by the geometry rather

@@ -40,7 +40,8 @@
 //! `AUTO_VISITS=N` gives MTE and MTE-clone the `auto` initializer's
 //! undelayed fallback after `N` expired visits (the paper's near prior),
 //! `AUTO_WAIT=T` with a wait budget of `T` seconds too, `AUTO_STALL=1`
-//! with the stalled-parallax rule. `mrclam DIR`
+//! with the stalled-parallax rule, `AUTO_KEEP_RAY=1` with the kept first
+//! ray (`auto`'s default: `AUTO_VISITS=1 AUTO_STALL=1 AUTO_KEEP_RAY=1`). `mrclam DIR`
 //! scores a dataset without robot ground truth (Datasets 1, 2, 4) by its
 //! aligned map only (ATE and NEES print as NaN and 0).
 
@@ -202,6 +203,7 @@ fn robustness(slam: &mut SlamConfig) -> Result<(), BoxError> {
                 Err(_) => None,
             },
             stalled_parallax: std::env::var("AUTO_STALL").is_ok_and(|v| v == "1"),
+            keep_first_ray: std::env::var("AUTO_KEEP_RAY").is_ok_and(|v| v == "1"),
             ..UndelayedFallback::ONE_VISIT
         });
     }

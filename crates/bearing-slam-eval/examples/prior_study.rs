@@ -14,7 +14,8 @@
 //! subjects 11 and 17 swapped), 2 and 4 with the calibrated parameters,
 //! the undelayed prior replaced by `PRIOR=ρ,σ` (PI-SR's and `auto`'s
 //! fallback's; unset: the paper's `(0.5, 0.25)`). `AUTO_WAIT=T` adds a wait
-//! budget, `AUTO_STALL=0|1` sets the stalled-parallax rule, `METHODS=auto,pi-sr`
+//! budget, `AUTO_STALL=0|1` sets the stalled-parallax rule, `AUTO_KEEP_RAY=0|1`
+//! the kept first ray, `METHODS=auto,pi-sr`
 //! chooses the methods. `SIGMA_W=σ` and `ALPHA4=α` (what-ifs) replace the
 //! velocity noise's turn-rate floor `σ_ω_min` and set its `α4` (the
 //! turn-rate variance per (rad/s)², `benches/turn_noise_fit.py`).
@@ -132,6 +133,9 @@ fn runs(data: &Path) -> Result<(), BoxError> {
     }
     if let Ok(a) = std::env::var("SIGMA_W") {
         options.parameters.velocity_noise.sigma_omega_min = a.parse()?;
+    }
+    if let Ok(s) = std::env::var("AUTO_KEEP_RAY") {
+        options.parameters.auto_fallback.keep_first_ray = s == "1";
     }
     if let Ok(s) = std::env::var("AUTO_STALL") {
         options.parameters.auto_fallback.stalled_parallax = s == "1";

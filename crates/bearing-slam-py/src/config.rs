@@ -122,6 +122,12 @@ pub(crate) struct PyConfig {
     /// first sighting (default True; False triangulates at any noise).
     #[pyo3(get, set)]
     pub auto_insignificant_parallax: bool,
+    /// auto: a candidate whose visit ends without parallax keeps its first
+    /// ray (a clone of the pose it was seen from) for the landmark's next
+    /// visit, which triangulates against it or applies it once the depth
+    /// is bounded, instead of dropping it.
+    #[pyo3(get, set)]
+    pub auto_keep_first_ray: bool,
     /// PI-SR (and auto's undelayed entry): initial inverse depth ρ_ini, 1/m.
     #[pyo3(get, set)]
     pub rho_ini: f64,
@@ -231,7 +237,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 48] = [
+const FIELDS: [&str; 49] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -259,6 +265,7 @@ const FIELDS: [&str; 48] = [
     "auto_max_wait",
     "auto_stalled_parallax",
     "auto_insignificant_parallax",
+    "auto_keep_first_ray",
     "rho_ini",
     "sigma_rho",
     "per_landmark_priors",
@@ -316,6 +323,7 @@ impl Default for PyConfig {
             auto_max_wait: UndelayedFallback::ONE_VISIT.max_wait_s,
             auto_stalled_parallax: UndelayedFallback::ONE_VISIT.stalled_parallax,
             auto_insignificant_parallax: UndelayedFallback::ONE_VISIT.insignificant_parallax,
+            auto_keep_first_ray: UndelayedFallback::ONE_VISIT.keep_first_ray,
             rho_ini: InverseDepthPrior::PAPER_NEAR.rho_ini,
             sigma_rho: InverseDepthPrior::PAPER_NEAR.sigma_rho,
             per_landmark_priors: BTreeMap::new(),
@@ -401,6 +409,7 @@ impl PyConfig {
                 c.auto_max_wait = f.max_wait_s;
                 c.auto_stalled_parallax = f.stalled_parallax;
                 c.auto_insignificant_parallax = f.insignificant_parallax;
+                c.auto_keep_first_ray = f.keep_first_ray;
                 c.rho_ini = f.prior.rho_ini;
                 c.sigma_rho = f.prior.sigma_rho;
             }
@@ -455,6 +464,7 @@ impl PyConfig {
                     max_wait_s: self.auto_max_wait,
                     stalled_parallax: self.auto_stalled_parallax,
                     insignificant_parallax: self.auto_insignificant_parallax,
+                    keep_first_ray: self.auto_keep_first_ray,
                 }),
                 ..self.triangulation()?
             }),

@@ -24,6 +24,7 @@ impl PyConfig {
             | "auto_max_wait"
             | "auto_stalled_parallax"
             | "auto_insignificant_parallax"
+            | "auto_keep_first_ray"
                 if init != "auto" =>
             {
                 Some(format!(

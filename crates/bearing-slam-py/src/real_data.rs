@@ -26,32 +26,41 @@ use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
-/// The `auto` initializer's undelayed entry with the options given
-/// (`Config`'s `auto_*` fields), which apply to method `auto` only.
-fn auto_fallback(
-    method: Method,
+/// The `auto` initializer's options as `evaluate_mrclam` takes them
+/// (`Config`'s `auto_*` fields; `None`: the default).
+#[derive(Clone, Copy, Debug, Default)]
+struct AutoOptions {
     visits: Option<usize>,
     max_wait_s: Option<f64>,
     stalled_parallax: Option<bool>,
     insignificant_parallax: Option<bool>,
-) -> PyResult<UndelayedFallback> {
+    keep_first_ray: Option<bool>,
+}
+
+/// The `auto` initializer's undelayed entry with the options given, which
+/// apply to method `auto` only.
+fn auto_fallback(method: Method, options: AutoOptions) -> PyResult<UndelayedFallback> {
     let default = CALIBRATED_PARAMETERS.auto_fallback;
-    let given = visits.is_some()
-        || max_wait_s.is_some()
-        || stalled_parallax.is_some()
-        || insignificant_parallax.is_some();
+    let given = options.visits.is_some()
+        || options.max_wait_s.is_some()
+        || options.stalled_parallax.is_some()
+        || options.insignificant_parallax.is_some()
+        || options.keep_first_ray.is_some();
     if given && method != Method::Auto {
         return Err(PyValueError::new_err(format!(
-            "auto_visits, auto_max_wait, auto_stalled_parallax and auto_insignificant_parallax \
-             apply to method \"auto\" only, not to {:?}",
+            "auto_visits, auto_max_wait, auto_stalled_parallax, auto_insignificant_parallax \
+             and auto_keep_first_ray apply to method \"auto\" only, not to {:?}",
             method.name()
         )));
     }
     let fallback = UndelayedFallback {
-        expired_visits: visits.unwrap_or(default.expired_visits),
-        max_wait_s: max_wait_s.or(default.max_wait_s),
-        stalled_parallax: stalled_parallax.unwrap_or(default.stalled_parallax),
-        insignificant_parallax: insignificant_parallax.unwrap_or(default.insignificant_parallax),
+        expired_visits: options.visits.unwrap_or(default.expired_visits),
+        max_wait_s: options.max_wait_s.or(default.max_wait_s),
+        stalled_parallax: options.stalled_parallax.unwrap_or(default.stalled_parallax),
+        insignificant_parallax: options
+            .insignificant_parallax
+            .unwrap_or(default.insignificant_parallax),
+        keep_first_ray: options.keep_first_ray.unwrap_or(default.keep_first_ray),
         ..default
     };
     fallback.validate().map_err(errors::slam)?;
@@ -90,7 +99,7 @@ fn real_data_error(e: RealDataError) -> PyErr {
 /// `landmark_chart` (`"filter+smoother"` only; `None`: the defaults) choose
 /// the online smoother's window and landmark chart, as `Config`'s fields.
 /// `auto_visits`, `auto_max_wait`, `auto_stalled_parallax`,
-/// `auto_insignificant_parallax` (method `"auto"` only; `None`:
+/// `auto_insignificant_parallax`, `auto_keep_first_ray` (method `"auto"` only; `None`:
 /// `UndelayedFallback::ONE_VISIT`'s): the `auto` initializer's options, as
 /// `Config`'s fields of those names. `second_order` (`None`: the default,
 /// `True`): the bearing update, `False` the paper's first-order.
@@ -101,7 +110,7 @@ fn real_data_error(e: RealDataError) -> PyErr {
 // and the live callback.
 #[allow(clippy::too_many_arguments)]
 #[pyfunction(name = "evaluate_mrclam")]
-#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None, auto_insignificant_parallax = None, second_order = None, conversion_depth_linearity = None))]
+#[pyo3(signature = (dataset_dir, robot, method = None, start = None, end = None, estimator = "filter", particles = None, *, on_scan = None, association = "known", online_window = None, landmark_chart = None, auto_visits = None, auto_max_wait = None, auto_stalled_parallax = None, auto_insignificant_parallax = None, auto_keep_first_ray = None, second_order = None, conversion_depth_linearity = None))]
 pub(crate) fn py_evaluate_mrclam<'py>(
     py: Python<'py>,
     dataset_dir: PathBuf,
@@ -119,6 +128,7 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     auto_max_wait: Option<f64>,
     auto_stalled_parallax: Option<bool>,
     auto_insignificant_parallax: Option<bool>,
+    auto_keep_first_ray: Option<bool>,
     second_order: Option<bool>,
     conversion_depth_linearity: Option<bool>,
 ) -> PyResult<(PyRunResult, Bound<'py, PyAny>, PySensorLog)> {
@@ -126,10 +136,13 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     let method = parse_name::<Method>(method.unwrap_or(default))?;
     let auto_fallback = auto_fallback(
         method,
-        auto_visits,
-        auto_max_wait,
-        auto_stalled_parallax,
-        auto_insignificant_parallax,
+        AutoOptions {
+            visits: auto_visits,
+            max_wait_s: auto_max_wait,
+            stalled_parallax: auto_stalled_parallax,
+            insignificant_parallax: auto_insignificant_parallax,
+            keep_first_ray: auto_keep_first_ray,
+        },
     )?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);

@@ -141,9 +141,10 @@ fn robust_gate_and_offset_state_keep_the_map_through_a_biased_stretch() {
         );
     }
     // The plain filter absorbs the bias into its pose and map; the offset
-    // state keeps both (measured: 0.84 m vs 0.06 m from the onset on).
+    // state keeps both (measured: 0.84 m vs 0.06 m from the onset on; since
+    // `auto` keeps its first rays, 0.28 m vs 0.04 m, maps 0.34 vs 0.04 m).
     assert!(
-        plain.rmse_from_onset_m > 0.4,
+        plain.rmse_from_onset_m > 0.2,
         "plain {}",
         plain.rmse_from_onset_m
     );
@@ -155,7 +156,8 @@ fn robust_gate_and_offset_state_keep_the_map_through_a_biased_stretch() {
     assert!(offset.rmse_from_onset_m * 5.0 < plain.rmse_from_onset_m);
     assert!(offset.map_rmse_m * 3.0 < plain.map_rmse_m);
     // Robust gating alone does not remove a bias: it keeps using the
-    // bearings the gate would drop, biased or not (measured: 0.85 m).
+    // bearings the gate would drop, biased or not (measured: 0.85 m; 0.29 m
+    // since the kept first rays).
     assert!(robust.rmse_from_onset_m < 1.5 * plain.rmse_from_onset_m);
     // Every gated bearing of the plain filter is an event with its NIS.
     assert!(plain.rejected > 0);

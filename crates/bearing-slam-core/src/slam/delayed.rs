@@ -4,7 +4,8 @@
 //! The cloned variant also keeps the first pose in the state as a pose clone
 //! and, with [`TriangulationConfig::history`] > 0, the poses of later
 //! sightings too, whose bearings it replays once the landmark is in, so that
-//! no measurement is discarded.
+//! no measurement is discarded. The `auto` initializer's kept first ray
+//! (clone, dormancy, resumption) is in `kept_ray`.
 //!
 //! [`TriangulationConfig::history`]: crate::init::TriangulationConfig::history
 
@@ -22,22 +23,25 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 /// A landmark waiting for parallax, with its pose clones.
 #[derive(Clone, Debug, PartialEq)]
 pub(super) struct PendingCandidate {
-    candidate: Candidate,
+    pub(super) candidate: Candidate,
     /// The pose clone holding the first pose (clone variant only).
-    clone: Option<u64>,
+    pub(super) clone: Option<u64>,
     /// Bearings seen while waiting, each with the clone of its pose.
-    history: Vec<WaitingBearing>,
+    pub(super) history: Vec<WaitingBearing>,
     /// Keep one waiting sighting out of `stride` (doubles at each thinning).
     stride: usize,
     /// Sightings skipped since the last one kept.
     skipped: usize,
     /// Sightings so far, the first included.
-    sightings: usize,
+    pub(super) sightings: usize,
     /// The current visit (a gap over the correlation's `visit_gap` starts
     /// the next).
-    visit: usize,
+    pub(super) visit: usize,
     /// Waiting bearings not kept, by reason (reported when it is resolved).
     unused: Vec<(DiscardReason, usize)>,
+    /// Its visit expired and it waits, with only its first ray, for the
+    /// landmark's next sighting ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
+    pub(super) dormant: bool,
 }
 
 impl PendingCandidate {
@@ -53,11 +57,12 @@ impl PendingCandidate {
             sightings: 1,
             visit: 0,
             unused: Vec::new(),
+            dormant: false,
         }
     }
 
     /// Counts `count` waiting bearings not used, for `reason`.
-    fn discard(&mut self, reason: DiscardReason, count: usize) {
+    pub(super) fn discard(&mut self, reason: DiscardReason, count: usize) {
         match self.unused.iter_mut().find(|(r, _)| *r == reason) {
             Some((_, n)) => *n += count,
             None => self.unused.push((reason, count)),
@@ -70,8 +75,9 @@ impl PendingCandidate {
 pub(super) struct PoseClone {
     /// Where the clone's `[x, y, θ]` starts in the state.
     pub(super) offset: usize,
-    /// Candidates that refer to it; it leaves the state at zero.
-    users: usize,
+    /// Candidates (and deferred first rays) that refer to it; it leaves the
+    /// state at zero.
+    pub(super) users: usize,
     /// Its first estimate (see `consistency`).
     pub(super) first: Vector3<f64>,
 }
@@ -93,7 +99,8 @@ impl BearingSlam {
                 let prior = per_landmark.get(&id).copied().unwrap_or(*prior);
                 return self.initialize_with_prior(id, z, prior, InitMethod::PiSr);
             }
-            InitializerConfig::Triangulation(c) => (*c, false),
+            // Keeping the first ray across visits needs its pose in the state.
+            InitializerConfig::Triangulation(c) => (*c, keeps_first_ray(c)),
             InitializerConfig::TriangulationWithClone(c) => (*c, true),
         };
         if let Some(fallback) = config.undelayed_fallback
@@ -114,6 +121,9 @@ impl BearingSlam {
         // The candidate keeps its raw first bearing: corrected here with
         // the offset estimated now, like the current one.
         pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
+        if pending.dormant {
+            return self.resume_candidate(id, z, pending, &config);
+        }
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         if let Some(fallback) = config.undelayed_fallback
             && matches!(decision, CandidateDecision::Wait)
@@ -170,64 +180,72 @@ impl BearingSlam {
                 self.enter_from_current_bearing(id, z, &pending, &config, entry)
             }
             CandidateDecision::Triangulate => {
-                let init = triangulate_candidate(&pending.candidate, &pose, z)?;
-                let sz2 = self.config.bearing_sigma.powi(2);
-                // (22)(23): the current bearing z always adds its noise; the first
-                // bearing z₁ was never used in an update, so it adds its own too.
-                let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
-                    + init.j_landmark_first_bearing
-                        * sz2
-                        * init.j_landmark_first_bearing.transpose();
-                let mut jacobians = vec![BlockJacobian {
-                    offset: 0,
-                    jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
-                }];
-                // Both bearings were corrected with the current offset.
-                let j_bearings = init.j_landmark_z + init.j_landmark_first_bearing;
-                self.push_offset_jacobian(&mut jacobians, j_bearings.as_slice());
-                let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
-                    Some(clone) => {
-                        // Exact: the first pose is a state block correlated with everything.
-                        jacobians.push(BlockJacobian {
-                            offset: clone.offset,
-                            jacobian: DMatrix::from_column_slice(
-                                4,
-                                3,
-                                init.j_landmark_first_pose.as_slice(),
-                            ),
-                        });
-                        InitMethod::TriangulatedClone
-                    }
-                    None => {
-                        // The paper's R_i of (22): the first pose as independent noise
-                        // with the variances stored in the candidate.
-                        let j1 = init.j_landmark_first_pose;
-                        added += j1
-                            * Matrix3::from_diagonal(&pending.candidate.pose_variances)
-                            * j1.transpose();
-                        InitMethod::Triangulated
-                    }
-                };
-                let inserted = self.insert_inverse_depth(
-                    id,
-                    &init.landmark,
-                    &jacobians,
-                    &added,
-                    method,
-                    parallax.alpha,
-                )?;
-                self.replay_history(id, &pending.history, &config.correlation)?;
-                self.drop_candidate(id)?;
-                Ok(inserted)
+                self.triangulate_pending(id, z, &pending, &pose, &config, parallax.alpha)
             }
         }
     }
 
+    /// (21)–(23): a waiting candidate triangulated between its first ray and
+    /// the current bearing `z` from `pose`; its kept waiting bearings are
+    /// replayed and the candidate is dropped.
+    pub(super) fn triangulate_pending(
+        &mut self,
+        id: u64,
+        z: f64,
+        pending: &PendingCandidate,
+        pose: &Vector3<f64>,
+        config: &TriangulationConfig,
+        parallax: f64,
+    ) -> Result<bool> {
+        let init = triangulate_candidate(&pending.candidate, pose, z)?;
+        let sz2 = self.config.bearing_sigma.powi(2);
+        // (22)(23): the current bearing z always adds its noise; the first
+        // bearing z₁ was never used in an update, so it adds its own too.
+        let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
+            + init.j_landmark_first_bearing * sz2 * init.j_landmark_first_bearing.transpose();
+        let mut jacobians = vec![BlockJacobian {
+            offset: 0,
+            jacobian: DMatrix::from_column_slice(4, 3, init.j_landmark_pose.as_slice()),
+        }];
+        // Both bearings were corrected with the current offset.
+        let j_bearings = init.j_landmark_z + init.j_landmark_first_bearing;
+        self.push_offset_jacobian(&mut jacobians, j_bearings.as_slice());
+        let method = match pending.clone.and_then(|c| self.clones.get(&c).copied()) {
+            Some(clone) => {
+                // Exact: the first pose is a state block correlated with everything.
+                jacobians.push(BlockJacobian {
+                    offset: clone.offset,
+                    jacobian: DMatrix::from_column_slice(
+                        4,
+                        3,
+                        init.j_landmark_first_pose.as_slice(),
+                    ),
+                });
+                InitMethod::TriangulatedClone
+            }
+            None => {
+                // The paper's R_i of (22): the first pose as independent noise
+                // with the variances stored in the candidate.
+                let j1 = init.j_landmark_first_pose;
+                added +=
+                    j1 * Matrix3::from_diagonal(&pending.candidate.pose_variances) * j1.transpose();
+                InitMethod::Triangulated
+            }
+        };
+        let inserted =
+            self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, parallax)?;
+        self.replay_history(id, &pending.history, &config.correlation)?;
+        self.drop_candidate(id)?;
+        Ok(inserted)
+    }
+
     /// A waiting candidate enters from its current bearing `z` with an
     /// inverse-depth prior (the far rule (24), or `auto`'s undelayed entry):
-    /// its kept waiting bearings are replayed, its first bearing is reported
-    /// unused for `reason`, and the candidate is dropped.
-    fn enter_from_current_bearing(
+    /// its kept waiting bearings are replayed and the candidate is dropped.
+    /// With [`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray) its first bearing waits,
+    /// with its pose clone, to be replayed once the landmark's depth is
+    /// bounded (`kept_ray`); otherwise it is reported unused for `reason`.
+    pub(super) fn enter_from_current_bearing(
         &mut self,
         id: u64,
         z: f64,
@@ -236,12 +254,14 @@ impl BearingSlam {
         (prior, method, reason): (InverseDepthPrior, InitMethod, DiscardReason),
     ) -> Result<bool> {
         let inserted = self.initialize_with_prior(id, z, prior, method)?;
+        if !(keeps_first_ray(config) && self.defer_first_ray(id, pending)) {
+            self.record(SlamEvent::BearingsDiscarded {
+                id,
+                count: 1,
+                reason,
+            });
+        }
         self.replay_history(id, &pending.history, &config.correlation)?;
-        self.record(SlamEvent::BearingsDiscarded {
-            id,
-            count: 1,
-            reason,
-        });
         self.drop_candidate(id)?;
         Ok(inserted)
     }
@@ -274,6 +294,7 @@ impl BearingSlam {
                 sightings: 1,
                 visit: 0,
                 unused: Vec::new(),
+                dormant: false,
             },
         );
         self.record(SlamEvent::CandidateCreated { id });
@@ -360,7 +381,7 @@ impl BearingSlam {
 
     /// [`Self::drop_candidate`] for a candidate whose first and kept bearings
     /// are lost for `reason` (restart, expiry), with the event saying so.
-    fn drop_candidate_lost(&mut self, id: u64, reason: DiscardReason) -> Result<()> {
+    pub(super) fn drop_candidate_lost(&mut self, id: u64, reason: DiscardReason) -> Result<()> {
         if let Some(c) = self.candidates.get_mut(&id) {
             let kept = c.history.len();
             c.discard(reason, 1 + kept);
@@ -371,7 +392,7 @@ impl BearingSlam {
     /// Forgets a candidate and releases its pose clones (each removed from the
     /// state when no candidate uses it any more), with one
     /// [`SlamEvent::BearingsDiscarded`] per reason it left bearings unused.
-    fn drop_candidate(&mut self, id: u64) -> Result<()> {
+    pub(super) fn drop_candidate(&mut self, id: u64) -> Result<()> {
         let Some(pending) = self.candidates.remove(&id) else {
             return Ok(());
         };
@@ -389,7 +410,7 @@ impl BearingSlam {
     }
 
     /// One user less for a clone; it leaves the state at zero.
-    fn release_clone(&mut self, clone_id: u64) -> Result<()> {
+    pub(super) fn release_clone(&mut self, clone_id: u64) -> Result<()> {
         let Some(clone) = self.clones.get_mut(&clone_id) else {
             return Ok(());
         };
@@ -411,19 +432,31 @@ impl BearingSlam {
         else {
             return;
         };
+        let keep_first_ray = keeps_first_ray(c);
         let now = self.time.unwrap_or(0.0);
         let stale: Vec<u64> = self
             .candidates
             .iter()
-            .filter(|(_, p)| now - p.candidate.last_seen > c.candidate_timeout)
+            .filter(|(_, p)| !p.dormant && now - p.candidate.last_seen > c.candidate_timeout)
             .map(|(&id, _)| id)
             .collect();
         for id in stale {
             // Only fails on an internal offset error, which would be a bug.
-            if self.drop_candidate_lost(id, DiscardReason::Expired).is_ok() {
+            let expired = if keep_first_ray {
+                self.make_dormant(id)
+            } else {
+                self.drop_candidate_lost(id, DiscardReason::Expired)
+            };
+            if expired.is_ok() {
                 self.record(SlamEvent::CandidateExpired { id });
                 *self.expired_visits.entry(id).or_default() += 1;
             }
         }
     }
+}
+
+/// Whether the delayed initializer keeps an expired candidate's first ray
+/// ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
+pub(super) fn keeps_first_ray(config: &TriangulationConfig) -> bool {
+    config.undelayed_fallback.is_some_and(|f| f.keep_first_ray)
 }

@@ -21,6 +21,7 @@ mod invariant;
 #[cfg(test)]
 mod invariant_tests;
 mod iterated;
+mod kept_ray;
 mod merge;
 mod offset;
 mod replay;
@@ -134,6 +135,10 @@ pub struct BearingSlam {
     /// Each unmapped landmark's expired candidates (visits that ended
     /// without triangulating), for [`UndelayedFallback`](crate::init::UndelayedFallback).
     expired_visits: BTreeMap<u64, usize>,
+    /// First rays of resumed candidates waiting until their landmark's
+    /// depth is bounded before they are replayed against their clones
+    /// ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
+    deferred_rays: BTreeMap<u64, replay::WaitingBearing>,
 }
 
 impl BearingSlam {
@@ -178,6 +183,7 @@ impl BearingSlam {
             anonymous,
             gated_in_row: BTreeMap::new(),
             expired_visits: BTreeMap::new(),
+            deferred_rays: BTreeMap::new(),
         })
     }
 
@@ -447,6 +453,7 @@ impl BearingSlam {
         self.batch_clone = None;
         self.expire_candidates();
         self.convert_linear_landmarks()?;
+        self.replay_deferred_rays()?;
         Ok(report)
     }
 

@@ -5,7 +5,7 @@
 
 use bearing_slam_core::SlamError;
 use bearing_slam_core::ekf::{BlockJacobian, Ekf, LinearizedMeasurement};
-use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig};
+use bearing_slam_core::init::{InverseDepthPrior, TriangulationConfig, UndelayedFallback};
 use bearing_slam_core::log::WheelOdometry;
 use bearing_slam_core::motion::{DiffDriveModel, WheelNoise};
 use bearing_slam_core::slam::{BearingSlam, InitializerConfig, SlamConfig};
@@ -58,6 +58,14 @@ fn initializer() -> impl Strategy<Value = InitializerConfig> {
                 ..TriangulationConfig::default()
             }
         )),
+        Just(InitializerConfig::auto(TriangulationConfig::default())),
+        Just(InitializerConfig::auto(TriangulationConfig {
+            undelayed_fallback: Some(UndelayedFallback {
+                keep_first_ray: !UndelayedFallback::ONE_VISIT.keep_first_ray,
+                ..UndelayedFallback::ONE_VISIT
+            }),
+            ..TriangulationConfig::default()
+        })),
         Just(InitializerConfig::pi_sr(InverseDepthPrior {
             rho_ini: 0.5,
             sigma_rho: 0.25

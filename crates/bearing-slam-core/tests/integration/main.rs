@@ -13,6 +13,7 @@ mod covariance_and_errors;
 mod estimator_config_bounds;
 mod estimators;
 mod fuzz_regressions;
+mod kept_ray;
 mod measurement_jacobians;
 mod metrics;
 mod mono_filter;

@@ -89,8 +89,10 @@ fn inverse_depth_landmarks_bring_a_short_window_close_to_the_batch() {
     );
     // Measured: batch 0.015 m, point 0.42 m, inverse depth 0.067 m; since
     // the filter's conversion rule and depth-bounded maps (2026-11-29) the
-    // point chart's window ends at 0.25 m, the inverse-depth one at 0.066 m.
-    assert!(c.ate_rmse_m <= 0.4 * p.ate_rmse_m, "{c:?} vs point {p:?}");
+    // point chart's window ends at 0.25 m, the inverse-depth one at 0.066 m;
+    // from the default `auto` with the kept first ray (2026-11-29, a better
+    // start for the point chart's short window): 0.015, 0.047, 0.019 m.
+    assert!(c.ate_rmse_m <= 0.5 * p.ate_rmse_m, "{c:?} vs point {p:?}");
     for snapshot in &charted.output.trace.snapshots {
         for l in &snapshot.landmarks {
             let [[a, b], [c, d]] = l.covariance;
@@ -164,9 +166,10 @@ fn keyframes_put_fewer_poses_in_the_window_and_end_closer_to_the_batch() {
     // keyframes 0.027 m; from the default `auto`'s since the
     // stalled-parallax rule (2026-11-29): 0.015, 0.065 and 0.034 m (the
     // landmarks enter earlier, which the short per-scan window gains most
-    // from).
+    // from); with the kept first ray too: 0.015, 0.047 and 0.034 m (the
+    // per-scan window starts from a better filter, the keyframes' is the same).
     assert!(
-        k.ate_rmse_m <= 0.6 * p.ate_rmse_m,
+        k.ate_rmse_m <= 0.8 * p.ate_rmse_m,
         "{k:?} vs per scan {p:?}"
     );
     assert!(k.ate_rmse_m <= 2.5 * b.ate_rmse_m, "{k:?} vs batch {b:?}");

@@ -106,11 +106,16 @@ fn batch_smoother_beats_the_filter_and_keeps_the_runner_shape() {
     println!(
         "mean over {seeds} seeds: ATE filter {filter_ate:.4} m, smoother {smoother_ate:.4} m; landmarks filter {filter_map:.4} m, smoother {smoother_map:.4} m"
     );
+    // Measured: the batch ends at 0.087 m ATE and 0.071 m map from either
+    // start; the default filter was at 0.115 / 0.079 m, and since its first
+    // rays are kept (2026-11-29) at 0.092 / 0.061 m: the batch still has
+    // the better trajectory, but the filter's map is the better one on
+    // these two seeds.
+    assert!(smoother_ate < filter_ate, "{smoother_ate} vs {filter_ate}");
     assert!(
-        smoother_ate < 0.8 * filter_ate,
-        "{smoother_ate} vs {filter_ate}"
+        smoother_map < 1.25 * filter_map,
+        "{smoother_map} vs {filter_map}"
     );
-    assert!(smoother_map < filter_map, "{smoother_map} vs {filter_map}");
 }
 
 #[test]

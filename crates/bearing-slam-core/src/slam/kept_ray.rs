@@ -1,0 +1,239 @@
+//! The kept first ray ([`UndelayedFallback::keep_first_ray`], the `auto`
+//! initializer's option): a candidate's first bearing, with a clone of the
+//! pose it was taken from, is not lost when its visit ends without
+//! parallax.
+//!
+//! The paper's candidate holds its first pose only as variances (22), which
+//! go stale as the robot moves, so an expired candidate has to be dropped.
+//! With the first pose cloned into the state, every correlation stays exact
+//! for as long as the clone is kept, and the first bearing remains a
+//! measurement like any other:
+//!
+//! - an expired candidate stays, dormant, with its clone;
+//! - the landmark's next sighting resumes it: the first pose is read from
+//!   the clone (corrected by every update since), and the stochastic
+//!   triangulation (21)–(23) between the kept ray and the current one is
+//!   used when the parallax passes `α_min` **and** the triangle bounds the
+//!   depth ([`crate::landmark::depth_bounded`], with the exact covariance of
+//!   both poses): across a blind stretch the relative heading of the two
+//!   rays can be uncertain by more than the parallax itself. The far rule
+//!   (24) is not applied to a resumed ray for the same reason;
+//! - when the landmark enters undelayed instead (its visits used up, a
+//!   stalled parallax, a wait budget, the far rule within a visit), the
+//!   first bearing is deferred: it is replayed against its clone once the
+//!   landmark's depth is bounded, when the bearing from a pose far back is
+//!   no longer linearized about the prior's guess of the depth.
+//!
+//! On MRCLAM the first rays are what ties the map to the start: a robot
+//! that turns on the spot at the start sees its landmarks from the known
+//! initial pose, and without them enters every landmark after its heading
+//! has drifted.
+
+use super::replay::WaitingBearing;
+use super::{BearingSlam, InitializerConfig};
+use crate::error::Result;
+use crate::init::{CandidateDecision, TriangulationConfig, UndelayedFallback, decide};
+use crate::landmark::{Parameterization, depth_bounded};
+use crate::trace::{DiscardReason, InitMethod};
+use nalgebra::Vector3;
+
+use super::delayed::PendingCandidate;
+
+impl BearingSlam {
+    /// Keeps `pending`'s first bearing, with one more user of its clone, to
+    /// be replayed once landmark `id` has a bounded depth
+    /// ([`Self::replay_deferred_rays`]). The stored candidate holds the raw
+    /// bearing, which the replay wants (its measurement model adds the
+    /// offset). Returns `false` when there is no clone to measure from.
+    pub(super) fn defer_first_ray(&mut self, id: u64, pending: &PendingCandidate) -> bool {
+        let Some(clone_id) = pending.clone else {
+            return false;
+        };
+        let (Some(stored), Some(clone)) =
+            (self.candidates.get(&id), self.clones.get_mut(&clone_id))
+        else {
+            return false;
+        };
+        clone.users += 1;
+        let ray = WaitingBearing {
+            clone: clone_id,
+            z: stored.candidate.bearing,
+            sighting: 0,
+            visit: 0,
+        };
+        self.deferred_rays.insert(id, ray);
+        true
+    }
+
+    /// Replays each deferred first ray whose landmark is now a point or has
+    /// a bounded inverse depth, and releases its clone; a ray whose
+    /// landmark left the map is released unused.
+    pub(super) fn replay_deferred_rays(&mut self) -> Result<()> {
+        if self.deferred_rays.is_empty() {
+            return Ok(());
+        }
+        let correlation = match &self.config.initializer {
+            InitializerConfig::Triangulation(c) | InitializerConfig::TriangulationWithClone(c) => {
+                c.correlation
+            }
+            InitializerConfig::PiSr { .. } => return Ok(()),
+        };
+        let ready: Vec<u64> = self
+            .deferred_rays
+            .keys()
+            .copied()
+            .filter(|id| match self.landmarks.get(id) {
+                Some(slot) if slot.parameterization == Parameterization::InverseDepth => {
+                    let rho = self.ekf.mean()[slot.offset + 3];
+                    let variance = self.ekf.covariance_entry(slot.offset + 3, slot.offset + 3);
+                    depth_bounded(rho, variance)
+                }
+                _ => true,
+            })
+            .collect();
+        for id in ready {
+            let Some(ray) = self.deferred_rays.remove(&id) else {
+                continue;
+            };
+            if self.landmarks.contains_key(&id) {
+                self.replay_history(id, &[ray], &correlation)?;
+            }
+            self.release_clone(ray.clone)?;
+        }
+        Ok(())
+    }
+
+    /// The landmark of a dormant candidate is seen again (bearing `z`,
+    /// offset-corrected; `pending` with its first bearing corrected too):
+    /// triangulated against the kept ray when the parallax passes `α_min`
+    /// and the triangle bounds the depth; entered undelayed from the
+    /// current bearing, its first one deferred, when its visits are used up;
+    /// dropped and entered undelayed when the rays diverge; else woken to
+    /// wait through another visit.
+    pub(super) fn resume_candidate(
+        &mut self,
+        id: u64,
+        z: f64,
+        mut pending: PendingCandidate,
+        config: &TriangulationConfig,
+    ) -> Result<bool> {
+        let Some(fallback) = config.undelayed_fallback else {
+            return Ok(false);
+        };
+        if let Some(clone) = pending.clone.and_then(|c| self.clones.get(&c).copied()) {
+            // The first pose is where its clone is now, corrected by every
+            // update since the first sighting.
+            pending.candidate.pose = self.ekf.block::<3>(clone.offset)?;
+        }
+        let pose = self.ekf.block::<3>(0)?;
+        let (decision, parallax) = decide(config, &pending.candidate, &pose, z);
+        let decision = match decision {
+            CandidateDecision::Triangulate
+                if !self.kept_ray_bounds_depth(&pending, &pose, z)? =>
+            {
+                CandidateDecision::Wait
+            }
+            // The parallax across a blind stretch is too uncertain to call
+            // a landmark far.
+            CandidateDecision::Far => CandidateDecision::Wait,
+            d => d,
+        };
+        let visits_used =
+            self.expired_visits.get(&id).copied().unwrap_or(0) >= fallback.expired_visits;
+        match decision {
+            CandidateDecision::Triangulate => {
+                self.triangulate_pending(id, z, &pending, &pose, config, parallax.alpha)
+            }
+            CandidateDecision::Restart => {
+                // The kept ray contradicts the current one: not replayed.
+                self.drop_candidate_lost(id, DiscardReason::Restarted)?;
+                self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)
+            }
+            CandidateDecision::Wait if visits_used => {
+                let entry = (fallback.prior, InitMethod::PiSr, DiscardReason::Expired);
+                self.enter_from_current_bearing(id, z, &pending, config, entry)
+            }
+            CandidateDecision::Wait | CandidateDecision::Far => {
+                let time = self.time.unwrap_or(0.0);
+                if let Some(c) = self.candidates.get_mut(&id) {
+                    c.dormant = false;
+                    c.visit += 1;
+                    c.sightings += 1;
+                    c.candidate.pose = pending.candidate.pose;
+                    // Its wait starts again: the stalled-parallax rule and
+                    // the wait budget count from here.
+                    c.candidate.created = time;
+                    c.candidate.last_seen = time;
+                    c.discard(DiscardReason::NoHistory, 1);
+                }
+                Ok(false)
+            }
+        }
+    }
+
+    /// Whether triangulating `pending`'s kept first ray against the bearing
+    /// `z` from `pose` bounds the landmark's depth
+    /// ([`crate::landmark::depth_bounded`]): the inverse depth's variance
+    /// from (22)(23) with the exact covariance of the current pose and the
+    /// first pose's clone, cross terms included, and both bearings' noise.
+    fn kept_ray_bounds_depth(
+        &self,
+        pending: &PendingCandidate,
+        pose: &Vector3<f64>,
+        z: f64,
+    ) -> Result<bool> {
+        let Some(clone) = pending.clone.and_then(|c| self.clones.get(&c).copied()) else {
+            return Ok(false);
+        };
+        let Ok(init) = crate::init::triangulate_candidate(&pending.candidate, pose, z) else {
+            return Ok(false);
+        };
+        let j_pose = init.j_landmark_pose.row(3).transpose();
+        let j_first = init.j_landmark_first_pose.row(3).transpose();
+        let p_vv = self.ekf.covariance_block::<3>(0)?;
+        let p_cc = self.ekf.covariance_block::<3>(clone.offset)?;
+        let p_vc = self.ekf.covariance_cross_block(0, 3, clone.offset, 3)?;
+        let cross = (j_pose.transpose() * &p_vc * j_first)[(0, 0)];
+        let bearings = (init.j_landmark_z[3].powi(2) + init.j_landmark_first_bearing[3].powi(2))
+            * self.config.bearing_sigma.powi(2);
+        let variance = (j_pose.transpose() * p_vv * j_pose)[(0, 0)]
+            + (j_first.transpose() * p_cc * j_first)[(0, 0)]
+            + 2.0 * cross
+            + bearings;
+        Ok(depth_bounded(init.landmark[3], variance))
+    }
+
+    /// An expired candidate keeps its first ray and waits for its landmark's
+    /// next sighting: its waiting bearings are reported unused and their
+    /// clones released. A candidate without a clone is dropped, and past
+    /// [`UndelayedFallback::MAX_DORMANT`] dormant candidates so is the one
+    /// unseen longest.
+    pub(super) fn make_dormant(&mut self, id: u64) -> Result<()> {
+        let released = match self.candidates.get_mut(&id) {
+            Some(c) if c.clone.is_some() => {
+                let history = std::mem::take(&mut c.history);
+                if !history.is_empty() {
+                    c.discard(DiscardReason::Expired, history.len());
+                }
+                c.dormant = true;
+                history
+            }
+            _ => return self.drop_candidate_lost(id, DiscardReason::Expired),
+        };
+        for bearing in released {
+            self.release_clone(bearing.clone)?;
+        }
+        let dormant = self.candidates.values().filter(|c| c.dormant).count();
+        if dormant > UndelayedFallback::MAX_DORMANT
+            && let Some(oldest) = self
+                .candidates
+                .iter()
+                .filter(|(_, c)| c.dormant)
+                .min_by(|a, b| a.1.candidate.last_seen.total_cmp(&b.1.candidate.last_seen))
+                .map(|(&id, _)| id)
+        {
+            self.drop_candidate_lost(oldest, DiscardReason::Expired)?;
+        }
+        Ok(())
+    }
+}
