@@ -362,8 +362,8 @@ pub struct UndelayedFallback {
     /// entry the candidate takes from its current bearing (far rule,
     /// stalled parallax, wait budget), its first bearing is applied the
     /// same way, once the landmark's depth is bounded. At most
-    /// [`Self::MAX_DORMANT`] candidates stay dormant (the longest unseen is
-    /// dropped). On in [`Self::ONE_VISIT`] since 2026-11-29 (MRCLAM
+    /// [`Self::MAX_KEPT_RAYS`] candidates stay dormant and as many first
+    /// rays wait for their depth (the oldest is dropped). On in [`Self::ONE_VISIT`] since 2026-11-29 (MRCLAM
     /// Dataset 6 mean ATE 0.78 → 0.58 m, every held-out map still within
     /// 0.3 m with all 15 landmarks; `paper_fig4` 0.097 → 0.058 m and
     /// `slip_patch` 0.104 → 0.079 m, held-out seeds alike;
@@ -388,10 +388,12 @@ impl UndelayedFallback {
         keep_first_ray: true,
     };
 
-    /// Most candidates kept dormant by [`Self::keep_first_ray`]; each holds
-    /// a pose clone (three states, shared by the candidates of one scan)
-    /// until its landmark is seen again.
-    pub const MAX_DORMANT: usize = 64;
+    /// Most candidates kept dormant by [`Self::keep_first_ray`], and most
+    /// first rays deferred until their landmark's depth is bounded: each
+    /// holds a pose clone (three states, shared by the rays of one scan),
+    /// so the state cannot grow without bound on a long run (past either
+    /// limit the oldest is dropped).
+    pub const MAX_KEPT_RAYS: usize = 64;
 
     /// Standard deviations of the measured parallax that `α_min` must
     /// clear for the two-ray test to be decided by the geometry rather

@@ -118,7 +118,9 @@ pub enum DiscardReason {
     /// history (MTE, MTE-clone: the paper's method).
     NoHistory,
     /// Seen while waiting, not kept because the history was full (one
-    /// sighting out of a stride is kept, and a full history is thinned).
+    /// sighting out of a stride is kept, and a full history is thinned);
+    /// or a first ray deferred by the `auto` initializer's kept first ray
+    /// and dropped as the oldest past its limit.
     HistoryFull,
     /// Left out by the replay's decimation of a visit.
     Decimated,

@@ -254,7 +254,7 @@ impl BearingSlam {
         (prior, method, reason): (InverseDepthPrior, InitMethod, DiscardReason),
     ) -> Result<bool> {
         let inserted = self.initialize_with_prior(id, z, prior, method)?;
-        if !(keeps_first_ray(config) && self.defer_first_ray(id, pending)) {
+        if !(keeps_first_ray(config) && self.defer_first_ray(id, pending)?) {
             self.record(SlamEvent::BearingsDiscarded {
                 id,
                 count: 1,

@@ -34,7 +34,7 @@ use super::{BearingSlam, InitializerConfig};
 use crate::error::Result;
 use crate::init::{CandidateDecision, TriangulationConfig, UndelayedFallback, decide};
 use crate::landmark::{Parameterization, depth_bounded};
-use crate::trace::{DiscardReason, InitMethod};
+use crate::trace::{DiscardReason, InitMethod, SlamEvent};
 use nalgebra::Vector3;
 
 use super::delayed::PendingCandidate;
@@ -44,15 +44,17 @@ impl BearingSlam {
     /// be replayed once landmark `id` has a bounded depth
     /// ([`Self::replay_deferred_rays`]). The stored candidate holds the raw
     /// bearing, which the replay wants (its measurement model adds the
-    /// offset). Returns `false` when there is no clone to measure from.
-    pub(super) fn defer_first_ray(&mut self, id: u64, pending: &PendingCandidate) -> bool {
+    /// offset). Past [`UndelayedFallback::MAX_KEPT_RAYS`] deferred rays the
+    /// oldest is dropped, reported unused. Returns `false` when there is no
+    /// clone to measure from.
+    pub(super) fn defer_first_ray(&mut self, id: u64, pending: &PendingCandidate) -> Result<bool> {
         let Some(clone_id) = pending.clone else {
-            return false;
+            return Ok(false);
         };
         let (Some(stored), Some(clone)) =
             (self.candidates.get(&id), self.clones.get_mut(&clone_id))
         else {
-            return false;
+            return Ok(false);
         };
         clone.users += 1;
         let ray = WaitingBearing {
@@ -61,8 +63,24 @@ impl BearingSlam {
             sighting: 0,
             visit: 0,
         };
-        self.deferred_rays.insert(id, ray);
-        true
+        self.deferred_rays
+            .insert(id, (self.time.unwrap_or(0.0), ray));
+        if self.deferred_rays.len() > UndelayedFallback::MAX_KEPT_RAYS
+            && let Some(oldest) = self
+                .deferred_rays
+                .iter()
+                .min_by(|a, b| a.1.0.total_cmp(&b.1.0))
+                .map(|(&id, _)| id)
+            && let Some((_, dropped)) = self.deferred_rays.remove(&oldest)
+        {
+            self.record(SlamEvent::BearingsDiscarded {
+                id: oldest,
+                count: 1,
+                reason: DiscardReason::HistoryFull,
+            });
+            self.release_clone(dropped.clone)?;
+        }
+        Ok(true)
     }
 
     /// Replays each deferred first ray whose landmark is now a point or has
@@ -92,7 +110,7 @@ impl BearingSlam {
             })
             .collect();
         for id in ready {
-            let Some(ray) = self.deferred_rays.remove(&id) else {
+            let Some((_, ray)) = self.deferred_rays.remove(&id) else {
                 continue;
             };
             if self.landmarks.contains_key(&id) {
@@ -206,7 +224,7 @@ impl BearingSlam {
     /// An expired candidate keeps its first ray and waits for its landmark's
     /// next sighting: its waiting bearings are reported unused and their
     /// clones released. A candidate without a clone is dropped, and past
-    /// [`UndelayedFallback::MAX_DORMANT`] dormant candidates so is the one
+    /// [`UndelayedFallback::MAX_KEPT_RAYS`] dormant candidates so is the one
     /// unseen longest.
     pub(super) fn make_dormant(&mut self, id: u64) -> Result<()> {
         let released = match self.candidates.get_mut(&id) {
@@ -224,7 +242,7 @@ impl BearingSlam {
             self.release_clone(bearing.clone)?;
         }
         let dormant = self.candidates.values().filter(|c| c.dormant).count();
-        if dormant > UndelayedFallback::MAX_DORMANT
+        if dormant > UndelayedFallback::MAX_KEPT_RAYS
             && let Some(oldest) = self
                 .candidates
                 .iter()

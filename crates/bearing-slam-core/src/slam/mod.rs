@@ -138,7 +138,8 @@ pub struct BearingSlam {
     /// First rays of resumed candidates waiting until their landmark's
     /// depth is bounded before they are replayed against their clones
     /// ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
-    deferred_rays: BTreeMap<u64, replay::WaitingBearing>,
+    /// Each with the time it was deferred.
+    deferred_rays: BTreeMap<u64, (f64, replay::WaitingBearing)>,
 }
 
 impl BearingSlam {
@@ -739,13 +740,19 @@ impl BearingSlam {
 
     /// Removes a landmark from the map (marginalization). Its count of
     /// expired visits goes with it: if it is seen again it starts afresh,
-    /// a new candidate for the `auto` initializer as for MTE.
+    /// a new candidate for the `auto` initializer as for MTE; so does a
+    /// first ray still deferred for it (its clone leaves the state unless
+    /// another candidate uses it).
     pub fn remove_landmark(&mut self, id: u64) -> Result<()> {
         let slot = self
             .landmarks
             .remove(&id)
             .ok_or(SlamError::UnknownLandmark(id))?;
         self.expired_visits.remove(&id);
-        self.remove_state_block(slot.offset, slot.parameterization.dim())
+        self.remove_state_block(slot.offset, slot.parameterization.dim())?;
+        match self.deferred_rays.remove(&id) {
+            Some((_, ray)) => self.release_clone(ray.clone),
+            None => Ok(()),
+        }
     }
 }

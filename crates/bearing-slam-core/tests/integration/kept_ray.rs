@@ -193,13 +193,68 @@ fn an_undelayed_entry_applies_the_first_bearing_once_the_depth_is_bounded() {
     assert!(error < 0.05, "{l:?}: {error} m off");
 }
 
-/// At most `UndelayedFallback::MAX_DORMANT` candidates stay dormant: a
+/// A landmark removed while its first ray is deferred takes the ray and
+/// its clone with it.
+#[test]
+fn removing_a_landmark_releases_its_deferred_ray() {
+    let mut slam = auto(true);
+    let mut k = 0;
+    while slam.landmark_ids().is_empty() {
+        assert!(k < 100, "the parallax never stalled");
+        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, bearing_from(0.0))])
+            .expect("first visit");
+        k += 1;
+    }
+    assert_eq!(slam.clone_count(), 1);
+    slam.remove_landmark(LANDMARK).expect("mapped");
+    assert_eq!(slam.clone_count(), 0);
+    assert_eq!(slam.ekf().mean().len(), 3);
+    check_covariance(&slam.ekf().covariance()).expect("symmetric PSD");
+}
+
+/// At most `UndelayedFallback::MAX_KEPT_RAYS` first rays wait for their
+/// landmark's depth: a robot standing still, whose landmarks all enter
+/// undelayed and never get a bounded depth, does not grow its state
+/// without bound.
+#[test]
+fn deferred_first_rays_are_capped() {
+    let mut slam = auto(true);
+    let landmarks = UndelayedFallback::MAX_KEPT_RAYS as u32 + 10;
+    for j in 0..landmarks {
+        // 1.5 s of sightings: the parallax stalls (from √2 s on) and the
+        // landmark enters undelayed, its first ray deferred.
+        for k in 0..=15 {
+            let time = 2.0 * f64::from(j) + 0.1 * f64::from(k);
+            slam.update_bearings(time, &[(1000 + u64::from(j), 0.1)])
+                .expect("a visit");
+        }
+    }
+    assert_eq!(slam.landmark_ids().len(), landmarks as usize);
+    assert_eq!(slam.clone_count(), UndelayedFallback::MAX_KEPT_RAYS);
+    let dropped = slam
+        .events()
+        .iter()
+        .filter(|e| {
+            matches!(
+                e.event,
+                SlamEvent::BearingsDiscarded {
+                    reason: DiscardReason::HistoryFull,
+                    ..
+                }
+            )
+        })
+        .count();
+    assert_eq!(dropped, 10);
+    check_covariance(&slam.ekf().covariance()).expect("symmetric PSD");
+}
+
+/// At most `UndelayedFallback::MAX_KEPT_RAYS` candidates stay dormant: a
 /// robot that glimpses many landmarks once each does not grow its state
 /// without bound.
 #[test]
 fn dormant_candidates_are_capped() {
     let mut slam = auto(true);
-    let landmarks = UndelayedFallback::MAX_DORMANT as u64 + 10;
+    let landmarks = UndelayedFallback::MAX_KEPT_RAYS as u64 + 10;
     // One landmark per scan, each seen once, scans 6 s apart so that each
     // candidate expires before the next is created (one clone each).
     for id in 0..landmarks {
@@ -209,11 +264,11 @@ fn dormant_candidates_are_capped() {
     }
     slam.update_bearings(6.0 * landmarks as f64, &[])
         .expect("the last expires");
-    assert_eq!(slam.candidate_count(), UndelayedFallback::MAX_DORMANT);
-    assert_eq!(slam.clone_count(), UndelayedFallback::MAX_DORMANT);
+    assert_eq!(slam.candidate_count(), UndelayedFallback::MAX_KEPT_RAYS);
+    assert_eq!(slam.clone_count(), UndelayedFallback::MAX_KEPT_RAYS);
     assert_eq!(
         slam.ekf().mean().len(),
-        3 + 3 * UndelayedFallback::MAX_DORMANT
+        3 + 3 * UndelayedFallback::MAX_KEPT_RAYS
     );
     // The oldest went: seen again, it enters undelayed at once.
     slam.update_bearings(6.0 * landmarks as f64 + 0.1, &[(1000, 0.1)])
