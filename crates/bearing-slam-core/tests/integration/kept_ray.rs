@@ -75,6 +75,32 @@ fn first_visit_then_blind_drive(slam: &mut BearingSlam) -> f64 {
     x
 }
 
+/// Standing at the origin, sees landmark 3 every 0.1 s until it enters
+/// the map (undelayed, once its parallax has stalled); returns the scans.
+fn stand_until_mapped(slam: &mut BearingSlam) -> u32 {
+    let mut k = 0;
+    while slam.landmark_ids().is_empty() {
+        assert!(k < 100, "the parallax never stalled");
+        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, bearing_from(0.0))])
+            .expect("first visit");
+        k += 1;
+    }
+    k
+}
+
+/// Bearings reported unused for `reason`.
+fn discarded(slam: &BearingSlam, reason: DiscardReason) -> usize {
+    slam.events()
+        .iter()
+        .map(|e| match e.event {
+            SlamEvent::BearingsDiscarded {
+                reason: r, count, ..
+            } if r == reason => count,
+            _ => 0,
+        })
+        .sum()
+}
+
 fn initialized(slam: &BearingSlam) -> Vec<InitMethod> {
     slam.events()
         .iter()
@@ -141,13 +167,7 @@ fn an_undelayed_entry_applies_the_first_bearing_once_the_depth_is_bounded() {
     let mut slam = auto(true);
     // Standing still past the stalled-parallax point: the landmark enters
     // undelayed within its first visit.
-    let mut k = 0;
-    while slam.landmark_ids().is_empty() {
-        assert!(k < 100, "the parallax never stalled");
-        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, bearing_from(0.0))])
-            .expect("first visit");
-        k += 1;
-    }
+    let k = stand_until_mapped(&mut slam);
     assert_eq!(initialized(&slam), vec![InitMethod::PiSr]);
     assert_eq!(slam.clone_count(), 1, "the first ray waits with its clone");
     // Driving 3 m along x while seeing it bounds its depth on the way.
@@ -175,17 +195,9 @@ fn an_undelayed_entry_applies_the_first_bearing_once_the_depth_is_bounded() {
         }
     }
     assert!(released_at.is_some(), "the depth never got bounded");
-    let discarded_first = slam.events().iter().any(|e| {
-        matches!(
-            e.event,
-            SlamEvent::BearingsDiscarded {
-                reason: DiscardReason::ParallaxStalled,
-                ..
-            }
-        )
-    });
-    assert!(
-        !discarded_first,
+    assert_eq!(
+        discarded(&slam, DiscardReason::ParallaxStalled),
+        0,
         "the first bearing was used, not discarded"
     );
     let l = slam.landmark(LANDMARK).expect("mapped");
@@ -198,13 +210,7 @@ fn an_undelayed_entry_applies_the_first_bearing_once_the_depth_is_bounded() {
 #[test]
 fn removing_a_landmark_releases_its_deferred_ray() {
     let mut slam = auto(true);
-    let mut k = 0;
-    while slam.landmark_ids().is_empty() {
-        assert!(k < 100, "the parallax never stalled");
-        slam.update_bearings(0.1 * f64::from(k), &[(LANDMARK, bearing_from(0.0))])
-            .expect("first visit");
-        k += 1;
-    }
+    stand_until_mapped(&mut slam);
     assert_eq!(slam.clone_count(), 1);
     slam.remove_landmark(LANDMARK).expect("mapped");
     assert_eq!(slam.clone_count(), 0);
@@ -231,20 +237,7 @@ fn deferred_first_rays_are_capped() {
     }
     assert_eq!(slam.landmark_ids().len(), landmarks as usize);
     assert_eq!(slam.clone_count(), UndelayedFallback::MAX_KEPT_RAYS);
-    let dropped = slam
-        .events()
-        .iter()
-        .filter(|e| {
-            matches!(
-                e.event,
-                SlamEvent::BearingsDiscarded {
-                    reason: DiscardReason::HistoryFull,
-                    ..
-                }
-            )
-        })
-        .count();
-    assert_eq!(dropped, 10);
+    assert_eq!(discarded(&slam, DiscardReason::HistoryFull), 10);
     check_covariance(&slam.ekf().covariance()).expect("symmetric PSD");
 }
 
