@@ -8,11 +8,13 @@ of Rust's ``UndelayedFallback`` under ``Config``'s names:
 ``--auto-visits N`` (expired visits before a landmark enters undelayed,
 default 1), ``--auto-max-wait SECONDS`` (a wait budget: a candidate still
 waiting for parallax after that long enters undelayed from its current
-bearing; opt-in: better on MRCLAM, a higher ATE in simulation),
+bearing; opt-in, its value from a sweep),
 ``--no-auto-stalled-parallax`` (it waits for its visit to expire even when
-its parallax has stalled) and ``--no-auto-insignificant-parallax`` (it waits
+its parallax has stalled), ``--no-auto-insignificant-parallax`` (it waits
 for parallax even where the bearing noise makes the parallax test
-insignificant); docs/results/filter-consistency.md. ``--no-conversion-depth-linearity``
+insignificant) and ``--no-auto-keep-first-ray`` (an expired candidate is
+dropped with its first bearing, as in the paper, instead of keeping its first
+ray for the next visit); docs/results/filter-consistency.md. ``--no-conversion-depth-linearity``
 converts an inverse-depth landmark to a point by Civera et al.'s test alone,
 as the paper does, without waiting for the conversion's own linearity.
 """
