@@ -363,8 +363,9 @@ pub struct UndelayedFallback {
     /// stalled parallax, wait budget), its first bearing is applied the
     /// same way, once the landmark's depth is bounded. At most
     /// [`Self::MAX_KEPT_RAYS`] candidates stay dormant and as many first
-    /// rays wait for their depth (the oldest is dropped). On in [`Self::ONE_VISIT`] since 2026-11-29 (MRCLAM
-    /// Dataset 6 mean ATE 0.78 → 0.58 m, every held-out map still within
+    /// rays wait for their depth (the oldest is dropped). On in
+    /// [`Self::ONE_VISIT`] since 2026-11-29 (MRCLAM Dataset 6 mean ATE
+    /// 0.78 → 0.58 m, every held-out map still within
     /// 0.3 m with all 15 landmarks; `paper_fig4` 0.097 → 0.058 m and
     /// `slip_patch` 0.104 → 0.079 m, held-out seeds alike;
     /// docs/results/filter-consistency.md, "The kept first ray"). `false`

@@ -40,7 +40,9 @@ pub(super) struct PendingCandidate {
     /// Waiting bearings not kept, by reason (reported when it is resolved).
     unused: Vec<(DiscardReason, usize)>,
     /// Its visit expired and it waits, with only its first ray, for the
-    /// landmark's next sighting ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
+    /// landmark's next sighting ([`UndelayedFallback::keep_first_ray`]).
+    ///
+    /// [`UndelayedFallback::keep_first_ray`]: crate::init::UndelayedFallback::keep_first_ray
     pub(super) dormant: bool,
 }
 
@@ -242,9 +244,11 @@ impl BearingSlam {
     /// A waiting candidate enters from its current bearing `z` with an
     /// inverse-depth prior (the far rule (24), or `auto`'s undelayed entry):
     /// its kept waiting bearings are replayed and the candidate is dropped.
-    /// With [`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray) its first bearing waits,
+    /// With [`UndelayedFallback::keep_first_ray`] its first bearing waits,
     /// with its pose clone, to be replayed once the landmark's depth is
     /// bounded (`kept_ray`); otherwise it is reported unused for `reason`.
+    ///
+    /// [`UndelayedFallback::keep_first_ray`]: crate::init::UndelayedFallback::keep_first_ray
     pub(super) fn enter_from_current_bearing(
         &mut self,
         id: u64,
@@ -456,7 +460,9 @@ impl BearingSlam {
 }
 
 /// Whether the delayed initializer keeps an expired candidate's first ray
-/// ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
+/// ([`UndelayedFallback::keep_first_ray`]).
+///
+/// [`UndelayedFallback::keep_first_ray`]: crate::init::UndelayedFallback::keep_first_ray
 pub(super) fn keeps_first_ray(config: &TriangulationConfig) -> bool {
     config.undelayed_fallback.is_some_and(|f| f.keep_first_ray)
 }

@@ -135,10 +135,10 @@ pub struct BearingSlam {
     /// Each unmapped landmark's expired candidates (visits that ended
     /// without triangulating), for [`UndelayedFallback`](crate::init::UndelayedFallback).
     expired_visits: BTreeMap<u64, usize>,
-    /// First rays of resumed candidates waiting until their landmark's
-    /// depth is bounded before they are replayed against their clones
+    /// The first rays of candidates that entered undelayed, each with the
+    /// time it was deferred, waiting for their landmark's depth to be
+    /// bounded before they are replayed against their clones
     /// ([`UndelayedFallback::keep_first_ray`](crate::init::UndelayedFallback::keep_first_ray)).
-    /// Each with the time it was deferred.
     deferred_rays: BTreeMap<u64, (f64, replay::WaitingBearing)>,
 }
 
