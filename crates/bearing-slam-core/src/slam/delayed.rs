@@ -124,7 +124,7 @@ impl BearingSlam {
         // the offset estimated now, like the current one.
         pending.candidate.bearing = self.offset_corrected(pending.candidate.bearing);
         if pending.dormant {
-            return self.resume_candidate(id, z, pending, &config);
+            return self.resume_candidate(id, (raw_z, z), pending, &config);
         }
         let (decision, parallax) = decide(&config, &pending.candidate, &pose, z);
         if let Some(fallback) = config.undelayed_fallback
@@ -272,7 +272,7 @@ impl BearingSlam {
 
     /// (16): store the first sighting. The clone variant also clones the pose
     /// into the state (one clone per batch, shared by its candidates).
-    fn create_candidate(&mut self, id: u64, z: f64, cloning: bool) -> Result<()> {
+    pub(super) fn create_candidate(&mut self, id: u64, z: f64, cloning: bool) -> Result<()> {
         let time = self.time.unwrap_or(0.0);
         let pose = self.ekf.block::<3>(0)?;
         let variances = self.pose_covariance().diagonal();

@@ -121,17 +121,18 @@ impl BearingSlam {
         Ok(())
     }
 
-    /// The landmark of a dormant candidate is seen again (bearing `z`,
-    /// offset-corrected; `pending` with its first bearing corrected too):
-    /// triangulated against the kept ray when the parallax passes `α_min`
-    /// and the triangle bounds the depth; entered undelayed from the
-    /// current bearing, its first one deferred, when its visits are used up;
-    /// dropped and entered undelayed when the rays diverge; else woken to
-    /// wait through another visit.
+    /// The landmark of a dormant candidate is seen again (bearing `raw_z`,
+    /// and `z` corrected for the offset; `pending` with its first bearing
+    /// corrected too): triangulated against the kept ray when the parallax
+    /// passes `α_min` and the triangle bounds the depth; entered undelayed
+    /// from the current bearing, its first one deferred, when its visits
+    /// are used up; else woken to wait through another visit. When the
+    /// rays diverge the kept ray is dropped, and the landmark enters
+    /// undelayed (visits used up) or starts a new candidate.
     pub(super) fn resume_candidate(
         &mut self,
         id: u64,
-        z: f64,
+        (raw_z, z): (f64, f64),
         mut pending: PendingCandidate,
         config: &TriangulationConfig,
     ) -> Result<bool> {
@@ -165,7 +166,12 @@ impl BearingSlam {
             CandidateDecision::Restart => {
                 // The kept ray contradicts the current one: not replayed.
                 self.drop_candidate_lost(id, DiscardReason::Restarted)?;
-                self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)
+                if visits_used {
+                    self.initialize_with_prior(id, z, fallback.prior, InitMethod::PiSr)
+                } else {
+                    self.create_candidate(id, raw_z, true)?;
+                    Ok(false)
+                }
             }
             CandidateDecision::Wait if visits_used => {
                 let entry = (fallback.prior, InitMethod::PiSr, DiscardReason::Expired);

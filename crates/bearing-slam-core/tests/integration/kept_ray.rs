@@ -16,10 +16,13 @@ const LANDMARK: u64 = 3;
 const TRUTH: (f64, f64) = (4.0, 2.0);
 
 fn auto(keep_first_ray: bool) -> BearingSlam {
-    let fallback = UndelayedFallback {
+    auto_with(UndelayedFallback {
         keep_first_ray,
         ..UndelayedFallback::ONE_VISIT
-    };
+    })
+}
+
+fn auto_with(fallback: UndelayedFallback) -> BearingSlam {
     BearingSlam::new(SlamConfig {
         initializer: InitializerConfig::auto(TriangulationConfig {
             undelayed_fallback: Some(fallback),
@@ -136,6 +139,41 @@ fn the_next_visit_triangulates_against_the_kept_first_ray() {
     let error = (l.position.x - TRUTH.0).hypot(l.position.y - TRUTH.1);
     assert!(error < 0.05, "{l:?}: {error} m off");
     check_covariance(&slam.ekf().covariance()).expect("symmetric PSD");
+}
+
+/// A kept ray the next visit contradicts (the rays would meet behind the
+/// sensor) is dropped: the landmark starts a new candidate while it has
+/// visits left, and enters undelayed once they are used up.
+#[test]
+fn a_contradicted_kept_ray_is_dropped() {
+    // From (3, 0) a bearing of −1 rad points away from the first ray's side.
+    let contradicting = -1.0;
+    let mut two_visits = auto_with(UndelayedFallback {
+        expired_visits: 2,
+        ..UndelayedFallback::ONE_VISIT
+    });
+    first_visit_then_blind_drive(&mut two_visits);
+    two_visits
+        .update_bearings(11.1, &[(LANDMARK, contradicting)])
+        .expect("second visit");
+    assert!(two_visits.landmark_ids().is_empty());
+    assert_eq!(two_visits.candidate_count(), 1, "a new candidate");
+    assert_eq!(discarded(&two_visits, DiscardReason::Restarted), 1);
+    let created = two_visits
+        .events()
+        .iter()
+        .filter(|e| matches!(e.event, SlamEvent::CandidateCreated { .. }))
+        .count();
+    assert_eq!(created, 2);
+
+    let mut one_visit = auto(true);
+    first_visit_then_blind_drive(&mut one_visit);
+    one_visit
+        .update_bearings(11.1, &[(LANDMARK, contradicting)])
+        .expect("second visit");
+    assert_eq!(initialized(&one_visit), vec![InitMethod::PiSr]);
+    assert_eq!(discarded(&one_visit, DiscardReason::Restarted), 1);
+    assert_eq!(one_visit.clone_count(), 0, "no ray kept for it");
 }
 
 #[test]
