@@ -14,11 +14,11 @@ use super::{BearingSlam, InitializerConfig, VEHICLE_DIM};
 use crate::ekf::BlockJacobian;
 use crate::error::Result;
 use crate::init::{
-    Candidate, CandidateDecision, InverseDepthPrior, TriangulationConfig, decide,
-    triangulate_candidate,
+    Candidate, CandidateDecision, InverseDepthPrior, TriangulationConfig, TriangulationInit,
+    decide, triangulate_candidate,
 };
 use crate::trace::{DiscardReason, InitMethod, SlamEvent};
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{DMatrix, Matrix3, Matrix4, Vector3};
 
 /// A landmark waiting for parallax, with its pose clones.
 #[derive(Clone, Debug, PartialEq)]
@@ -200,9 +200,26 @@ impl BearingSlam {
         parallax: f64,
     ) -> Result<bool> {
         let init = triangulate_candidate(&pending.candidate, pose, z)?;
+        let (jacobians, added, method) = self.triangulation_terms(&init, pending);
+        let inserted =
+            self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, parallax)?;
+        self.replay_history(id, &pending.history, &config.correlation)?;
+        self.drop_candidate(id)?;
+        Ok(inserted)
+    }
+
+    /// (22)(23): the triangulated landmark's Jacobians with respect to the
+    /// state blocks (the current pose, the bearing offset, and the first
+    /// pose's clone when there is one) and the noise added with it (both
+    /// bearings, and the paper's first-pose variances without a clone).
+    pub(super) fn triangulation_terms(
+        &self,
+        init: &TriangulationInit,
+        pending: &PendingCandidate,
+    ) -> (Vec<BlockJacobian>, Matrix4<f64>, InitMethod) {
         let sz2 = self.config.bearing_sigma.powi(2);
-        // (22)(23): the current bearing z always adds its noise; the first
-        // bearing z₁ was never used in an update, so it adds its own too.
+        // The current bearing z always adds its noise; the first bearing z₁
+        // was never used in an update, so it adds its own too.
         let mut added = init.j_landmark_z * sz2 * init.j_landmark_z.transpose()
             + init.j_landmark_first_bearing * sz2 * init.j_landmark_first_bearing.transpose();
         let mut jacobians = vec![BlockJacobian {
@@ -234,11 +251,7 @@ impl BearingSlam {
                 InitMethod::Triangulated
             }
         };
-        let inserted =
-            self.insert_inverse_depth(id, &init.landmark, &jacobians, &added, method, parallax)?;
-        self.replay_history(id, &pending.history, &config.correlation)?;
-        self.drop_candidate(id)?;
-        Ok(inserted)
+        (jacobians, added, method)
     }
 
     /// A waiting candidate enters from its current bearing `z` with an

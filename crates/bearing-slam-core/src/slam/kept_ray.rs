@@ -31,11 +31,12 @@
 
 use super::replay::WaitingBearing;
 use super::{BearingSlam, InitializerConfig};
+use crate::ekf::{BlockJacobian, LinearizedMeasurement};
 use crate::error::Result;
 use crate::init::{CandidateDecision, TriangulationConfig, UndelayedFallback, decide};
 use crate::landmark::{Parameterization, depth_bounded};
 use crate::trace::{DiscardReason, InitMethod, SlamEvent};
-use nalgebra::Vector3;
+use nalgebra::{DMatrix, DVector, Vector3};
 
 use super::delayed::PendingCandidate;
 
@@ -197,33 +198,32 @@ impl BearingSlam {
 
     /// Whether triangulating `pending`'s kept first ray against the bearing
     /// `z` from `pose` bounds the landmark's depth
-    /// ([`crate::landmark::depth_bounded`]): the inverse depth's variance
-    /// from (22)(23) with the exact covariance of the current pose and the
-    /// first pose's clone, cross terms included, and both bearings' noise.
+    /// ([`crate::landmark::depth_bounded`]): the inverse depth's variance is
+    /// the ρ row of the triangulation's own terms (22)(23)
+    /// (`triangulation_terms`: the current pose, the clone of the first, the
+    /// offset, both bearings' noise), projected through the covariance.
     fn kept_ray_bounds_depth(
         &self,
         pending: &PendingCandidate,
         pose: &Vector3<f64>,
         z: f64,
     ) -> Result<bool> {
-        let Some(clone) = pending.clone.and_then(|c| self.clones.get(&c).copied()) else {
-            return Ok(false);
-        };
         let Ok(init) = crate::init::triangulate_candidate(&pending.candidate, pose, z) else {
             return Ok(false);
         };
-        let j_pose = init.j_landmark_pose.row(3).transpose();
-        let j_first = init.j_landmark_first_pose.row(3).transpose();
-        let p_vv = self.ekf.covariance_block::<3>(0)?;
-        let p_cc = self.ekf.covariance_block::<3>(clone.offset)?;
-        let p_vc = self.ekf.covariance_cross_block(0, 3, clone.offset, 3)?;
-        let cross = (j_pose.transpose() * &p_vc * j_first)[(0, 0)];
-        let bearings = (init.j_landmark_z[3].powi(2) + init.j_landmark_first_bearing[3].powi(2))
-            * self.config.bearing_sigma.powi(2);
-        let variance = (j_pose.transpose() * p_vv * j_pose)[(0, 0)]
-            + (j_first.transpose() * p_cc * j_first)[(0, 0)]
-            + 2.0 * cross
-            + bearings;
+        let (jacobians, added, _) = self.triangulation_terms(&init, pending);
+        let rho_row = LinearizedMeasurement {
+            innovation: DVector::zeros(1),
+            noise: DMatrix::from_element(1, 1, added[(3, 3)]),
+            blocks: jacobians
+                .into_iter()
+                .map(|b| BlockJacobian {
+                    offset: b.offset,
+                    jacobian: b.jacobian.rows(3, 1).into_owned(),
+                })
+                .collect(),
+        };
+        let variance = self.ekf.innovation_covariance(&rho_row)?[(0, 0)];
         Ok(depth_bounded(init.landmark[3], variance))
     }
 
