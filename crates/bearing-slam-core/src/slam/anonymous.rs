@@ -73,6 +73,9 @@ pub(super) struct Anonymous {
     appearances: BTreeMap<u64, Appearance>,
     /// When each mapped landmark was last paired with a bearing.
     last_paired: BTreeMap<u64, f64>,
+    /// The pose clone of each live track's first sighting, when the
+    /// initializer keeps first rays (`track_clones`).
+    pub(super) track_clones: BTreeMap<u64, u64>,
 }
 
 impl Anonymous {
@@ -102,6 +105,7 @@ impl Anonymous {
             merged: BTreeMap::new(),
             appearances: BTreeMap::new(),
             last_paired: BTreeMap::new(),
+            track_clones: BTreeMap::new(),
         }))
     }
 }
@@ -280,7 +284,11 @@ impl BearingSlam {
         for (&i, ids) in unpaired.iter().zip(joined) {
             assigned[i] = Assignment::Tracks(ids);
         }
+        self.sync_track_clones(time)?;
         batch.initialized += self.promote_confirmed_tracks(time, &pose)?;
+        self.sync_track_clones(time)?;
+        // The next scan's candidates clone their own pose.
+        self.batch_clone = None;
         if self.config.association.merge_duplicates {
             self.remove_duplicates(time)?;
         }
@@ -707,3 +715,6 @@ fn paired_ids(
 
 #[path = "track_promotion.rs"]
 mod promotion;
+
+#[path = "track_clones.rs"]
+mod track_clones;

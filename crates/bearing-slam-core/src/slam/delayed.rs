@@ -320,7 +320,7 @@ impl BearingSlam {
 
     /// The clone of the pose at the current batch's time (taken at the first
     /// request of the batch), with one more user.
-    fn acquire_batch_clone(&mut self) -> Result<u64> {
+    pub(super) fn acquire_batch_clone(&mut self) -> Result<u64> {
         let clone_id = match self.batch_clone {
             Some(c) => c,
             None => {

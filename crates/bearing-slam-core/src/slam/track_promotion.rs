@@ -58,11 +58,11 @@ impl BearingSlam {
                 }
                 continue;
             }
+            let candidate = candidate_of(&first, time);
             let decision = match &self.config.initializer {
                 InitializerConfig::PiSr { .. } => CandidateDecision::Triangulate,
                 InitializerConfig::Triangulation(c)
                 | InitializerConfig::TriangulationWithClone(c) => {
-                    let candidate = candidate_of(&first, time);
                     decide(c, &candidate, pose, last.bearing).0
                 }
             };
@@ -77,14 +77,28 @@ impl BearingSlam {
                 CandidateDecision::Triangulate | CandidateDecision::Far => {}
             }
             if !matches!(self.config.initializer, InitializerConfig::PiSr { .. }) {
-                self.candidates.insert(
-                    id,
-                    PendingCandidate::from_first_sighting(candidate_of(&first, time)),
-                );
+                let mut pending = PendingCandidate::from_first_sighting(candidate);
+                // Entering from the last bearing alone (the far rule), the
+                // candidate takes the track's clone, so that its first ray
+                // is replayed once the depth is bounded (`kept_ray`).
+                // Triangulated, the first pose enters as the paper's
+                // independent noise (22): measured better here than the
+                // exact clone (docs/results/association.md).
+                let clone = self.take_track_clone(id);
+                match decision {
+                    CandidateDecision::Far => pending.clone = clone,
+                    _ => {
+                        if let Some(clone) = clone {
+                            self.release_clone(clone)?;
+                        }
+                    }
+                }
+                self.candidates.insert(id, pending);
             }
             let inserted = self.initialize_from_bearing(id, last.bearing)?;
-            // A candidate the initializer did not take is not kept waiting.
-            self.candidates.remove(&id);
+            // A candidate the initializer did not take is not kept waiting
+            // (its clone, if still held, is released).
+            self.drop_candidate(id)?;
             if let Some(a) = self.anonymous.as_mut() {
                 a.tracks.remove_with_competitors(id);
             }

@@ -35,5 +35,6 @@ mod smoother_hidden_ids;
 mod smoother_keyframes;
 mod smoother_run;
 mod smoother_solver;
+mod track_first_rays;
 mod triangulation_geometry;
 mod waiting_history;
