@@ -38,12 +38,29 @@ impl TrackSet {
                         && !same_point(o, t, self.gate)
                 })
             })
+            .filter(|t| self.ends_fit_point(t))
             .filter(|t| !self.config.confirm_constrained_depth || self.depth_constrained(t))
             .filter(|t| parallax_views(t, self.view_separation) >= self.config.min_parallax_views)
             .filter(|t| !self.config.confirm_unambiguous || !self.outranked(t))
             .filter(|t| !self.config.confirm_track_score || t.score >= self.score_threshold)
             .map(|t| t.id)
             .collect()
+    }
+
+    /// Whether the two sightings the initializer triangulates from, the
+    /// first and the newest (21)–(23), each fit the track's point on their
+    /// own (χ²₁ within the gate): a track fitted over many sightings can
+    /// take one bearing of another landmark while its point is loose (a
+    /// landmark coming into view beside it), and the sum of its residuals
+    /// then hides it; triangulated from that bearing, the landmark would be
+    /// placed where neither is. A track without a point passes.
+    fn ends_fit_point(&self, t: &Track) -> bool {
+        let Some((x, _)) = &t.point else {
+            return true;
+        };
+        let first = t.first();
+        self.residual2(first, first, x) <= self.gate
+            && self.residual2(first, t.last(), x) <= self.gate
     }
 
     /// Whether the track's point is well constrained: its depth σ from the
