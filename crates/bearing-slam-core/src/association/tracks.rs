@@ -609,8 +609,12 @@ impl TrackSet {
 
     /// The least-squares point of `sightings` (Gauss–Newton from the
     /// crossing of the first and last rays) with its covariance, when the
-    /// rays cross in front of every pose and the depth is known to within
-    /// half of itself; and the χ² of the residuals there.
+    /// rays cross in front of every pose, past the wedge's minimum depth
+    /// along each ray (nearer, the crossing contradicts the wedge the
+    /// sightings were gated by: on MRCLAM, another robot's barcode seen
+    /// from 0.25 m crossing an earlier bundle of its bearings), and the
+    /// depth is known to within half of itself; and the χ² of the
+    /// residuals there.
     fn fit(&self, sightings: &[Sighting]) -> (Option<TrackPoint>, f64) {
         let (Some(first), Some(last)) = (sightings.first(), sightings.last()) else {
             return (None, 0.0);
@@ -649,7 +653,7 @@ impl TrackSet {
         };
         let in_front = sightings.iter().all(|s| {
             let d = x - s.position();
-            d.dot(&unit_direction(s.world_bearing())) > 0.0
+            d.dot(&unit_direction(s.world_bearing())) > self.min_depth
         });
         let depth = (x - last.position()).norm();
         let radial = (x - last.position()) / depth.max(1e-12);

@@ -274,3 +274,18 @@ fn a_track_whose_newest_bearing_does_not_fit_its_point_waits() {
         "not confirmed on the stray bearing"
     );
 }
+
+#[test]
+fn a_crossing_nearer_than_the_wedge_is_no_point() {
+    // Driving past a point 0.3 m off the path: its depth along the rays
+    // falls to 0.3 m, so a wedge starting at 0.1 m allows the point and
+    // one starting at 0.5 m does not.
+    let point_of = |min_depth: f64| {
+        let mut s = TrackSet::new(&AssociationConfig::default(), 0.01, min_depth).expect("valid");
+        drive(&mut s, 0..20, |p, _| vec![bearing_to(p, 1.0, 0.3)]);
+        s.get(101).and_then(|t| t.point)
+    };
+    let (x, _) = point_of(0.1).expect("a point past 0.1 m");
+    assert!((x - Vector2::new(1.0, 0.3)).norm() < 0.01, "{x}");
+    assert!(point_of(0.5).is_none());
+}
