@@ -55,7 +55,7 @@ fn a_track_entered_by_the_far_rule_keeps_its_first_ray() {
     let dropped = run(&log, &config(false)).expect("the run completes");
     let (far_kept, discarded_kept) = far_entries(&kept.trace.events);
     let (far_dropped, discarded_dropped) = far_entries(&dropped.trace.events);
-    // Seed 0 brings two tracks in by the far rule either way.
+    // Seed 0 brings tracks in by the far rule (two with the kept ray).
     assert!(
         far_kept >= 1 && far_dropped >= 1,
         "{far_kept} {far_dropped}"
