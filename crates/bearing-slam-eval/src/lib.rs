@@ -13,6 +13,9 @@
 //!   the Vicon ground truth, and the tables of `docs/results/mrclam`;
 //! - [`calibration`]: the MRCLAM noise statistics and the tuning rule that
 //!   gives the real-data parameters;
+//! - [`association_oracle`]: the best association any method could reach
+//!   on a log (an oracle that knows the true state), the bound issue 16's
+//!   targets are read against;
 //! - [`stats`]: the descriptive statistics they share.
 //!
 //! The `bearing-slam-eval` binary runs the MRCLAM tables, the calibration
@@ -26,6 +29,7 @@
 //! assert_ne!(record.metrics.class, RunClass::Diverged);
 //! ```
 
+pub mod association_oracle;
 pub mod calibration;
 pub mod experiments;
 pub mod montecarlo;

@@ -12,6 +12,8 @@
 //! ASSOCIATION_DESCRIPTORS=0.2,0.05 nice -n 10 cargo run --release -p bearing-slam --example association -- sim 3
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- cost
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- oracle 3
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- oracle-mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- fastslam 3
 //! ```
 //!
@@ -41,6 +43,7 @@ use std::error::Error;
 use std::path::Path;
 
 mod mrclam;
+mod oracle;
 
 type Res<T> = Result<T, Box<dyn Error>>;
 
@@ -177,6 +180,47 @@ fn pct(x: f64) -> String {
     format!("{:.1}", 100.0 * x)
 }
 
+/// Scenario `name` with `clutter` false bearings per scan, the pacing
+/// distractor and the dense twins as asked, and the descriptors of
+/// `ASSOCIATION_DESCRIPTORS`.
+pub(crate) fn variant(
+    name: &str,
+    seed: u64,
+    clutter: f64,
+    distractor: bool,
+    dense: bool,
+) -> Res<Scenario> {
+    let mut scenario = Scenario::named(name, seed)?;
+    scenario.clutter.per_scan = clutter;
+    scenario.appearance = descriptor_setting();
+    if distractor {
+        scenario.clutter.distractors = vec![Distractor {
+            center: [1.0, 1.0],
+            heading_rad: 0.5,
+            amplitude_m: 1.0,
+            period_s: 6.0,
+        }];
+    }
+    if dense {
+        // Each landmark gets a twin 0.3 m away: closer than the
+        // bearing noise at the typical range on paper_fig8
+        // (5° × 5 m ≈ 0.44 m), about 2σ on slip_patch (2° × 4 m).
+        let mut landmarks = scenario.landmark_truth()?;
+        let twins: Vec<_> = landmarks
+            .iter()
+            .map(|l| LandmarkTruth {
+                id: l.id + DENSE_TWIN_ID_OFFSET,
+                x: l.x + 0.3,
+                y: l.y,
+            })
+            .collect();
+        landmarks.extend(twins);
+        scenario.landmarks = landmarks;
+        scenario.random_landmarks = None;
+    }
+    Ok(scenario)
+}
+
 fn sim(seeds: u64, first_seed: u64) -> Res<()> {
     println!(
         "| scenario | clutter/scan | distractor | dense | method | precision % | recall % | duplicates (at end) | spurious (at end) | removed | missed | ATE m | ATE / known | mean nodes | pairing ms |"
@@ -201,34 +245,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
             // method -> sums over seeds
             let mut sums: BTreeMap<&str, [f64; 11]> = BTreeMap::new();
             for seed in first_seed..first_seed + seeds {
-                let mut scenario = Scenario::named(name, seed)?;
-                scenario.clutter.per_scan = clutter;
-                scenario.appearance = descriptor_setting();
-                if distractor {
-                    scenario.clutter.distractors = vec![Distractor {
-                        center: [1.0, 1.0],
-                        heading_rad: 0.5,
-                        amplitude_m: 1.0,
-                        period_s: 6.0,
-                    }];
-                }
-                if dense {
-                    // Each landmark gets a twin 0.3 m away: closer than the
-                    // bearing noise at the typical range on paper_fig8
-                    // (5° × 5 m ≈ 0.44 m), about 2σ on slip_patch (2° × 4 m).
-                    let mut landmarks = scenario.landmark_truth()?;
-                    let twins: Vec<_> = landmarks
-                        .iter()
-                        .map(|l| LandmarkTruth {
-                            id: l.id + DENSE_TWIN_ID_OFFSET,
-                            x: l.x + 0.3,
-                            y: l.y,
-                        })
-                        .collect();
-                    landmarks.extend(twins);
-                    scenario.landmarks = landmarks;
-                    scenario.random_landmarks = None;
-                }
+                let scenario = variant(name, seed, clutter, distractor, dense)?;
                 let log = simulate(&scenario)?;
                 let config = default_run_config(&log)?;
                 // The stated prior of the unmapped-landmark hypothesis: the
@@ -624,12 +641,20 @@ fn main() -> Res<()> {
             args.get(2).map_or(Ok(0), |s| s.parse())?,
         ),
         Some("diag") => diag(&args[1..]),
+        Some("oracle") => oracle::sim_oracle(
+            args.get(1).map_or(Ok(3), |s| s.parse())?,
+            args.get(2).map_or(Ok(0), |s| s.parse())?,
+        ),
+        Some("oracle-mrclam") => oracle::mrclam_oracle(Path::new(args.get(1).map_or(
+            "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
+            String::as_str,
+        ))),
         Some("mrclam") => mrclam::mrclam(Path::new(args.get(1).map_or(
             "/work/shared/datasets/mrclam/MRCLAM_Dataset6",
             String::as_str,
         ))),
         _ => Err(
-            "usage: association sim [SEEDS [FIRST_SEED]] | fastslam [SEEDS [FIRST_SEED]] | mrclam [DATASET_DIR] | cost | diag SCENARIO SEED CLUTTER METHOD"
+            "usage: association sim [SEEDS [FIRST_SEED]] | oracle [SEEDS [FIRST_SEED]] | oracle-mrclam [DATASET_DIR] | fastslam [SEEDS [FIRST_SEED]] | mrclam [DATASET_DIR] | cost | diag SCENARIO SEED CLUTTER METHOD"
                 .into(),
         ),
     }

@@ -1,0 +1,99 @@
+//! The `oracle` tables: the best association any method could reach on the
+//! same logs as the `sim` and `mrclam` tables
+//! ([`bearing_slam::eval::association_oracle`]: the true pose, the true map
+//! and each scan's seen landmarks known, every pairing weighed by its exact
+//! posterior). Its precision at 95 % recall bounds issue 16's "precision
+//! ≥ 99 %, recall ≥ 95 %" from above.
+
+use crate::{Res, pct, variant};
+use bearing_slam::eval::association_oracle::{
+    OracleBearing, OracleBound, OracleModel, oracle_bound, oracle_posteriors,
+};
+use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
+use bearing_slam::io::mrclam::load_mrclam_with;
+use bearing_slam::sim::sim::simulate;
+use std::path::Path;
+
+/// Issue 16's recall target.
+const RECALL_TARGET: f64 = 0.95;
+/// Issue 16's precision target.
+const PRECISION_TARGET: f64 = 0.99;
+
+/// MRCLAM's bearing noise per scan as the calibration measured it against
+/// Vicon (the robust σ of the 1 s residuals, `s` in
+/// [`CALIBRATED_PARAMETERS`]' notes; the filter's 0.021 rad inflates it for
+/// the correlation between scans, which does not concern one scan's
+/// pairing).
+const MRCLAM_SCAN_SIGMA_RAD: f64 = 0.0124;
+
+const HEADER: &str = "| bearings | of landmarks | oracle precision % | oracle recall % | precision at 95 % recall | recall at 99 % precision |";
+
+fn cells(bound: &OracleBound) -> String {
+    format!(
+        "{} | {} | {} | {} | {} | {} |",
+        bound.bearings,
+        bound.landmark_bearings,
+        pct(bound.precision),
+        pct(bound.recall),
+        bound
+            .precision_at_recall
+            .map_or_else(|| "unreachable".into(), pct),
+        pct(bound.recall_at_precision),
+    )
+}
+
+/// `oracle SEEDS [FIRST_SEED]`: the oracle on the `sim` table's logs, every
+/// seed's bearings pooled per row.
+pub(crate) fn sim_oracle(seeds: u64, first_seed: u64) -> Res<()> {
+    println!("| scenario | clutter/scan | distractor | dense {HEADER}");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for name in ["paper_fig8", "slip_patch"] {
+        for (clutter, distractor, dense) in [
+            (0.0, false, false),
+            (1.0, false, false),
+            (5.0, false, false),
+            (0.0, true, false),
+            (0.0, false, true),
+        ] {
+            let mut pooled: Vec<OracleBearing> = Vec::new();
+            for seed in first_seed..first_seed + seeds {
+                let scenario = variant(name, seed, clutter, distractor, dense)?;
+                let log = simulate(&scenario)?;
+                let model = OracleModel::new(scenario.sensor.bearing_sigma_rad);
+                pooled.extend(oracle_posteriors(&log, &model)?);
+            }
+            let bound = oracle_bound(&pooled, RECALL_TARGET, PRECISION_TARGET);
+            println!(
+                "| {name} | {clutter} | {} | {} | {}",
+                if distractor { "yes" } else { "no" },
+                if dense { "yes" } else { "no" },
+                cells(&bound)
+            );
+        }
+    }
+    Ok(())
+}
+
+/// `oracle-mrclam [DATASET_DIR]`: the oracle on each robot's log with the
+/// barcodes as the `mrclam` table runs it (Vicon poses, the other robots'
+/// sightings kept when `MRCLAM_KEEP_ROBOTS=1`).
+pub(crate) fn mrclam_oracle(dir: &Path) -> Res<()> {
+    let keep_robots = std::env::var("MRCLAM_KEEP_ROBOTS").as_deref() == Ok("1");
+    let mut options = EvalOptions::default();
+    options.load.keep_robot_sightings = keep_robots;
+    println!("| robot {HEADER}");
+    println!("|---|---|---|---|---|---|---|");
+    let model = OracleModel::new(MRCLAM_SCAN_SIGMA_RAD);
+    let mut pooled = Vec::new();
+    for robot in 1..=5u8 {
+        let loaded = load_mrclam_with(dir, robot, &options.load)?;
+        let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
+        let bearings = oracle_posteriors(&log, &model)?;
+        let bound = oracle_bound(&bearings, RECALL_TARGET, PRECISION_TARGET);
+        println!("| {robot} | {}", cells(&bound));
+        pooled.extend(bearings);
+    }
+    let bound = oracle_bound(&pooled, RECALL_TARGET, PRECISION_TARGET);
+    println!("| all | {}", cells(&bound));
+    Ok(())
+}
