@@ -89,8 +89,21 @@ impl OracleModel {
 }
 
 /// The most landmarks one connected group of a scan may hold: the exact sum
-/// runs over their `2^k` subsets.
-pub const MAX_GROUP_LANDMARKS: usize = 20;
+/// runs over their `2^k` subsets. The bearings of a larger group are left
+/// out and counted ([`OraclePosteriors::skipped`]); those are the scans
+/// where the most landmarks compete for the same bearings, so leaving them
+/// out flatters the oracle, which only strengthens a bound it misses.
+pub const MAX_GROUP_LANDMARKS: usize = 12;
+
+/// The oracle's posteriors of a log.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct OraclePosteriors {
+    /// Every bearing the oracle paired (scans with a known true pose).
+    pub bearings: Vec<OracleBearing>,
+    /// Bearings left out: in a group of more than [`MAX_GROUP_LANDMARKS`]
+    /// landmarks.
+    pub skipped: usize,
+}
 
 /// One bearing as the oracle pairs it.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -127,10 +140,10 @@ impl OracleBearing {
 /// [`bearing_slam_io::mrclam::DEFAULT_MAX_GROUND_TRUTH_GAP_S`] apart;
 /// scans outside are skipped). A scan's landmarks are the static ids among
 /// its bearings; a static id without a true position in the log is an error.
-pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<Vec<OracleBearing>> {
+pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<OraclePosteriors> {
     model.validate()?;
     let track = log.ground_truth();
-    let mut out = Vec::new();
+    let mut out = OraclePosteriors::default();
     for event in &log.events {
         let EventKind::Bearings(scan) = &event.kind else {
             continue;
@@ -139,19 +152,25 @@ pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<Vec<Ora
             continue;
         };
         let bearings: Vec<(u64, f64)> = scan.iter().map(|o| (o.landmark_id, o.bearing)).collect();
-        out.extend(scan_posteriors(log, &pose, event.time, &bearings, model)?);
+        for posterior in scan_posteriors(log, &pose, event.time, &bearings, model)? {
+            match posterior {
+                Some(b) => out.bearings.push(b),
+                None => out.skipped += 1,
+            }
+        }
     }
     Ok(out)
 }
 
-/// The posteriors of one scan's `bearings` (true id, bearing) from `pose`.
+/// The posteriors of one scan's `bearings` (true id, bearing) from `pose`
+/// (`None` for a bearing of a group too large to sum over).
 fn scan_posteriors(
     log: &SensorLog,
     pose: &Pose2,
     time: f64,
     bearings: &[(u64, f64)],
     model: &OracleModel,
-) -> Result<Vec<OracleBearing>> {
+) -> Result<Vec<Option<OracleBearing>>> {
     // The landmarks the scan saw, with their true bearings.
     let vehicle = Vector3::new(pose.x, pose.y, pose.theta);
     let mut seen: BTreeMap<u64, f64> = BTreeMap::new();
@@ -184,22 +203,23 @@ fn scan_posteriors(
             }
         }
     }
-    let marginals = pair_marginals(&edges, landmarks.len())?;
+    let marginals = pair_marginals(&edges, landmarks.len());
     Ok(bearings
         .iter()
         .zip(marginals)
         .map(|(&(truth, _), row)| {
+            let row = row?;
             let total: f64 = row.iter().map(|(_, p)| p).sum();
             let best = row
                 .iter()
                 .max_by(|a, b| a.1.total_cmp(&b.1))
                 .map(|&(l, p)| (landmarks[l].0, p));
-            OracleBearing {
+            Some(OracleBearing {
                 time,
                 truth,
                 best,
                 clutter_probability: (1.0 - total).max(0.0),
-            }
+            })
         })
         .collect())
 }
@@ -207,8 +227,9 @@ fn scan_posteriors(
 /// For every bearing, the probability of each landmark it is gated with
 /// (`edges[j]` = (landmark, weight)), summed over every one-to-one pairing
 /// of bearings with landmarks (a bearing or a landmark may stay unpaired,
-/// weight 1; a pairing weighs the product of its edges).
-fn pair_marginals(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Result<Vec<Vec<(usize, f64)>>> {
+/// weight 1; a pairing weighs the product of its edges). `None` for the
+/// bearings of a group of more than [`MAX_GROUP_LANDMARKS`] landmarks.
+fn pair_marginals(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Vec<Option<Vec<(usize, f64)>>> {
     // Connected groups of bearings and landmarks (union-find over the edges;
     // landmarks are nodes bearings.len() + l).
     let n = edges.len() + landmarks;
@@ -239,18 +260,17 @@ fn pair_marginals(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Result<Vec<V
             g.1.push(l);
         }
     }
-    let mut out = vec![Vec::new(); edges.len()];
+    let mut out = vec![Some(Vec::new()); edges.len()];
     for (group_bearings, group_landmarks) in groups.values() {
         if group_landmarks.len() > MAX_GROUP_LANDMARKS {
-            return Err(SlamError::InvalidParameter {
-                name: "oracle group size",
-                value: group_landmarks.len() as f64,
-                reason: "more landmarks compete for one scan's bearings than the exact sum allows (20)",
-            });
+            for &j in group_bearings {
+                out[j] = None;
+            }
+        } else {
+            group_marginals(edges, group_bearings, group_landmarks, &mut out);
         }
-        group_marginals(edges, group_bearings, group_landmarks, &mut out);
     }
-    Ok(out)
+    out
 }
 
 /// [`pair_marginals`] for one connected group: forward and backward sums
@@ -260,7 +280,7 @@ fn group_marginals(
     edges: &[Vec<(usize, f64)>],
     bearings: &[usize],
     landmarks: &[usize],
-    out: &mut [Vec<(usize, f64)>],
+    out: &mut [Option<Vec<(usize, f64)>>],
 ) {
     let local: BTreeMap<usize, usize> =
         landmarks.iter().enumerate().map(|(i, &l)| (l, i)).collect();
@@ -302,16 +322,17 @@ fn group_marginals(
     }
     let total = backward[0][0];
     for (i, row) in rows.iter().enumerate() {
-        out[bearings[i]] = row
-            .iter()
-            .map(|&(l, w)| {
-                let mass: f64 = (0..subsets)
-                    .filter(|s| s & (1 << l) == 0)
-                    .map(|s| forward[i][s] * w * backward[i + 1][s | (1 << l)])
-                    .sum();
-                (landmarks[l], mass / total)
-            })
-            .collect();
+        out[bearings[i]] = Some(
+            row.iter()
+                .map(|&(l, w)| {
+                    let mass: f64 = (0..subsets)
+                        .filter(|s| s & (1 << l) == 0)
+                        .map(|s| forward[i][s] * w * backward[i + 1][s | (1 << l)])
+                        .sum();
+                    (landmarks[l], mass / total)
+                })
+                .collect(),
+        );
     }
 }
 
@@ -455,7 +476,10 @@ mod tests {
             vec![(3, 9.0)],
             vec![],
         ];
-        let exact = pair_marginals(&edges, 4).expect("four landmarks are within the limit");
+        let exact: Vec<_> = pair_marginals(&edges, 4)
+            .into_iter()
+            .map(|row| row.expect("four landmarks are within the limit"))
+            .collect();
         let brute = brute_force(&edges, 4);
         for (row, want) in exact.iter().zip(&brute) {
             assert_eq!(row.len(), want.len());
@@ -542,7 +566,8 @@ mod tests {
         let sigma = 1f64.to_radians();
         let log = log_at_rest(&[(1, 5.0, 0.0), (2, 5.0, 0.01), (3, 0.0, 5.0)], sigma, 400);
         let bearings = oracle_posteriors(&log, &OracleModel::new(sigma))
-            .expect("every landmark has a true position");
+            .expect("every landmark has a true position")
+            .bearings;
         assert_eq!(bearings.len(), 1200);
         let share = |ids: &[u64]| {
             let of: Vec<_> = bearings.iter().filter(|b| ids.contains(&b.truth)).collect();
@@ -561,6 +586,27 @@ mod tests {
         let bound = oracle_bound(&bearings, 0.95, 0.99);
         assert_eq!(bound.precision_at_recall, None);
         assert!((bound.recall_at_precision - 1.0 / 3.0).abs() < 0.01);
+    }
+
+    #[test]
+    fn a_group_too_large_to_sum_is_left_out_and_counted() {
+        // 13 landmarks within 0.6° of one another (σ = 1°) and one far away.
+        let mut landmarks: Vec<(u64, f64, f64)> = (0..=MAX_GROUP_LANDMARKS as u64)
+            .map(|i| (i + 1, 5.0, 0.005 * i as f64))
+            .collect();
+        landmarks.push((100, 0.0, 5.0));
+        let sigma = 1f64.to_radians();
+        let posteriors =
+            oracle_posteriors(&log_at_rest(&landmarks, sigma, 3), &OracleModel::new(sigma))
+                .expect("every landmark has a true position");
+        assert_eq!(posteriors.skipped, 3 * (MAX_GROUP_LANDMARKS + 1));
+        assert_eq!(posteriors.bearings.len(), 3);
+        assert!(
+            posteriors
+                .bearings
+                .iter()
+                .all(|b| b.truth == 100 && b.best_is_correct())
+        );
     }
 
     #[test]
