@@ -154,3 +154,30 @@ def test_the_smoothers_take_the_filters_association_with_hidden_ids(
         summary = result.summary
         assert summary is not None
         assert summary["ate_rmse_m"] < 1.0, estimator
+
+
+def test_the_oracle_bounds_what_the_bearings_allow() -> None:
+    # slip_patch's 2° bearings: every landmark bearing is its own given the
+    # truth; 5 clutter bearings per scan cost the oracle some precision.
+    clean = bs.metrics.association_oracle(bs.simulate("slip_patch", seed=0).head(20.0))
+    assert clean["landmark_bearings"] == clean["bearings"] > 0
+    assert clean["precision"] == 1.0
+    assert clean["precision_at_recall"] == 1.0
+    cluttered = bs.metrics.association_oracle(
+        bs.simulate("slip_patch", seed=0, clutter=5.0).head(20.0)
+    )
+    assert cluttered["bearings"] > cluttered["landmark_bearings"]
+    assert 0.85 < cluttered["precision"] < 1.0
+    # paper_fig8's 5° bearings among ten landmarks: not even the oracle
+    # reaches 95 % recall.
+    noisy = bs.metrics.association_oracle(bs.simulate("paper_fig8", seed=0).head(20.0))
+    assert noisy["precision_at_recall"] is None
+    assert noisy["precision"] < 0.95
+
+
+def test_the_oracle_refuses_what_it_cannot_score() -> None:
+    log = bs.simulate("slip_patch", seed=0).head(5.0)
+    with pytest.raises(ValueError, match="recall"):
+        bs.metrics.association_oracle(log, recall=1.5)
+    with pytest.raises(ValueError, match=r"bearing σ"):
+        bs.metrics.association_oracle(log, bearing_sigma=float("nan"))

@@ -139,10 +139,18 @@ impl OracleBearing {
 /// pose is known (interpolated between ground-truth samples at most
 /// [`bearing_slam_io::mrclam::DEFAULT_MAX_GROUND_TRUTH_GAP_S`] apart;
 /// scans outside are skipped). A scan's landmarks are the static ids among
-/// its bearings; a static id without a true position in the log is an error.
+/// its bearings. Errors: an invalid model or log (a non-finite bearing,
+/// time out of order, …: [`SensorLog::validate`]), a log without ground
+/// truth, a static id without a true position.
 pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<OraclePosteriors> {
     model.validate()?;
+    log.validate()?;
     let track = log.ground_truth();
+    if track.is_empty() {
+        return Err(SlamError::Mismatch(
+            "the association oracle needs the log's ground-truth poses, and this log has none",
+        ));
+    }
     let mut out = OraclePosteriors::default();
     for event in &log.events {
         let EventKind::Bearings(scan) = &event.kind else {
@@ -617,6 +625,26 @@ mod tests {
             panic!("landmark 4 has no true position");
         };
         assert!(matches!(err, SlamError::UnknownLandmark(4)), "{err}");
+    }
+
+    #[test]
+    fn a_corrupt_log_or_one_without_truth_is_refused() {
+        let mut log = log_at_rest(&[(1, 5.0, 0.0)], 0.01, 2);
+        if let Some(EventKind::Bearings(scan)) = log.events.last_mut().map(|e| &mut e.kind) {
+            scan[0].bearing = f64::NAN;
+        }
+        let Err(err) = oracle_posteriors(&log, &OracleModel::new(0.01)) else {
+            panic!("a NaN bearing was accepted");
+        };
+        assert!(err.to_string().contains("bearing"), "{err}");
+        let mut blind = log_at_rest(&[(1, 5.0, 0.0)], 0.01, 2);
+        blind
+            .events
+            .retain(|e| !matches!(e.kind, EventKind::GroundTruth(_)));
+        let Err(err) = oracle_posteriors(&blind, &OracleModel::new(0.01)) else {
+            panic!("a log without ground truth was accepted");
+        };
+        assert!(err.to_string().contains("ground-truth"), "{err}");
     }
 
     #[test]

@@ -54,6 +54,7 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(metrics::pose_nees, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::nis, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::nees_summary, m)?)?;
+    m.add_function(wrap_pyfunction!(metrics::association_oracle, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::chi2_quantile, m)?)?;
     m.add_function(wrap_pyfunction!(metrics::chi2_interval, m)?)?;
     m.add_function(wrap_pyfunction!(models::diff_drive, m)?)?;

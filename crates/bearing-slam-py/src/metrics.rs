@@ -1,11 +1,14 @@
-//! Trajectory and consistency metrics: ATE, RPE, NEES, NIS, χ² bounds.
+//! Trajectory and consistency metrics: ATE, RPE, NEES, NIS, χ² bounds, and
+//! the association oracle.
 
 use crate::convert::{In1, In2, mat, pose, poses, vec3};
 use crate::errors::SlamResultExt;
+use crate::log::PySensorLog;
 use bearing_slam::core::Pose2;
 use bearing_slam::core::metrics::{self, Alignment};
 use bearing_slam::core::nalgebra::{DMatrix, DVector};
 use bearing_slam::core::stats;
+use bearing_slam::eval::association_oracle::{OracleModel, oracle_bound, oracle_posteriors};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -131,4 +134,55 @@ pub(crate) fn chi2_quantile(dof: f64, p: f64) -> PyResult<f64> {
 #[pyo3(signature = (dof, runs = 1, confidence = 0.95))]
 pub(crate) fn chi2_interval(dof: f64, runs: usize, confidence: f64) -> PyResult<(f64, f64)> {
     stats::chi2_interval(dof, runs, confidence).py()
+}
+
+/// The best association any method could reach on `log`
+/// (`bearing_slam_eval::association_oracle`): each scan's bearings paired
+/// with the landmarks it saw by the exact posterior of every one-to-one
+/// pairing, given the log's ground-truth poses and landmark positions and
+/// Gaussian bearing noise `bearing_sigma` (radians; default the log's
+/// stated σ). Dict `bearings, left_out, landmark_bearings, precision,
+/// recall` (the oracle's own decisions), `precision_at_recall` (None when
+/// `recall` is never reached), `recall_at_precision`, `recall_target`,
+/// `precision_target`: an upper bound on any associator's precision at
+/// that recall.
+#[pyfunction]
+#[pyo3(signature = (log, bearing_sigma = None, recall = 0.95, precision = 0.99))]
+pub(crate) fn association_oracle<'py>(
+    py: Python<'py>,
+    log: &PySensorLog,
+    bearing_sigma: Option<f64>,
+    recall: f64,
+    precision: f64,
+) -> PyResult<Bound<'py, PyDict>> {
+    for (name, value) in [("recall", recall), ("precision", precision)] {
+        if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
+            return Err(PyValueError::new_err(format!(
+                "association_oracle: {name} must be in [0, 1], got {value}"
+            )));
+        }
+    }
+    let sigma = bearing_sigma
+        .or(log.inner.info.bearing_sigma_rad)
+        .ok_or_else(|| {
+            PyValueError::new_err(
+                "association_oracle: the log states no bearing σ; pass bearing_sigma (radians)",
+            )
+        })?;
+    let inner = &log.inner;
+    let posteriors = py
+        .detach(|| oracle_posteriors(inner, &OracleModel::new(sigma)))
+        .py()?;
+    let bound = oracle_bound(&posteriors.bearings, recall, precision);
+    let d = PyDict::new(py);
+    d.set_item("bearings", bound.bearings)?;
+    d.set_item("left_out", posteriors.skipped)?;
+    d.set_item("landmark_bearings", bound.landmark_bearings)?;
+    d.set_item("precision", bound.precision)?;
+    d.set_item("recall", bound.recall)?;
+    d.set_item("precision_at_recall", bound.precision_at_recall)?;
+    d.set_item("recall_at_precision", bound.recall_at_precision)?;
+    d.set_item("recall_target", bound.recall_target)?;
+    d.set_item("precision_target", bound.precision_target)?;
+    Ok(d)
 }
