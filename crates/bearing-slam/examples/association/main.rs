@@ -66,7 +66,9 @@ struct Row {
 }
 
 /// `base` with association `method` and the options read from the
-/// environment: `ASSOCIATION_TRACK_GAP_S` (seconds), and `0` or `1` in
+/// environment: `ASSOCIATION_TRACK_GAP_S` (seconds),
+/// `ASSOCIATION_MOVING_FACTOR` (the moving-object removal's factor, unset:
+/// off), and `0` or `1` in
 /// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
 /// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
 /// turn that option of [`AssociationConfig`] off or on (unset: its default);
@@ -101,6 +103,10 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
             .ok()
             .and_then(|s| s.parse().ok()),
         exclusive_track_births: switch("ASSOCIATION_EXCLUSION", d.exclusive_track_births),
+        moving_object_nis_factor: std::env::var("ASSOCIATION_MOVING_FACTOR")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .or(d.moving_object_nis_factor),
         merge_duplicates: switch("ASSOCIATION_MERGE", d.merge_duplicates),
         associate_tracks: switch("ASSOCIATION_TRACK_PAIRING", d.associate_tracks),
         skip_ambiguous_sightings: switch(
