@@ -16,7 +16,7 @@ RUST_SOURCES := $(shell find crates -name '*.rs' -o -name 'Cargo.toml') Cargo.to
 	rust-test venv develop py-lint py-test docs wheel-check proptest-explore
 
 help:
-	@echo "make demo        - simulate paper_fig4 and slip_patch; MTE, MTE-clone, MTE-history and PI-SR on each (demo_output/)"
+	@echo "make demo        - simulate paper_fig4 and slip_patch; the default (auto), MTE, MTE-clone, MTE-history and PI-SR on each (demo_output/)"
 	@echo "make test        - lint (Rust fmt, clippy, rustdoc; ruff, mypy, stubtest), then cargo test and pytest (notebooks included)"
 	@echo "make lint        - formatting checks, lints, rustdoc and the docs site only (Rust and Python): rust-lint rust-doc py-lint docs"
 	@echo "make format      - rewrite the sources: cargo fmt, ruff format, ruff check --fix"

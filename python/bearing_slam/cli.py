@@ -83,8 +83,10 @@ __all__ = ["DEMO_RUNS", "DEMO_SCENARIOS", "main"]
 DEMO_SCENARIOS = ("paper_fig4", "slip_patch")
 
 #: Runs of ``bearing-slam demo``: (folder label, init of :data:`RUN_INITS`,
-#: extra Config parameters).
+#: extra Config parameters): the library's default first, then the paper's
+#: methods.
 DEMO_RUNS: tuple[tuple[str, str, dict[str, float]], ...] = (
+    (DEFAULT_INIT, DEFAULT_INIT, {}),
     ("mte", "mte", {}),
     ("mte-clone", "mte-clone", {}),
     ("mte-history", "mte-history", {}),

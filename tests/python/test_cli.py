@@ -9,6 +9,7 @@ from pathlib import Path
 import pytest
 from mcap.reader import make_reader
 
+import bearing_slam as bs
 from conftest import cli
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -142,8 +143,11 @@ def test_demo(tmp_path: Path) -> None:
     assert "slip_patch" in r.stdout
     assert "ATE [m]" in r.stdout
     folders = sorted(p.name for p in out.iterdir() if p.is_dir())
-    assert len(folders) == 8
+    assert len(folders) == 10
     for scenario in ("paper_fig4", "slip_patch"):
+        default = check_outputs(out / f"{scenario}_{bs.vocabulary.DEFAULT_INIT}")
+        assert default["init"] == bs.vocabulary.DEFAULT_INIT
+        assert default["ate_rmse_m"] < default["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
         m = check_outputs(out / f"{scenario}_mte")
         assert m["ate_rmse_m"] < m["dead_reckoning_ate_rmse_m"]  # type: ignore[operator]
         check_outputs(out / f"{scenario}_mte-clone")

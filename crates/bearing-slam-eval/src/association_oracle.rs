@@ -12,8 +12,8 @@
 //! where the oracle misses them, the sensor's noise and the landmarks'
 //! layout put them out of reach.
 //!
-//! The model (multi-target tracking's measurement-to-target posterior,
-//! Bar-Shalom & Li, *Multitarget-Multisensor Tracking*, §6): each landmark
+//! The model (the joint association events of JPDA, Fortmann, Bar-Shalom
+//! & Scheffe 1983, with the targets' states known): each landmark
 //! the scan saw gives at most one bearing, `z = h(x, l) + v` with
 //! `v ~ N(0, σ²)` (the bearing of [`bearing_to_point`], Munguía & Grau (9));
 //! the other bearings are clutter, uniform over the circle. A pairing of

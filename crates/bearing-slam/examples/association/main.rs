@@ -186,6 +186,16 @@ fn pct(x: f64) -> String {
     format!("{:.1}", 100.0 * x)
 }
 
+/// The rows of the `sim` and `oracle` tables for each scenario: (clutter
+/// bearings per scan, pacing distractor, dense twins).
+pub(crate) const VARIANTS: [(f64, bool, bool); 5] = [
+    (0.0, false, false),
+    (1.0, false, false),
+    (5.0, false, false),
+    (0.0, true, false),
+    (0.0, false, true),
+];
+
 /// Scenario `name` with `clutter` false bearings per scan, the pacing
 /// distractor and the dense twins as asked, and the descriptors of
 /// `ASSOCIATION_DESCRIPTORS`.
@@ -237,13 +247,7 @@ fn sim(seeds: u64, first_seed: u64) -> Res<()> {
         if only.as_deref().is_some_and(|o| o != name) {
             continue;
         }
-        for (clutter, distractor, dense) in [
-            (0.0, false, false),
-            (1.0, false, false),
-            (5.0, false, false),
-            (0.0, true, false),
-            (0.0, false, true),
-        ] {
+        for (clutter, distractor, dense) in VARIANTS {
             // ASSOCIATION_TARGETS_ONLY: the target rows (clutter 0, 1, 5).
             if (distractor || dense) && std::env::var_os("ASSOCIATION_TARGETS_ONLY").is_some() {
                 continue;

@@ -5,7 +5,7 @@
 //! posterior). Its precision at 95 % recall bounds issue 16's "precision
 //! ≥ 99 %, recall ≥ 95 %" from above.
 
-use crate::{Res, pct, variant};
+use crate::{Res, VARIANTS, pct, variant};
 use bearing_slam::eval::association_oracle::{
     MAX_GROUP_LANDMARKS, OracleBound, OracleModel, OraclePosteriors, oracle_bound,
     oracle_posteriors,
@@ -53,13 +53,7 @@ pub(crate) fn sim_oracle(seeds: u64, first_seed: u64) -> Res<()> {
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     eprintln!("bearings of groups of more than {MAX_GROUP_LANDMARKS} landmarks are left out");
     for name in ["paper_fig8", "slip_patch"] {
-        for (clutter, distractor, dense) in [
-            (0.0, false, false),
-            (1.0, false, false),
-            (5.0, false, false),
-            (0.0, true, false),
-            (0.0, false, true),
-        ] {
+        for (clutter, distractor, dense) in VARIANTS {
             let mut pooled = OraclePosteriors::default();
             for seed in first_seed..first_seed + seeds {
                 let scenario = variant(name, seed, clutter, distractor, dense)?;
