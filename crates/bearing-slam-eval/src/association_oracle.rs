@@ -170,6 +170,68 @@ pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<OracleP
     Ok(out)
 }
 
+/// `log` with every bearing relabelled by the oracle's decision: the id of
+/// the landmark it most probably belongs to (each landmark once per scan:
+/// the most probable pairs first), or a fresh clutter id when clutter is
+/// more probable. A bearing the oracle cannot score (no true
+/// pose at its scan, or a group of more than [`MAX_GROUP_LANDMARKS`]
+/// landmarks) keeps its true id, which flatters the relabelled log. Run
+/// with the ids known, it shows what the best hard pairing a method could
+/// make, deciding each scan with the true state, does to the estimate.
+/// Errors as [`oracle_posteriors`].
+pub fn oracle_relabelled(log: &SensorLog, model: &OracleModel) -> Result<SensorLog> {
+    model.validate()?;
+    log.validate()?;
+    let track = log.ground_truth();
+    if track.is_empty() {
+        return Err(SlamError::Mismatch(
+            "the association oracle needs the log's ground-truth poses, and this log has none",
+        ));
+    }
+    let mut out = log.clone();
+    let mut next_clutter = bearing_slam_core::log::CLUTTER_ID_START + (1 << 40);
+    for event in &mut out.events {
+        let time = event.time;
+        let EventKind::Bearings(scan) = &mut event.kind else {
+            continue;
+        };
+        let Some(pose) = interpolate_pose(&track, time) else {
+            continue;
+        };
+        let bearings: Vec<(u64, f64)> = scan.iter().map(|o| (o.landmark_id, o.bearing)).collect();
+        let marginals = scan_marginals(log, &pose, &bearings, model)?;
+        // One landmark per bearing and one bearing per landmark: the pairs
+        // taken most probable first, each while both are free and it is
+        // likelier than the bearing being clutter.
+        let mut pairs: Vec<(f64, usize, u64)> = marginals
+            .iter()
+            .enumerate()
+            .flat_map(|(j, row)| row.iter().flatten().map(move |&(id, p)| (p, j, id)))
+            .collect();
+        pairs.sort_by(|a, b| b.0.total_cmp(&a.0));
+        let mut chosen: Vec<Option<u64>> = vec![None; scan.len()];
+        let mut taken = std::collections::BTreeSet::new();
+        for (p, j, id) in pairs {
+            let clutter = marginals[j]
+                .as_ref()
+                .map_or(0.0, |row| 1.0 - row.iter().map(|(_, q)| q).sum::<f64>());
+            if chosen[j].is_none() && p > clutter && taken.insert(id) {
+                chosen[j] = Some(id);
+            }
+        }
+        for ((observation, row), choice) in scan.iter_mut().zip(&marginals).zip(chosen) {
+            if row.is_none() {
+                continue;
+            }
+            observation.landmark_id = choice.unwrap_or_else(|| {
+                next_clutter += 1;
+                next_clutter
+            });
+        }
+    }
+    Ok(out)
+}
+
 /// The posteriors of one scan's `bearings` (true id, bearing) from `pose`
 /// (`None` for a bearing of a group too large to sum over).
 fn scan_posteriors(
@@ -179,6 +241,37 @@ fn scan_posteriors(
     bearings: &[(u64, f64)],
     model: &OracleModel,
 ) -> Result<Vec<Option<OracleBearing>>> {
+    Ok(bearings
+        .iter()
+        .zip(scan_marginals(log, pose, bearings, model)?)
+        .map(|(&(truth, _), row)| {
+            let row = row?;
+            let total: f64 = row.iter().map(|(_, p)| p).sum();
+            let best = row.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
+            Some(OracleBearing {
+                time,
+                truth,
+                best,
+                clutter_probability: (1.0 - total).max(0.0),
+            })
+        })
+        .collect())
+}
+
+/// One bearing's probability of each landmark it is gated with, as
+/// (landmark id, probability).
+type Marginals = Vec<(u64, f64)>;
+
+/// For each of one scan's `bearings` (true id, bearing) seen from `pose`,
+/// the probability of each landmark of the scan it is gated with, as
+/// (landmark id, probability); `None` for a bearing of a group too large to
+/// sum over.
+fn scan_marginals(
+    log: &SensorLog,
+    pose: &Pose2,
+    bearings: &[(u64, f64)],
+    model: &OracleModel,
+) -> Result<Vec<Option<Marginals>>> {
     // The landmarks the scan saw, with their true bearings.
     let vehicle = Vector3::new(pose.x, pose.y, pose.theta);
     let mut seen: BTreeMap<u64, f64> = BTreeMap::new();
@@ -211,24 +304,9 @@ fn scan_posteriors(
             }
         }
     }
-    let marginals = pair_marginals(&edges, landmarks.len());
-    Ok(bearings
-        .iter()
-        .zip(marginals)
-        .map(|(&(truth, _), row)| {
-            let row = row?;
-            let total: f64 = row.iter().map(|(_, p)| p).sum();
-            let best = row
-                .iter()
-                .max_by(|a, b| a.1.total_cmp(&b.1))
-                .map(|&(l, p)| (landmarks[l].0, p));
-            Some(OracleBearing {
-                time,
-                truth,
-                best,
-                clutter_probability: (1.0 - total).max(0.0),
-            })
-        })
+    Ok(pair_marginals(&edges, landmarks.len())
+        .into_iter()
+        .map(|row| row.map(|r| r.into_iter().map(|(l, p)| (landmarks[l].0, p)).collect()))
         .collect())
 }
 
@@ -615,6 +693,44 @@ mod tests {
                 .iter()
                 .all(|b| b.truth == 100 && b.best_is_correct())
         );
+    }
+
+    #[test]
+    fn the_relabelled_log_carries_the_oracles_decisions() {
+        let sigma = 1f64.to_radians();
+        let landmarks = [(1, 5.0, 0.0), (2, 5.0, 0.01), (3, 0.0, 5.0)];
+        let log = log_at_rest(&landmarks, sigma, 200);
+        let model = OracleModel::new(sigma);
+        let decided = oracle_posteriors(&log, &model).expect("valid log").bearings;
+        let relabelled = oracle_relabelled(&log, &model).expect("valid log");
+        let ids: Vec<u64> = relabelled
+            .events
+            .iter()
+            .filter_map(|e| match &e.kind {
+                EventKind::Bearings(scan) => Some(scan.iter().map(|o| o.landmark_id)),
+                _ => None,
+            })
+            .flatten()
+            .collect();
+        assert_eq!(ids.len(), decided.len());
+        // Each scan's two twin bearings go to the two twins, one each.
+        for scan in relabelled.events.iter().filter_map(|e| match &e.kind {
+            EventKind::Bearings(scan) => Some(scan),
+            _ => None,
+        }) {
+            let mut twins: Vec<u64> = scan.iter().map(|o| o.landmark_id).take(2).collect();
+            twins.sort_unstable();
+            assert_eq!(twins, vec![1, 2]);
+            assert_eq!(scan[2].landmark_id, 3);
+        }
+        // The 400 bearings of the twins are swapped about half of the time;
+        // landmark 3's 200 never.
+        let swapped = ids
+            .iter()
+            .zip(&decided)
+            .filter(|(id, b)| **id != b.truth)
+            .count();
+        assert!((140..260).contains(&swapped), "{swapped}");
     }
 
     #[test]

@@ -58,8 +58,8 @@ const METHODS: [AssociationMethod; 4] = [
 ];
 
 /// One run's numbers.
-struct Row {
-    ate: f64,
+pub(crate) struct Row {
+    pub(crate) ate: f64,
     score: Option<AssociationScore>,
     /// (candidate landmarks, nodes, seconds) per scan.
     costs: Vec<(usize, usize, f64)>,
@@ -148,7 +148,7 @@ fn descriptor_setting() -> Option<AppearanceSpec> {
     })
 }
 
-fn run_one(
+pub(crate) fn run_one(
     log: &SensorLog,
     base: &RunConfig,
     method: AssociationMethod,
