@@ -143,7 +143,7 @@ def test_demo(tmp_path: Path) -> None:
     assert "slip_patch" in r.stdout
     assert "ATE [m]" in r.stdout
     folders = sorted(p.name for p in out.iterdir() if p.is_dir())
-    assert len(folders) == 10
+    assert len(folders) == 10  # 2 scenarios x (the default, MTE, MTE-clone, MTE-history, PI-SR)
     for scenario in ("paper_fig4", "slip_patch"):
         default = check_outputs(out / f"{scenario}_{bs.vocabulary.DEFAULT_INIT}")
         assert default["init"] == bs.vocabulary.DEFAULT_INIT

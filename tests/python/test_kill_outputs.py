@@ -20,6 +20,7 @@ from pathlib import Path
 import matplotlib.image as mpimg
 
 import bearing_slam as bs
+from bearing_slam.cli import DEMO_RUNS, DEMO_SCENARIOS
 
 RUN_FILES = ("metrics.json", "trajectory.png", "pose_errors.png", "nees.png", "estimate.mcap")
 MOMENTS = 8
@@ -149,4 +150,5 @@ def test_demo_killed_leaves_one_seed_only(tmp_path: Path) -> None:
                 check_complete(folder / name)
             seeds.add(json.loads((folder / "metrics.json").read_text())["seed"])
         assert len(seeds) == 1, f"folders from two seeds: {seeds}"
-        assert len([p for p in out.iterdir() if p.is_dir()]) == 8
+        runs = len(DEMO_SCENARIOS) * len(DEMO_RUNS)
+        assert len([p for p in out.iterdir() if p.is_dir()]) == runs
