@@ -1,0 +1,279 @@
+//! Unit tests of the association oracle (`association_oracle.rs`).
+
+use super::*;
+
+/// Brute force: every one-to-one partial pairing enumerated.
+fn brute_force(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Vec<Vec<(usize, f64)>> {
+    fn walk(
+        j: usize,
+        used: u32,
+        weight: f64,
+        pairs: &mut Vec<Option<usize>>,
+        edges: &[Vec<(usize, f64)>],
+        acc: &mut Vec<BTreeMap<usize, f64>>,
+        total: &mut f64,
+    ) {
+        if j == edges.len() {
+            *total += weight;
+            for (b, p) in pairs.iter().enumerate() {
+                if let Some(l) = p {
+                    *acc[b].entry(*l).or_default() += weight;
+                }
+            }
+            return;
+        }
+        pairs.push(None);
+        walk(j + 1, used, weight, pairs, edges, acc, total);
+        pairs.pop();
+        for &(l, w) in &edges[j] {
+            if used & (1 << l) == 0 {
+                pairs.push(Some(l));
+                walk(j + 1, used | (1 << l), weight * w, pairs, edges, acc, total);
+                pairs.pop();
+            }
+        }
+    }
+    let _ = landmarks;
+    let mut acc = vec![BTreeMap::new(); edges.len()];
+    let mut total = 0.0;
+    walk(0, 0, 1.0, &mut Vec::new(), edges, &mut acc, &mut total);
+    edges
+        .iter()
+        .enumerate()
+        .map(|(j, row)| {
+            row.iter()
+                .map(|&(l, _)| (l, acc[j].get(&l).copied().unwrap_or(0.0) / total))
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn the_dynamic_programme_equals_enumerating_every_pairing() {
+    // Two groups: bearings 0-2 with landmarks 0-2 crossing, bearing 3
+    // alone with landmark 3, bearing 4 gated with nothing.
+    let edges = vec![
+        vec![(0, 5.0), (1, 2.0)],
+        vec![(0, 3.0), (1, 4.0), (2, 0.5)],
+        vec![(1, 1.0), (2, 7.0)],
+        vec![(3, 9.0)],
+        vec![],
+    ];
+    let exact: Vec<_> = pair_marginals(&edges, 4)
+        .into_iter()
+        .map(|row| row.expect("four landmarks are within the limit"))
+        .collect();
+    let brute = brute_force(&edges, 4);
+    for (row, want) in exact.iter().zip(&brute) {
+        assert_eq!(row.len(), want.len());
+        for ((l, p), (m, q)) in row.iter().zip(want) {
+            assert_eq!(l, m);
+            assert!((p - q).abs() < 1e-12, "{p} vs {q}");
+        }
+    }
+    // A lone pair of weight 9 against staying unpaired (weight 1).
+    assert!((exact[3][0].1 - 0.9).abs() < 1e-12);
+    assert!(exact[4].is_empty());
+}
+
+fn bearing(truth: u64, best: Option<(u64, f64)>) -> OracleBearing {
+    let clutter_probability = 1.0 - best.map_or(0.0, |b| b.1);
+    OracleBearing {
+        time: 0.0,
+        truth,
+        best,
+        clutter_probability,
+    }
+}
+
+#[test]
+fn the_curve_pairs_the_most_confident_bearings_first() {
+    // Four landmark bearings: three confident and right, one unsure and
+    // wrong; one clutter bearing called clutter.
+    let bearings = [
+        bearing(1, Some((1, 0.99))),
+        bearing(2, Some((2, 0.98))),
+        bearing(3, Some((3, 0.97))),
+        bearing(4, Some((3, 0.6))),
+        bearing(bearing_slam_core::log::CLUTTER_ID_START, Some((2, 0.1))),
+    ];
+    let bound = oracle_bound(&bearings, 0.75, 0.99);
+    assert_eq!(bound.landmark_bearings, 4);
+    assert!((bound.precision - 0.75).abs() < 1e-12);
+    assert!((bound.recall - 0.75).abs() < 1e-12);
+    assert_eq!(bound.precision_at_recall, Some(1.0));
+    assert!((bound.recall_at_precision - 0.75).abs() < 1e-12);
+    // Full recall is out of reach: the fourth is paired wrongly.
+    assert_eq!(oracle_bound(&bearings, 1.0, 0.99).precision_at_recall, None);
+}
+
+/// A log of `scans` scans from a robot at rest at the origin (facing
+/// +x) seeing `landmarks` with bearing noise `sigma`.
+fn log_at_rest(landmarks: &[(u64, f64, f64)], sigma: f64, scans: usize) -> SensorLog {
+    use bearing_slam_core::log::{BearingObservation, Event, LandmarkTruth};
+    use rand::SeedableRng;
+    use rand_distr::{Distribution, Normal};
+    let mut rng = rand::rngs::StdRng::seed_from_u64(7);
+    let noise = Normal::new(0.0, sigma).expect("σ is positive");
+    let mut log = SensorLog {
+        landmarks: landmarks
+            .iter()
+            .map(|&(id, x, y)| LandmarkTruth { id, x, y })
+            .collect(),
+        ..SensorLog::default()
+    };
+    for k in 0..scans {
+        let time = k as f64 * 0.1;
+        log.events.push(Event {
+            time,
+            kind: EventKind::GroundTruth(Pose2::default()),
+        });
+        let scan = landmarks
+            .iter()
+            .map(|&(id, x, y)| {
+                BearingObservation::new(id, wrap_angle(y.atan2(x) + noise.sample(&mut rng)))
+            })
+            .collect();
+        log.events.push(Event {
+            time,
+            kind: EventKind::Bearings(scan),
+        });
+    }
+    log
+}
+
+#[test]
+fn look_alikes_are_a_coin_flip_and_a_lone_landmark_is_certain() {
+    // Landmarks 1 and 2 are 0.11° apart seen with 1° noise; landmark 3
+    // is 90° away from both.
+    let sigma = 1f64.to_radians();
+    let log = log_at_rest(&[(1, 5.0, 0.0), (2, 5.0, 0.01), (3, 0.0, 5.0)], sigma, 400);
+    let bearings = oracle_posteriors(&log, &OracleModel::new(sigma))
+        .expect("every landmark has a true position")
+        .bearings;
+    assert_eq!(bearings.len(), 1200);
+    let share = |ids: &[u64]| {
+        let of: Vec<_> = bearings.iter().filter(|b| ids.contains(&b.truth)).collect();
+        of.iter().filter(|b| b.best_is_correct()).count() as f64 / of.len() as f64
+    };
+    assert_eq!(share(&[3]), 1.0);
+    let twins = share(&[1, 2]);
+    assert!((0.4..0.6).contains(&twins), "twins paired right {twins}");
+    // Every probability of the twins is near one half: the two
+    // pairings' likelihoods differ by exp((z₁ − z₂)(h₁ − h₂)/σ²), at
+    // most e^0.5 for bearings 4σ apart.
+    for b in bearings.iter().filter(|b| b.truth != 3) {
+        let (_, p) = b.best.expect("a twin is gated with both twins");
+        assert!((0.5..0.7).contains(&p), "{p}");
+    }
+    let bound = oracle_bound(&bearings, 0.95, 0.99);
+    assert_eq!(bound.precision_at_recall, None);
+    assert!((bound.recall_at_precision - 1.0 / 3.0).abs() < 0.01);
+}
+
+#[test]
+fn a_group_too_large_to_sum_is_left_out_and_counted() {
+    // 13 landmarks within 0.6° of one another (σ = 1°) and one far away.
+    let mut landmarks: Vec<(u64, f64, f64)> = (0..=MAX_GROUP_LANDMARKS as u64)
+        .map(|i| (i + 1, 5.0, 0.005 * i as f64))
+        .collect();
+    landmarks.push((100, 0.0, 5.0));
+    let sigma = 1f64.to_radians();
+    let posteriors =
+        oracle_posteriors(&log_at_rest(&landmarks, sigma, 3), &OracleModel::new(sigma))
+            .expect("every landmark has a true position");
+    assert_eq!(posteriors.skipped, 3 * (MAX_GROUP_LANDMARKS + 1));
+    assert_eq!(posteriors.bearings.len(), 3);
+    assert!(
+        posteriors
+            .bearings
+            .iter()
+            .all(|b| b.truth == 100 && b.best_is_correct())
+    );
+}
+
+#[test]
+fn the_relabelled_log_carries_the_oracles_decisions() {
+    let sigma = 1f64.to_radians();
+    let landmarks = [(1, 5.0, 0.0), (2, 5.0, 0.01), (3, 0.0, 5.0)];
+    let log = log_at_rest(&landmarks, sigma, 200);
+    let model = OracleModel::new(sigma);
+    let decided = oracle_posteriors(&log, &model).expect("valid log").bearings;
+    let relabelled = oracle_relabelled(&log, &model).expect("valid log");
+    let ids: Vec<u64> = relabelled
+        .events
+        .iter()
+        .filter_map(|e| match &e.kind {
+            EventKind::Bearings(scan) => Some(scan.iter().map(|o| o.landmark_id)),
+            _ => None,
+        })
+        .flatten()
+        .collect();
+    assert_eq!(ids.len(), decided.len());
+    // Each scan's two twin bearings go to the two twins, one each.
+    for scan in relabelled.events.iter().filter_map(|e| match &e.kind {
+        EventKind::Bearings(scan) => Some(scan),
+        _ => None,
+    }) {
+        let mut twins: Vec<u64> = scan.iter().map(|o| o.landmark_id).take(2).collect();
+        twins.sort_unstable();
+        assert_eq!(twins, vec![1, 2]);
+        assert_eq!(scan[2].landmark_id, 3);
+    }
+    // The 400 bearings of the twins are swapped about half of the time;
+    // landmark 3's 200 never.
+    let swapped = ids
+        .iter()
+        .zip(&decided)
+        .filter(|(id, b)| **id != b.truth)
+        .count();
+    assert!((140..260).contains(&swapped), "{swapped}");
+}
+
+#[test]
+fn a_landmark_without_a_true_position_is_named() {
+    let mut log = log_at_rest(&[(1, 5.0, 0.0), (4, 0.0, 5.0)], 0.01, 2);
+    log.landmarks.retain(|l| l.id != 4);
+    let Err(err) = oracle_posteriors(&log, &OracleModel::new(0.01)) else {
+        panic!("landmark 4 has no true position");
+    };
+    assert!(matches!(err, SlamError::UnknownLandmark(4)), "{err}");
+}
+
+#[test]
+fn a_corrupt_log_or_one_without_truth_is_refused() {
+    let mut log = log_at_rest(&[(1, 5.0, 0.0)], 0.01, 2);
+    if let Some(EventKind::Bearings(scan)) = log.events.last_mut().map(|e| &mut e.kind) {
+        scan[0].bearing = f64::NAN;
+    }
+    let Err(err) = oracle_posteriors(&log, &OracleModel::new(0.01)) else {
+        panic!("a NaN bearing was accepted");
+    };
+    assert!(err.to_string().contains("bearing"), "{err}");
+    let mut blind = log_at_rest(&[(1, 5.0, 0.0)], 0.01, 2);
+    blind
+        .events
+        .retain(|e| !matches!(e.kind, EventKind::GroundTruth(_)));
+    let Err(err) = oracle_posteriors(&blind, &OracleModel::new(0.01)) else {
+        panic!("a log without ground truth was accepted");
+    };
+    assert!(err.to_string().contains("ground-truth"), "{err}");
+}
+
+#[test]
+fn a_bad_model_is_refused_by_name() {
+    let log = SensorLog::default();
+    let Err(err) = oracle_posteriors(&log, &OracleModel::new(f64::NAN)) else {
+        panic!("a NaN σ was accepted");
+    };
+    assert!(err.to_string().contains("bearing σ"), "{err}");
+    let mut model = OracleModel::new(0.01);
+    model.gate_sigmas = 0.0;
+    let Err(err) = oracle_posteriors(&log, &model) else {
+        panic!("a zero gate was accepted");
+    };
+    assert!(err.to_string().contains("gate"), "{err}");
+    let mut model = OracleModel::new(0.01);
+    model.miss_probability = 1.5;
+    assert!(oracle_posteriors(&log, &model).is_err());
+}
