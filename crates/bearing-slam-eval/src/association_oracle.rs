@@ -143,14 +143,7 @@ impl OracleBearing {
 /// time out of order, …: [`SensorLog::validate`]), a log without ground
 /// truth, a static id without a true position.
 pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<OraclePosteriors> {
-    model.validate()?;
-    log.validate()?;
-    let track = log.ground_truth();
-    if track.is_empty() {
-        return Err(SlamError::Mismatch(
-            "the association oracle needs the log's ground-truth poses, and this log has none",
-        ));
-    }
+    let track = checked_truth(log, model)?;
     let mut out = OraclePosteriors::default();
     for event in &log.events {
         let EventKind::Bearings(scan) = &event.kind else {
@@ -180,14 +173,7 @@ pub fn oracle_posteriors(log: &SensorLog, model: &OracleModel) -> Result<OracleP
 /// make, deciding each scan with the true state, does to the estimate.
 /// Errors as [`oracle_posteriors`].
 pub fn oracle_relabelled(log: &SensorLog, model: &OracleModel) -> Result<SensorLog> {
-    model.validate()?;
-    log.validate()?;
-    let track = log.ground_truth();
-    if track.is_empty() {
-        return Err(SlamError::Mismatch(
-            "the association oracle needs the log's ground-truth poses, and this log has none",
-        ));
-    }
+    let track = checked_truth(log, model)?;
     let mut out = log.clone();
     let mut next_clutter = bearing_slam_core::log::CLUTTER_ID_START + (1 << 40);
     for event in &mut out.events {
@@ -230,6 +216,20 @@ pub fn oracle_relabelled(log: &SensorLog, model: &OracleModel) -> Result<SensorL
         }
     }
     Ok(out)
+}
+
+/// The log's ground-truth poses, once the model and the log are checked:
+/// an invalid model or log, or a log without ground truth, is an error.
+fn checked_truth(log: &SensorLog, model: &OracleModel) -> Result<Vec<(f64, Pose2)>> {
+    model.validate()?;
+    log.validate()?;
+    let track = log.ground_truth();
+    if track.is_empty() {
+        return Err(SlamError::Mismatch(
+            "the association oracle needs the log's ground-truth poses, and this log has none",
+        ));
+    }
+    Ok(track)
 }
 
 /// The posteriors of one scan's `bearings` (true id, bearing) from `pose`
