@@ -27,7 +27,8 @@
 
 use bearing_slam_core::log::{EventKind, SensorLog, TruthKind, truth_kind};
 use bearing_slam_core::measurement::bearing_to_point;
-use bearing_slam_core::nalgebra::{Vector2, Vector3};
+use bearing_slam_core::nalgebra::{Matrix1, Vector1, Vector2, Vector3};
+use bearing_slam_core::particle::landmark_ekf::gaussian_log_density;
 use bearing_slam_core::{Pose2, Result, SlamError, wrap_angle};
 use bearing_slam_io::mrclam::interpolate_pose;
 use std::collections::BTreeMap;
@@ -291,7 +292,7 @@ fn scan_marginals(
     let sigma = model.bearing_sigma_rad;
     let gate = model.gate_sigmas * sigma;
     let clutter_density = 1.0 / TAU;
-    let normal = 1.0 / (TAU.sqrt() * sigma);
+    let variance = Matrix1::new(sigma * sigma);
     // Edge weights relative to "bearing is clutter, landmark missed":
     // N(z; h, σ²) / (κ δ).
     let mut edges: Vec<Vec<(usize, f64)>> = vec![Vec::new(); bearings.len()];
@@ -299,7 +300,7 @@ fn scan_marginals(
         for (l, &(_, h)) in landmarks.iter().enumerate() {
             let e = wrap_angle(z - h);
             if e.abs() <= gate {
-                let density = normal * (-0.5 * (e / sigma).powi(2)).exp();
+                let density = gaussian_log_density(&Vector1::new(e), &variance)?.exp();
                 edges[j].push((l, density / (clutter_density * model.miss_probability)));
             }
         }
