@@ -181,3 +181,16 @@ def test_the_oracle_refuses_what_it_cannot_score() -> None:
         bs.metrics.association_oracle(log, recall=1.5)
     with pytest.raises(ValueError, match=r"bearing σ"):
         bs.metrics.association_oracle(log, bearing_sigma=float("nan"))
+
+
+def test_the_blind_oracle_does_not_know_which_landmarks_a_scan_saw() -> None:
+    # slip_patch's obstacles hide landmarks: an oracle that knows which
+    # ones each scan saw never pairs clutter with a hidden one; blind, it
+    # does, and its precision falls.
+    log = bs.simulate("slip_patch", seed=1, clutter=1.0).head(30.0)
+    seen = bs.metrics.association_oracle(log)
+    blind = bs.metrics.association_oracle(log, blind=True)
+    assert "detection_probability" not in seen
+    assert 0.5 < blind["detection_probability"] < 1.0
+    assert blind["bearings"] == seen["bearings"]
+    assert blind["precision"] < seen["precision"]

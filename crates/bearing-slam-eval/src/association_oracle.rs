@@ -25,6 +25,7 @@
 //! by dynamic programming over the subsets of landmarks a bearing could
 //! belong to (per connected group of gated pairs).
 
+use bearing_slam_core::association::marginals::pair_marginals;
 use bearing_slam_core::log::{EventKind, SensorLog, TruthKind, truth_kind};
 use bearing_slam_core::measurement::bearing_to_point;
 use bearing_slam_core::nalgebra::{Matrix1, Vector1, Vector2, Vector3};
@@ -44,6 +45,14 @@ pub struct OracleModel {
     pub gate_sigmas: f64,
     /// The chance `δ` that a landmark's bearing fell beyond the gate.
     pub miss_probability: f64,
+    /// Which landmarks a scan may have seen. `None`: the ones it did see
+    /// (the log's ids say so), each giving one bearing. `Some(P_D)`: every
+    /// landmark of the log's truth table, each giving a bearing with
+    /// probability `P_D` (the edge weight becomes `P_D N / ((1 − P_D) κ)`):
+    /// the oracle then no longer knows which landmarks were hidden (by an
+    /// obstacle, the range or the field of view), which no associator
+    /// working from its map knows either.
+    pub detection_probability: Option<f64>,
 }
 
 impl OracleModel {
@@ -55,11 +64,24 @@ impl OracleModel {
             bearing_sigma_rad,
             gate_sigmas: 5.0,
             miss_probability: 1e-6,
+            detection_probability: None,
+        }
+    }
+
+    /// [`Self::new`] without knowing which landmarks each scan saw: every
+    /// landmark of the truth table, detected with probability `P_D`
+    /// ([`detection_rate`] gives the log's own).
+    #[must_use]
+    pub fn blind(bearing_sigma_rad: f64, detection_probability: f64) -> Self {
+        Self {
+            detection_probability: Some(detection_probability),
+            ..Self::new(bearing_sigma_rad)
         }
     }
 
     fn validate(&self) -> Result<()> {
-        let checks: [(f64, bool, &'static str); 3] = [
+        let detection = self.detection_probability.unwrap_or(0.5);
+        let checks: [(f64, bool, &'static str); 4] = [
             (
                 self.bearing_sigma_rad,
                 self.bearing_sigma_rad > 0.0,
@@ -75,6 +97,11 @@ impl OracleModel {
                 self.miss_probability > 0.0 && self.miss_probability < 1.0,
                 "the miss probability must be in (0, 1)",
             ),
+            (
+                detection,
+                detection > 0.0 && detection < 1.0,
+                "the detection probability must be in (0, 1)",
+            ),
         ];
         for (value, ok, reason) in checks {
             if !(value.is_finite() && ok) {
@@ -89,12 +116,12 @@ impl OracleModel {
     }
 }
 
-/// The most landmarks one connected group of a scan may hold: the exact sum
-/// runs over their `2^k` subsets. The bearings of a larger group are left
-/// out and counted ([`OraclePosteriors::skipped`]); those are the scans
-/// where the most landmarks compete for the same bearings, so leaving them
-/// out flatters the oracle, which only strengthens a bound it misses.
-pub const MAX_GROUP_LANDMARKS: usize = 12;
+/// The most landmarks one connected group of a scan may hold. The bearings
+/// of a larger group are left out and counted ([`OraclePosteriors::skipped`]);
+/// those are the scans where the most landmarks compete for the same
+/// bearings, so leaving them out flatters the oracle, which only strengthens
+/// a bound it misses.
+pub use bearing_slam_core::association::marginals::MAX_GROUP_LANDMARKS;
 
 /// The oracle's posteriors of a log.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -219,6 +246,46 @@ pub fn oracle_relabelled(log: &SensorLog, model: &OracleModel) -> Result<SensorL
     Ok(out)
 }
 
+/// How close to 0 or 1 [`detection_rate`] may come (the oracle's `δ`).
+pub const MIN_DETECTION_RATE: f64 = 1e-6;
+
+/// The log's detection rate: its bearings of static landmarks over the
+/// scans with a known true pose times the landmarks of its truth table
+/// (what [`OracleModel::blind`] takes as `P_D`; every landmark counted as
+/// in view, so the rate of a sensor with a narrow field of view or a short
+/// range is low), kept within [`MIN_DETECTION_RATE`] of 0 and 1 so that it
+/// is a valid `P_D`. Errors as [`oracle_posteriors`], and when the log has no
+/// landmark truth or no scan.
+pub fn detection_rate(log: &SensorLog) -> Result<f64> {
+    let track = checked_truth(log, &OracleModel::new(1.0))?;
+    let (mut scans, mut bearings) = (0usize, 0usize);
+    for event in &log.events {
+        let EventKind::Bearings(scan) = &event.kind else {
+            continue;
+        };
+        if interpolate_pose(&track, event.time).is_none() {
+            continue;
+        }
+        scans += 1;
+        bearings += scan
+            .iter()
+            .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
+            .count();
+    }
+    let landmarks = log
+        .landmarks
+        .iter()
+        .filter(|l| truth_kind(l.id) == TruthKind::Landmark)
+        .count();
+    if scans == 0 || landmarks == 0 {
+        return Err(SlamError::Mismatch(
+            "the detection rate needs scans with a true pose and a landmark truth table",
+        ));
+    }
+    Ok((bearings as f64 / (scans * landmarks) as f64)
+        .clamp(MIN_DETECTION_RATE, 1.0 - MIN_DETECTION_RATE))
+}
+
 /// The log's ground-truth poses, once the model and the log are checked:
 /// an invalid model or log, or a log without ground truth, is an error.
 fn checked_truth(log: &SensorLog, model: &OracleModel) -> Result<Vec<(f64, Pose2)>> {
@@ -288,20 +355,33 @@ fn scan_marginals(
             bearing_to_point(&vehicle, &Vector2::new(truth.x, truth.y))?,
         );
     }
+    let miss_ratio = match model.detection_probability {
+        None => model.miss_probability,
+        Some(p_d) => {
+            for truth in &log.landmarks {
+                let at = Vector2::new(truth.x, truth.y);
+                if truth_kind(truth.id) == TruthKind::Landmark && (at - vehicle.xy()).norm() > 1e-9
+                {
+                    seen.insert(truth.id, bearing_to_point(&vehicle, &at)?);
+                }
+            }
+            (1.0 - p_d) / p_d
+        }
+    };
     let landmarks: Vec<(u64, f64)> = seen.into_iter().collect();
     let sigma = model.bearing_sigma_rad;
     let gate = model.gate_sigmas * sigma;
     let clutter_density = 1.0 / TAU;
     let variance = Matrix1::new(sigma * sigma);
     // Edge weights relative to "bearing is clutter, landmark missed":
-    // N(z; h, σ²) / (κ δ).
+    // N(z; h, σ²) / (κ δ), or P_D N / ((1 − P_D) κ) when blind.
     let mut edges: Vec<Vec<(usize, f64)>> = vec![Vec::new(); bearings.len()];
     for (j, &(_, z)) in bearings.iter().enumerate() {
         for (l, &(_, h)) in landmarks.iter().enumerate() {
             let e = wrap_angle(z - h);
             if e.abs() <= gate {
                 let density = gaussian_log_density(&Vector1::new(e), &variance)?.exp();
-                edges[j].push((l, density / (clutter_density * model.miss_probability)));
+                edges[j].push((l, density / (clutter_density * miss_ratio)));
             }
         }
     }
@@ -309,118 +389,6 @@ fn scan_marginals(
         .into_iter()
         .map(|row| row.map(|r| r.into_iter().map(|(l, p)| (landmarks[l].0, p)).collect()))
         .collect())
-}
-
-/// For every bearing, the probability of each landmark it is gated with
-/// (`edges[j]` = (landmark, weight)), summed over every one-to-one pairing
-/// of bearings with landmarks (a bearing or a landmark may stay unpaired,
-/// weight 1; a pairing weighs the product of its edges). `None` for the
-/// bearings of a group of more than [`MAX_GROUP_LANDMARKS`] landmarks.
-fn pair_marginals(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Vec<Option<Vec<(usize, f64)>>> {
-    // Connected groups of bearings and landmarks (union-find over the edges;
-    // landmarks are nodes bearings.len() + l).
-    let n = edges.len() + landmarks;
-    let mut parent: Vec<usize> = (0..n).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
-    for (j, row) in edges.iter().enumerate() {
-        for &(l, _) in row {
-            let (a, b) = (root(&mut parent, j), root(&mut parent, edges.len() + l));
-            parent[a] = b;
-        }
-    }
-    let mut groups: BTreeMap<usize, (Vec<usize>, Vec<usize>)> = BTreeMap::new();
-    for (j, row) in edges.iter().enumerate() {
-        if !row.is_empty() {
-            let r = root(&mut parent, j);
-            groups.entry(r).or_default().0.push(j);
-        }
-    }
-    for l in 0..landmarks {
-        let r = root(&mut parent, edges.len() + l);
-        if let Some(g) = groups.get_mut(&r) {
-            g.1.push(l);
-        }
-    }
-    let mut out = vec![Some(Vec::new()); edges.len()];
-    for (group_bearings, group_landmarks) in groups.values() {
-        if group_landmarks.len() > MAX_GROUP_LANDMARKS {
-            for &j in group_bearings {
-                out[j] = None;
-            }
-        } else {
-            group_marginals(edges, group_bearings, group_landmarks, &mut out);
-        }
-    }
-    out
-}
-
-/// [`pair_marginals`] for one connected group: forward and backward sums
-/// over the bearings in order, indexed by the subset of the group's
-/// landmarks already paired.
-fn group_marginals(
-    edges: &[Vec<(usize, f64)>],
-    bearings: &[usize],
-    landmarks: &[usize],
-    out: &mut [Option<Vec<(usize, f64)>>],
-) {
-    let local: BTreeMap<usize, usize> =
-        landmarks.iter().enumerate().map(|(i, &l)| (l, i)).collect();
-    let rows: Vec<Vec<(usize, f64)>> = bearings
-        .iter()
-        .map(|&j| edges[j].iter().map(|&(l, w)| (local[&l], w)).collect())
-        .collect();
-    let subsets = 1usize << landmarks.len();
-    let m = rows.len();
-    // forward[i][S]: weight of pairings of bearings 0..i using exactly S.
-    let mut forward = vec![vec![0.0; subsets]; m + 1];
-    forward[0][0] = 1.0;
-    for (i, row) in rows.iter().enumerate() {
-        for s in 0..subsets {
-            let f = forward[i][s];
-            if f == 0.0 {
-                continue;
-            }
-            forward[i + 1][s] += f;
-            for &(l, w) in row {
-                if s & (1 << l) == 0 {
-                    forward[i + 1][s | (1 << l)] += f * w;
-                }
-            }
-        }
-    }
-    // backward[i][S]: weight of pairings of bearings i..m given S used.
-    let mut backward = vec![vec![1.0; subsets]; m + 1];
-    for i in (0..m).rev() {
-        for s in 0..subsets {
-            let mut b = backward[i + 1][s];
-            for &(l, w) in &rows[i] {
-                if s & (1 << l) == 0 {
-                    b += w * backward[i + 1][s | (1 << l)];
-                }
-            }
-            backward[i][s] = b;
-        }
-    }
-    let total = backward[0][0];
-    for (i, row) in rows.iter().enumerate() {
-        out[bearings[i]] = Some(
-            row.iter()
-                .map(|&(l, w)| {
-                    let mass: f64 = (0..subsets)
-                        .filter(|s| s & (1 << l) == 0)
-                        .map(|s| forward[i][s] * w * backward[i + 1][s | (1 << l)])
-                        .sum();
-                    (landmarks[l], mass / total)
-                })
-                .collect(),
-        );
-    }
 }
 
 /// The oracle's precision and recall, scored as

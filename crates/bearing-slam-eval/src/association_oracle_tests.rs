@@ -2,80 +2,6 @@
 
 use super::*;
 
-/// Brute force: every one-to-one partial pairing enumerated.
-fn brute_force(edges: &[Vec<(usize, f64)>], landmarks: usize) -> Vec<Vec<(usize, f64)>> {
-    fn walk(
-        j: usize,
-        used: u32,
-        weight: f64,
-        pairs: &mut Vec<Option<usize>>,
-        edges: &[Vec<(usize, f64)>],
-        acc: &mut Vec<BTreeMap<usize, f64>>,
-        total: &mut f64,
-    ) {
-        if j == edges.len() {
-            *total += weight;
-            for (b, p) in pairs.iter().enumerate() {
-                if let Some(l) = p {
-                    *acc[b].entry(*l).or_default() += weight;
-                }
-            }
-            return;
-        }
-        pairs.push(None);
-        walk(j + 1, used, weight, pairs, edges, acc, total);
-        pairs.pop();
-        for &(l, w) in &edges[j] {
-            if used & (1 << l) == 0 {
-                pairs.push(Some(l));
-                walk(j + 1, used | (1 << l), weight * w, pairs, edges, acc, total);
-                pairs.pop();
-            }
-        }
-    }
-    let _ = landmarks;
-    let mut acc = vec![BTreeMap::new(); edges.len()];
-    let mut total = 0.0;
-    walk(0, 0, 1.0, &mut Vec::new(), edges, &mut acc, &mut total);
-    edges
-        .iter()
-        .enumerate()
-        .map(|(j, row)| {
-            row.iter()
-                .map(|&(l, _)| (l, acc[j].get(&l).copied().unwrap_or(0.0) / total))
-                .collect()
-        })
-        .collect()
-}
-
-#[test]
-fn the_dynamic_programme_equals_enumerating_every_pairing() {
-    // Two groups: bearings 0-2 with landmarks 0-2 crossing, bearing 3
-    // alone with landmark 3, bearing 4 gated with nothing.
-    let edges = vec![
-        vec![(0, 5.0), (1, 2.0)],
-        vec![(0, 3.0), (1, 4.0), (2, 0.5)],
-        vec![(1, 1.0), (2, 7.0)],
-        vec![(3, 9.0)],
-        vec![],
-    ];
-    let exact: Vec<_> = pair_marginals(&edges, 4)
-        .into_iter()
-        .map(|row| row.expect("four landmarks are within the limit"))
-        .collect();
-    let brute = brute_force(&edges, 4);
-    for (row, want) in exact.iter().zip(&brute) {
-        assert_eq!(row.len(), want.len());
-        for ((l, p), (m, q)) in row.iter().zip(want) {
-            assert_eq!(l, m);
-            assert!((p - q).abs() < 1e-12, "{p} vs {q}");
-        }
-    }
-    // A lone pair of weight 9 against staying unpaired (weight 1).
-    assert!((exact[3][0].1 - 0.9).abs() < 1e-12);
-    assert!(exact[4].is_empty());
-}
-
 fn bearing(truth: u64, best: Option<(u64, f64)>) -> OracleBearing {
     let clutter_probability = 1.0 - best.map_or(0.0, |b| b.1);
     OracleBearing {
@@ -276,4 +202,54 @@ fn a_bad_model_is_refused_by_name() {
     let mut model = OracleModel::new(0.01);
     model.miss_probability = 1.5;
     assert!(oracle_posteriors(&log, &model).is_err());
+}
+
+#[test]
+fn the_blind_oracle_does_not_know_a_hidden_landmark_was_hidden() {
+    // Landmarks 1 (ahead) and 2 (to the left) stand in the truth table, but
+    // only 1 is ever seen; every scan also holds a clutter bearing 0.2σ
+    // from where landmark 2 would be seen.
+    let sigma = 1f64.to_radians();
+    let mut log = log_at_rest(&[(1, 5.0, 0.0)], sigma, 50);
+    log.landmarks.push(bearing_slam_core::log::LandmarkTruth {
+        id: 2,
+        x: 0.0,
+        y: 5.0,
+    });
+    let clutter = bearing_slam_core::log::CLUTTER_ID_START;
+    for event in &mut log.events {
+        if let EventKind::Bearings(scan) = &mut event.kind {
+            scan.push(bearing_slam_core::log::BearingObservation::new(
+                clutter,
+                std::f64::consts::FRAC_PI_2 + 0.2 * sigma,
+            ));
+        }
+    }
+    // Half the landmark-scans gave a bearing.
+    let rate = detection_rate(&log).expect("a log with truth");
+    assert!((rate - 0.5).abs() < 1e-12, "{rate}");
+    let clutter_of = |model: &OracleModel| -> Vec<OracleBearing> {
+        oracle_posteriors(&log, model)
+            .expect("valid log")
+            .bearings
+            .into_iter()
+            .filter(|b| b.truth == clutter)
+            .collect()
+    };
+    // Knowing landmark 2 was not seen, the oracle calls every clutter
+    // bearing clutter; blind, it pairs them with landmark 2
+    // (P_D N / ((1 − P_D) κ) ≈ 22.6/0.16 ≫ 1), as an associator would.
+    assert!(
+        clutter_of(&OracleModel::new(sigma))
+            .iter()
+            .all(|b| !b.paired())
+    );
+    let blind = clutter_of(&OracleModel::blind(sigma, rate));
+    assert_eq!(blind.len(), 50);
+    assert!(
+        blind
+            .iter()
+            .all(|b| b.paired() && b.best.is_some_and(|(id, p)| id == 2 && p > 0.99))
+    );
+    assert!(OracleModel::blind(sigma, 1.0).validate().is_err());
 }

@@ -8,7 +8,9 @@ use bearing_slam::core::Pose2;
 use bearing_slam::core::metrics::{self, Alignment};
 use bearing_slam::core::nalgebra::{DMatrix, DVector};
 use bearing_slam::core::stats;
-use bearing_slam::eval::association_oracle::{OracleModel, oracle_bound, oracle_posteriors};
+use bearing_slam::eval::association_oracle::{
+    OracleModel, detection_rate, oracle_bound, oracle_posteriors,
+};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -145,15 +147,20 @@ pub(crate) fn chi2_interval(dof: f64, runs: usize, confidence: f64) -> PyResult<
 /// recall` (the oracle's own decisions), `precision_at_recall` (None when
 /// `recall` is never reached), `recall_at_precision`, `recall_target`,
 /// `precision_target`: an upper bound on any associator's precision at
-/// that recall.
+/// that recall. With `blind=True` the oracle does not know which landmarks
+/// each scan saw: every landmark of the truth table is a candidate,
+/// detected at the log's own rate (`OracleModel::blind`,
+/// `detection_rate`), as for an associator working from its map; the dict
+/// then also holds `detection_probability`.
 #[pyfunction]
-#[pyo3(signature = (log, bearing_sigma = None, recall = 0.95, precision = 0.99))]
+#[pyo3(signature = (log, bearing_sigma = None, recall = 0.95, precision = 0.99, blind = false))]
 pub(crate) fn association_oracle<'py>(
     py: Python<'py>,
     log: &PySensorLog,
     bearing_sigma: Option<f64>,
     recall: f64,
     precision: f64,
+    blind: bool,
 ) -> PyResult<Bound<'py, PyDict>> {
     for (name, value) in [("recall", recall), ("precision", precision)] {
         if !(value.is_finite() && (0.0..=1.0).contains(&value)) {
@@ -170,9 +177,16 @@ pub(crate) fn association_oracle<'py>(
             )
         })?;
     let inner = &log.inner;
-    let posteriors = py
-        .detach(|| oracle_posteriors(inner, &OracleModel::new(sigma)))
-        .py()?;
+    let detection = if blind {
+        Some(detection_rate(inner).py()?)
+    } else {
+        None
+    };
+    let model = match detection {
+        Some(p_d) => OracleModel::blind(sigma, p_d),
+        None => OracleModel::new(sigma),
+    };
+    let posteriors = py.detach(|| oracle_posteriors(inner, &model)).py()?;
     let bound = oracle_bound(&posteriors.bearings, recall, precision);
     let d = PyDict::new(py);
     d.set_item("bearings", bound.bearings)?;
@@ -184,5 +198,8 @@ pub(crate) fn association_oracle<'py>(
     d.set_item("recall_at_precision", bound.recall_at_precision)?;
     d.set_item("recall_target", bound.recall_target)?;
     d.set_item("precision_target", bound.precision_target)?;
+    if let Some(p_d) = detection {
+        d.set_item("detection_probability", p_d)?;
+    }
     Ok(d)
 }

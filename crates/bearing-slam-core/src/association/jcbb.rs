@@ -177,7 +177,7 @@ impl PairingProblem {
     }
 
     /// The individually compatible predictions of every bearing, closest first.
-    pub(super) fn compatible(&self, gate: f64) -> Vec<Vec<(usize, f64)>> {
+    pub(crate) fn compatible(&self, gate: f64) -> Vec<Vec<(usize, f64)>> {
         (0..self.bearings.len())
             .map(|i| {
                 let mut c: Vec<(usize, f64)> = (0..self.predicted.len())

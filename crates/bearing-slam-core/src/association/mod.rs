@@ -37,6 +37,7 @@
 pub mod appearance;
 pub mod depth_hypotheses;
 pub mod jcbb;
+pub mod marginals;
 pub mod ransac;
 pub mod reassociate;
 pub mod relabel;
@@ -211,6 +212,75 @@ pub struct AssociationConfig {
     /// descriptors are ignored.
     #[serde(default)]
     pub descriptors: Option<DescriptorModel>,
+    /// The posterior test of a pairing ([`PairingPosterior`]): a bearing the
+    /// method paired is used only when the pairing's posterior probability
+    /// over every one-to-one pairing of the scan reaches
+    /// [`PairingPosterior::min_probability`]; otherwise it is set aside
+    /// (neither used nor given to the tracks). `None` (the default): every
+    /// pairing the method makes is used.
+    #[serde(default)]
+    pub pairing_posterior: Option<PairingPosterior>,
+}
+
+/// The posterior test of a scan's pairings: the probabilities of the joint
+/// association events of JPDA (Fortmann, Bar-Shalom & Scheffe 1983) with
+/// the filter's predictions, summed exactly ([`marginals`]).
+///
+/// Each mapped landmark is detected with probability `P_D` and gives at
+/// most one bearing, `z = h + v` with innovation covariance `S_j = H_j P
+/// H_jᵀ + σ_z²`; the other bearings come from clutter or landmarks not
+/// mapped yet, with the density `κ` of [`NewLandmarkDensity::density`]. A
+/// pair `i → j` inside the χ²₁ gate weighs `P_D N(ν_ij; 0, S_j) / ((1 −
+/// P_D) κ)` against "bearing not a mapped landmark's, landmark missed";
+/// its posterior is its share of the summed weight of every pairing. The
+/// cross-covariances of the predictions (which JCBB uses) are left out, as
+/// JPDA does. A bearing of a connected group of more than
+/// [`marginals::MAX_GROUP_LANDMARKS`] landmarks keeps the method's decision.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PairingPosterior {
+    /// The least posterior probability of a pairing that is used, in (0, 1).
+    pub min_probability: f64,
+    /// `P_D`, the probability that a mapped landmark in view gives a
+    /// bearing, in (0, 1).
+    pub detection_probability: f64,
+    /// The density of bearings that are not mapped landmarks' (clutter and
+    /// landmarks not mapped yet).
+    pub false_bearings: NewLandmarkDensity,
+}
+
+/// The floor of `κ` (per radian) in [`PairingPosterior::pair_weight`]: with
+/// no clutter and every landmark mapped the density is 0, and a pairing's
+/// weight is then limited by this instead of infinite.
+const MIN_FALSE_DENSITY: f64 = 1e-6;
+
+impl PairingPosterior {
+    /// The weight of pair `i → j` with innovation `ν` of variance `s` (the
+    /// likelihood ratio of the type's documentation), with `mapped`
+    /// landmarks in the map.
+    #[must_use]
+    pub fn pair_weight(&self, innovation: f64, variance: f64, mapped: usize) -> f64 {
+        let density = (-0.5 * innovation * innovation / variance).exp()
+            / (std::f64::consts::TAU * variance).sqrt();
+        let kappa = self.false_bearings.density(mapped).max(MIN_FALSE_DENSITY);
+        self.detection_probability * density / ((1.0 - self.detection_probability) * kappa)
+    }
+
+    /// Checks the ranges; the error names the first value out of range.
+    pub fn validate(&self) -> Result<()> {
+        ensure_in_range(&[
+            (
+                "association.pairing_posterior.min_probability",
+                self.min_probability,
+                self.min_probability > 0.0 && self.min_probability < 1.0,
+            ),
+            (
+                "association.pairing_posterior.detection_probability",
+                self.detection_probability,
+                self.detection_probability > 0.0 && self.detection_probability < 1.0,
+            ),
+        ])?;
+        self.false_bearings.validate()
+    }
 }
 
 /// The prior of the unmapped-landmark hypothesis (the "new landmark"
@@ -303,6 +373,7 @@ impl Default for AssociationConfig {
             confirm_track_score: false,
             new_landmark_density: None,
             descriptors: None,
+            pairing_posterior: None,
         }
     }
 }
@@ -342,6 +413,9 @@ impl AssociationConfig {
         }
         if let Some(d) = &self.descriptors {
             d.validate()?;
+        }
+        if let Some(p) = &self.pairing_posterior {
+            p.validate()?;
         }
         if let Some(g) = self.track_max_gap_s
             && !(g.is_finite() && g > 0.0)

@@ -536,6 +536,25 @@ impl TrackSet {
                 return;
             }
         }
+        if point.is_some() && self.config.wedge_hypotheses == 0 && n > 3 {
+            // The first sighting defines the ray: when it does not fit the
+            // point of the others (χ²₁), it is clutter or another landmark's
+            // bearing that the sightings after it happened to fall in the
+            // wedge of, and the track is re-based on its second sighting.
+            let rest = self.tracks[t].sightings[1..].to_vec();
+            let (rest_point, rest_chi2) = self.fit(&rest);
+            if let Some(point) = &rest_point
+                && rest_chi2 <= self.consistency_limit(rest.len())
+                && self.outlier_first(&self.tracks[t].sightings[0], &rest[0], point)
+            {
+                let track = &mut self.tracks[t];
+                track.sightings = rest;
+                track.point = rest_point;
+                track.chi2 = rest_chi2;
+                track.dropped += 1;
+                return;
+            }
+        }
         if point.is_none() || chi2 <= limit {
             let track = &mut self.tracks[t];
             track.point = point;
@@ -596,6 +615,23 @@ impl TrackSet {
     fn consistency_limit(&self, sightings: usize) -> f64 {
         let dof = sightings.saturating_sub(2).clamp(1, MAX_SIGHTINGS);
         self.consistency[dof]
+    }
+
+    /// Whether a track's first sighting `old` lies outside the χ²₁ gate of
+    /// `point`, the point of its other sightings (from `next` on): the
+    /// residual's variance holds the bearing noise, the pose uncertainty
+    /// gained between the two sightings and the point's own covariance.
+    fn outlier_first(&self, old: &Sighting, next: &Sighting, point: &TrackPoint) -> bool {
+        let (x, covariance) = point;
+        let d = x - old.position();
+        let range2 = d.norm_squared().max(1e-18);
+        let grown = relative_variances(old, next);
+        let h = Vector2::new(-d.y / range2, d.x / range2);
+        let var = self.bearing_variance
+            + grown.z
+            + 0.5 * (grown.x + grown.y) / range2
+            + h.dot(&(covariance * h));
+        wrap_angle(d.y.atan2(d.x) - old.world_bearing()).powi(2) / var > self.gate
     }
 
     /// `(residual / σ)²` of a sighting at point `x`.

@@ -289,3 +289,30 @@ fn a_crossing_nearer_than_the_wedge_is_no_point() {
     assert!((x - Vector2::new(1.0, 0.3)).norm() < 0.01, "{x}");
     assert!(point_of(0.5).is_none());
 }
+
+#[test]
+fn a_track_begun_by_clutter_is_rebased_on_the_landmark_that_followed() {
+    // Scan 0 holds only a clutter bearing; every later scan the bearing of
+    // the landmark at (3, 2), which falls in the clutter ray's wedge and
+    // joins its track. The first ray does not fit the point of the others
+    // (0.04 rad off, 4σ): the track drops it and keeps the landmark's.
+    let mut s = set();
+    let joined = drive(&mut s, 0..25, |p, k| {
+        vec![if k == 0 {
+            0.55
+        } else {
+            bearing_to(p, 3.0, 2.0)
+        }]
+    });
+    assert!(joined.iter().all(|j| j == &vec![vec![101]]), "{joined:?}");
+    let track = s.get(101).expect("the track lives on");
+    assert_eq!(track.dropped, 1);
+    assert!(
+        (track.first().time - 1.0).abs() < 1e-12,
+        "first at {}",
+        track.first().time
+    );
+    let (x, _) = track.point.expect("a point");
+    assert!((x - Vector2::new(3.0, 2.0)).norm() < 0.05, "{x}");
+    assert_eq!(s.confirmed(), vec![101]);
+}

@@ -9,6 +9,7 @@
 use super::{BatchReport, BearingSlam, InitializerConfig, linearize_bearing};
 use crate::association::appearance::{Appearance, appearance_distance};
 use crate::association::jcbb::{Gates, Pairing, PairingProblem, jcbb, nearest_neighbour};
+use crate::association::marginals::set_aside_unlikely_pairings;
 use crate::association::ransac::ransac;
 use crate::association::relabel::AssociationHistory;
 use crate::association::score::{Assignment, AssociationRecord, AssociationScore, ScanCost, score};
@@ -222,6 +223,16 @@ impl BearingSlam {
                 *j = None;
             }
         }
+        let set_aside = match self.config.association.pairing_posterior {
+            Some(posterior) => set_aside_unlikely_pairings(
+                &posterior,
+                &problem,
+                gates.individual,
+                self.landmarks.len(),
+                &mut pairing,
+            ),
+            None => vec![false; bearings.len()],
+        };
         let cost = ScanCost {
             bearings: bearings.len(),
             candidates: kept.len(),
@@ -253,7 +264,7 @@ impl BearingSlam {
             })
             .collect();
         let unpaired: Vec<usize> = (0..bearings.len())
-            .filter(|&i| pairing.landmark_of[i].is_none())
+            .filter(|&i| pairing.landmark_of[i].is_none() && !set_aside[i])
             .collect();
         let pose = self.ekf.block::<3>(0)?;
         let variances = self.pose_covariance().diagonal();

@@ -102,12 +102,13 @@ fn the_online_smoother_with_the_ids_hidden_scores_its_windows_labels() {
 /// smoother with the ids hidden to its known-id run over seeds, far below
 /// both its filter and the window that only takes the filter's decisions
 /// (a pairing the filter got wrong is then a factor the window solves to
-/// convergence). Measured (clutter 2, nearest neighbour, seeds 0–5, ATE m):
-/// ids known 0.095 / 0.069 / 0.130 / 0.020 / 0.042 / 0.093 (mean 0.075);
-/// hidden, re-associated 0.103 / 0.047 / 0.140 / 0.018 / 0.056 / 0.126
-/// (0.082); hidden, the filter's decisions only 0.074 / 0.483 / 0.469 /
-/// 0.107 / 0.204 / 0.167 (0.251); the filter 0.406 / 0.384 / 0.334 / 0.127
-/// / 0.251 / 0.540 (0.340).
+/// convergence). Measured (clutter 2, nearest neighbour, seeds 0–5, ATE m;
+/// since tracks begun by clutter are re-based, 2026-11-30):
+/// ids known 0.089 / 0.068 / 0.131 / 0.023 / 0.046 / 0.091 (mean 0.075);
+/// hidden, re-associated 0.088 / 0.057 / 0.136 / 0.028 / 0.054 / 0.126
+/// (0.081); hidden, the filter's decisions only 0.087 / 0.229 / 0.143 /
+/// 0.088 / 0.182 / 0.216 (0.157; 0.251 before the re-base); the filter
+/// 0.428 / 0.264 / 0.324 / 0.092 / 0.196 / 0.463 (0.295; 0.340 before).
 #[test]
 fn the_online_smoother_with_the_ids_hidden_reassociates_its_window_to_its_known_id_run() {
     let hidden = config(AssociationMethod::NearestNeighbour);
@@ -143,7 +144,7 @@ fn the_online_smoother_with_the_ids_hidden_reassociates_its_window_to_its_known_
         "mean ATE {reassociated} against {known} with the ids known"
     );
     assert!(
-        reassociated < 0.5 * decisions_only,
+        reassociated < 0.6 * decisions_only,
         "mean ATE {reassociated} against {decisions_only} on the filter's decisions only"
     );
     assert!(

@@ -29,7 +29,7 @@
 
 use bearing_slam::core::association::score::AssociationScore;
 use bearing_slam::core::association::{
-    AssociationConfig, AssociationMethod, DescriptorModel, NewLandmarkDensity,
+    AssociationConfig, AssociationMethod, DescriptorModel, NewLandmarkDensity, PairingPosterior,
 };
 use bearing_slam::core::log::{LandmarkTruth, SensorLog};
 use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
@@ -129,8 +129,29 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
             d.new_landmark_density
         },
         descriptors: descriptor_setting().map(|s| DescriptorModel { sigma: s.sigma }),
+        pairing_posterior: std::env::var("ASSOCIATION_POSTERIOR")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .map(|min_probability| PairingPosterior {
+                min_probability,
+                detection_probability: std::env::var("ASSOCIATION_DETECTION")
+                    .ok()
+                    .and_then(|s| s.parse().ok())
+                    .unwrap_or(0.9),
+                false_bearings: prior,
+            })
+            .or(d.pairing_posterior),
         ..d
     };
+    if let Some(k) = std::env::var("ASSOCIATION_HUBER")
+        .ok()
+        .and_then(|s| s.parse().ok())
+    {
+        config.slam.robust_gate = Some(bearing_slam::core::slam::RobustGate {
+            readmit_after: None,
+            huber_threshold: Some(k),
+        });
+    }
     if let Ok(v) = std::env::var("SECOND_ORDER") {
         config.slam.second_order = v == "1";
     }

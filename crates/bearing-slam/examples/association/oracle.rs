@@ -7,9 +7,10 @@
 
 use crate::{Res, VARIANTS, pct, run_one, variant};
 use bearing_slam::core::association::{AssociationMethod, NewLandmarkDensity};
+use bearing_slam::core::log::SensorLog;
 use bearing_slam::core::runner::default_run_config;
 use bearing_slam::eval::association_oracle::{
-    MAX_GROUP_LANDMARKS, OracleBound, OracleModel, OraclePosteriors, oracle_bound,
+    MAX_GROUP_LANDMARKS, OracleBound, OracleModel, OraclePosteriors, detection_rate, oracle_bound,
     oracle_posteriors, oracle_relabelled,
 };
 use bearing_slam::eval::real_data::{CALIBRATED_PARAMETERS, EvalOptions, Method, filter_log};
@@ -48,6 +49,17 @@ fn cells(posteriors: &OraclePosteriors) -> String {
     )
 }
 
+/// The oracle's model for `log`: knowing which landmarks each scan saw, or
+/// with `ORACLE_BLIND=1` not knowing it (every landmark a candidate,
+/// detected at the log's own rate, [`detection_rate`]).
+fn oracle_model(log: &SensorLog, bearing_sigma_rad: f64) -> Res<OracleModel> {
+    Ok(if std::env::var("ORACLE_BLIND").as_deref() == Ok("1") {
+        OracleModel::blind(bearing_sigma_rad, detection_rate(log)?)
+    } else {
+        OracleModel::new(bearing_sigma_rad)
+    })
+}
+
 /// `oracle SEEDS [FIRST_SEED]`: the oracle on the `sim` table's logs, every
 /// seed's bearings pooled per row; and the mean ATE of the EKF given the
 /// true ids (`known`) and given the oracle's pairings as ids (the best hard
@@ -65,7 +77,7 @@ pub(crate) fn sim_oracle(seeds: u64, first_seed: u64) -> Res<()> {
             for seed in first_seed..first_seed + seeds {
                 let scenario = variant(name, seed, clutter, distractor, dense)?;
                 let log = simulate(&scenario)?;
-                let model = OracleModel::new(scenario.sensor.bearing_sigma_rad);
+                let model = oracle_model(&log, scenario.sensor.bearing_sigma_rad)?;
                 let posteriors = oracle_posteriors(&log, &model)?;
                 pooled.bearings.extend(posteriors.bearings);
                 pooled.skipped += posteriors.skipped;
@@ -104,11 +116,11 @@ pub(crate) fn mrclam_oracle(dir: &Path) -> Res<()> {
     options.load.keep_robot_sightings = keep_robots;
     println!("| robot {HEADER}");
     println!("|---|---|---|---|---|---|---|---|");
-    let model = OracleModel::new(MRCLAM_SCAN_SIGMA_RAD);
     let mut pooled = OraclePosteriors::default();
     for robot in 1..=5u8 {
         let loaded = load_mrclam_with(dir, robot, &options.load)?;
         let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
+        let model = oracle_model(&log, MRCLAM_SCAN_SIGMA_RAD)?;
         let posteriors = oracle_posteriors(&log, &model)?;
         println!("| {robot} | {}", cells(&posteriors));
         pooled.bearings.extend(posteriors.bearings);
