@@ -242,7 +242,14 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
     if let Some(list) = treatments() {
         return mrclam_history(&dir, &options, &list);
     }
-    for method in [Method::Mte, Method::MteClone, Method::PiSr] {
+    let initializers: Vec<Method> = match std::env::var("INITIALIZERS") {
+        Ok(list) => list
+            .split(',')
+            .map(str::parse)
+            .collect::<Result<_, _>>()?,
+        Err(_) => vec![Method::Mte, Method::MteClone, Method::PiSr],
+    };
+    for method in initializers {
         for consistency in methods() {
             let mut ates = Vec::new();
             for robot in 1..=5u8 {
