@@ -243,10 +243,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
         return mrclam_history(&dir, &options, &list);
     }
     let initializers: Vec<Method> = match std::env::var("INITIALIZERS") {
-        Ok(list) => list
-            .split(',')
-            .map(str::parse)
-            .collect::<Result<_, _>>()?,
+        Ok(list) => list.split(',').map(str::parse).collect::<Result<_, _>>()?,
         Err(_) => vec![Method::Mte, Method::MteClone, Method::PiSr],
     };
     for method in initializers {
