@@ -16,7 +16,9 @@
 //! landmarks, MTE). The runs are those of `bearing-slam experiment` (same
 //! scenarios, seeds, scoring and classification); only the filter's
 //! consistency option differs. `CONSISTENCY=oc,fej` restricts the methods,
-//! `ITERATIONS=3` makes every scan update an iterated EKF update.
+//! `ITERATIONS=3` makes every scan update an iterated EKF update,
+//! `INITIALIZERS=auto,mte` chooses the MRCLAM rows' initializers (default MTE,
+//! MTE-clone, PI-SR).
 //!
 //! `HISTORY_CORRELATION=none,whiten,decimate,visit-mean` (issue 13 item 2)
 //! runs MTE-history only, once per treatment of the waiting bearings'
