@@ -121,6 +121,9 @@ pub(crate) fn mrclam_oracle(dir: &Path) -> Res<()> {
         let loaded = load_mrclam_with(dir, robot, &options.load)?;
         let log = filter_log(&loaded, Method::Mte, &CALIBRATED_PARAMETERS)?;
         let model = oracle_model(&log, MRCLAM_SCAN_SIGMA_RAD)?;
+        if let Some(p_d) = model.detection_probability {
+            eprintln!("robot {robot}: detection rate P_D = {p_d:.3}");
+        }
         let posteriors = oracle_posteriors(&log, &model)?;
         println!("| {robot} | {}", cells(&posteriors));
         pooled.bearings.extend(posteriors.bearings);
