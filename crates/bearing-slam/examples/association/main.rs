@@ -26,6 +26,13 @@
 //! `fastslam SEEDS [FIRST_SEED]`: FastSLAM 2.0 (the default particle count)
 //! with per-particle maximum-likelihood association against FastSLAM 2.0
 //! given the ids, on the same scenarios with clutter 0, 1 and 5.
+//!
+//! Opt-in settings read from the environment (section "Tracks begun by an
+//! outlier, and the posterior test" of the results): `ASSOCIATION_POSTERIOR=p`
+//! the posterior test at `p` (`ASSOCIATION_DETECTION=P_D`, default 0.9),
+//! `ASSOCIATION_HUBER=k` a Huber weight on the paired bearings,
+//! `ORACLE_BLIND=1` the oracle without knowing which landmarks each scan
+//! saw.
 
 use bearing_slam::core::association::score::AssociationScore;
 use bearing_slam::core::association::{
