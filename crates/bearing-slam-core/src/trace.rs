@@ -108,6 +108,17 @@ pub enum SlamEvent {
         /// The landmark's measurements gated out in a row before this one.
         gated_in_row: usize,
     },
+    // --- unknown-identity mode (AssociationConfig::pairing_posterior) ---
+    /// A bearing the pairing gave to landmark `id` was set aside by the
+    /// posterior test: the pairing's posterior probability over the scan's
+    /// one-to-one pairings was below the threshold, so the bearing was
+    /// neither used nor given to the tracks.
+    PairingSetAside {
+        /// The landmark the pairing gave it to.
+        id: u64,
+        /// The pairing's posterior probability.
+        probability: f64,
+    },
 }
 
 /// Why the delayed initializer did not use a bearing of a waiting landmark.

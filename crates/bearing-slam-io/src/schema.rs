@@ -475,6 +475,7 @@ pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
             fin("event.weight", *weight)
         }
         SlamEvent::MeasurementReadmitted { nis, .. } => fin("event.nis", *nis),
+        SlamEvent::PairingSetAside { probability, .. } => fin("event.probability", *probability),
     }
 }
 
@@ -707,7 +708,9 @@ fn slam_event_schema() -> Value {
                             "measurement_rejected",
                             "diverging",
                             "measurement_down_weighted",
-                            "measurement_readmitted"
+                            "measurement_readmitted",
+                            "bearings_discarded",
+                            "pairing_set_aside"
                         ]
                     },
                     "id": id("Landmark id"),
@@ -723,6 +726,13 @@ fn slam_event_schema() -> Value {
                     "bound": number("Chi-square bound of the windowed NIS (before the factor)"),
                     "weight": number("Huber weight on a down-weighted measurement's information"),
                     "gated_in_row": id("Measurements of the landmark gated out in a row before a re-admitted one"),
+                    "count": id("Bearings of a waiting landmark the delayed initializer did not use"),
+                    "reason": {
+                        "type": "string",
+                        "description": "Why those bearings were not used",
+                        "enum": ["no_history", "history_full", "decimated", "restarted", "expired", "far_first_bearing", "wait_budget", "parallax_stalled"]
+                    },
+                    "probability": number("Posterior probability of a pairing the posterior test set aside"),
                 },
                 "required": ["kind"],
             },

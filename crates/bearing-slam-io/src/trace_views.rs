@@ -219,5 +219,11 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
                  after {gated_in_row} gated in a row"
             ),
         ),
+        SlamEvent::PairingSetAside { id, probability } => (
+            INFO,
+            format!(
+                "bearing paired with landmark {id} set aside: posterior probability {probability:.3}"
+            ),
+        ),
     }
 }

@@ -26,15 +26,17 @@ pub const MAX_GROUP_LANDMARKS: usize = 12;
 /// every bearing of `pairing` whose pair's posterior probability is below
 /// `posterior.min_probability` (the pairs within the χ²₁ `gate` of
 /// `problem` weighed by [`PairingPosterior::pair_weight`] with `mapped`
-/// landmarks in the map), and returns which bearings it set aside. A
-/// bearing of a group too large to sum over keeps its pair.
+/// landmarks in the map), and returns, for each bearing it set aside, the
+/// prediction it had been paired with and that pair's probability (`None`
+/// for the others). A bearing of a group too large to sum over keeps its
+/// pair.
 pub fn set_aside_unlikely_pairings(
     posterior: &PairingPosterior,
     problem: &PairingProblem,
     gate: f64,
     mapped: usize,
     pairing: &mut Pairing,
-) -> Vec<bool> {
+) -> Vec<Option<(usize, f64)>> {
     let edges: Vec<Vec<(usize, f64)>> = problem
         .compatible(gate)
         .iter()
@@ -50,7 +52,7 @@ pub fn set_aside_unlikely_pairings(
         })
         .collect();
     let marginals = pair_marginals(&edges, problem.predicted.len());
-    let mut set_aside = vec![false; problem.bearings.len()];
+    let mut set_aside = vec![None; problem.bearings.len()];
     for (i, j) in pairing.landmark_of.iter_mut().enumerate() {
         let (Some(jj), Some(row)) = (*j, &marginals[i]) else {
             continue;
@@ -58,7 +60,7 @@ pub fn set_aside_unlikely_pairings(
         let probability = row.iter().find(|(l, _)| *l == jj).map_or(0.0, |&(_, p)| p);
         if probability < posterior.min_probability {
             *j = None;
-            set_aside[i] = true;
+            set_aside[i] = Some((jj, probability));
         }
     }
     set_aside
@@ -228,19 +230,22 @@ mod tests {
                 < 1e-9 * w
         );
         let aside = set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing);
-        assert_eq!(aside, vec![false]);
+        assert_eq!(aside, vec![None]);
         assert_eq!(pairing.landmark_of, vec![Some(0)]);
         // Two bearings ±0.5σ either side: nearest neighbour takes one, but
         // each is the landmark's with probability about one half.
         let (problem, mut pairing, gate) = one_landmark(&[-0.01, 0.0101]);
         assert_eq!(pairing.paired(), 1);
         let aside = set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing);
-        assert_eq!(aside.iter().filter(|a| **a).count(), 1);
+        let refused: Vec<(usize, f64)> = aside.iter().flatten().copied().collect();
+        assert_eq!(refused.len(), 1);
+        assert_eq!(refused[0].0, 0);
+        assert!((0.4..0.6).contains(&refused[0].1), "{}", refused[0].1);
         assert_eq!(pairing.paired(), 0);
         // A threshold below one half keeps the closer one.
         let (problem, mut pairing, gate) = one_landmark(&[-0.01, 0.0101]);
         let aside = set_aside_unlikely_pairings(&posterior(0.45), &problem, gate, 1, &mut pairing);
-        assert_eq!(aside, vec![false, false]);
+        assert_eq!(aside, vec![None, None]);
         assert_eq!(pairing.landmark_of, vec![Some(0), None]);
     }
 

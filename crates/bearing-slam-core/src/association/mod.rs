@@ -216,8 +216,9 @@ pub struct AssociationConfig {
     /// method paired is used only when the pairing's posterior probability
     /// over every one-to-one pairing of the scan reaches
     /// [`PairingPosterior::min_probability`]; otherwise it is set aside
-    /// (neither used nor given to the tracks). `None` (the default): every
-    /// pairing the method makes is used.
+    /// (neither used nor given to the tracks, and reported as a
+    /// [`crate::trace::SlamEvent::PairingSetAside`] event). `None` (the
+    /// default): every pairing the method makes is used.
     #[serde(default)]
     pub pairing_posterior: Option<PairingPosterior>,
 }

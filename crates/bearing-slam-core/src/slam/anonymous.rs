@@ -19,6 +19,7 @@ use crate::ekf::BlockJacobian;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::log::{BearingObservation, Descriptor, ensure_bearing};
+use crate::trace::SlamEvent;
 use nalgebra::{DMatrix, Matrix1};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
@@ -231,8 +232,14 @@ impl BearingSlam {
                 self.landmarks.len(),
                 &mut pairing,
             ),
-            None => vec![false; bearings.len()],
+            None => vec![None; bearings.len()],
         };
+        for &(j, probability) in set_aside.iter().flatten() {
+            self.record(SlamEvent::PairingSetAside {
+                id: predictions[kept[j]].id,
+                probability,
+            });
+        }
         let cost = ScanCost {
             bearings: bearings.len(),
             candidates: kept.len(),
@@ -264,7 +271,7 @@ impl BearingSlam {
             })
             .collect();
         let unpaired: Vec<usize> = (0..bearings.len())
-            .filter(|&i| pairing.landmark_of[i].is_none() && !set_aside[i])
+            .filter(|&i| pairing.landmark_of[i].is_none() && set_aside[i].is_none())
             .collect();
         let pose = self.ekf.block::<3>(0)?;
         let variances = self.pose_covariance().diagonal();

@@ -161,3 +161,79 @@ fn appearance_keeps_twin_landmarks_apart() {
         assert_eq!(described.missed, 0, "{method}: {described:?}");
     }
 }
+
+/// The posterior test (`AssociationConfig::pairing_posterior`) on a
+/// cluttered run: every bearing it sets aside is in the events, with the
+/// mapped landmark it had been paired with and a probability below the
+/// threshold, and it lands in the scores as a bearing that went to no track.
+#[test]
+fn the_posterior_test_reports_every_bearing_it_sets_aside() {
+    use bearing_slam_core::association::score::Assignment;
+    use bearing_slam_core::association::{NewLandmarkDensity, PairingPosterior};
+    use bearing_slam_core::runner::{filter_at, run_online};
+    use bearing_slam_core::trace::SlamEvent;
+    let log = log(7, 2, false);
+    let mut config = KinematicScenario::paper_fig4(false)
+        .run_config()
+        .expect("valid scenario");
+    let posterior = PairingPosterior {
+        min_probability: 0.99,
+        detection_probability: 0.99,
+        false_bearings: NewLandmarkDensity {
+            expected_landmarks: 4.0,
+            clutter_per_scan: 2.0,
+            field_of_view_rad: std::f64::consts::TAU,
+        },
+    };
+    config.slam.association = AssociationConfig {
+        pairing_posterior: Some(posterior),
+        ..AssociationConfig::of(AssociationMethod::NearestNeighbour)
+    };
+    let run = run_online(
+        &log,
+        &config.odometry,
+        config.use_range,
+        config.slam.initial_pose,
+        filter_at(&config),
+    )
+    .expect("the run completes");
+    let set_aside: Vec<(u64, f64)> = run
+        .output
+        .trace
+        .events
+        .iter()
+        .filter_map(|e| match e.event {
+            SlamEvent::PairingSetAside { id, probability } => Some((id, probability)),
+            _ => None,
+        })
+        .collect();
+    assert!(
+        !set_aside.is_empty(),
+        "two clutter bearings per scan compete"
+    );
+    let history = run
+        .estimator
+        .association_history()
+        .expect("unknown-identity mode");
+    for &(id, probability) in &set_aside {
+        assert!(probability < 0.99, "{probability}");
+        assert!(
+            history.births.contains_key(&id),
+            "landmark {id} was never mapped"
+        );
+    }
+    // Each set-aside bearing went to no track (a bearing may also go to no
+    // track for other reasons, so at least as many).
+    let nowhere = history
+        .records
+        .iter()
+        .filter(|r| matches!(&r.assigned, Assignment::Tracks(ids) if ids.is_empty()))
+        .count();
+    assert!(
+        nowhere >= set_aside.len(),
+        "{nowhere} < {}",
+        set_aside.len()
+    );
+    let score = run.output.association.expect("scored");
+    assert_eq!(score.spurious, 0, "{score:?}");
+}
