@@ -257,7 +257,7 @@ pub const MIN_DETECTION_RATE: f64 = 1e-6;
 /// is a valid `P_D`. Errors as [`oracle_posteriors`], and when the log has no
 /// landmark truth or no scan.
 pub fn detection_rate(log: &SensorLog) -> Result<f64> {
-    let track = checked_truth(log, &OracleModel::new(1.0))?;
+    let track = checked_track(log)?;
     let (mut scans, mut bearings) = (0usize, 0usize);
     for event in &log.events {
         let EventKind::Bearings(scan) = &event.kind else {
@@ -290,6 +290,12 @@ pub fn detection_rate(log: &SensorLog) -> Result<f64> {
 /// an invalid model or log, or a log without ground truth, is an error.
 fn checked_truth(log: &SensorLog, model: &OracleModel) -> Result<Vec<(f64, Pose2)>> {
     model.validate()?;
+    checked_track(log)
+}
+
+/// The log's ground-truth poses, once the log is checked: an invalid log,
+/// or one without ground truth, is an error.
+fn checked_track(log: &SensorLog) -> Result<Vec<(f64, Pose2)>> {
     log.validate()?;
     let track = log.ground_truth();
     if track.is_empty() {

@@ -15,6 +15,7 @@
 
 use super::PairingPosterior;
 use super::jcbb::{Pairing, PairingProblem};
+use crate::error::Result;
 use std::collections::BTreeMap;
 
 /// The most landmarks one connected group may hold: the exact sum runs
@@ -29,15 +30,15 @@ pub const MAX_GROUP_LANDMARKS: usize = 12;
 /// landmarks in the map), and returns, for each bearing it set aside, the
 /// prediction it had been paired with and that pair's probability (`None`
 /// for the others). A bearing of a group too large to sum over keeps its
-/// pair.
+/// pair. Errors when a prediction's innovation variance is not positive.
 pub fn set_aside_unlikely_pairings(
     posterior: &PairingPosterior,
     problem: &PairingProblem,
     gate: f64,
     mapped: usize,
     pairing: &mut Pairing,
-) -> Vec<Option<(usize, f64)>> {
-    let edges: Vec<Vec<(usize, f64)>> = problem
+) -> Result<Vec<Option<(usize, f64)>>> {
+    let edges = problem
         .compatible(gate)
         .iter()
         .enumerate()
@@ -45,12 +46,13 @@ pub fn set_aside_unlikely_pairings(
             row.iter()
                 .map(|&(j, _)| {
                     let variance = problem.prediction_covariance[(j, j)] + problem.noise_variance;
-                    let weight = posterior.pair_weight(problem.innovation(i, j), variance, mapped);
-                    (j, weight)
+                    let weight =
+                        posterior.pair_weight(problem.innovation(i, j), variance, mapped)?;
+                    Ok((j, weight))
                 })
-                .collect()
+                .collect::<Result<Vec<_>>>()
         })
-        .collect();
+        .collect::<Result<Vec<_>>>()?;
     let marginals = pair_marginals(&edges, problem.predicted.len());
     let mut set_aside = vec![None; problem.bearings.len()];
     for (i, j) in pairing.landmark_of.iter_mut().enumerate() {
@@ -63,7 +65,7 @@ pub fn set_aside_unlikely_pairings(
             set_aside[i] = Some((jj, probability));
         }
     }
-    set_aside
+    Ok(set_aside)
 }
 
 /// For every bearing, the probability of each landmark it is gated with
@@ -223,20 +225,22 @@ mod tests {
         // P_D N(0; 0, 0.02²) / ((1 − P_D) κ) = 9 × 19.9 / (1/2π) ≈ 1127.
         let (problem, mut pairing, gate) = one_landmark(&[0.0]);
         let p = posterior(0.99);
-        let w = p.pair_weight(0.0, 4e-4, 1);
+        let w = p.pair_weight(0.0, 4e-4, 1).expect("positive variance");
         assert!(
             (w - 0.9 * (1.0 / (0.02 * std::f64::consts::TAU.sqrt())) * std::f64::consts::TAU / 0.1)
                 .abs()
                 < 1e-9 * w
         );
-        let aside = set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing);
+        let aside =
+            set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing).expect("valid");
         assert_eq!(aside, vec![None]);
         assert_eq!(pairing.landmark_of, vec![Some(0)]);
         // Two bearings ±0.5σ either side: nearest neighbour takes one, but
         // each is the landmark's with probability about one half.
         let (problem, mut pairing, gate) = one_landmark(&[-0.01, 0.0101]);
         assert_eq!(pairing.paired(), 1);
-        let aside = set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing);
+        let aside =
+            set_aside_unlikely_pairings(&p, &problem, gate, 1, &mut pairing).expect("valid");
         let refused: Vec<(usize, f64)> = aside.iter().flatten().copied().collect();
         assert_eq!(refused.len(), 1);
         assert_eq!(refused[0].0, 0);
@@ -244,7 +248,8 @@ mod tests {
         assert_eq!(pairing.paired(), 0);
         // A threshold below one half keeps the closer one.
         let (problem, mut pairing, gate) = one_landmark(&[-0.01, 0.0101]);
-        let aside = set_aside_unlikely_pairings(&posterior(0.45), &problem, gate, 1, &mut pairing);
+        let aside = set_aside_unlikely_pairings(&posterior(0.45), &problem, gate, 1, &mut pairing)
+            .expect("valid");
         assert_eq!(aside, vec![None, None]);
         assert_eq!(pairing.landmark_of, vec![Some(0), None]);
     }

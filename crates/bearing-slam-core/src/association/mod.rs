@@ -257,13 +257,15 @@ const MIN_FALSE_DENSITY: f64 = 1e-6;
 impl PairingPosterior {
     /// The weight of pair `i → j` with innovation `ν` of variance `s` (the
     /// likelihood ratio of the type's documentation), with `mapped`
-    /// landmarks in the map.
-    #[must_use]
-    pub fn pair_weight(&self, innovation: f64, variance: f64, mapped: usize) -> f64 {
-        let density = (-0.5 * innovation * innovation / variance).exp()
-            / (std::f64::consts::TAU * variance).sqrt();
+    /// landmarks in the map. Errors when `variance` is not positive.
+    pub fn pair_weight(&self, innovation: f64, variance: f64, mapped: usize) -> Result<f64> {
+        let density = crate::particle::landmark_ekf::gaussian_log_density(
+            &nalgebra::Vector1::new(innovation),
+            &nalgebra::Matrix1::new(variance),
+        )?
+        .exp();
         let kappa = self.false_bearings.density(mapped).max(MIN_FALSE_DENSITY);
-        self.detection_probability * density / ((1.0 - self.detection_probability) * kappa)
+        Ok(self.detection_probability * density / ((1.0 - self.detection_probability) * kappa))
     }
 
     /// Checks the ranges; the error names the first value out of range.

@@ -231,7 +231,7 @@ impl BearingSlam {
                 gates.individual,
                 self.landmarks.len(),
                 &mut pairing,
-            ),
+            )?,
             None => vec![None; bearings.len()],
         };
         for &(j, probability) in set_aside.iter().flatten() {
