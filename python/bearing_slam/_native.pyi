@@ -136,10 +136,13 @@ class Config:
     velocity_sigma_v_min: float
     velocity_sigma_omega_min: float
     use_range: bool
-    # The estimator (issues 14, 15): "filter", "smoother", "filter+smoother",
-    # "fastslam1", "fastslam2"; particles of FastSLAM.
+    # The estimator (issues 13, 14, 15): "filter", "smoother", "filter+smoother",
+    # "fastslam1", "fastslam2", "gaussian-sum"; particles of FastSLAM; the
+    # heading Gaussian sum's split threshold (degrees) and size.
     estimator: str
     particles: int
+    gaussian_sum_split_deg: float
+    gaussian_sum_components: int
     # The online smoother ("filter+smoother" only): its window ("keyframes",
     # the default, or "scans") and landmark chart ("inverse-depth", "point").
     online_window: str

@@ -5,7 +5,11 @@ names of :data:`~bearing_slam.vocabulary.ESTIMATORS`, read from Rust's
 ``EstimatorKind``): ``filter`` (the EKF, the default), ``smoother`` (the
 batch graph smoother, started from the online keyframe window run after
 the filter), ``filter+smoother`` (the online fixed-lag smoother run with
-the filter), ``fastslam1`` and ``fastslam2`` (with ``--particles``);
+the filter), ``fastslam1`` and ``fastslam2`` (with ``--particles``),
+``gaussian-sum`` (the EKF as a Gaussian sum over the heading: split in
+three while a component's heading σ exceeds 3°, at most 9 components,
+weighted by the bearings; ``Config(gaussian_sum_split_deg=...,
+gaussian_sum_components=...)`` in Python);
 ``filter+smoother`` takes ``--online-window`` (``keyframes``, the default:
 every scan's pose, the window spanning 50 keyframes by motion and solved at
 each, with its own triangulation; or ``scans``: the last 50 scans, solved at
@@ -61,7 +65,8 @@ def add_estimator_options(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_ESTIMATOR,
         help="the estimator (default: %(default)s, the EKF; smoother: the batch graph "
         "smoother, started from the online keyframe window; filter+smoother: the online fixed-lag "
-        "smoother; fastslam1/fastslam2: FastSLAM 1.0/2.0)",
+        "smoother; fastslam1/fastslam2: FastSLAM 1.0/2.0; gaussian-sum: the EKF as a Gaussian "
+        "sum over the heading, split while its σ exceeds 3°)",
     )
     parser.add_argument(
         "--particles",

@@ -21,7 +21,14 @@ def short_log() -> bs.SensorLog:
 
 
 def test_the_estimators_are_named_in_rust() -> None:
-    assert ESTIMATORS == ("filter", "smoother", "filter+smoother", "fastslam1", "fastslam2")
+    assert ESTIMATORS == (
+        "filter",
+        "smoother",
+        "filter+smoother",
+        "fastslam1",
+        "fastslam2",
+        "gaussian-sum",
+    )
     assert bs.Config().estimator == "filter"
 
 
@@ -62,6 +69,24 @@ def test_run_with_fastslam(short_log: bs.SensorLog) -> None:
     assert result.summary["finite"]
     assert result.summary["n_landmarks_initialized"] >= 4
     assert result.counts["measurements_used"] > 100
+
+
+def test_run_with_the_heading_gaussian_sum(short_log: bs.SensorLog) -> None:
+    config = bs.Config.for_log(
+        short_log, estimator="gaussian-sum", gaussian_sum_split_deg=0.5, gaussian_sum_components=3
+    )
+    result = bs.run(short_log, config)
+    assert result.config.gaussian_sum_components == 3
+    assert result.summary is not None
+    assert result.summary["finite"]
+    assert np.all(np.linalg.eigvalsh(result.covariance) >= 0)
+    one = bs.run(short_log, config.replace(gaussian_sum_components=1))
+    filtered = bs.run(short_log, bs.Config.for_log(short_log))
+    np.testing.assert_array_equal(one.estimate, filtered.estimate)
+    with pytest.raises(bs.InvalidParameterError, match="max_components"):
+        bs.Config(estimator="gaussian-sum", gaussian_sum_components=0)
+    with pytest.raises(bs.InvalidParameterError, match="gaussian_sum_split_deg is not used here"):
+        bs.Config(gaussian_sum_split_deg=2.0)
 
 
 def test_bad_estimator_parameters_are_refused() -> None:

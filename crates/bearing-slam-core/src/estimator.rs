@@ -29,7 +29,9 @@ use crate::particle::landmark_ekf::SensorNoise;
 use crate::particle::ml_association::{DEFAULT_NEW_LANDMARK_DENSITY, MaximumLikelihoodConfig};
 use crate::particle::{FastSlam, FastSlamConfig, FastSlamVariant, ParticleInitializer};
 use crate::runner::{RunConfig, RunOutput, run, run_online_from};
-use crate::slam::{BearingSlam, InitializerConfig, SlamConfig};
+use crate::slam::{
+    BearingSlam, GaussianSumConfig, HeadingGaussianSum, InitializerConfig, SlamConfig,
+};
 use crate::smoother::{
     BatchStart, FixedLagConfig, OnlineWindow, PriorAnchor, RobustKernel, SmootherConfig,
     SmootherMode, SmootherReport, SolverConfig, run_from_log, run_online_smoother,
@@ -54,6 +56,10 @@ pub enum EstimatorKind {
     FastSlam1,
     /// FastSLAM 2.0.
     FastSlam2,
+    /// The EKF as a Gaussian sum over the heading
+    /// ([`crate::slam::HeadingGaussianSum`]): split while the heading is
+    /// uncertain, weighted by the bearings.
+    GaussianSum,
 }
 
 crate::named_enum!(EstimatorKind, "estimator", [
@@ -62,6 +68,7 @@ crate::named_enum!(EstimatorKind, "estimator", [
     FilterSmoother => "filter+smoother",
     FastSlam1 => "fastslam1",
     FastSlam2 => "fastslam2",
+    GaussianSum => "gaussian-sum",
 ]);
 
 impl Serialize for EstimatorKind {
@@ -110,6 +117,9 @@ pub struct EstimatorConfig {
     pub smoother: SmootherConfig,
     /// The window and solver of the online smoother (`filter+smoother`).
     pub fixed_lag: FixedLagConfig,
+    /// When the heading Gaussian sum splits, and into how many
+    /// components (`gaussian-sum`).
+    pub gaussian_sum: GaussianSumConfig,
 }
 
 /// The online smoother's window and solver: 50 poses, relinearized
@@ -213,6 +223,7 @@ impl Default for EstimatorConfig {
                 ..SmootherConfig::default()
             },
             fixed_lag: default_fixed_lag(),
+            gaussian_sum: GaussianSumConfig::default(),
         }
         .with_online_window(OnlineWindow::default())
     }
@@ -254,6 +265,7 @@ impl EstimatorConfig {
             });
         }
         self.smoother.solver.validate()?;
+        self.gaussian_sum.validate()?;
         if self.kind == EstimatorKind::FilterSmoother {
             self.fixed_lag.solver.validate()?;
             if self.fixed_lag.lag < 2 {
@@ -524,6 +536,12 @@ pub fn run_estimator(
                 smoother: Some(report),
                 particles: None,
             })
+        }
+        EstimatorKind::GaussianSum => {
+            let online = run_online_from(log, config, |slam| {
+                HeadingGaussianSum::new(slam, estimator.gaussian_sum)
+            })?;
+            Ok(only(online.output))
         }
         EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2 => {
             let filter = estimator.fastslam_config(&config.slam);

@@ -35,6 +35,13 @@
 //! `k`), `OFFSET=σ_rw,σ₀` the bearing-offset state (random walk rad/√s,
 //! prior σ rad).
 //!
+//! Simulation rows: `SIM_INITIALIZERS=auto,mte` chooses the initializers
+//! of `fig8` (default MTE) and `consistency` (default its list),
+//! `SEED0=N` their first seed (default 0), and `ESTIMATOR=gaussian-sum`
+//! runs them and the `mrclam` rows with that estimator of
+//! `bearing_slam_core::estimator` instead of the EKF (the heading Gaussian
+//! sum; `GAUSSIAN_SUM=deg,components` its split threshold and size).
+//!
 //! `SECOND_ORDER=0` runs the first-order EKF update instead of the
 //! second-order one (`SlamConfig::second_order`, the default since
 //! 2026-11-29); `SECOND_ORDER=1` the second-order one.
@@ -47,6 +54,7 @@
 //! scores a dataset without robot ground truth (Datasets 1, 2, 4) by its
 //! aligned map only (ATE and NEES print as NaN and 0).
 
+use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::init::{
     DEFAULT_VISIT_GAP_S, HistoryCorrelation, HistoryTreatment, MTE_HISTORY, UndelayedFallback,
@@ -54,7 +62,7 @@ use bearing_slam_core::init::{
 use bearing_slam_core::log::{EventKind, SensorLog};
 use bearing_slam_core::metrics::pose_nees;
 use bearing_slam_core::nalgebra::Matrix3;
-use bearing_slam_core::runner::run;
+use bearing_slam_core::runner::{RunConfig, RunOutput, run};
 use bearing_slam_core::score::{landmark_rmse, summarize};
 use bearing_slam_core::slam::Consistency;
 use bearing_slam_core::slam::{BearingOffset, InitializerConfig, RobustGate, SlamConfig};
@@ -86,6 +94,53 @@ fn methods() -> Vec<Consistency> {
         Ok(list) => list.split(',').filter_map(|s| s.parse().ok()).collect(),
         Err(_) => METHODS.to_vec(),
     }
+}
+
+/// `SIM_INITIALIZERS=list`: the simulation rows' initializers (`auto`,
+/// `mte`, `mte-clone`, `mte-history`), or `default` when unset.
+fn sim_initializers(default: Vec<InitializerSpec>) -> Result<Vec<InitializerSpec>, BoxError> {
+    let Ok(list) = std::env::var("SIM_INITIALIZERS") else {
+        return Ok(default);
+    };
+    list.split(',')
+        .map(|name| match name {
+            "auto" => Ok(InitializerSpec::Auto),
+            "mte" => Ok(InitializerSpec::Mte),
+            "mte-clone" => Ok(InitializerSpec::MteClone),
+            "mte-history" => Ok(InitializerSpec::MteHistory),
+            other => Err(format!(
+                "SIM_INITIALIZERS: unknown initializer {other:?} (auto, mte, mte-clone, mte-history)"
+            )
+            .into()),
+        })
+        .collect()
+}
+
+/// `SEED0=N`: the simulation rows' first seed (default 0).
+fn first_seed() -> Result<u64, BoxError> {
+    Ok(std::env::var("SEED0").map_or(Ok(0), |s| s.parse())?)
+}
+
+/// `ESTIMATOR=name` (default the EKF) with `GAUSSIAN_SUM=deg,components`.
+fn estimator() -> Result<EstimatorConfig, BoxError> {
+    let mut e = EstimatorConfig::default();
+    if let Ok(name) = std::env::var("ESTIMATOR") {
+        e.kind = name.parse()?;
+    }
+    if let Ok(text) = std::env::var("GAUSSIAN_SUM") {
+        let v: Vec<&str> = text.split(',').collect();
+        let [deg, components] = v[..] else {
+            return Err(format!("GAUSSIAN_SUM={text}: expected deg,components").into());
+        };
+        e.gaussian_sum.split_above_rad = deg.parse::<f64>()?.to_radians();
+        e.gaussian_sum.max_components = components.parse()?;
+    }
+    Ok(e)
+}
+
+/// The run of `config` on `log` by [`estimator`].
+fn run_estimated(log: &SensorLog, config: &RunConfig) -> Result<RunOutput, BoxError> {
+    Ok(run_estimator(log, config, &estimator()?)?.output)
 }
 
 /// `ITERATIONS=N`: linearizations per scan update (default 1, the EKF).
@@ -258,7 +313,7 @@ fn mrclam(dir: Option<PathBuf>) -> Result<(), BoxError> {
                 config.slam.consistency = consistency;
                 config.slam.update_iterations = iterations();
                 robustness(&mut config.slam)?;
-                let output = run(&log, &config)?;
+                let output = run_estimated(&log, &config)?;
                 // Without robot ground truth (Datasets 1, 2, 4) only the map is scored.
                 let (ate, mean_nees) = summarize(&log, &output)
                     .map_or((f64::NAN, f64::NAN), |s| (s.ate_rmse_m, s.mean_nees_pose));
@@ -414,7 +469,7 @@ fn try_run_one(
     config.slam.consistency = consistency;
     config.slam.update_iterations = iterations();
     robustness(&mut config.slam)?;
-    let output = run(&log, &config)?;
+    let output = run_estimated(&log, &config)?;
     Ok(score_run(
         &log,
         &output,
@@ -444,14 +499,16 @@ fn report(
 
 fn consistency(runs: usize) -> Result<(), BoxError> {
     let history = treatments();
-    let initializers: Vec<InitializerSpec> = fig4_initializers()
-        .into_iter()
-        .filter(|i| {
-            !matches!(i, InitializerSpec::PiSr { rho_ini, .. } if *rho_ini < 0.1)
-                && !matches!(i, InitializerSpec::PiSrMixed { .. })
-                && (history.is_none() || matches!(i, InitializerSpec::MteHistory))
-        })
-        .collect();
+    let initializers: Vec<InitializerSpec> = sim_initializers(
+        fig4_initializers()
+            .into_iter()
+            .filter(|i| {
+                !matches!(i, InitializerSpec::PiSr { rho_ini, .. } if *rho_ini < 0.1)
+                    && !matches!(i, InitializerSpec::PiSrMixed { .. })
+                    && (history.is_none() || matches!(i, InitializerSpec::MteHistory))
+            })
+            .collect(),
+    )?;
     let variants: Vec<Option<HistoryTreatment>> = match &history {
         Some(list) => list.iter().copied().map(Some).collect(),
         None => vec![None],
@@ -467,6 +524,7 @@ fn consistency(runs: usize) -> Result<(), BoxError> {
             for c in methods() {
                 let mut spec = MonteCarloSpec::new("paper_fig4", init.clone(), runs);
                 spec.scenario.far_landmark = far;
+                spec.scenario.seed0 = first_seed()?;
                 let r = report(&spec, c, treatment)?;
                 println!(
                     "| paper_fig4{} | {} | {:.1} % | {:.1} % | {:.1} % | {:.3} |",
@@ -487,18 +545,21 @@ fn consistency(runs: usize) -> Result<(), BoxError> {
 }
 
 fn fig8(runs: usize) -> Result<(), BoxError> {
-    for c in methods() {
-        let mut rows = Vec::new();
-        for n in [5, 10, 20, 40] {
-            let mut spec = MonteCarloSpec::new("paper_fig8", InitializerSpec::Mte, runs);
-            spec.scenario.landmark_count = Some(n);
-            rows.push(Fig8Row {
-                landmarks: n,
-                report: report(&spec, c, None)?,
-            });
+    for init in sim_initializers(vec![InitializerSpec::Mte])? {
+        for c in methods() {
+            let mut rows = Vec::new();
+            for n in [5, 10, 20, 40] {
+                let mut spec = MonteCarloSpec::new("paper_fig8", init.clone(), runs);
+                spec.scenario.landmark_count = Some(n);
+                spec.scenario.seed0 = first_seed()?;
+                rows.push(Fig8Row {
+                    landmarks: n,
+                    report: report(&spec, c, None)?,
+                });
+            }
+            println!("{init:?}, consistency = {c}");
+            print!("{}", fig8_table(&Fig8Result { rows }));
         }
-        println!("consistency = {c}");
-        print!("{}", fig8_table(&Fig8Result { rows }));
     }
     Ok(())
 }

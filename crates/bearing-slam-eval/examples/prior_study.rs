@@ -19,12 +19,16 @@
 //! chooses the methods. `SIGMA_W=σ` and `ALPHA4=α` (what-ifs) replace the
 //! velocity noise's turn-rate floor `σ_ω_min` and set its `α4` (the
 //! turn-rate variance per (rad/s)², `benches/turn_noise_fit.py`).
+//! `ESTIMATOR=gaussian-sum` runs that estimator instead of the EKF (the
+//! heading Gaussian sum; `GAUSSIAN_SUM=deg,components` its split threshold
+//! and size).
 
+use bearing_slam_core::estimator::EstimatorConfig;
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::EventKind;
 use bearing_slam_core::names::Named;
 use bearing_slam_eval::real_data::report::swapped_landmark_rmse;
-use bearing_slam_eval::real_data::{EvalOptions, Method, RealDataResult, evaluate_run};
+use bearing_slam_eval::real_data::{EvalOptions, Method, RealDataResult, evaluate_run_with};
 use bearing_slam_io::mrclam::{MrclamRun, ROBOT_COUNT, load_mrclam_with};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -145,13 +149,25 @@ fn runs(data: &Path) -> Result<(), BoxError> {
         .split(',')
         .map(str::parse)
         .collect::<Result<_, _>>()?;
+    let mut estimator = EstimatorConfig::default();
+    if let Ok(name) = std::env::var("ESTIMATOR") {
+        estimator.kind = name.parse()?;
+    }
+    if let Ok(text) = std::env::var("GAUSSIAN_SUM") {
+        let v: Vec<&str> = text.split(',').collect();
+        let [deg, components] = v[..] else {
+            return Err(format!("GAUSSIAN_SUM={text}: expected deg,components").into());
+        };
+        estimator.gaussian_sum.split_above_rad = deg.parse::<f64>()?.to_radians();
+        estimator.gaussian_sum.max_components = components.parse()?;
+    }
     for dataset in DATASETS {
         // One load per robot, every method on it; rows by method.
         let mut rows: Vec<Vec<Row>> = vec![Vec::new(); methods.len()];
         for robot in 1..=ROBOT_COUNT {
             let run = load_mrclam_with(&data.join(dataset), robot, &options.load)?;
             for (&method, method_rows) in methods.iter().zip(&mut rows) {
-                let result = evaluate_run(&run, method, &options.parameters)?;
+                let result = evaluate_run_with(&run, method, &options.parameters, &estimator)?;
                 let map = if dataset == "MRCLAM_Dataset1" {
                     swapped_map_rmse(&run, &result)
                 } else {

@@ -15,7 +15,7 @@ use bearing_slam::core::init::{
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel, VelocityNoise, WheelNoise};
 use bearing_slam::core::names::Named;
 use bearing_slam::core::runner::{OdometryConfig, OdometryKind, RunConfig};
-use bearing_slam::core::slam::{BearingOffset, RobustGate};
+use bearing_slam::core::slam::{BearingOffset, GaussianSumConfig, RobustGate};
 use bearing_slam::core::slam::{Consistency, InitializerConfig, InitializerKind, SlamConfig};
 use bearing_slam::core::smoother::{LandmarkChart, OnlineWindow, SmootherConfig};
 use bearing_slam::{DEFAULT_VELOCITY_NOISE, DEFAULT_WHEEL_NOISE, SlamError};
@@ -182,12 +182,21 @@ pub(crate) struct PyConfig {
     pub history_decimate_every: usize,
     // --- end of the waiting bearings' correlation ---
     /// The estimator (`EstimatorKind`: `"filter"`, the EKF, the default;
-    /// `"smoother"`, `"filter+smoother"`, `"fastslam1"`, `"fastslam2"`).
+    /// `"smoother"`, `"filter+smoother"`, `"fastslam1"`, `"fastslam2"`,
+    /// `"gaussian-sum"`).
     #[pyo3(get, set)]
     pub estimator: String,
     /// Particles of FastSLAM (≥ 1).
     #[pyo3(get, set)]
     pub particles: usize,
+    /// The heading Gaussian sum (`"gaussian-sum"` only): a component is
+    /// split while its heading σ exceeds this, degrees (default 3).
+    #[pyo3(get, set)]
+    pub gaussian_sum_split_deg: f64,
+    /// The heading Gaussian sum's largest number of components (≥ 1;
+    /// default 9).
+    #[pyo3(get, set)]
+    pub gaussian_sum_components: usize,
     /// The online smoother's window (`OnlineWindow`; `"filter+smoother"`
     /// only): `"keyframes"` (the default: every scan's pose, the window
     /// spanning 50 keyframes by motion, 0.5 m / 0.5 rad / 20 scans, solved
@@ -237,7 +246,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 49] = [
+const FIELDS: [&str; 51] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -279,6 +288,8 @@ const FIELDS: [&str; 49] = [
     "use_range",
     "estimator",
     "particles",
+    "gaussian_sum_split_deg",
+    "gaussian_sum_components",
     "online_window",
     "landmark_chart",
     "association",
@@ -337,6 +348,11 @@ impl Default for PyConfig {
             use_range: false,
             estimator: EstimatorKind::default().to_string(),
             particles: EstimatorConfig::default().particles,
+            gaussian_sum_split_deg: EstimatorConfig::default()
+                .gaussian_sum
+                .split_above_rad
+                .to_degrees(),
+            gaussian_sum_components: EstimatorConfig::default().gaussian_sum.max_components,
             online_window: OnlineWindow::default().to_string(),
             landmark_chart: SmootherConfig::default().landmark_chart.to_string(),
             association: slam.association.method.to_string(),
@@ -580,6 +596,10 @@ impl PyConfig {
         }
         .with_online_window(parse_name::<OnlineWindow>(&self.online_window)?);
         est.smoother.landmark_chart = parse_name::<LandmarkChart>(&self.landmark_chart)?;
+        est.gaussian_sum = GaussianSumConfig {
+            split_above_rad: self.gaussian_sum_split_deg.to_radians(),
+            max_components: self.gaussian_sum_components,
+        };
         est.validate().py()?;
         Ok(est)
     }

@@ -88,6 +88,16 @@ impl PyConfig {
                     self.estimator
                 ))
             }
+            "gaussian_sum_split_deg" | "gaussian_sum_components"
+                if parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(|e| e != EstimatorKind::GaussianSum) =>
+            {
+                Some(format!(
+                    "it is a parameter of the heading Gaussian sum (estimator \"gaussian-sum\"), \
+                     and estimator is {:?}",
+                    self.estimator
+                ))
+            }
             "online_window" | "landmark_chart"
                 if parse_name::<EstimatorKind>(&self.estimator)
                     .is_ok_and(|e| e != EstimatorKind::FilterSmoother) =>

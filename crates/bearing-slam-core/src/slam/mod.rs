@@ -17,6 +17,9 @@ mod consistency;
 mod consistency_tests;
 mod conversion;
 mod delayed;
+mod gaussian_sum;
+#[cfg(test)]
+mod gaussian_sum_tests;
 mod invariant;
 #[cfg(test)]
 mod invariant_tests;
@@ -40,6 +43,7 @@ pub use config::{
 pub use consistency::Consistency;
 use consistency::{linearize_bearing, linearize_consistent};
 use delayed::{PendingCandidate, PoseClone};
+pub use gaussian_sum::{GaussianSumConfig, HeadingGaussianSum};
 pub use offset::BearingOffset;
 pub use robust::RobustGate;
 use second_order::SecondOrderTerms;

@@ -30,6 +30,22 @@ fn the_filter_by_name_is_the_runners_run_bit_for_bit() {
 }
 
 #[test]
+fn a_gaussian_sum_of_one_component_is_the_filter_bit_for_bit() {
+    let (s, config) = short();
+    let log = s.simulate(3);
+    let direct = run(&log, &config).unwrap();
+    let mut one = EstimatorConfig::of(EstimatorKind::GaussianSum);
+    one.gaussian_sum.max_components = 1;
+    let summed = run_estimator(&log, &config, &one).unwrap();
+    assert_eq!(summed.output, direct);
+    // With room to split but a threshold (0.1 rad) the short run's heading
+    // σ never reaches, nothing splits either.
+    let mut wide = EstimatorConfig::of(EstimatorKind::GaussianSum);
+    wide.gaussian_sum.split_above_rad = 0.1;
+    assert_eq!(run_estimator(&log, &config, &wide).unwrap().output, direct);
+}
+
+#[test]
 fn every_estimator_runs_a_short_log_into_the_runners_shape() {
     let (s, config) = short();
     let log = s.simulate(5);
@@ -80,7 +96,7 @@ fn bad_estimator_parameters_are_refused_by_name() {
     assert_eq!(
         err.to_string(),
         "unknown estimator \"ekf2\": expected one of filter, smoother, filter+smoother, \
-         fastslam1, fastslam2"
+         fastslam1, fastslam2, gaussian-sum"
     );
     assert_eq!(
         EstimatorKind::names(),
@@ -89,7 +105,8 @@ fn bad_estimator_parameters_are_refused_by_name() {
             "smoother",
             "filter+smoother",
             "fastslam1",
-            "fastslam2"
+            "fastslam2",
+            "gaussian-sum"
         ]
     );
 }
