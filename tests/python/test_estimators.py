@@ -87,6 +87,8 @@ def test_run_with_the_heading_gaussian_sum(short_log: bs.SensorLog) -> None:
         bs.Config(estimator="gaussian-sum", gaussian_sum_components=0)
     with pytest.raises(bs.InvalidParameterError, match="gaussian_sum_split_deg is not used here"):
         bs.Config(gaussian_sum_split_deg=2.0)
+    with pytest.raises(ValueError, match="SlamFilter steps the EKF"):
+        bs.SlamFilter(config)
 
 
 def test_bad_estimator_parameters_are_refused() -> None:

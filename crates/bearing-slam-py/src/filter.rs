@@ -3,7 +3,9 @@
 use crate::config::PyConfig;
 use crate::convert::{In1, arr1, arr2, arr3, matrix, pose, row_major, to_py, vector};
 use crate::errors::{self, SlamResultExt};
+use bearing_slam::core::estimator::EstimatorKind;
 use bearing_slam::core::landmark::Parameterization;
+use bearing_slam::core::names::Named;
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel};
 use bearing_slam::core::slam::{BatchReport, BearingSlam, LandmarkEstimate};
@@ -200,10 +202,19 @@ pub(crate) struct PySlamFilter {
 #[pymethods]
 impl PySlamFilter {
     /// A new filter at `config.initial_pose` with `config.initial_pose_sigma`.
+    /// The configuration's estimator must be the EKF (`"filter"`): the
+    /// others run through `bs.run(log, config)`.
     #[new]
     #[pyo3(signature = (config = None))]
     fn py_new(config: Option<PyConfig>) -> PyResult<Self> {
         let config = config.unwrap_or_default();
+        if config.estimator != EstimatorKind::Filter.name() {
+            return Err(PyValueError::new_err(format!(
+                "SlamFilter steps the EKF (estimator \"filter\"), and config.estimator is {:?}: \
+                 run that estimator with bs.run(log, config)",
+                config.estimator
+            )));
+        }
         let rc = config.run_config()?;
         Ok(Self {
             slam: BearingSlam::new(rc.slam).py()?,
