@@ -5,9 +5,9 @@ use crate::convert::{In1, arr1, arr2, arr3, matrix, pose, row_major, to_py, vect
 use crate::errors::{self, SlamResultExt};
 use bearing_slam::core::estimator::EstimatorKind;
 use bearing_slam::core::landmark::Parameterization;
-use bearing_slam::core::names::Named;
 use bearing_slam::core::log::{VelocityOdometry, WheelOdometry};
 use bearing_slam::core::motion::{DiffDriveModel, VelocityModel};
+use bearing_slam::core::names::Named;
 use bearing_slam::core::slam::{BatchReport, BearingSlam, LandmarkEstimate};
 use bearing_slam::core::trace::{EstimateSnapshot, InitMethod, TimedSlamEvent};
 use numpy::{PyArray1, PyArray2, PyArray3};
