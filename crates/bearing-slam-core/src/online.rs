@@ -87,6 +87,16 @@ pub trait OnlineEstimator {
     fn finish(&mut self, output: &mut RunOutput) -> Result<()>;
 }
 
+/// A scan as `(landmark id, bearing)` pairs for an estimator told the ids
+/// (known association): bearings the log marks as clutter or a moving
+/// distractor are what a sensor that knew ids would drop.
+pub(crate) fn known_bearings(scan: &[BearingObservation]) -> Vec<(u64, f64)> {
+    scan.iter()
+        .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
+        .map(|o| (o.landmark_id, o.bearing))
+        .collect()
+}
+
 impl OnlineEstimator for BearingSlam {
     fn predict<M>(&mut self, time: f64, model: &M, control: &M::Control) -> Result<()>
     where
@@ -122,14 +132,7 @@ impl OnlineEstimator for BearingSlam {
                 // Unknown identities: the ids are kept for scoring only.
                 self.update_scored(time, scan)?.batch
             } else {
-                // Known association; bearings the log marks as clutter or a
-                // moving distractor are what a sensor that knew ids would drop.
-                let obs: Vec<(u64, f64)> = scan
-                    .iter()
-                    .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
-                    .map(|o| (o.landmark_id, o.bearing))
-                    .collect();
-                self.update_bearings(time, &obs)?
+                self.update_bearings(time, &known_bearings(scan))?
             };
         Ok(ScanCounts {
             used: report.used,

@@ -54,7 +54,7 @@
 //! scores a dataset without robot ground truth (Datasets 1, 2, 4) by its
 //! aligned map only (ATE and NEES print as NaN and 0).
 
-use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
+use bearing_slam_core::estimator::run_estimator;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::init::{
     DEFAULT_VISIT_GAP_S, HistoryCorrelation, HistoryTreatment, MTE_HISTORY, UndelayedFallback,
@@ -79,6 +79,10 @@ use bearing_slam_io::mrclam::load_mrclam_with;
 use bearing_slam_sim::simulate;
 use rayon::prelude::*;
 use std::path::PathBuf;
+
+#[path = "common/estimator_env.rs"]
+mod estimator_env;
+use estimator_env::estimator_from_env;
 
 type BoxError = Box<dyn std::error::Error + Send + Sync>;
 
@@ -121,26 +125,9 @@ fn first_seed() -> Result<u64, BoxError> {
     Ok(std::env::var("SEED0").map_or(Ok(0), |s| s.parse())?)
 }
 
-/// `ESTIMATOR=name` (default the EKF) with `GAUSSIAN_SUM=deg,components`.
-fn estimator() -> Result<EstimatorConfig, BoxError> {
-    let mut e = EstimatorConfig::default();
-    if let Ok(name) = std::env::var("ESTIMATOR") {
-        e.kind = name.parse()?;
-    }
-    if let Ok(text) = std::env::var("GAUSSIAN_SUM") {
-        let v: Vec<&str> = text.split(',').collect();
-        let [deg, components] = v[..] else {
-            return Err(format!("GAUSSIAN_SUM={text}: expected deg,components").into());
-        };
-        e.gaussian_sum.split_above_rad = deg.parse::<f64>()?.to_radians();
-        e.gaussian_sum.max_components = components.parse()?;
-    }
-    Ok(e)
-}
-
-/// The run of `config` on `log` by [`estimator`].
+/// The run of `config` on `log` by the estimator of [`estimator_from_env`].
 fn run_estimated(log: &SensorLog, config: &RunConfig) -> Result<RunOutput, BoxError> {
-    Ok(run_estimator(log, config, &estimator()?)?.output)
+    Ok(run_estimator(log, config, &estimator_from_env()?)?.output)
 }
 
 /// `ITERATIONS=N`: linearizations per scan update (default 1, the EKF).

@@ -23,7 +23,6 @@
 //! heading Gaussian sum; `GAUSSIAN_SUM=deg,components` its split threshold
 //! and size).
 
-use bearing_slam_core::estimator::EstimatorConfig;
 use bearing_slam_core::init::InverseDepthPrior;
 use bearing_slam_core::log::EventKind;
 use bearing_slam_core::names::Named;
@@ -32,6 +31,10 @@ use bearing_slam_eval::real_data::{EvalOptions, Method, RealDataResult, evaluate
 use bearing_slam_io::mrclam::{MrclamRun, ROBOT_COUNT, load_mrclam_with};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+
+#[path = "common/estimator_env.rs"]
+mod estimator_env;
+use estimator_env::estimator_from_env;
 
 type BoxError = Box<dyn std::error::Error>;
 
@@ -149,18 +152,7 @@ fn runs(data: &Path) -> Result<(), BoxError> {
         .split(',')
         .map(str::parse)
         .collect::<Result<_, _>>()?;
-    let mut estimator = EstimatorConfig::default();
-    if let Ok(name) = std::env::var("ESTIMATOR") {
-        estimator.kind = name.parse()?;
-    }
-    if let Ok(text) = std::env::var("GAUSSIAN_SUM") {
-        let v: Vec<&str> = text.split(',').collect();
-        let [deg, components] = v[..] else {
-            return Err(format!("GAUSSIAN_SUM={text}: expected deg,components").into());
-        };
-        estimator.gaussian_sum.split_above_rad = deg.parse::<f64>()?.to_radians();
-        estimator.gaussian_sum.max_components = components.parse()?;
-    }
+    let estimator = estimator_from_env()?;
     for dataset in DATASETS {
         // One load per robot, every method on it; rows by method.
         let mut rows: Vec<Vec<Row>> = vec![Vec::new(); methods.len()];

@@ -39,9 +39,9 @@ use crate::ekf::{BlockJacobian, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::landmark::Parameterization;
-use crate::log::{BearingObservation, TruthKind, ensure_bearing, truth_kind};
+use crate::log::{BearingObservation, ensure_bearing};
 use crate::model::MotionModel;
-use crate::online::{OnlineEstimator, ScanCounts};
+use crate::online::{OnlineEstimator, ScanCounts, known_bearings};
 use crate::runner::RunOutput;
 use crate::trace::{EstimateSnapshot, TimedSlamEvent};
 use nalgebra::{DMatrix, DVector, Matrix1, Matrix3, Vector3};
@@ -452,14 +452,7 @@ impl OnlineEstimator for HeadingGaussianSum {
                 "the gaussian-sum estimator is bearing only: run range-bearing logs with the filter",
             ));
         }
-        // As the EKF with known association: clutter and distractor
-        // bearings are what a sensor that knew ids would drop.
-        let observations: Vec<(u64, f64)> = scan
-            .iter()
-            .filter(|o| truth_kind(o.landmark_id) == TruthKind::Landmark)
-            .map(|o| (o.landmark_id, o.bearing))
-            .collect();
-        self.update_bearings(time, &observations)
+        self.update_bearings(time, &known_bearings(scan))
     }
 
     fn snapshot(&self, _time: f64) -> Result<EstimateSnapshot> {
