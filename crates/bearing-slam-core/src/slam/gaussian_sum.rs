@@ -48,9 +48,9 @@ use nalgebra::{DMatrix, DVector, Matrix1, Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 
-/// Huber et al.'s three-component split of the standard normal (weights,
-/// means, and the components' common σ): the mixture with the smallest L2
-/// distance to N(0, 1) among three equal-σ components.
+/// The three-component entry of Huber et al.'s splitting library for the
+/// standard normal (Huber, Bailey, Durrant-Whyte & Hanebeck 2008): weights,
+/// means, and the components' common σ.
 pub(super) const SPLIT_WEIGHTS: [f64; 3] = [
     0.225_224_624_913_675,
     0.549_550_750_172_650,
