@@ -244,13 +244,23 @@ impl HeadingGaussianSum {
     }
 
     /// Renormalizes the weights and drops the components under
-    /// [`MIN_WEIGHT`] (the most probable one always stays).
-    fn normalize(&mut self) {
+    /// [`MIN_WEIGHT`] (the most probable one always stays; when no weight
+    /// is finite, they are made equal).
+    pub(super) fn normalize(&mut self) {
         let max = self
             .components
             .iter()
             .map(|c| c.log_weight)
             .fold(f64::NEG_INFINITY, f64::max);
+        if !max.is_finite() {
+            // No component could score the scan (every likelihood failed):
+            // the scan says nothing about which is right.
+            let uniform = -(self.components.len() as f64).ln();
+            for c in &mut self.components {
+                c.log_weight = uniform;
+            }
+            return;
+        }
         let sum: f64 = self
             .components
             .iter()
@@ -304,9 +314,20 @@ impl HeadingGaussianSum {
                     })
                 })
                 .collect();
-            for c in &mut self.components {
-                c.log_weight += scan_log_likelihood(&c.filter, observations, &scored)
-                    .unwrap_or(f64::NEG_INFINITY);
+            // A component whose likelihood cannot be formed (S not positive
+            // definite) is out; if none can be, the scan does not reweight.
+            let likelihoods: Vec<f64> = self
+                .components
+                .iter()
+                .map(|c| {
+                    scan_log_likelihood(&c.filter, observations, &scored)
+                        .unwrap_or(f64::NEG_INFINITY)
+                })
+                .collect();
+            if likelihoods.iter().any(|l| l.is_finite()) {
+                for (c, l) in self.components.iter_mut().zip(likelihoods) {
+                    c.log_weight += l;
+                }
             }
         }
         let mut failure = None;

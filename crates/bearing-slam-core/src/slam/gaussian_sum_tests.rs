@@ -264,3 +264,23 @@ fn bad_input_and_unsupported_settings_are_refused() {
     assert!(sum.update(2.0, &[], true).is_err(), "range-bearing refused");
     assert_eq!(sum.weights(), before);
 }
+
+#[test]
+fn weights_that_cannot_be_normalized_become_equal_not_nan() {
+    let filter = BearingSlam::new(config(Consistency::Standard, pi_sr())).expect("valid");
+    let mut sum = HeadingGaussianSum::from_components(
+        vec![
+            Component {
+                log_weight: f64::NEG_INFINITY,
+                filter: filter.clone(),
+            },
+            Component {
+                log_weight: f64::NEG_INFINITY,
+                filter,
+            },
+        ],
+        GaussianSumConfig::default(),
+    );
+    sum.normalize();
+    assert_eq!(sum.weights(), vec![0.5, 0.5]);
+}
