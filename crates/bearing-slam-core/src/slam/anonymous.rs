@@ -123,7 +123,11 @@ const NIS_WINDOW_PROBABILITY: f64 = 0.999;
 const WEDGE_MIN_DEPTH_M: f64 = 0.5;
 
 /// `Σ_a Σ_b H_a P_ab H_bᵀ` for two single-row measurements.
-fn cross_covariance(slam: &BearingSlam, a: &[BlockJacobian], b: &[BlockJacobian]) -> Result<f64> {
+pub(super) fn cross_covariance(
+    slam: &BearingSlam,
+    a: &[BlockJacobian],
+    b: &[BlockJacobian],
+) -> Result<f64> {
     let mut sum = 0.0;
     for ba in a {
         for bb in b {

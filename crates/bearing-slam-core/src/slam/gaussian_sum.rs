@@ -31,15 +31,16 @@
 //! (the components' spread included), the map of the most probable
 //! component.
 
-use super::BearingSlam;
+use super::anonymous::cross_covariance;
 use super::config::SlamConfig;
 use super::consistency::{Consistency, linearize_bearing};
 use super::second_order::SecondOrderTerms;
+use super::{BearingSlam, check_bearing_scan};
 use crate::ekf::{BlockJacobian, LinearizedMeasurement};
 use crate::error::{Result, SlamError, ensure_finite};
 use crate::geometry::{Pose2, wrap_angle};
 use crate::landmark::Parameterization;
-use crate::log::{BearingObservation, ensure_bearing};
+use crate::log::BearingObservation;
 use crate::model::MotionModel;
 use crate::online::{OnlineEstimator, ScanCounts, known_bearings};
 use crate::runner::RunOutput;
@@ -277,12 +278,7 @@ impl HeadingGaussianSum {
     /// Checks a scan before anything changes: bearings finite and within
     /// ±2π, no id twice, time not before the last one.
     fn check_scan(&self, time: f64, observations: &[(u64, f64)]) -> Result<()> {
-        for (i, &(id, z)) in observations.iter().enumerate() {
-            ensure_bearing(z)?;
-            if observations[..i].iter().any(|&(other, _)| other == id) {
-                return Err(SlamError::DuplicateMeasurement(id));
-            }
-        }
+        check_bearing_scan(observations)?;
         self.components[0].filter.check_time(time)
     }
 
@@ -406,12 +402,9 @@ fn scan_log_likelihood(
         return Ok(0.0);
     }
     let noise = Matrix1::new(slam.config.bearing_sigma.powi(2));
-    let n = slam.ekf.dim();
     let m = rows.len();
-    let mut h = DMatrix::zeros(m, n);
-    let mut innovation = DVector::zeros(m);
-    let mut r = DMatrix::zeros(m, m);
-    for (row, &(id, z)) in rows.iter().enumerate() {
+    let mut linearized = Vec::with_capacity(m);
+    for &(id, z) in &rows {
         let slot = slam.landmarks[&id];
         let pose = slam.vehicle_at();
         let mut l = linearize_bearing(
@@ -425,15 +418,19 @@ fn scan_log_likelihood(
         if slam.config.second_order {
             SecondOrderTerms::of(&slam.ekf, &slam.ekf, pose, slot)?.apply(&mut l);
         }
-        innovation[row] = l.innovation[0];
-        r[(row, row)] = l.noise[(0, 0)];
-        for block in &l.blocks {
-            for j in 0..block.jacobian.ncols() {
-                h[(row, block.offset + j)] = block.jacobian[(0, j)];
-            }
-        }
+        linearized.push(l);
     }
-    let s = &h * slam.ekf.covariance() * h.transpose() + r;
+    // S = H P Hᵀ + R from the touched covariance blocks only.
+    let innovation = DVector::from_iterator(m, linearized.iter().map(|l| l.innovation[0]));
+    let mut s = DMatrix::zeros(m, m);
+    for i in 0..m {
+        for j in 0..=i {
+            let c = cross_covariance(slam, &linearized[i].blocks, &linearized[j].blocks)?;
+            s[(i, j)] = c;
+            s[(j, i)] = c;
+        }
+        s[(i, i)] += linearized[i].noise[(0, 0)];
+    }
     let chol = s.cholesky().ok_or(SlamError::NotPositiveDefinite {
         what: "Gaussian-sum innovation covariance S",
     })?;

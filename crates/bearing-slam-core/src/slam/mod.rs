@@ -146,6 +146,18 @@ pub struct BearingSlam {
     deferred_rays: BTreeMap<u64, (f64, replay::WaitingBearing)>,
 }
 
+/// A scan of `(landmark id, bearing)` checked before anything changes:
+/// every bearing finite and within ±2π, no id twice.
+fn check_bearing_scan(observations: &[(u64, f64)]) -> Result<()> {
+    for (i, &(id, z)) in observations.iter().enumerate() {
+        ensure_bearing(z)?;
+        if observations[..i].iter().any(|&(other, _)| other == id) {
+            return Err(SlamError::DuplicateMeasurement(id));
+        }
+    }
+    Ok(())
+}
+
 impl BearingSlam {
     /// A filter at `config.initial_pose` with no landmarks.
     pub fn new(config: SlamConfig) -> Result<Self> {
@@ -407,12 +419,7 @@ impl BearingSlam {
         time: f64,
         observations: &[(u64, f64)],
     ) -> Result<BatchReport> {
-        for (i, &(id, z)) in observations.iter().enumerate() {
-            ensure_bearing(z)?;
-            if observations[..i].iter().any(|&(other, _)| other == id) {
-                return Err(SlamError::DuplicateMeasurement(id));
-            }
-        }
+        check_bearing_scan(observations)?;
         self.check_time(time)?;
         let noise = Matrix1::new(self.config.bearing_sigma.powi(2));
         let mut batch = Vec::new();
