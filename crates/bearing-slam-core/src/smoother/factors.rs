@@ -243,6 +243,31 @@ impl BearingFactor {
         self.offset = Some(offset);
         self
     }
+
+    /// The pose variable the bearing is taken from.
+    #[must_use]
+    pub fn pose(&self) -> u64 {
+        self.pose
+    }
+
+    /// The landmark variable it measures.
+    #[must_use]
+    pub fn landmark(&self) -> u64 {
+        self.landmark
+    }
+
+    /// The bearing, radians, in the sensor frame.
+    #[must_use]
+    pub fn bearing(&self) -> f64 {
+        self.bearing
+    }
+
+    /// The sensor's pose in the pose variable's frame, if the bearing was
+    /// taken after the variable's time ([`Self::with_offset`]).
+    #[must_use]
+    pub fn offset(&self) -> Option<Vector3<f64>> {
+        self.offset
+    }
 }
 
 /// The sensor pose `x ⊕ Δ` and its Jacobian `∂(x ⊕ Δ)/∂x` (SE(2)

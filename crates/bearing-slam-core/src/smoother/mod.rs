@@ -10,7 +10,8 @@
 //!   (marginalization) factors;
 //! * [`solver`]: Levenberg–Marquardt / Gauss–Newton on the sparse normal
 //!   equations (`faer`'s sparse Cholesky, symbolic analysis reused), with
-//!   the [`robust`] kernels;
+//!   the [`robust`] kernels; [`normal_equations`] hands out the system it
+//!   factors;
 //! * [`marginals`]: per-variable covariances by the selected inverse of the
 //!   sparse factor;
 //! * [`fixed_lag`]: online fixed-lag smoothing, marginalizing the poses that
@@ -54,5 +55,6 @@ pub use run::{
     UnmappedTriangulation, batch_problem, run_from_log,
 };
 pub use solver::{Method, SolveReport, SolverConfig, Termination, cost, optimize};
+pub use system::{SparseNormalEquations, normal_equations};
 pub use triangulate::{RayPoint, RayTriangulationRule, triangulate_rays};
 pub use values::{Key, LandmarkChart, Values};

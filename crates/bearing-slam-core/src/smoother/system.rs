@@ -193,6 +193,55 @@ pub(crate) struct NormalEquations {
     pub cost: f64,
 }
 
+/// The normal equations `H δ = −g` of a graph at one estimate, as the solver
+/// assembles them before its damping: the lower triangle of
+/// `H = Σ w JᵀJ` in compressed sparse columns (rows ascending within each
+/// column), `g = Σ w Jᵀe` and the cost `½ Σ ρ(‖e‖²)`, with `w` the IRLS
+/// weights of the robust kernel. For inspecting the information matrix or
+/// handing it to another sparse solver (`bearing-slam-eval`'s
+/// `sparse_solvers` example times faer against other crates on it).
+#[derive(Clone, Debug)]
+pub struct SparseNormalEquations {
+    /// The variables, in the order of `δ`.
+    pub keys: Vec<Key>,
+    /// The dimension of `δ`.
+    pub dim: usize,
+    /// Column starts into `row_indices` and `values` (`dim + 1` entries).
+    pub col_ptr: Vec<usize>,
+    /// Row of each stored entry (row ≥ column).
+    pub row_indices: Vec<usize>,
+    /// The stored entries of `H`'s lower triangle.
+    pub values: Vec<f64>,
+    /// `g = Σ w Jᵀe`.
+    pub gradient: Vec<f64>,
+    /// `½ Σ ρ(‖e‖²)`.
+    pub cost: f64,
+}
+
+/// Linearizes every factor of `graph` at `values` and returns the normal
+/// equations ([`SparseNormalEquations`]) with the robust `kernel` on the
+/// measurement factors.
+///
+/// # Errors
+/// A factor whose keys `values` lacks, or a non-finite linearization.
+pub fn normal_equations(
+    graph: &FactorGraph,
+    values: &Values,
+    kernel: &RobustKernel,
+) -> Result<SparseNormalEquations> {
+    let pattern = Pattern::new(graph, values)?;
+    let ne = assemble(&pattern, graph, values, kernel)?;
+    Ok(SparseNormalEquations {
+        keys: pattern.ordering.keys,
+        dim: pattern.ordering.dim,
+        col_ptr: pattern.col_ptr,
+        row_indices: pattern.row_idx,
+        values: ne.hessian,
+        gradient: ne.gradient,
+        cost: ne.cost,
+    })
+}
+
 /// The cost `½ Σ ρ(‖e‖²)` of a factor, with its IRLS weight.
 fn factor_cost(f: &Factor, squared: f64, kernel: &RobustKernel) -> (f64, f64) {
     if f.is_measurement() {
@@ -301,13 +350,11 @@ impl SparseCholesky {
             params,
         )
         .map_err(faer_error)?;
-        let n = pattern.ordering.dim;
         let scratch = symbolic
             .factorize_numeric_llt_scratch::<f64>(Par::Seq, Default::default())
             .or(symbolic.solve_in_place_scratch::<f64>(1, Par::Seq));
         let buffer = MemBuffer::try_new(scratch).map_err(faer_error)?;
         let values = vec![0.0; symbolic.len_val()];
-        let _ = n;
         Ok(Self {
             symbolic,
             values,
