@@ -127,7 +127,7 @@ fn landmark_rmse(values: &Values, truth: &[LandmarkTruth]) -> f64 {
     (squared / truth.len() as f64).sqrt()
 }
 
-/// Four seeds: with the solver's settings (at most 100 iterations), the
+/// Seeds 0–3: with the solver's settings (at most 100 iterations), the
 /// batch from dead reckoning stops unconverged at 1.3–3.1× the cost our
 /// start reaches, its map 11–99 m off (ours 2–4 m, with encoders this
 /// noisy); ours converges in under 25 iterations and its trajectory ends
@@ -139,7 +139,10 @@ fn turning_in_place_among_far_landmarks_traps_a_dead_reckoning_start_but_not_our
     let s = turn_then_drive();
     let config = s.run_config().unwrap();
     let smoother = SmootherConfig::default();
-    for seed in 0..4 {
+    // Seeds 0 and 1 by default (a debug build takes ~20 s a seed);
+    // `HARD_START_SEEDS=4` reruns the documented table's four.
+    let seeds: u64 = std::env::var("HARD_START_SEEDS").map_or(2, |v| v.parse().unwrap());
+    for seed in 0..seeds {
         let log = s.simulate(seed);
         // The first 25 s: every bearing from one point.
         let turn_end = 2.0 * TAU / 0.5;
