@@ -10,7 +10,7 @@ use bearing_slam_core::SlamError;
 use bearing_slam_core::smoother::{
     BearingFactor, Factor, FactorGraph, Key, LandmarkPriorFactor, Method, OdometryFactor,
     PosePriorFactor, RangeBearingFactor, RobustKernel, SolverConfig, Termination, Values, cost,
-    marginal_covariances, optimize,
+    marginal_covariances, normal_equations, optimize,
 };
 use nalgebra::{DMatrix, Matrix2, Matrix3, Vector2, Vector3};
 use smoother_common::{max_difference, problem};
@@ -554,4 +554,57 @@ fn the_cost_is_half_the_sum_of_squared_whitened_residuals() {
     let report = optimize(&g, &mut values, &SolverConfig::default()).unwrap();
     assert!((report.initial_cost - 28.0).abs() < 1e-9, "{report:?}");
     assert!(report.final_cost < 1e-12, "{report:?}");
+}
+
+/// `normal_equations` hands out the system the solver factors: the lower
+/// triangle in compressed columns (rows ascending, on or below the
+/// diagonal), positive definite, its cost the graph's, and its gradient
+/// `g = Σ w Jᵀe` the derivative of that cost along each variable's
+/// increment (central differences through `Values::retract`), robust
+/// kernel included.
+#[test]
+fn the_normal_equations_are_the_lower_triangle_and_the_gradient_of_the_cost() {
+    let p = problem(4, 8, true, true);
+    let kernel = RobustKernel::Cauchy(2.0);
+    let ne = normal_equations(&p.graph, &p.initial, &kernel).unwrap();
+    let dims: usize = ne.keys.iter().map(Key::dim).sum();
+    assert_eq!(ne.dim, dims);
+    assert_eq!(ne.col_ptr.len(), ne.dim + 1);
+    assert_eq!(ne.values.len(), ne.row_indices.len());
+    let mut h = DMatrix::zeros(ne.dim, ne.dim);
+    for c in 0..ne.dim {
+        let rows = &ne.row_indices[ne.col_ptr[c]..ne.col_ptr[c + 1]];
+        assert_eq!(rows.first(), Some(&c), "column {c} starts on the diagonal");
+        assert!(rows.windows(2).all(|w| w[0] < w[1]), "column {c}: {rows:?}");
+        for (k, &r) in rows.iter().enumerate() {
+            h[(r, c)] = ne.values[ne.col_ptr[c] + k];
+            h[(c, r)] = h[(r, c)];
+        }
+    }
+    assert!(h.clone().cholesky().is_some(), "H is positive definite");
+    assert_eq!(ne.cost, cost(&p.graph, &p.initial, &kernel).unwrap());
+
+    let mut offset = 0;
+    for key in &ne.keys {
+        for i in 0..key.dim() {
+            let step = 1e-6;
+            let at = |sign: f64| {
+                let mut v = p.initial.clone();
+                let mut delta = vec![0.0; key.dim()];
+                delta[i] = sign * step;
+                v.retract(*key, &delta).unwrap();
+                cost(&p.graph, &v, &kernel).unwrap()
+            };
+            let numeric = (at(1.0) - at(-1.0)) / (2.0 * step);
+            let g = ne.gradient[offset + i];
+            assert!(
+                (numeric - g).abs() <= 1e-5 * (1.0 + g.abs()),
+                "{key:?}[{i}]: numeric {numeric}, assembled {g}"
+            );
+        }
+        offset += key.dim();
+    }
+
+    // A graph without values for its keys is an error, not a panic.
+    assert!(normal_equations(&p.graph, &Values::new(), &kernel).is_err());
 }
