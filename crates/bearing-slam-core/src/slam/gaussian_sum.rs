@@ -403,10 +403,10 @@ fn scan_log_likelihood(
     }
     let noise = Matrix1::new(slam.config.bearing_sigma.powi(2));
     let m = rows.len();
+    let pose = slam.vehicle_at();
     let mut linearized = Vec::with_capacity(m);
     for &(id, z) in &rows {
         let slot = slam.landmarks[&id];
-        let pose = slam.vehicle_at();
         let mut l = linearize_bearing(
             &slam.ekf,
             slam.config.consistency,

@@ -52,8 +52,8 @@ fn turn_then_drive() -> KinematicScenario {
     s
 }
 
-/// The pose ids of `graph`'s odometry chain from `first`, with each step's
-/// relative pose.
+/// Each pose an odometry factor of `graph` ends on, with the pose it starts
+/// from and the relative pose between them.
 fn odometry_chain(graph: &FactorGraph) -> BTreeMap<u64, (u64, Vector3<f64>)> {
     graph
         .factors()
