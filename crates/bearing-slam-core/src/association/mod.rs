@@ -131,6 +131,19 @@ pub struct AssociationConfig {
     /// static long enough to be mapped, at the price of evicting static
     /// landmarks when the robot slips (docs/results/association.md).
     pub moving_object_nis_factor: Option<f64>,
+    /// Removes a mapped landmark paired in fewer than this fraction (in
+    /// (0, 1]) of the last 20 scans since it entered: a moving object
+    /// mapped while it looked static, whose bearings then swing out of the
+    /// landmark's gate (walked off, or pacing, its bearings inside the gate
+    /// only half the time), so that the windowed NIS of
+    /// [`Self::moving_object_nis_factor`], which sees only the bearings
+    /// inside, cannot tell it. MonoSLAM's rule for features not found
+    /// where predicted (Davison et al. 2007: 0.5). Only for a sensor that
+    /// keeps every landmark in view and detects it at nearly every scan
+    /// (all round, within range, unoccluded): there is no visibility model
+    /// here, so a static landmark out of range is evicted too
+    /// (docs/results/association.md). `None` (the default) keeps them.
+    pub moving_object_pair_ratio: Option<f64>,
     /// Counts a track's evidence in time instead of scans, for sensors
     /// whose scans are single detections at irregular times (MRCLAM): a
     /// track is dropped when it has not been seen for this many seconds,
@@ -362,6 +375,7 @@ impl Default for AssociationConfig {
             max_misses: 3,
             max_tracks: 200,
             moving_object_nis_factor: None,
+            moving_object_pair_ratio: None,
             track_max_gap_s: None,
             exclusive_track_births: false,
             merge_duplicates: true,
@@ -427,6 +441,15 @@ impl AssociationConfig {
                 name: "association.track_max_gap_s",
                 value: g,
                 reason: "must be a positive number of seconds",
+            });
+        }
+        if let Some(r) = self.moving_object_pair_ratio
+            && !(r > 0.0 && r <= 1.0)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "association.moving_object_pair_ratio",
+                value: r,
+                reason: "must be a fraction in (0, 1]",
             });
         }
         if let Some(f) = self.moving_object_nis_factor
@@ -499,6 +522,17 @@ mod tests {
         };
         let err = bad.validate().expect_err("0 hypotheses").to_string();
         assert!(err.contains("association.ransac_hypotheses"), "{err}");
+        for ratio in [0.0, 1.5, f64::NAN] {
+            let bad = AssociationConfig {
+                moving_object_pair_ratio: Some(ratio),
+                ..AssociationConfig::default()
+            };
+            let err = bad.validate().expect_err("not a fraction").to_string();
+            assert!(
+                err.contains("association.moving_object_pair_ratio"),
+                "{err}"
+            );
+        }
     }
 
     #[test]

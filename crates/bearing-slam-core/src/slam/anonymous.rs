@@ -73,6 +73,8 @@ pub(super) struct Anonymous {
     /// Each mapped landmark's appearance (the mean of its paired
     /// descriptors), when the bearings carry descriptors.
     appearances: BTreeMap<u64, Appearance>,
+    /// Whether each mapped landmark was paired in each of its latest scans.
+    recent_pairings: BTreeMap<u64, VecDeque<bool>>,
     /// When each mapped landmark was last paired with a bearing.
     last_paired: BTreeMap<u64, f64>,
     /// The pose clone of each live track's first sighting, when the
@@ -106,14 +108,27 @@ impl Anonymous {
             recent_nis: BTreeMap::new(),
             merged: BTreeMap::new(),
             appearances: BTreeMap::new(),
+            recent_pairings: BTreeMap::new(),
             last_paired: BTreeMap::new(),
             track_clones: BTreeMap::new(),
         }))
+    }
+
+    /// Forgets what was known of mapped landmark `id`, removed at `time` as
+    /// a moving object, and records its death.
+    fn forget_removed(&mut self, id: u64, time: f64) {
+        self.recent_nis.remove(&id);
+        self.appearances.remove(&id);
+        self.last_paired.remove(&id);
+        self.deaths.insert(id, time);
     }
 }
 
 /// Pairings in the window of a landmark's NIS test.
 const NIS_WINDOW: usize = 10;
+
+/// Scans in the window of a landmark's pairing-ratio test.
+const PAIRING_WINDOW: usize = 20;
 
 /// Probability of the windowed NIS test that removes a mapped landmark
 /// whose bearings stopped fitting it.
@@ -266,6 +281,8 @@ impl BearingSlam {
             }
         }
         self.remove_inconsistent_landmarks(time, &nis)?;
+        let paired_now: Vec<u64> = nis.iter().map(|&(id, _)| id).collect();
+        self.remove_rarely_paired_landmarks(time, &paired_now)?;
         let mut assigned: Vec<Assignment> = pairing
             .landmark_of
             .iter()
@@ -649,11 +666,43 @@ impl BearingSlam {
                     doomed.push(id);
                 }
             }
-            for id in &doomed {
-                a.recent_nis.remove(id);
-                a.appearances.remove(id);
-                a.last_paired.remove(id);
-                a.deaths.insert(*id, time);
+            for &id in &doomed {
+                a.forget_removed(id, time);
+            }
+        }
+        for id in doomed {
+            self.remove_landmark(id)?;
+        }
+        Ok(())
+    }
+
+    /// Records whether each mapped landmark was paired in this scan and
+    /// removes from the map every landmark paired in fewer than
+    /// [`AssociationConfig::moving_object_pair_ratio`] of its last
+    /// [`PAIRING_WINDOW`] scans: a moving object whose bearings swing out
+    /// of its gate. Recorded as a death.
+    fn remove_rarely_paired_landmarks(&mut self, time: f64, paired: &[u64]) -> Result<()> {
+        let Some(ratio) = self.config.association.moving_object_pair_ratio else {
+            return Ok(());
+        };
+        let mut doomed = Vec::new();
+        if let Some(a) = self.anonymous.as_mut() {
+            a.recent_pairings
+                .retain(|id, _| self.landmarks.contains_key(id));
+            for &id in self.landmarks.keys() {
+                let window = a.recent_pairings.entry(id).or_default();
+                window.push_back(paired.contains(&id));
+                if window.len() > PAIRING_WINDOW {
+                    window.pop_front();
+                }
+                let hits = window.iter().filter(|&&p| p).count();
+                if window.len() == PAIRING_WINDOW && (hits as f64) < ratio * PAIRING_WINDOW as f64 {
+                    doomed.push(id);
+                }
+            }
+            for &id in &doomed {
+                a.recent_pairings.remove(&id);
+                a.forget_removed(id, time);
             }
         }
         for id in doomed {

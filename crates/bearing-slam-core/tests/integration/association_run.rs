@@ -84,10 +84,46 @@ fn a_moving_distractor_is_rejected() {
     };
     let score = run_with(&log(3, 0, true), association);
     // The pacing person looks static now and then long enough to be
-    // mapped, and is removed again each time it stops fitting.
+    // mapped, and is removed again each time it stops fitting. A pinned
+    // seed: on seeds 0–29 it ends in the map in 14 runs (the next test,
+    // and docs/results/association.md "Moving distractor").
     assert_eq!(score.spurious_at_end, 0, "{score:?}");
     assert!(score.removed >= score.spurious, "{score:?}");
     assert!(score.mapped >= 3, "{score:?}");
+}
+
+/// The pairing-ratio rule on top of the NIS rule, seeds 0–9 of the same
+/// run: the pacing person is also mapped where its bearings then swing out
+/// of the landmark's gate (the NIS rule sees only the bearings inside), and
+/// the ratio rule removes those. Neither rule gets it out of the final map
+/// on every seed (from afar, within the gate half the time and consistent
+/// there, it looks static): seeds 0–29 end with it mapped in 14 runs
+/// under the NIS rule, 11 under both (docs/results/association.md).
+#[test]
+fn the_pairing_ratio_rule_removes_a_distractor_the_nis_rule_keeps() {
+    let nis_only = AssociationConfig {
+        moving_object_nis_factor: Some(3.0),
+        ..AssociationConfig::of(AssociationMethod::Jcbb)
+    };
+    let both = AssociationConfig {
+        moving_object_pair_ratio: Some(0.5),
+        ..nis_only
+    };
+    let (mut kept_by_nis, mut kept_by_both) = (0, 0);
+    for seed in 0..10 {
+        let log = log(seed, 0, true);
+        let (a, b) = (run_with(&log, nis_only), run_with(&log, both));
+        // Every static landmark stays mapped under the stricter rule.
+        assert_eq!(b.missed, 0, "seed {seed}: {b:?}");
+        assert!(b.mapped >= 3, "seed {seed}: {b:?}");
+        assert!(b.removed >= a.removed, "seed {seed}: {a:?} / {b:?}");
+        kept_by_nis += a.spurious_at_end;
+        kept_by_both += b.spurious_at_end;
+    }
+    assert!(
+        kept_by_both < kept_by_nis,
+        "{kept_by_both} against {kept_by_nis}"
+    );
 }
 
 #[test]

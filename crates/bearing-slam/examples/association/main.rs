@@ -75,7 +75,8 @@ pub(crate) struct Row {
 /// `base` with association `method` and the options read from the
 /// environment: `ASSOCIATION_TRACK_GAP_S` (seconds),
 /// `ASSOCIATION_MOVING_FACTOR` (the moving-object removal's factor, unset:
-/// off), and `0` or `1` in
+/// off), `ASSOCIATION_PAIR_RATIO` (the rarely-paired removal's fraction,
+/// unset: off), and `0` or `1` in
 /// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
 /// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
 /// turn that option of [`AssociationConfig`] off or on (unset: its default);
@@ -114,6 +115,10 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
             .ok()
             .and_then(|s| s.parse().ok())
             .or(d.moving_object_nis_factor),
+        moving_object_pair_ratio: std::env::var("ASSOCIATION_PAIR_RATIO")
+            .ok()
+            .and_then(|s| s.parse().ok())
+            .or(d.moving_object_pair_ratio),
         merge_duplicates: switch("ASSOCIATION_MERGE", d.merge_duplicates),
         associate_tracks: switch("ASSOCIATION_TRACK_PAIRING", d.associate_tracks),
         skip_ambiguous_sightings: switch(
