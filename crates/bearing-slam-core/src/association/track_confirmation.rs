@@ -1,9 +1,11 @@
 //! When a track of [`super`] may enter the map: the confirmation rules of
 //! [`TrackSet::confirmed`] (enough sightings in enough of their scans, or
 //! appearance evidence past Wald's bound; a consistent point; no better
-//! supported competitor) and the opt-in stricter ones.
+//! supported competitor) and the opt-in stricter ones; and the tracks
+//! without a point that only the far rule may bring in
+//! ([`TrackSet::ready_without_point`]).
 
-use super::{Track, TrackSet, same_point};
+use super::{MAX_SIGHTINGS, Track, TrackSet, relative_variances, same_point};
 use crate::geometry::wrap_angle;
 
 impl TrackSet {
@@ -45,6 +47,64 @@ impl TrackSet {
             .filter(|t| !self.config.confirm_track_score || t.score >= self.score_threshold)
             .map(|t| t.id)
             .collect()
+    }
+
+    /// Tracks seen as often as [`Self::confirmed`] asks (in enough of
+    /// their scans, this one included) that have no point: a far
+    /// landmark's nearly parallel rays never bound its depth. The filter
+    /// brings them in only where the delayed initializer, given the same
+    /// first and newest bearings, would enter a known landmark from its
+    /// current bearing by the far rule (24); a known landmark's candidate
+    /// needs no point for that either. The sightings must fit one world
+    /// direction, as a far point's do ([`Self::fits_one_direction`]).
+    /// Ascending ids; none when a confirmation rule that needs a point is
+    /// on.
+    #[must_use]
+    pub fn ready_without_point(&self) -> Vec<u64> {
+        if self.config.confirm_constrained_depth || self.config.min_parallax_views > 0 {
+            return Vec::new();
+        }
+        self.tracks
+            .iter()
+            .filter(|t| {
+                let timed = self.config.track_max_gap_s.is_some();
+                t.point.is_none()
+                    && t.hits >= self.config.min_sightings
+                    && (timed
+                        || t.hits as f64 >= self.config.min_hit_ratio * t.judged_scans(self.scan))
+                    && t.last().key.0 == self.scan
+            })
+            .filter(|t| self.fits_one_direction(t))
+            .filter(|t| !self.config.confirm_unambiguous || !self.outranked(t))
+            .filter(|t| !self.config.confirm_track_score || t.score >= self.score_threshold)
+            .map(|t| t.id)
+            .collect()
+    }
+
+    /// Whether a track's sightings fit a point at infinity, the far rule's
+    /// hypothesis: one world direction, their weighted mean, within the
+    /// χ² consistency limit (n − 1 degrees of freedom; each bearing's
+    /// noise plus the heading variance gained since the first sighting).
+    /// A far landmark's bearings do; a moving object's, which swing, and
+    /// clutter's, which scatter across the wedge, do not.
+    fn fits_one_direction(&self, t: &Track) -> bool {
+        let first = t.first();
+        let weights: Vec<(f64, f64)> = t
+            .sightings
+            .iter()
+            .map(|s| {
+                let grown = relative_variances(first, s);
+                (
+                    wrap_angle(s.world_bearing() - first.world_bearing()),
+                    1.0 / (self.bearing_variance + grown.z),
+                )
+            })
+            .collect();
+        let total: f64 = weights.iter().map(|w| w.1).sum();
+        let mean = weights.iter().map(|(r, w)| r * w).sum::<f64>() / total;
+        let chi2: f64 = weights.iter().map(|(r, w)| (r - mean).powi(2) * w).sum();
+        let dof = t.sightings.len().saturating_sub(1).clamp(1, MAX_SIGHTINGS);
+        chi2 <= self.consistency[dof]
     }
 
     /// Whether the two sightings the initializer triangulates from, the

@@ -77,9 +77,10 @@ pub(super) struct Anonymous {
     recent_pairings: BTreeMap<u64, VecDeque<bool>>,
     /// When each mapped landmark was last paired with a bearing.
     last_paired: BTreeMap<u64, f64>,
-    /// The pose clone of each live track's first sighting, when the
-    /// initializer keeps first rays (`track_clones`).
-    pub(super) track_clones: BTreeMap<u64, u64>,
+    /// The pose clone of each live track's first sighting, with that
+    /// sighting's key, when the initializer keeps first rays
+    /// (`track_clones`).
+    pub(super) track_clones: BTreeMap<u64, (u64, (u64, usize))>,
 }
 
 impl Anonymous {

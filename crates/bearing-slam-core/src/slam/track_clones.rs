@@ -15,8 +15,8 @@
 //! of the filter's state; after each scan the filter gives every new track
 //! the clone of the current pose (one per scan, shared), lets a branch
 //! share its parent's (same first sighting), and releases the clones of
-//! the tracks that died. A confirmed track hands its clone to the candidate
-//! it becomes.
+//! the tracks that died or were re-based on a later sighting. A confirmed
+//! track hands its clone to the candidate it becomes.
 //!
 //! [`UndelayedFallback::keep_first_ray`]: crate::init::UndelayedFallback::keep_first_ray
 
@@ -56,19 +56,32 @@ impl BearingSlam {
             .collect();
         let mut gone = Vec::new();
         let mut by_first = BTreeMap::new();
-        for (&track, &clone) in &anonymous.track_clones {
+        for (&track, &(clone, cloned_key)) in &anonymous.track_clones {
             match live.get(&track) {
-                Some(&(key, _)) => {
+                Some(&(key, _)) if key == cloned_key => {
                     by_first.insert(key, clone);
                 }
-                None => gone.push((track, clone)),
+                // Dead, or re-based on a later sighting (its first one was
+                // an outlier): the clone is not of its first pose any more.
+                _ => gone.push((track, clone)),
             }
         }
         let missing: Vec<(u64, (u64, usize), f64)> = live
             .iter()
-            .filter(|(id, _)| !anonymous.track_clones.contains_key(id))
+            .filter(|(id, (key, _))| {
+                anonymous
+                    .track_clones
+                    .get(id)
+                    .is_none_or(|&(_, cloned_key)| cloned_key != *key)
+            })
             .map(|(&id, &(key, first_time))| (id, key, first_time))
             .collect();
+        for &(track, clone) in &gone {
+            if let Some(a) = self.anonymous.as_mut() {
+                a.track_clones.remove(&track);
+            }
+            self.release_clone(clone)?;
+        }
         for (track, key, first_time) in missing {
             let clone = match by_first.get(&key) {
                 Some(&shared) => {
@@ -87,14 +100,8 @@ impl BearingSlam {
                 None => continue,
             };
             if let Some(a) = self.anonymous.as_mut() {
-                a.track_clones.insert(track, clone);
+                a.track_clones.insert(track, (clone, key));
             }
-        }
-        for (track, clone) in gone {
-            if let Some(a) = self.anonymous.as_mut() {
-                a.track_clones.remove(&track);
-            }
-            self.release_clone(clone)?;
         }
         Ok(())
     }
@@ -102,6 +109,10 @@ impl BearingSlam {
     /// Takes track `id`'s clone of its first pose, for the candidate it
     /// becomes (which releases it).
     pub(super) fn take_track_clone(&mut self, id: u64) -> Option<u64> {
-        self.anonymous.as_mut()?.track_clones.remove(&id)
+        self.anonymous
+            .as_mut()?
+            .track_clones
+            .remove(&id)
+            .map(|(clone, _)| clone)
     }
 }

@@ -9,24 +9,37 @@ use super::super::{BearingSlam, InitializerConfig};
 use crate::association::appearance::Appearance;
 use crate::association::tracks::{Sighting, TrackPoint};
 use crate::error::Result;
+use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide};
-use nalgebra::Vector3;
+use nalgebra::{Matrix2, Vector2, Vector3};
 
 impl BearingSlam {
     /// Brings the confirmed tracks into the map through the configured
-    /// initializer, from their first sighting and the current bearing;
-    /// returns how many entered.
+    /// initializer, from their first sighting and the current bearing, and
+    /// the tracks without a point that its far rule (24) takes (as it takes
+    /// a known landmark's candidate, which needs no point either); returns
+    /// how many entered.
     pub(super) fn promote_confirmed_tracks(
         &mut self,
         time: f64,
         pose: &Vector3<f64>,
     ) -> Result<usize> {
-        let confirmed = match &self.anonymous {
-            Some(a) => a.tracks.confirmed(),
+        let (mut ready, without_point) = match &self.anonymous {
+            Some(a) => (a.tracks.confirmed(), a.tracks.ready_without_point()),
             None => return Ok(0),
         };
+        let delayed = !matches!(self.config.initializer, InitializerConfig::PiSr { .. });
+        let far_only: Vec<u64> = if delayed {
+            without_point
+                .into_iter()
+                .filter(|id| !ready.contains(id))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        ready.extend(&far_only);
         let mut entered = 0;
-        for id in confirmed {
+        for id in ready {
             let Some(track) = self
                 .anonymous
                 .as_ref()
@@ -49,6 +62,8 @@ impl BearingSlam {
                     .is_none_or(|&t| t < first.time)
             });
             if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref())
+                || (track.point.is_none()
+                    && self.explained_by_rays(&first, &last, track.appearance.as_ref()))
                 || (look_alike.is_some() && lost.is_none())
             {
                 // A mapped landmark already stands there: its bearings
@@ -66,6 +81,11 @@ impl BearingSlam {
                     decide(c, &candidate, pose, last.bearing).0
                 }
             };
+            // Without a point only the far rule may bring a track in;
+            // otherwise it keeps gathering sightings.
+            if far_only.contains(&id) && !matches!(decision, CandidateDecision::Far) {
+                continue;
+            }
             match decision {
                 CandidateDecision::Wait => continue,
                 CandidateDecision::Restart => {
@@ -82,8 +102,11 @@ impl BearingSlam {
                 // candidate takes the track's clone, so that its first ray
                 // is replayed once the depth is bounded (`kept_ray`).
                 // Triangulated, the first pose enters as the paper's
-                // independent noise (22): measured better here than the
-                // exact clone (docs/results/association.md).
+                // independent noise (22): with the exact clone instead the
+                // ATE was no better on `slip_patch` seeds 10–19 and a
+                // moving object's landmark, held to its first ray, was left
+                // behind unpaired where no test removes it
+                // (docs/results/association.md).
                 let clone = self.take_track_clone(id);
                 match decision {
                     CandidateDecision::Far => pending.clone = clone,
@@ -141,6 +164,49 @@ impl BearingSlam {
             .filter(|&(_, d2)| d2 <= gate)
             .min_by(|x, y| x.1.total_cmp(&y.1))
             .map(|(id, _)| id)
+    }
+
+    /// Whether a mapped landmark already explains a track without a point:
+    /// its estimate lies on the first and the newest sighting's rays, each
+    /// within the χ²₁ gate (the bearing noise, the sighting's heading and
+    /// position variances and the landmark's across the ray) and, with
+    /// descriptors, it looks like the track. A far landmark's track whose
+    /// bearings missed the landmark's gate for a while is not mapped twice.
+    fn explained_by_rays(
+        &self,
+        first: &Sighting,
+        last: &Sighting,
+        appearance: Option<&Appearance>,
+    ) -> bool {
+        let p = self.config.association.gate_probability;
+        let Ok(gate) = crate::stats::chi2_quantile(1.0, p) else {
+            return false;
+        };
+        let model = self.config.association.descriptors;
+        let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
+        let known = self.anonymous.as_ref().map(|a| &a.appearances);
+        let noise = self.config.bearing_sigma.powi(2);
+        let fits = |s: &Sighting, x: &Vector2<f64>, cov: &Matrix2<f64>| {
+            let d = x - s.pose.xy();
+            let range2 = d.norm_squared();
+            if range2 < 1e-12 {
+                return false;
+            }
+            // ∂atan2(d)/∂x = [−d_y, d_x] / |d|².
+            let j = Vector2::new(-d.y, d.x) / range2;
+            let v = s.pose_variances;
+            let variance = noise + v.z + j.dot(&(cov * j)) + 0.5 * (v.x + v.y) / range2;
+            wrap_angle(d.y.atan2(d.x) - s.world_bearing()).powi(2) / variance <= gate
+        };
+        self.landmarks().iter().any(|l| {
+            let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
+                (Some(m), Some(a), Some(b)) => m.distance_between(a, b) <= appearance_gate,
+                _ => true,
+            };
+            alike
+                && fits(first, &l.position, &l.covariance)
+                && fits(last, &l.position, &l.covariance)
+        })
     }
 
     /// Whether a mapped landmark already explains a track: its point lies

@@ -76,31 +76,21 @@ fn clutter_bearings_never_become_landmarks() {
     }
 }
 
+/// The pacing person looks static now and then long enough to be mapped
+/// (2–3 times per run), and is removed again each time it stops fitting:
+/// by the windowed NIS while its bearings still pair with the landmark, and
+/// by the pairing-ratio rule once they swing out of the landmark's gate
+/// (the NIS rule sees only the bearings inside). Seeds 0–9 of the kinematic
+/// straight run. Not met: it is not out of the final map on every seed
+/// (from afar, inside the gate half the time and consistent there, it
+/// looks static); seeds 0–29 end with it mapped in 18 runs under the NIS
+/// rule and 12 under both (docs/results/association.md, "Moving
+/// distractor"). This pins what holds: never more than the last of its
+/// landmarks stays, in at most half the runs under both rules (4 of 10
+/// today), fewer than under the NIS rule alone, and no static landmark is
+/// lost to either rule.
 #[test]
-fn a_moving_distractor_is_rejected() {
-    let association = AssociationConfig {
-        moving_object_nis_factor: Some(3.0),
-        ..AssociationConfig::of(AssociationMethod::Jcbb)
-    };
-    let score = run_with(&log(3, 0, true), association);
-    // The pacing person looks static now and then long enough to be
-    // mapped, and is removed again each time it stops fitting. A pinned
-    // seed: on seeds 0–29 it ends in the map in 14 runs (the next test,
-    // and docs/results/association.md "Moving distractor").
-    assert_eq!(score.spurious_at_end, 0, "{score:?}");
-    assert!(score.removed >= score.spurious, "{score:?}");
-    assert!(score.mapped >= 3, "{score:?}");
-}
-
-/// The pairing-ratio rule on top of the NIS rule, seeds 0–9 of the same
-/// run: the pacing person is also mapped where its bearings then swing out
-/// of the landmark's gate (the NIS rule sees only the bearings inside), and
-/// the ratio rule removes those. Neither rule gets it out of the final map
-/// on every seed (from afar, within the gate half the time and consistent
-/// there, it looks static): seeds 0–29 end with it mapped in 14 runs
-/// under the NIS rule, 11 under both (docs/results/association.md).
-#[test]
-fn the_pairing_ratio_rule_removes_a_distractor_the_nis_rule_keeps() {
+fn a_moving_distractor_is_removed_each_time_it_stops_fitting() {
     let nis_only = AssociationConfig {
         moving_object_nis_factor: Some(3.0),
         ..AssociationConfig::of(AssociationMethod::Jcbb)
@@ -113,13 +103,16 @@ fn the_pairing_ratio_rule_removes_a_distractor_the_nis_rule_keeps() {
     for seed in 0..10 {
         let log = log(seed, 0, true);
         let (a, b) = (run_with(&log, nis_only), run_with(&log, both));
-        // Every static landmark stays mapped under the stricter rule.
-        assert_eq!(b.missed, 0, "seed {seed}: {b:?}");
-        assert!(b.mapped >= 3, "seed {seed}: {b:?}");
-        assert!(b.removed >= a.removed, "seed {seed}: {a:?} / {b:?}");
+        assert!(b.spurious >= 1, "seed {seed}: mapped now and then: {b:?}");
+        assert!(b.spurious_at_end <= 1, "seed {seed}: {b:?}");
+        for s in [&a, &b] {
+            assert_eq!(s.missed, 0, "seed {seed}: {s:?}");
+            assert!(s.mapped >= 3, "seed {seed}: {s:?}");
+        }
         kept_by_nis += a.spurious_at_end;
         kept_by_both += b.spurious_at_end;
     }
+    assert!(kept_by_both <= 5, "{kept_by_both} of 10 runs");
     assert!(
         kept_by_both < kept_by_nis,
         "{kept_by_both} against {kept_by_nis}"

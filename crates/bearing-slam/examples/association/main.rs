@@ -15,6 +15,7 @@
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- oracle 3
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- oracle-mrclam /work/shared/datasets/mrclam/MRCLAM_Dataset6
 //! nice -n 10 cargo run --release -p bearing-slam --example association -- fastslam 3
+//! nice -n 10 cargo run --release -p bearing-slam --example association -- entries slip_patch 5 nn
 //! ```
 //!
 //! `mrclam DIR`'s "precision by group" counts a pairing correct when the
@@ -49,6 +50,7 @@ use std::collections::BTreeMap;
 use std::error::Error;
 use std::path::Path;
 
+mod entries;
 mod mrclam;
 mod oracle;
 
@@ -131,6 +133,7 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
         ),
         wedge_hypotheses: number("ASSOCIATION_WEDGE_HYPOTHESES", d.wedge_hypotheses),
         wedge_branches: number("ASSOCIATION_WEDGE_BRANCHES", d.wedge_branches),
+        min_sightings: number("ASSOCIATION_MIN_SIGHTINGS", d.min_sightings),
         min_parallax_views: number("ASSOCIATION_PARALLAX_VIEWS", d.min_parallax_views),
         confirm_constrained_depth: switch("ASSOCIATION_DEPTH_BOUND", d.confirm_constrained_depth),
         confirm_unambiguous: switch("ASSOCIATION_UNAMBIGUOUS", d.confirm_unambiguous),
@@ -684,6 +687,7 @@ fn main() -> Res<()> {
             args.get(2).map_or(Ok(0), |s| s.parse())?,
         ),
         Some("diag") => diag(&args[1..]),
+        Some("entries") => entries::entries(&args[1..]),
         Some("oracle") => oracle::sim_oracle(
             args.get(1).map_or(Ok(3), |s| s.parse())?,
             args.get(2).map_or(Ok(0), |s| s.parse())?,
@@ -697,7 +701,7 @@ fn main() -> Res<()> {
             String::as_str,
         ))),
         _ => Err(
-            "usage: association sim [SEEDS [FIRST_SEED]] | oracle [SEEDS [FIRST_SEED]] | oracle-mrclam [DATASET_DIR] | fastslam [SEEDS [FIRST_SEED]] | mrclam [DATASET_DIR] | cost | diag SCENARIO SEED CLUTTER METHOD"
+            "usage: association sim [SEEDS [FIRST_SEED]] | oracle [SEEDS [FIRST_SEED]] | oracle-mrclam [DATASET_DIR] | fastslam [SEEDS [FIRST_SEED]] | mrclam [DATASET_DIR] | cost | diag SCENARIO SEED CLUTTER METHOD | entries SCENARIO SEED METHOD"
                 .into(),
         ),
     }
