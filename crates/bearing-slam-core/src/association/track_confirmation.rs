@@ -56,7 +56,8 @@ impl TrackSet {
     /// first and newest bearings, would enter a known landmark from its
     /// current bearing by the far rule (24); a known landmark's candidate
     /// needs no point for that either. The sightings must fit one world
-    /// direction, as a far point's do ([`Self::fits_one_direction`]).
+    /// direction, as a far point's do (their weighted mean, within the χ²
+    /// consistency limit).
     /// Ascending ids; none when a confirmation rule that needs a point is
     /// on.
     #[must_use]

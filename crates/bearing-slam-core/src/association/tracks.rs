@@ -644,9 +644,8 @@ impl TrackSet {
     }
 
     /// The least-squares point of `sightings` (Gauss–Newton from the
-    /// crossing of the first and last rays) with its covariance, when that
-    /// is one (positive definite), the rays cross in front of every pose,
-    /// past the wedge's minimum depth
+    /// crossing of the first and last rays) with its covariance, when the
+    /// rays cross in front of every pose, past the wedge's minimum depth
     /// along each ray (nearer, the crossing contradicts the wedge the
     /// sightings were gated by: on MRCLAM, another robot's barcode seen
     /// from 0.25 m crossing an earlier bundle of its bearings), and the
@@ -685,13 +684,14 @@ impl TrackSet {
             };
             x -= inverse * gradient;
         }
-        // Nearly parallel rays (a far landmark, or a heading error that
-        // cancels the parallax) leave the information singular to rounding:
-        // Gauss–Newton then runs off to a "point" at 1e15 m whose inverse
-        // is not a covariance (negative variances, a depth σ of 0 that
-        // passes the depth test), and its χ² would kill the track of a
-        // landmark that is only far. That is no point: depth unbounded.
-        let Some(cov) = information.try_inverse().filter(|c| c.cholesky().is_some()) else {
+        // Nearly parallel rays (a far landmark) leave the information
+        // singular to rounding, and Gauss–Newton runs off to a "point" at
+        // 1e11–1e18 m whose inverse need not be positive definite; its χ²
+        // then judges it as the far hypothesis. Refusing such a fit as no
+        // point was measured (2026-11-30): better on `slip_patch` without
+        // clutter, but on MRCLAM it mapped fewer landmarks and the pacing
+        // distractor stayed more often (docs/results/association.md, top).
+        let Some(cov) = information.try_inverse() else {
             return (None, 0.0);
         };
         let in_front = sightings.iter().all(|s| {

@@ -83,12 +83,12 @@ fn clutter_bearings_never_become_landmarks() {
 /// (the NIS rule sees only the bearings inside). Seeds 0–9 of the kinematic
 /// straight run. Not met: it is not out of the final map on every seed
 /// (from afar, inside the gate half the time and consistent there, it
-/// looks static); seeds 0–29 end with it mapped in 18 runs under the NIS
-/// rule and 12 under both (docs/results/association.md, "Moving
+/// looks static); in seeds 0–29 it is in the final map 14 times under the
+/// NIS rule and 11 under both (docs/results/association.md, "Moving
 /// distractor"). This pins what holds: never more than the last of its
 /// landmarks stays, in at most half the runs under both rules (4 of 10
-/// today), fewer than under the NIS rule alone, and no static landmark is
-/// lost to either rule.
+/// today, 6 under the NIS rule alone), fewer than under the NIS rule
+/// alone, and no static landmark is lost to either rule.
 #[test]
 fn a_moving_distractor_is_removed_each_time_it_stops_fitting() {
     let nis_only = AssociationConfig {
