@@ -4,7 +4,7 @@
 //! apart, default 1): the diagnosis of docs/results/association.md's top
 //! section (far landmarks entering late with the ids hidden).
 
-use super::{Res, configured, method_name};
+use super::{Res, at_entry, configured, method_name};
 use bearing_slam::core::association::{AssociationMethod, NewLandmarkDensity};
 use bearing_slam::core::runner::{default_run_config, run};
 use bearing_slam::core::score::summarize;
@@ -48,15 +48,7 @@ pub(crate) fn entries(args: &[String]) -> Res<()> {
             else {
                 continue;
             };
-            let Some(snap) = output
-                .trace
-                .snapshots
-                .iter()
-                .find(|s| s.time >= e.time && s.landmarks.iter().any(|l| l.id == id))
-            else {
-                continue;
-            };
-            let Some(l) = snap.landmarks.iter().find(|l| l.id == id) else {
+            let Some((_, l)) = at_entry(&output, id, e.time) else {
                 continue;
             };
             // identity: the known run's id; else nearest truth to the final estimate

@@ -42,6 +42,7 @@ use bearing_slam::core::association::{
 use bearing_slam::core::log::{LandmarkTruth, SensorLog};
 use bearing_slam::core::runner::{RunConfig, RunOutput, default_run_config, run};
 use bearing_slam::core::score::summarize;
+use bearing_slam::core::trace::{EstimateSnapshot, LandmarkSnapshot};
 use bearing_slam::sim::appearance::AppearanceSpec;
 use bearing_slam::sim::clutter::Distractor;
 use bearing_slam::sim::scenario::Scenario;
@@ -411,15 +412,7 @@ fn diag(args: &[String]) -> Res<()> {
         let SlamEvent::LandmarkInitialized { id, .. } = e.event else {
             continue;
         };
-        let Some(snap) = output
-            .trace
-            .snapshots
-            .iter()
-            .find(|s| s.time >= e.time && s.landmarks.iter().any(|l| l.id == id))
-        else {
-            continue;
-        };
-        let Some(l) = snap.landmarks.iter().find(|l| l.id == id) else {
+        let Some((snap, l)) = at_entry(&output, id, e.time) else {
             continue;
         };
         let nearest_truth = truth
@@ -445,6 +438,21 @@ fn diag(args: &[String]) -> Res<()> {
     println!("score {:?}", output.association);
     println!("ATE {:.3} m, known {known:.3} m", summary.ate_rmse_m);
     Ok(())
+}
+
+/// The first snapshot at or after `time` that holds landmark `id`, with
+/// its estimate there: where the landmark stood when it entered.
+fn at_entry(
+    output: &RunOutput,
+    id: u64,
+    time: f64,
+) -> Option<(&EstimateSnapshot, &LandmarkSnapshot)> {
+    output
+        .trace
+        .snapshots
+        .iter()
+        .filter(|s| s.time >= time)
+        .find_map(|s| Some((s, s.landmarks.iter().find(|l| l.id == id)?)))
 }
 
 fn method_name(m: AssociationMethod) -> &'static str {
