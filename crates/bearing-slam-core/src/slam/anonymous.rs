@@ -119,6 +119,7 @@ impl Anonymous {
     /// a moving object, and records its death.
     fn forget_removed(&mut self, id: u64, time: f64) {
         self.recent_nis.remove(&id);
+        self.recent_pairings.remove(&id);
         self.appearances.remove(&id);
         self.last_paired.remove(&id);
         self.deaths.insert(id, time);
@@ -702,7 +703,6 @@ impl BearingSlam {
                 }
             }
             for &id in &doomed {
-                a.recent_pairings.remove(&id);
                 a.forget_removed(id, time);
             }
         }
