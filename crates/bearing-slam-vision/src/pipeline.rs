@@ -104,6 +104,16 @@ pub struct MonoRunConfig {
     /// [`bearing_slam_core::landmark::ConversionRule`], the default as in
     /// every filter); `false`: Civera et al.'s linearity index alone.
     pub conversion_depth_linearity: bool,
+    /// Correct the scale with a speed reading at every frame, as a car's
+    /// wheel odometry gives: here the ground truth's step length over the
+    /// frame interval, `‖r_k − r_{k−1}‖ / Δt`, the information the OpenCV
+    /// yardstick is handed (`benches/mono_vo_opencv.py`). Under the
+    /// constant-velocity model (25) that step is exactly `‖v_k‖ Δt`
+    /// ([`MonoSlam::update_speed`]).
+    pub speed_from_ground_truth: bool,
+    /// σ of each speed reading, m/s. `None`: `linear_accel_sigma · Δt / 2`,
+    /// the model's own velocity change over half a frame interval.
+    pub speed_sigma_mps: Option<f64>,
 }
 
 impl Default for MonoRunConfig {
@@ -130,6 +140,8 @@ impl Default for MonoRunConfig {
             ransac_seed: bearing_slam_core::mono::OnePointRansac::default().seed,
             epipolar_search: false,
             conversion_depth_linearity: bearing_slam_core::landmark::depth_linearity_by_default(),
+            speed_from_ground_truth: false,
+            speed_sigma_mps: None,
         }
     }
 }
@@ -234,6 +246,28 @@ pub fn run_directory(
         });
     }
     let first = 1;
+    if let Some(sigma) = config.speed_sigma_mps
+        && !(config.speed_from_ground_truth && sigma.is_finite() && sigma > 0.0)
+    {
+        return Err(VisionError::InvalidParameter {
+            name: "speed_sigma_mps",
+            value: sigma,
+            reason: "the σ of the speed readings must be positive and finite, \
+                     and is used only with speed_from_ground_truth",
+        });
+    }
+    let speeds = if config.speed_from_ground_truth {
+        if config.filter == FilterKind::Oracle {
+            return Err(VisionError::InvalidParameter {
+                name: "speed_from_ground_truth",
+                value: 1.0,
+                reason: "the oracle filter takes no speed readings",
+            });
+        }
+        Some(SpeedReadings::from_ground_truth(&seq, config)?)
+    } else {
+        None
+    };
     let (run, landmarks, reports) = match config.filter {
         FilterKind::Oracle => {
             let scene = read_scene_config(&seq.dir)?
@@ -267,6 +301,8 @@ pub fn run_directory(
             let mut filter = Reporting {
                 inner: MonoSlam::new(core, &start)?,
                 reports: Vec::new(),
+                frame: first,
+                speeds,
             };
             let seeded = if config.metric_reference {
                 add_metric_reference(&seq, &mut filter.inner, first)?
@@ -334,15 +370,68 @@ fn add_metric_reference(
     Ok(ids.into_iter().zip(pixels).collect())
 }
 
-/// [`MonoSlam`] behind the trait, keeping each frame's update report.
+/// A speed reading per frame of the sequence (index = frame; frame 0 has
+/// none) with its σ, m/s.
+struct SpeedReadings {
+    speed_mps: Vec<f64>,
+    sigma_mps: Vec<f64>,
+}
+
+impl SpeedReadings {
+    /// The ground truth's step lengths over the frame intervals, with σ
+    /// from `config` ([`MonoRunConfig::speed_sigma_mps`]).
+    fn from_ground_truth(seq: &FrameSequence, config: &MonoRunConfig) -> Result<Self> {
+        let n = seq.len().min(seq.poses.len());
+        let mut speed_mps = vec![f64::NAN; n];
+        let mut sigma_mps = vec![f64::NAN; n];
+        for k in 1..n {
+            let dt = seq.times[k] - seq.times[k - 1];
+            if !(dt.is_finite() && dt > 0.0) {
+                return Err(VisionError::InvalidParameter {
+                    name: "frame time step",
+                    value: dt,
+                    reason: "speed readings need increasing frame times",
+                });
+            }
+            speed_mps[k] = (seq.poses[k].position - seq.poses[k - 1].position).norm() / dt;
+            sigma_mps[k] = config
+                .speed_sigma_mps
+                .unwrap_or(0.5 * config.linear_accel_sigma * dt);
+        }
+        Ok(Self {
+            speed_mps,
+            sigma_mps,
+        })
+    }
+}
+
+/// [`MonoSlam`] behind the trait, keeping each frame's update report and
+/// correcting each prediction with the frame's speed reading, if any.
 struct Reporting {
     inner: MonoSlam,
     reports: Vec<MonoUpdateReport>,
+    /// The frame the filter stands at.
+    frame: usize,
+    speeds: Option<SpeedReadings>,
 }
 
 impl MonoFilter for Reporting {
     fn predict(&mut self, dt: f64) -> bearing_slam_core::Result<()> {
-        self.inner.predict(dt)
+        self.inner.predict(dt)?;
+        self.frame += 1;
+        if let Some(s) = &self.speeds {
+            let (Some(&speed), Some(&sigma)) =
+                (s.speed_mps.get(self.frame), s.sigma_mps.get(self.frame))
+            else {
+                return Err(bearing_slam_core::SlamError::InvalidParameter {
+                    name: "frame",
+                    value: self.frame as f64,
+                    reason: "no speed reading for this frame",
+                });
+            };
+            self.inner.update_speed(speed, sigma)?;
+        }
+        Ok(())
     }
 
     fn search_regions(&self) -> bearing_slam_core::Result<Vec<SearchRegion>> {

@@ -25,6 +25,7 @@ use nalgebra::{DMatrix, DVector, Matrix2, SMatrix, UnitQuaternion, Vector2, Vect
 use std::collections::{BTreeMap, BTreeSet};
 
 mod frontend_impl;
+mod speed;
 
 /// How a map landmark got into the state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
