@@ -81,10 +81,12 @@ def run(
     ``one_point_ransac``, ``ransac_seed``, ``epipolar_search``,
     ``conversion_depth_linearity`` (an inverse-depth landmark becomes a point only
     once the conversion is linear too: the default, as in every filter; False:
-    Civera et al.'s test alone), ``speed_from_ground_truth`` (a speed reading at every
-    frame, as a car's wheel odometry gives: the ground truth's step length over the frame
-    interval, the information the OpenCV yardstick is handed), ``speed_sigma_mps`` (its
-    σ; default ``linear_accel_sigma · Δt / 2``) and ``front_end`` (``search``:
+    Civera et al.'s test alone), ``speed_readings`` (a speed reading at every frame, as a
+    car's wheel odometry gives: ``"none"``, ``"ground_truth"`` — the ground truth's step
+    length over the frame interval, the information the OpenCV yardstick is handed — or
+    ``"file"``: the directory's ``speeds.txt``, one speed per frame in m/s),
+    ``speed_sigma_mps`` (their σ; default ``linear_accel_sigma · Δt / 2``) and
+    ``front_end`` (``search``:
     ``confidence``, ``min_ncc``, ``refresh_ncc``, ``refresh_shift_px``,
     ``max_half_axis_px``, ``patch_half``, ``subpixel``, ``warp``,
     ``warp_window_half``; ``detector``:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -127,21 +128,49 @@ def test_speed_readings_hold_the_scale_a_monocular_camera_loses() -> None:
         "forget_out_of_view": True,
     }
     alone = bs.mono.run(clip, config=car_config)
-    aided = bs.mono.run(clip, config={**car_config, "speed_from_ground_truth": True})
-    assert aided.config["speed_from_ground_truth"] is True
+    aided = bs.mono.run(clip, config={**car_config, "speed_readings": "ground_truth"})
+    assert aided.config["speed_readings"] == "ground_truth"
     assert (
         aided.metrics["ate_sim3_percent_of_path"] < 0.25 * alone.metrics["ate_sim3_percent_of_path"]
     ), (aided.metrics, alone.metrics)
     assert aided.metrics["ate_metric"]["rmse_m"] < 0.25 * alone.metrics["ate_metric"]["rmse_m"]
     with pytest.raises(bs.InvalidParameterError, match="oracle"):
-        bs.mono.run(clip, config={"filter": "oracle", "speed_from_ground_truth": True})
+        bs.mono.run(clip, config={"filter": "oracle", "speed_readings": "ground_truth"})
     with pytest.raises(bs.InvalidParameterError, match="speed_sigma_mps"):
         bs.mono.run(
             clip,
-            config={**car_config, "speed_from_ground_truth": True, "speed_sigma_mps": 0.0},
+            config={**car_config, "speed_readings": "ground_truth", "speed_sigma_mps": 0.0},
         )
-    with pytest.raises(bs.InvalidParameterError, match="only with speed_from_ground_truth"):
+    with pytest.raises(bs.InvalidParameterError, match="only with speed_readings"):
         bs.mono.run(clip, config={**car_config, "speed_sigma_mps": 0.1})
+
+
+def test_speed_readings_from_a_file_are_the_ground_truth_s_when_they_agree(
+    room: Path, tmp_path: Path
+) -> None:
+    """``speeds.txt`` (a car's wheel odometry: one speed per frame, m/s) gives the same
+    run as the ground truth's step lengths when it holds them; a missing, short or
+    negative file is refused naming it."""
+    clip = tmp_path / "room"
+    shutil.copytree(room, clip)
+    poses = np.loadtxt(clip / "poses.txt").reshape(-1, 3, 4)[:, :, 3]
+    times = np.loadtxt(clip / "times.txt")
+    steps = np.linalg.norm(np.diff(poses, axis=0), axis=1) / np.diff(times)
+    config = {"filter": "undelayed", "speed_readings": "file"}
+    with pytest.raises(bs.DatasetError, match=r"speeds\.txt"):
+        bs.mono.run(clip, config=config)
+    np.savetxt(clip / "speeds.txt", np.concatenate([[0.0], steps]))
+    from_file = bs.mono.run(clip, config=config)
+    from_truth = bs.mono.run(clip, config={**config, "speed_readings": "ground_truth"})
+    np.testing.assert_allclose(from_file.estimate, from_truth.estimate, rtol=1e-9, atol=1e-9)
+    plain = bs.mono.run(clip, config={"filter": "undelayed"})
+    assert not np.allclose(from_file.estimate, plain.estimate)
+    np.savetxt(clip / "speeds.txt", steps)
+    with pytest.raises(bs.DatasetError, match=r"speeds\.txt has 7 lines"):
+        bs.mono.run(clip, config=config)
+    np.savetxt(clip / "speeds.txt", np.concatenate([[-1.0], steps]))
+    with pytest.raises(bs.DatasetError, match="negative"):
+        bs.mono.run(clip, config=config)
 
 
 def test_motion_noise_is_the_rms_acceleration_of_the_ground_truth(

@@ -1,8 +1,9 @@
 //! The frames source: a directory in the layout of the KITTI odometry clips
 //! (`image_l/NNNNNN.png`, `calib.txt` with the projection matrix `P0`,
 //! `poses.txt` with one 3×4 camera-to-world pose per frame, optional
-//! `times.txt` and `known_points.txt`: the paper's metric reference, one
-//! `x y z` world point per line). The synthetic renderer ([`crate::render`]) writes the same
+//! `times.txt`, `known_points.txt`: the paper's metric reference, one
+//! `x y z` world point per line, and `speeds.txt`: a speed reading per
+//! frame, m/s, as a car's wheel odometry gives). The synthetic renderer ([`crate::render`]) writes the same
 //! layout, so one loader reads both.
 
 use crate::error::{Result, VisionError};
@@ -80,7 +81,13 @@ pub struct FrameSequence {
     /// The metric reference's known world points (`known_points.txt`;
     /// empty when the directory has none).
     pub known_points: Vec<Vector3<f64>>,
+    /// The speed over the interval ending at each frame, m/s (`speeds.txt`,
+    /// one per frame; frame 0's is not used), if the directory has them.
+    pub speeds: Option<Vec<f64>>,
 }
+
+/// The optional file of speed readings, one per frame (m/s).
+pub const SPEEDS_FILE: &str = "speeds.txt";
 
 /// The optional file of known world points (the metric reference).
 pub const KNOWN_POINTS_FILE: &str = "known_points.txt";
@@ -140,6 +147,23 @@ impl FrameSequence {
         } else {
             Vec::new()
         };
+        let speeds_path = dir.join(SPEEDS_FILE);
+        let speeds = if speeds_path.exists() {
+            let speeds = read_speeds(&speeds_path)?;
+            if speeds.len() != images.len() {
+                return Err(VisionError::Layout {
+                    dir,
+                    reason: format!(
+                        "{SPEEDS_FILE} has {} lines but image_l has {} frames",
+                        speeds.len(),
+                        images.len()
+                    ),
+                });
+            }
+            Some(speeds)
+        } else {
+            None
+        };
         let first = load_gray(&images[0])?;
         Ok(Self {
             dir,
@@ -150,6 +174,7 @@ impl FrameSequence {
             times,
             images,
             known_points,
+            speeds,
         })
     }
 
@@ -325,6 +350,22 @@ fn read_known_points(path: &Path) -> Result<Vec<Vector3<f64>>> {
         });
     }
     Ok(points)
+}
+
+/// One speed per line, m/s, never negative.
+fn read_speeds(path: &Path) -> Result<Vec<f64>> {
+    let mut speeds = Vec::new();
+    for (line, v) in numeric_rows(path, 1)? {
+        if v[0] < 0.0 {
+            return Err(VisionError::Parse {
+                path: path.to_path_buf(),
+                line,
+                reason: format!("speed {} is negative", v[0]),
+            });
+        }
+        speeds.push(v[0]);
+    }
+    Ok(speeds)
 }
 
 fn read_times(path: &Path) -> Result<Vec<f64>> {

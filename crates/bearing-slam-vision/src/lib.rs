@@ -30,7 +30,7 @@ pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_le
 pub use error::{Result, VisionError};
 pub use frames::{FrameSequence, Intrinsics};
 pub use oracle::GroundTruthOracle;
-pub use pipeline::{FilterKind, MonoOutput, MonoRunConfig, run_directory};
+pub use pipeline::{FilterKind, MonoOutput, MonoRunConfig, SpeedSource, run_directory};
 pub use render::{SyntheticConfig, render_sequence};
 pub use run::{FrontEndConfig, MonoMetrics, MonoRun, run_mono, run_mono_seeded};
 pub use search::{PredictedView, SearchConfig, active_search, active_search_warped};

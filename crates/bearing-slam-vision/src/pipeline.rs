@@ -36,6 +36,26 @@ pub enum FilterKind {
     Oracle,
 }
 
+/// Where the speed readings come from. Under the constant-velocity model
+/// (25) the step over a frame interval is exactly `v_k Δt`, so a reading of
+/// the speed over the interval ending at frame `k` measures the state's
+/// `‖v‖` after the prediction to `k`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum SpeedSource {
+    /// No speed readings: the scale comes from the start (or the metric
+    /// reference) alone.
+    #[default]
+    None,
+    /// The ground truth's step length over each frame interval,
+    /// `‖r_k − r_{k−1}‖ / Δt`: the information the OpenCV yardstick is
+    /// handed (`benches/mono_vo_opencv.py`).
+    GroundTruth,
+    /// The directory's `speeds.txt` ([`crate::frames::SPEEDS_FILE`]): a
+    /// car's own wheel odometry.
+    File,
+}
+
 /// Everything a run needs besides the frames: the front end, the filter and
 /// its noise, how many frames.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -105,12 +125,8 @@ pub struct MonoRunConfig {
     /// every filter); `false`: Civera et al.'s linearity index alone.
     pub conversion_depth_linearity: bool,
     /// Correct the scale with a speed reading at every frame, as a car's
-    /// wheel odometry gives: here the ground truth's step length over the
-    /// frame interval, `‖r_k − r_{k−1}‖ / Δt`, the information the OpenCV
-    /// yardstick is handed (`benches/mono_vo_opencv.py`). Under the
-    /// constant-velocity model (25) that step is exactly `‖v_k‖ Δt`
-    /// ([`MonoSlam::update_speed`]).
-    pub speed_from_ground_truth: bool,
+    /// wheel odometry gives ([`SpeedSource`], [`MonoSlam::update_speed`]).
+    pub speed_readings: SpeedSource,
     /// σ of each speed reading, m/s. `None`: `linear_accel_sigma · Δt / 2`,
     /// the model's own velocity change over half a frame interval.
     pub speed_sigma_mps: Option<f64>,
@@ -140,7 +156,7 @@ impl Default for MonoRunConfig {
             ransac_seed: bearing_slam_core::mono::OnePointRansac::default().seed,
             epipolar_search: false,
             conversion_depth_linearity: bearing_slam_core::landmark::depth_linearity_by_default(),
-            speed_from_ground_truth: false,
+            speed_readings: SpeedSource::None,
             speed_sigma_mps: None,
         }
     }
@@ -246,28 +262,7 @@ pub fn run_directory(
         });
     }
     let first = 1;
-    if let Some(sigma) = config.speed_sigma_mps
-        && !(config.speed_from_ground_truth && sigma.is_finite() && sigma > 0.0)
-    {
-        return Err(VisionError::InvalidParameter {
-            name: "speed_sigma_mps",
-            value: sigma,
-            reason: "the σ of the speed readings must be positive and finite, \
-                     and is used only with speed_from_ground_truth",
-        });
-    }
-    let speeds = if config.speed_from_ground_truth {
-        if config.filter == FilterKind::Oracle {
-            return Err(VisionError::InvalidParameter {
-                name: "speed_from_ground_truth",
-                value: 1.0,
-                reason: "the oracle filter takes no speed readings",
-            });
-        }
-        Some(SpeedReadings::from_ground_truth(&seq, config)?)
-    } else {
-        None
-    };
+    let speeds = SpeedReadings::of(&seq, config)?;
     let (run, landmarks, reports) = match config.filter {
         FilterKind::Oracle => {
             let scene = read_scene_config(&seq.dir)?
@@ -378,30 +373,61 @@ struct SpeedReadings {
 }
 
 impl SpeedReadings {
-    /// The ground truth's step lengths over the frame intervals, with σ
-    /// from `config` ([`MonoRunConfig::speed_sigma_mps`]).
-    fn from_ground_truth(seq: &FrameSequence, config: &MonoRunConfig) -> Result<Self> {
-        let n = seq.len().min(seq.poses.len());
-        let mut speed_mps = vec![f64::NAN; n];
-        let mut sigma_mps = vec![f64::NAN; n];
-        for k in 1..n {
-            let dt = seq.times[k] - seq.times[k - 1];
-            if !(dt.is_finite() && dt > 0.0) {
-                return Err(VisionError::InvalidParameter {
-                    name: "frame time step",
-                    value: dt,
-                    reason: "speed readings need increasing frame times",
-                });
-            }
-            speed_mps[k] = (seq.poses[k].position - seq.poses[k - 1].position).norm() / dt;
-            sigma_mps[k] = config
-                .speed_sigma_mps
-                .unwrap_or(0.5 * config.linear_accel_sigma * dt);
+    /// The readings `config` asks for ([`MonoRunConfig::speed_readings`]),
+    /// with σ from [`MonoRunConfig::speed_sigma_mps`]; `None` without.
+    /// Errors on a σ that is not positive, a σ without readings, readings
+    /// for the oracle, or a missing `speeds.txt`.
+    fn of(seq: &FrameSequence, config: &MonoRunConfig) -> Result<Option<Self>> {
+        if let Some(sigma) = config.speed_sigma_mps
+            && (config.speed_readings == SpeedSource::None || !(sigma.is_finite() && sigma > 0.0))
+        {
+            return Err(VisionError::InvalidParameter {
+                name: "speed_sigma_mps",
+                value: sigma,
+                reason: "the σ of the speed readings must be positive and finite, \
+                         and is used only with speed_readings",
+            });
         }
-        Ok(Self {
+        if config.speed_readings != SpeedSource::None && config.filter == FilterKind::Oracle {
+            return Err(VisionError::InvalidParameter {
+                name: "speed_readings",
+                value: 1.0,
+                reason: "the oracle filter takes no speed readings",
+            });
+        }
+        let n = seq.len();
+        let speed_mps = match config.speed_readings {
+            SpeedSource::None => return Ok(None),
+            SpeedSource::GroundTruth => std::iter::once(f64::NAN)
+                .chain((1..n).map(|k| {
+                    let dt = seq.times[k] - seq.times[k - 1];
+                    (seq.poses[k].position - seq.poses[k - 1].position).norm() / dt
+                }))
+                .collect(),
+            SpeedSource::File => seq.speeds.clone().ok_or_else(|| VisionError::Layout {
+                dir: seq.dir.clone(),
+                reason: format!(
+                    "speed_readings \"file\" needs {}",
+                    crate::frames::SPEEDS_FILE
+                ),
+            })?,
+        };
+        let sigma_mps = (0..n)
+            .map(|k| {
+                let dt = if k > 0 {
+                    seq.times[k] - seq.times[k - 1]
+                } else {
+                    f64::NAN
+                };
+                config
+                    .speed_sigma_mps
+                    .unwrap_or(0.5 * config.linear_accel_sigma * dt)
+            })
+            .collect();
+        Ok(Some(Self {
             speed_mps,
             sigma_mps,
-        })
+        }))
     }
 }
 
