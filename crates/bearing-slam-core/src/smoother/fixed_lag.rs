@@ -264,7 +264,7 @@ impl FixedLagSmoother {
                 .filter(|id| !leaving_ids.contains(id))
                 .copied()
                 .collect();
-            for oldest in leaving_ids {
+            for &oldest in &leaving_ids {
                 self.finalized.insert(
                     oldest,
                     FinalizedPose {
@@ -272,7 +272,9 @@ impl FixedLagSmoother {
                         covariance: marginals.pose(oldest)?,
                     },
                 );
-                self.marginalize(oldest, &staying)?;
+            }
+            self.marginalize(&leaving_ids, &staying)?;
+            for oldest in leaving_ids {
                 self.window.pop_front();
                 self.riders.remove(&oldest);
             }
@@ -316,15 +318,23 @@ impl FixedLagSmoother {
         marginal_covariances(&self.graph, &self.values, &self.config.solver.robust)
     }
 
-    /// Eliminates pose `id` into a linear prior on its neighbours, its
-    /// inverse-depth landmarks anchored at poses of `staying` (the window's
-    /// poses that do not leave in this update, oldest first;
-    /// [`prior_chart`]).
-    fn marginalize(&mut self, id: u64, staying: &[u64]) -> Result<()> {
-        let target = Key::Pose(id);
-        let taken = self
-            .graph
-            .extract(|f| matches!(f, Factor::Linear(_)) || f.keys().contains(&target));
+    /// Eliminates the poses `ids` (those leaving in one update: a keyframe
+    /// and the scan poses riding with it) together into one linear prior on
+    /// their neighbours, its inverse-depth landmarks anchored at poses of
+    /// `staying` (the window's poses that do not leave in this update,
+    /// oldest first; [`prior_chart`]). With every variable at the same
+    /// linearization point this is the pose-by-pose elimination in one
+    /// Schur complement (the Schur complement of a block is the sequence of
+    /// its parts' complements), with one square root of the prior instead
+    /// of one per pose.
+    fn marginalize(&mut self, ids: &[u64], staying: &[u64]) -> Result<()> {
+        let targets: Vec<Key> = ids.iter().map(|id| Key::Pose(*id)).collect();
+        if targets.is_empty() {
+            return Ok(());
+        }
+        let taken = self.graph.extract(|f| {
+            matches!(f, Factor::Linear(_)) || f.keys().iter().any(|k| targets.contains(k))
+        });
         // Linearization point: first estimates of the previous prior's keys
         // (FEJ), or the current estimate of everything.
         let mut point = self.values.clone();
@@ -338,7 +348,7 @@ impl FixedLagSmoother {
         let mut rest: BTreeSet<Key> = taken
             .iter()
             .flat_map(Factor::keys)
-            .filter(|k| *k != target)
+            .filter(|k| !targets.contains(k))
             .collect();
         let anchors = choose_anchors(
             &self.graph,
@@ -349,9 +359,7 @@ impl FixedLagSmoother {
             self.config.prior_anchor,
         )?;
         rest.extend(anchors.values().map(|pose| Key::Pose(*pose)));
-        let keys: Vec<Key> = std::iter::once(target)
-            .chain(rest.iter().copied())
-            .collect();
+        let keys: Vec<Key> = targets.iter().chain(rest.iter()).copied().collect();
         let mut offsets = BTreeMap::new();
         let mut n = 0;
         for k in &keys {
@@ -385,18 +393,20 @@ impl FixedLagSmoother {
                 }
             }
         }
-        self.values.remove(target);
-        self.marginalizations += 1;
+        for target in &targets {
+            self.values.remove(*target);
+        }
+        self.marginalizations += targets.len();
         if rest.is_empty() {
             return Ok(());
         }
-        let m = target.dim();
+        let m: usize = targets.iter().map(|k| k.dim()).sum();
         let r = n - m;
         let hmm = h.view((0, 0), (m, m)).into_owned();
         let hmm_inv = hmm
             .cholesky()
             .ok_or(SlamError::NotPositiveDefinite {
-                what: "the information of the marginalized pose",
+                what: "the information of the marginalized poses",
             })?
             .inverse();
         let hrm = h.view((m, 0), (r, m)).into_owned();
@@ -422,7 +432,7 @@ impl FixedLagSmoother {
             jac.row_mut(row).copy_from(&(v.transpose() * s));
             off[row] = v.dot(&schur_g) / s;
         }
-        let rest: Vec<Key> = keys[1..].to_vec();
+        let rest: Vec<Key> = keys[targets.len()..].to_vec();
         let lin_points = rest
             .iter()
             .map(|k| point.get(*k))
