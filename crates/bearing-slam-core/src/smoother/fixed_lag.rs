@@ -24,6 +24,7 @@
 //! anchor pose is the one leaving is re-anchored at a pose that stays before
 //! the Schur complement is formed.
 
+pub mod frozen;
 pub mod prior_chart;
 
 use super::factors::{Factor, LinearFactor};
@@ -70,6 +71,11 @@ pub struct FixedLagConfig {
     /// whole map, or its fixed world anchor ([`PriorAnchor::Fixed`], the
     /// chart before 2026-11-29). See [`prior_chart`].
     pub prior_anchor: PriorAnchor,
+    /// Solve only the newest `active_lag` counted poses (with their riders)
+    /// between refreshes, the older part of the window held at its estimate
+    /// and eliminated once into a linear prior ([`frozen`]); `None` solves
+    /// the whole window at every update. At most `lag − 1`.
+    pub active_lag: Option<usize>,
 }
 
 impl Default for FixedLagConfig {
@@ -78,6 +84,7 @@ impl Default for FixedLagConfig {
             lag: 20,
             first_estimates: true,
             prior_anchor: PriorAnchor::default(),
+            active_lag: None,
             solver: SolverConfig {
                 max_iterations: 10,
                 ..SolverConfig::default()
@@ -109,6 +116,8 @@ pub struct FixedLagSmoother {
     finalized: BTreeMap<u64, FinalizedPose>,
     marginalizations: usize,
     degenerate_measurements: usize,
+    /// The older part of the window while it is held ([`FixedLagConfig::active_lag`]).
+    frozen: Option<frozen::Frozen>,
 }
 
 impl FixedLagSmoother {
@@ -122,6 +131,15 @@ impl FixedLagSmoother {
             });
         }
         config.solver.validate()?;
+        if let Some(active) = config.active_lag
+            && !(1..config.lag).contains(&active)
+        {
+            return Err(SlamError::InvalidParameter {
+                name: "active_lag",
+                value: active as f64,
+                reason: "the active part must hold at least 1 pose and fewer than the lag",
+            });
+        }
         Ok(Self {
             config,
             graph: FactorGraph::new(),
@@ -131,6 +149,7 @@ impl FixedLagSmoother {
             finalized: BTreeMap::new(),
             marginalizations: 0,
             degenerate_measurements: 0,
+            frozen: None,
         })
     }
 
@@ -161,11 +180,17 @@ impl FixedLagSmoother {
     /// The poses to marginalize: every pose before the `lag`-th newest
     /// counted one (riders after a leaving counted pose leave with it).
     fn leaving_poses(&self) -> Vec<u64> {
+        self.poses_before_newest(self.config.lag)
+    }
+
+    /// Every pose of the window before its `kept`-th newest counted one
+    /// (riders after such a counted pose go with it), oldest first.
+    fn poses_before_newest(&self, kept: usize) -> Vec<u64> {
         let counted = self.window.len() - self.riders.len();
-        if counted <= self.config.lag {
+        if counted <= kept {
             return Vec::new();
         }
-        let mut excess = counted - self.config.lag;
+        let mut excess = counted - kept;
         let mut leaving = Vec::new();
         for id in &self.window {
             let rider = self.riders.contains(id);
@@ -202,11 +227,16 @@ impl FixedLagSmoother {
     }
 
     /// Adds a factor over variables in the window.
+    /// A factor on a pose of the held part ([`FixedLagConfig::active_lag`])
+    /// releases it: the next update solves the whole window.
     pub fn add_factor(&mut self, factor: Factor) -> Result<()> {
         for k in factor.keys() {
             if !self.values.contains(k) {
                 return Err(unknown_key(k));
             }
+        }
+        if self.holds_any(&factor.keys()) {
+            self.release();
         }
         self.graph.add(factor)
     }
@@ -215,7 +245,9 @@ impl FixedLagSmoother {
     /// selects, returning how many (re-association in the window takes a
     /// scan's bearings back to add them under new landmarks). Priors,
     /// odometry and the marginalization prior are never removed.
+    /// The held part is released first (its measurements are among them).
     pub fn remove_measurements(&mut self, mut take: impl FnMut(&Factor) -> bool) -> usize {
+        self.release();
         self.graph.extract(|f| f.is_measurement() && take(f)).len()
     }
 
@@ -230,7 +262,22 @@ impl FixedLagSmoother {
     /// from one factorization on the solver's own symbolic analysis (not
     /// the whole window's marginals), of the solver's last `H` when it
     /// stopped on [`SolverConfig::decrement_tolerance`].
+    ///
+    /// With [`FixedLagConfig::active_lag`], most updates solve only the
+    /// newest part of the window against the held older part's prior
+    /// ([`frozen`]); every so many (in proportion to the window's size, so
+    /// that the work per update stays flat as the window fills) the whole
+    /// window is solved, the poses beyond the lag marginalized and the
+    /// older part held again at its new estimate.
     pub fn update(&mut self) -> Result<SolveReport> {
+        if let Some(report) = self.solve_active_part()? {
+            return Ok(report);
+        }
+        self.update_whole_window()
+    }
+
+    /// Solves the whole window and marginalizes the poses beyond the lag.
+    fn solve_window(&mut self) -> Result<SolveReport> {
         let pattern = Pattern::new(&self.graph, &self.values)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
         let (report, converged_hessian) = optimize_on(
@@ -288,7 +335,9 @@ impl FixedLagSmoother {
         &self.values
     }
 
-    /// The factors in the window (the marginalization prior included).
+    /// The factors being solved (the marginalization prior included): while
+    /// the older part is held ([`FixedLagConfig::active_lag`]), its factors
+    /// are apart and its prior stands in for them ([`Self::full_graph`]).
     #[must_use]
     pub fn graph(&self) -> &FactorGraph {
         &self.graph
@@ -313,9 +362,10 @@ impl FixedLagSmoother {
         self.degenerate_measurements
     }
 
-    /// Marginal covariances of the window's variables.
+    /// Marginal covariances of the window's variables (the held part's
+    /// factors included).
     pub fn marginals(&self) -> Result<Marginals> {
-        marginal_covariances(&self.graph, &self.values, &self.config.solver.robust)
+        marginal_covariances(&self.full_graph(), &self.values, &self.config.solver.robust)
     }
 
     /// Eliminates the poses `ids` (those leaving in one update: a keyframe
@@ -328,9 +378,29 @@ impl FixedLagSmoother {
     /// its parts' complements), with one square root of the prior instead
     /// of one per pose.
     fn marginalize(&mut self, ids: &[u64], staying: &[u64]) -> Result<()> {
+        let (_, _, degenerate) = self.eliminate(ids, staying)?;
+        self.degenerate_measurements += degenerate;
+        for id in ids {
+            self.values.remove(Key::Pose(*id));
+        }
+        self.marginalizations += ids.len();
+        Ok(())
+    }
+
+    /// Takes out of the graph the poses `ids`' factors and every linear
+    /// factor, and adds in their place the Schur complement of the poses as
+    /// one linear prior on the rest (see [`Self::marginalize`]). Returns
+    /// the factors taken, the prior (`None` when nothing else is touched or
+    /// nothing is informative) and how many measurements were left out for
+    /// standing at their sensor. The poses' values stay.
+    fn eliminate(
+        &mut self,
+        ids: &[u64],
+        staying: &[u64],
+    ) -> Result<(Vec<Factor>, Option<Factor>, usize)> {
         let targets: Vec<Key> = ids.iter().map(|id| Key::Pose(*id)).collect();
         if targets.is_empty() {
-            return Ok(());
+            return Ok((Vec::new(), None, 0));
         }
         let taken = self.graph.extract(|f| {
             matches!(f, Factor::Linear(_)) || f.keys().iter().any(|k| targets.contains(k))
@@ -366,14 +436,22 @@ impl FixedLagSmoother {
             offsets.insert(*k, n);
             n += k.dim();
         }
-        let mut h = DMatrix::<f64>::zeros(n, n);
+        // H = Σ w JᵀJ and g = Σ w Jᵀe over [targets | rest]: the targets'
+        // block sparse (a held part has hundreds of poses, chained), the
+        // rest's blocks dense (the landmarks and a few poses).
+        let m: usize = targets.iter().map(|k| k.dim()).sum();
+        let r = n - m;
+        let mut hmm: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+        let mut hrm = DMatrix::<f64>::zeros(r, m);
+        let mut hrr = DMatrix::<f64>::zeros(r, r);
         let mut g = DVector::<f64>::zeros(n);
         let kernel = self.config.solver.robust;
+        let mut degenerate = 0;
         for f in &taken {
             if f.sensor_distance(&point)?
                 .is_some_and(|r| r < MIN_PRIOR_SENSOR_DISTANCE_M)
             {
-                self.degenerate_measurements += 1;
+                degenerate += 1;
                 continue;
             }
             let lin = f.linearize(&point)?;
@@ -388,31 +466,35 @@ impl FixedLagSmoother {
                 let mut ga = g.rows_mut(oa, a.dim());
                 ga += ja.tr_mul(&lin.residual) * w;
                 for (b, jb) in fk.iter().zip(&lin.jacobians) {
-                    let mut hab = h.view_mut((oa, offsets[b]), (a.dim(), b.dim()));
-                    hab += ja.tr_mul(jb) * w;
+                    let ob = offsets[b];
+                    let block = ja.tr_mul(jb) * w;
+                    match (oa < m, ob < m) {
+                        (true, true) => {
+                            for j in 0..b.dim() {
+                                for i in 0..a.dim() {
+                                    if oa + i >= ob + j {
+                                        *hmm.entry((oa + i, ob + j)).or_default() += block[(i, j)];
+                                    }
+                                }
+                            }
+                        }
+                        (false, true) => {
+                            let mut hab = hrm.view_mut((oa - m, ob), (a.dim(), b.dim()));
+                            hab += block;
+                        }
+                        (false, false) => {
+                            let mut hab = hrr.view_mut((oa - m, ob - m), (a.dim(), b.dim()));
+                            hab += block;
+                        }
+                        (true, false) => {}
+                    }
                 }
             }
         }
-        for target in &targets {
-            self.values.remove(*target);
-        }
-        self.marginalizations += targets.len();
         if rest.is_empty() {
-            return Ok(());
+            return Ok((taken, None, degenerate));
         }
-        let m: usize = targets.iter().map(|k| k.dim()).sum();
-        let r = n - m;
-        let hmm = h.view((0, 0), (m, m)).into_owned();
-        let hmm_inv = hmm
-            .cholesky()
-            .ok_or(SlamError::NotPositiveDefinite {
-                what: "the information of the marginalized poses",
-            })?
-            .inverse();
-        let hrm = h.view((m, 0), (r, m)).into_owned();
-        let schur_h = h.view((m, m), (r, r)).into_owned() - &hrm * &hmm_inv * hrm.transpose();
-        let schur_g = g.rows(m, r).into_owned() - &hrm * &hmm_inv * g.rows(0, m);
-        let schur_h = 0.5 * (&schur_h + schur_h.transpose());
+        let (schur_h, schur_g) = schur_complement(m, &hmm, &hrm, &hrr, &g)?;
         // Square root of the information: H' = V Λ Vᵀ, R = Λ^{1/2} Vᵀ over
         // the eigenvalues above 1e-12 of the largest (so positive; the rest
         // is rounding), r₀ = Λ^{-1/2} Vᵀ g'.
@@ -422,7 +504,7 @@ impl FixedLagSmoother {
             .filter(|&i| eig.eigenvalues[i] > 1e-12 * max)
             .collect();
         if kept.is_empty() {
-            return Ok(());
+            return Ok((taken, None, degenerate));
         }
         let mut jac = DMatrix::<f64>::zeros(kept.len(), r);
         let mut off = DVector::<f64>::zeros(kept.len());
@@ -439,8 +521,45 @@ impl FixedLagSmoother {
             .collect::<Result<Vec<_>>>()?;
         let (t, slots) = change_of_variables(&rest, &anchors, &point)?;
         let jac = if anchors.is_empty() { jac } else { jac * t };
-        self.graph.add(Factor::Linear(
-            LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?,
-        ))
+        let prior =
+            Factor::Linear(LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?);
+        self.graph.add(prior.clone())?;
+        Ok((taken, Some(prior), degenerate))
     }
+}
+
+/// The Schur complement of the first `m` variables of a symmetric system:
+/// `H' = H_rr − H_rm H_mm⁻¹ H_mr`, `g' = g_r − H_rm H_mm⁻¹ g_m`, with
+/// `H_mm` (its lower triangle, by `(row, column)`) factorized sparse by
+/// `faer`. Errors when `H_mm` is not positive definite.
+fn schur_complement(
+    m: usize,
+    hmm: &BTreeMap<(usize, usize), f64>,
+    hrm: &DMatrix<f64>,
+    hrr: &DMatrix<f64>,
+    g: &DVector<f64>,
+) -> Result<(DMatrix<f64>, DVector<f64>)> {
+    use faer::linalg::solvers::Solve;
+    use faer::sparse::{SparseColMat, Triplet};
+    let not_pd = || SlamError::NotPositiveDefinite {
+        what: "the information of the eliminated poses",
+    };
+    let r = hrr.nrows();
+    let triplets: Vec<Triplet<usize, usize, f64>> = hmm
+        .iter()
+        .map(|(&(i, j), &v)| Triplet::new(i, j, v))
+        .collect();
+    let h = SparseColMat::<usize, f64>::try_new_from_triplets(m, m, &triplets)
+        .map_err(|_| SlamError::Degenerate("the eliminated poses' information has no entries"))?;
+    let llt = h.sp_cholesky(faer::Side::Lower).map_err(|_| not_pd())?;
+    // [H_mr | g_m], solved in place: [H_mm⁻¹ H_mr | H_mm⁻¹ g_m].
+    let mut x = faer::Mat::<f64>::from_fn(m, r + 1, |i, j| if j < r { hrm[(j, i)] } else { g[i] });
+    llt.solve_in_place(x.as_mut());
+    let x = DMatrix::<f64>::from_fn(m, r + 1, |i, j| x[(i, j)]);
+    if !x.iter().all(|v| v.is_finite()) {
+        return Err(not_pd());
+    }
+    let schur_h = hrr - hrm * x.columns(0, r);
+    let schur_g = g.rows(m, r) - hrm * x.column(r);
+    Ok((0.5 * (&schur_h + schur_h.transpose()), schur_g))
 }

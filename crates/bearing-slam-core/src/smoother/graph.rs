@@ -86,6 +86,12 @@ impl FactorGraph {
         taken
     }
 
+    /// Puts back factors this graph held before (taken out with
+    /// [`Self::extract`], so already checked).
+    pub(crate) fn restore(&mut self, factors: Vec<Factor>) {
+        self.factors.extend(factors);
+    }
+
     /// The variables the factors touch, sorted.
     #[must_use]
     pub fn keys(&self) -> BTreeSet<Key> {

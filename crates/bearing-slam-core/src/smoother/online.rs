@@ -30,6 +30,7 @@ use super::run::{
     SmootherConfig, SmootherReport, add_to_snapshots, apply_smoothed, compose, landmark_prior,
     measurement_factor,
 };
+use super::solver::SolveReport;
 use super::triangulate::{RayTriangulationRule, triangulate_rays};
 use super::values::{Key, LandmarkChart};
 use crate::association::reassociate::ReassociationRule;
@@ -93,6 +94,8 @@ pub struct OnlineSmoother {
     /// Scans added factors or poses since the latest solve (a keyframe
     /// window between keyframes); the run's end solves them.
     unsolved: bool,
+    /// The log time of the latest scan.
+    latest_scan_time: f64,
     filter: BearingSlam,
     smoother: FixedLagSmoother,
     run_config: RunConfig,
@@ -179,6 +182,7 @@ impl OnlineSmoother {
             since_keyframe: PreintegratedOdometry::new(),
             filter_at_latest_node: start,
             unsolved: false,
+            latest_scan_time: f64::NAN,
             filter,
             smoother,
             run_config: run_config.clone(),
@@ -229,12 +233,22 @@ impl OnlineSmoother {
     /// hidden: [`SmootherConfig::reassociate_online`]), the time of both
     /// counted as the update's.
     fn solve(&mut self) -> Result<()> {
+        self.solve_with(FixedLagSmoother::update)
+    }
+
+    /// [`Self::solve`] by `update` (the window's update, or its whole-window
+    /// solve at the run's end).
+    fn solve_with(
+        &mut self,
+        update: impl FnOnce(&mut FixedLagSmoother) -> Result<SolveReport>,
+    ) -> Result<()> {
         self.unsolved = false;
         let t = Instant::now();
         self.reassociate_window()?;
-        let solve = self.smoother.update()?;
+        let solve = update(&mut self.smoother)?;
         self.report.update_times_s.push(t.elapsed().as_secs_f64());
         self.report.update_iterations.push(solve.iterations);
+        self.report.update_at_s.push(self.latest_scan_time);
         self.report.n_poses = self.nodes;
         Ok(())
     }
@@ -498,9 +512,11 @@ impl OnlineEstimator for OnlineSmoother {
 
     fn finish(&mut self, output: &mut RunOutput) -> Result<()> {
         OnlineEstimator::finish(&mut self.filter, output)?;
-        // The scans after the latest keyframe were never solved.
-        if self.unsolved {
-            self.solve()?;
+        // The scans after the latest keyframe were never solved, and a held
+        // older part of the window still stands where the latest
+        // whole-window solve left it: the end solves the whole window.
+        if self.unsolved || self.smoother.holds_older_part() {
+            self.solve_with(FixedLagSmoother::update_whole_window)?;
         }
         self.report.n_dropped += self.waiting.values().map(Vec::len).sum::<usize>()
             + self.smoother.degenerate_measurements();
@@ -539,6 +555,7 @@ impl OnlineEstimator for OnlineSmoother {
 impl OnlineSmoother {
     /// The smoother's part of a scan's update, after its filter's.
     fn scan_step(&mut self, time: f64, scan: &[BearingObservation]) -> Result<()> {
+        self.latest_scan_time = time;
         // With the ids hidden, the scan under the filter's ids (the bearings
         // given none dropped and counted).
         let labels = self

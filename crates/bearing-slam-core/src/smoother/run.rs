@@ -202,6 +202,10 @@ pub struct SmootherReport {
     pub update_times_s: Vec<f64>,
     /// Linearizations (solver iterations) of each online update, in order.
     pub update_iterations: Vec<usize>,
+    /// The log time of the scan each online update ran at (the run's last
+    /// scan for the final one), in order: where each update falls in the
+    /// run, for the cost's flatness over minutes of data.
+    pub update_at_s: Vec<f64>,
     /// Seconds of the online smoother's own work per scan, outside its
     /// solves (those are in `update_times_s`) and its filter: adding the
     /// scan's pose, odometry and bearing factors and the landmarks that

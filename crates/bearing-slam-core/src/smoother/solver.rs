@@ -248,7 +248,9 @@ pub(crate) fn optimize_on(
                     value: f64::NAN,
                 });
             }
-            let mut trial = values.clone();
+            // Only the pattern's variables move (and only they enter the
+            // cost): the trial copies those, not the whole estimate.
+            let mut trial = values.restricted_to(&pattern.ordering.keys);
             retract_all(pattern, &mut trial, &step)?;
             // A step that lands a landmark on a pose (or overflows) is a
             // rejected step for LM, an error for Gauss–Newton.
@@ -274,7 +276,11 @@ pub(crate) fn optimize_on(
                 if new_cost <= eq.cost {
                     accepted = Some((trial, new_cost, step));
                 } else {
-                    accepted = Some((values.clone(), eq.cost, vec![0.0; step.len()]));
+                    accepted = Some((
+                        values.restricted_to(&pattern.ordering.keys),
+                        eq.cost,
+                        vec![0.0; step.len()],
+                    ));
                 }
                 break;
             }
@@ -316,7 +322,7 @@ pub(crate) fn optimize_on(
             break;
         };
         let old_cost = eq.cost;
-        *values = trial;
+        values.overwrite_from(trial);
         report.final_cost = new_cost;
         if converged_step {
             report.termination = Termination::SmallDecrement;

@@ -269,6 +269,40 @@ impl Values {
         self.set(key, v.as_slice())
     }
 
+    /// The entries of `keys` alone (with their landmarks' anchors): a
+    /// solver's trial estimate of the variables it moves, without copying
+    /// the rest of a large window. Keys absent here are skipped.
+    #[must_use]
+    pub fn restricted_to(&self, keys: &[Key]) -> Self {
+        let mut out = Self::default();
+        for key in keys {
+            match *key {
+                Key::Pose(id) => {
+                    if let Some(p) = self.poses.get(&id) {
+                        out.poses.insert(id, *p);
+                    }
+                }
+                Key::Landmark(id) => {
+                    if let Some(p) = self.landmarks.get(&id) {
+                        out.landmarks.insert(id, *p);
+                    }
+                    if let Some(a) = self.anchors.get(&id) {
+                        out.anchors.insert(id, *a);
+                    }
+                }
+            }
+        }
+        out
+    }
+
+    /// Overwrites the entries `other` holds (its landmarks' anchors
+    /// included), leaving every other entry as it is.
+    pub fn overwrite_from(&mut self, other: Self) {
+        self.poses.extend(other.poses);
+        self.landmarks.extend(other.landmarks);
+        self.anchors.extend(other.anchors);
+    }
+
     /// Removes `key` (no-op when absent).
     pub fn remove(&mut self, key: Key) {
         match key {

@@ -32,6 +32,7 @@ mod smoother_common;
 mod smoother_factors;
 mod smoother_fixed_lag;
 mod smoother_hard_start;
+mod smoother_held_part;
 mod smoother_hidden_ids;
 mod smoother_keyframes;
 mod smoother_run;

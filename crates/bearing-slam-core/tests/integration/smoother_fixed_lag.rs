@@ -57,6 +57,7 @@ fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
 
 fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSmoother {
     let config = FixedLagConfig {
+        active_lag: None,
         prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates,
@@ -119,6 +120,7 @@ fn stopping_on_the_newton_decrement_keeps_the_batch_solution() {
     // batch's in every component, with its marginal σ as the unit.
     let p = problem(11, 10, true, false);
     let config = FixedLagConfig {
+        active_lag: None,
         prior_anchor: PriorAnchor::default(),
         lag: 10,
         first_estimates: false,
@@ -177,6 +179,7 @@ fn exact_after_marginalization_on_noise_free_data() {
 #[test]
 fn the_inverse_depth_chart_keeps_the_solution_and_the_marginals() {
     let config = |lag| FixedLagConfig {
+        active_lag: None,
         prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates: false,
@@ -393,6 +396,7 @@ fn riding_poses_leave_with_the_counted_pose_before_them() {
     let mut wide = with_landmarks(
         &p,
         FixedLagConfig {
+            active_lag: None,
             prior_anchor: PriorAnchor::default(),
             lag: 10,
             first_estimates: true,
@@ -424,6 +428,7 @@ fn a_marginalized_outlier_stays_down_weighted() {
     let mut batch = p.initial.clone();
     optimize(&p.graph, &mut batch, &solver).unwrap();
     let config = FixedLagConfig {
+        active_lag: None,
         prior_anchor: PriorAnchor::default(),
         lag: 4,
         first_estimates: false,
@@ -512,6 +517,7 @@ fn a_marginal_prior_holds_the_robustly_weighted_information() {
     // factors' blocks on pose 1 and on the landmark.
     let kernel = RobustKernel::Cauchy(2.0);
     let mut s = FixedLagSmoother::new(FixedLagConfig {
+        active_lag: None,
         prior_anchor: PriorAnchor::default(),
         lag: 2,
         first_estimates: false,

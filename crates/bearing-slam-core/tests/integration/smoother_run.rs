@@ -127,6 +127,7 @@ fn fixed_lag_smoother_runs_online_close_to_the_batch() {
     let batch = run_from_log(&log, &config, &SmootherConfig::default()).unwrap();
     let online_config = SmootherConfig {
         mode: SmootherMode::FixedLag(FixedLagConfig {
+            active_lag: None,
             prior_anchor: PriorAnchor::default(),
             lag: 50,
             first_estimates: false,
