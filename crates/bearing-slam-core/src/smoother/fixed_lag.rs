@@ -276,17 +276,28 @@ impl FixedLagSmoother {
         self.update_whole_window()
     }
 
-    /// Solves the whole window and marginalizes the poses beyond the lag.
-    fn solve_window(&mut self) -> Result<SolveReport> {
+    /// Optimizes the graph as it stands (the whole window, or the active
+    /// part against the held part's prior), returning its pattern and
+    /// symbolic factorization for more solves on it, the report and, when
+    /// the solve stopped on the decrement, its last `H`.
+    fn optimize_graph(
+        &mut self,
+    ) -> Result<(Pattern, SparseCholesky, SolveReport, Option<Vec<f64>>)> {
         let pattern = Pattern::new(&self.graph, &self.values)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-        let (report, converged_hessian) = optimize_on(
+        let (report, hessian) = optimize_on(
             &pattern,
             &mut cholesky,
             &self.graph,
             &mut self.values,
             &self.config.solver,
         )?;
+        Ok((pattern, cholesky, report, hessian))
+    }
+
+    /// Solves the whole window and marginalizes the poses beyond the lag.
+    fn solve_window(&mut self) -> Result<SolveReport> {
+        let (pattern, mut cholesky, report, converged_hessian) = self.optimize_graph()?;
         let leaving_ids = self.leaving_poses();
         if !leaving_ids.is_empty() {
             let leaving: Vec<Key> = leaving_ids.iter().map(|id| Key::Pose(*id)).collect();

@@ -12,18 +12,7 @@ use bearing_slam_core::smoother::{
     SolverConfig, Termination, Values, marginal_covariances, optimize,
 };
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector2, Vector3};
-use smoother_common::{Problem, max_difference, problem};
-
-/// The latest pose a factor involves: it joins the smoother with that pose.
-fn newest_pose(f: &Factor) -> Option<u64> {
-    f.keys()
-        .iter()
-        .filter_map(|key| match key {
-            Key::Pose(id) => Some(*id),
-            Key::Landmark(_) => None,
-        })
-        .max()
-}
+use smoother_common::{Problem, max_difference, newest_pose, problem};
 
 /// Adds pose `k` of `p` and every factor it completes.
 fn add_pose_with_factors(s: &mut FixedLagSmoother, p: &Problem, k: u64) {

@@ -8,10 +8,10 @@
 use super::smoother_common;
 
 use bearing_slam_core::smoother::{
-    Factor, FixedLagConfig, FixedLagSmoother, Key, LandmarkPriorFactor, SolverConfig,
+    Factor, FixedLagConfig, FixedLagSmoother, LandmarkPriorFactor, SolverConfig,
 };
 use nalgebra::Matrix2;
-use smoother_common::{Problem, max_difference, problem};
+use smoother_common::{Problem, max_difference, newest_pose, problem};
 
 /// A smoother of `lag` poses, `active` of them solved between whole-window
 /// solves (`None`: every update solves the whole window).
@@ -28,17 +28,6 @@ fn smoother(p: &Problem, lag: usize, active: Option<usize>) -> FixedLagSmoother 
         s.add_landmark(i, p.initial.landmark(i).unwrap()).unwrap();
     }
     s
-}
-
-/// The newest pose a factor touches.
-fn newest_pose(f: &Factor) -> Option<u64> {
-    f.keys()
-        .iter()
-        .filter_map(|k| match k {
-            Key::Pose(id) => Some(*id),
-            Key::Landmark(_) => None,
-        })
-        .max()
 }
 
 /// Adds pose `k` of `p` with the factors it completes, then updates;

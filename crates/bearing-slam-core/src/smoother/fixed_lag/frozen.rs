@@ -31,8 +31,7 @@ use super::FixedLagSmoother;
 use crate::error::Result;
 use crate::smoother::factors::Factor;
 use crate::smoother::graph::FactorGraph;
-use crate::smoother::solver::{SolveReport, optimize_on};
-use crate::smoother::system::{Pattern, SparseCholesky};
+use crate::smoother::solver::SolveReport;
 use crate::smoother::values::Key;
 use std::collections::BTreeSet;
 
@@ -81,15 +80,7 @@ impl FixedLagSmoother {
             return Ok(None);
         }
         frozen.updates += 1;
-        let pattern = Pattern::new(&self.graph, &self.values)?;
-        let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
-        let (report, _) = optimize_on(
-            &pattern,
-            &mut cholesky,
-            &self.graph,
-            &mut self.values,
-            &self.config.solver,
-        )?;
+        let (_, _, report, _) = self.optimize_graph()?;
         self.hold_older_part()?;
         Ok(Some(report))
     }

@@ -118,6 +118,17 @@ pub fn problem(seed: u64, n_poses: u64, noisy: bool, ranges: bool) -> Problem {
     }
 }
 
+/// The latest pose a factor involves: it joins an online smoother with that pose.
+pub fn newest_pose(f: &Factor) -> Option<u64> {
+    f.keys()
+        .iter()
+        .filter_map(|key| match key {
+            Key::Pose(id) => Some(*id),
+            Key::Landmark(_) => None,
+        })
+        .max()
+}
+
 /// Largest position / heading difference between two estimates over every variable.
 pub fn max_difference(a: &Values, b: &Values) -> f64 {
     let mut m: f64 = 0.0;
