@@ -14,7 +14,10 @@
 //! newest poses), exactly as a marginalization does
 //! (`FixedLagSmoother::eliminate`), but the held poses keep their values
 //! and their factors are kept apart. The updates after it solve the active
-//! part against that prior. After `every` of them the held factors come
+//! part against that prior; a keyframe that falls out of the active part
+//! is eliminated into the prior in turn (the old prior among the factors
+//! eliminated), so the active part keeps its size. After `every` of them
+//! the held factors come
 //! back, the whole window is solved (relinearizing the held part, as
 //! iSAM2 relinearizes its older variables now and then), the poses beyond
 //! the lag are marginalized, and the older part is held again. `every` is
