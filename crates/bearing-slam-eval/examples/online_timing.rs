@@ -182,9 +182,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rule.solve_every_scan = true;
     }
     println!(
-        "| mode | robot | scans | updates | median (ms) | total (s) | per scan (ms) | slope | slope once full | slope from minute 1 | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
+        "| mode | robot | scans | updates | median (ms) | longest (ms) | total (s) | per scan (ms) | slope | slope once full | slope from minute 1 | mean iterations | at the cap | online ATE (m) | landmark RMSE (m) | NEES in 95 % |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let only: Option<u8> = std::env::args()
         .nth(2)
         .and_then(|r| r.parse().ok())
@@ -233,9 +233,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             let scored = evaluate_run_with(&run, Method::Mte, &options.parameters, estimator)?;
             let fmt = |v: Option<f64>| v.map_or_else(|| "-".to_owned(), |x| format!("{x:.3}"));
             println!(
-                "| {mode} | {robot} | {scans} | {} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} | {:.2} | {mean_iterations:.2} | {at_cap} | {} | {} | {} |",
+                "| {mode} | {robot} | {scans} | {} | {:.3} | {:.1} | {:.2} | {:.3} | {:.2} | {:.2} | {:.2} | {mean_iterations:.2} | {at_cap} | {} | {} | {} |",
                 times.len(),
                 1e3 * median(times),
+                1e3 * times.iter().copied().fold(0.0, f64::max),
                 times.iter().sum::<f64>(),
                 1e3 * times.iter().sum::<f64>() / scans.max(1) as f64,
                 flatness(times),

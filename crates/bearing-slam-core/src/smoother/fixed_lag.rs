@@ -389,8 +389,8 @@ impl FixedLagSmoother {
     /// its parts' complements), with one square root of the prior instead
     /// of one per pose.
     fn marginalize(&mut self, ids: &[u64], staying: &[u64]) -> Result<()> {
-        let (_, _, degenerate) = self.eliminate(ids, staying)?;
-        self.degenerate_measurements += degenerate;
+        let elimination = self.eliminate(ids, staying)?;
+        self.degenerate_measurements += elimination.degenerate;
         for id in ids {
             self.values.remove(Key::Pose(*id));
         }
@@ -400,25 +400,26 @@ impl FixedLagSmoother {
 
     /// Takes out of the graph the poses `ids`' factors and every linear
     /// factor, and adds in their place the Schur complement of the poses as
-    /// one linear prior on the rest (see [`Self::marginalize`]). Returns
-    /// the factors taken, the prior (`None` when nothing else is touched or
-    /// nothing is informative) and how many measurements were left out for
-    /// standing at their sensor. The poses' values stay.
-    fn eliminate(
-        &mut self,
-        ids: &[u64],
-        staying: &[u64],
-    ) -> Result<(Vec<Factor>, Option<Factor>, usize)> {
+    /// one linear prior on the rest (see [`Self::marginalize`]): what it
+    /// took and added ([`Elimination`]). The poses' values stay.
+    fn eliminate(&mut self, ids: &[u64], staying: &[u64]) -> Result<Elimination> {
         let targets: Vec<Key> = ids.iter().map(|id| Key::Pose(*id)).collect();
         if targets.is_empty() {
-            return Ok((Vec::new(), None, 0));
+            return Ok(Elimination::default());
         }
         let taken = self.graph.extract(|f| {
             matches!(f, Factor::Linear(_)) || f.keys().iter().any(|k| targets.contains(k))
         });
         // Linearization point: first estimates of the previous prior's keys
-        // (FEJ), or the current estimate of everything.
-        let mut point = self.values.clone();
+        // (FEJ), or the current estimate, of what the taken factors touch
+        // and of the poses the prior may anchor at (not the whole window:
+        // a hold eliminates a few poses at every update).
+        let touched: Vec<Key> = taken
+            .iter()
+            .flat_map(Factor::keys)
+            .chain(staying.iter().map(|id| Key::Pose(*id)))
+            .collect();
+        let mut point = self.values.restricted_to(&touched);
         for f in taken.iter().filter(|_| self.config.first_estimates) {
             if let Factor::Linear(l) = f {
                 for (k, x0) in l.keys().iter().zip(l.linearization_point()) {
@@ -503,7 +504,11 @@ impl FixedLagSmoother {
             }
         }
         if rest.is_empty() {
-            return Ok((taken, None, degenerate));
+            return Ok(Elimination {
+                taken,
+                prior: None,
+                degenerate,
+            });
         }
         let (schur_h, schur_g) = schur_complement(m, &hmm, &hrm, &hrr, &g)?;
         // Square root of the information: H' = V Λ Vᵀ, R = Λ^{1/2} Vᵀ over
@@ -515,7 +520,11 @@ impl FixedLagSmoother {
             .filter(|&i| eig.eigenvalues[i] > 1e-12 * max)
             .collect();
         if kept.is_empty() {
-            return Ok((taken, None, degenerate));
+            return Ok(Elimination {
+                taken,
+                prior: None,
+                degenerate,
+            });
         }
         let mut jac = DMatrix::<f64>::zeros(kept.len(), r);
         let mut off = DVector::<f64>::zeros(kept.len());
@@ -535,8 +544,26 @@ impl FixedLagSmoother {
         let prior =
             Factor::Linear(LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?);
         self.graph.add(prior.clone())?;
-        Ok((taken, Some(prior), degenerate))
+        Ok(Elimination {
+            taken,
+            prior: Some(prior),
+            degenerate,
+        })
     }
+}
+
+/// What [`FixedLagSmoother::eliminate`] did to the graph.
+#[derive(Debug, Default)]
+struct Elimination {
+    /// The factors taken out: the eliminated poses' own and every linear
+    /// factor (the previous prior).
+    taken: Vec<Factor>,
+    /// The linear prior added in their place (`None` when nothing else is
+    /// touched or nothing is informative).
+    prior: Option<Factor>,
+    /// Measurements left out of the prior for standing at their sensor
+    /// ([`MIN_PRIOR_SENSOR_DISTANCE_M`]).
+    degenerate: usize,
 }
 
 /// The Schur complement of the first `m` variables of a symmetric system:

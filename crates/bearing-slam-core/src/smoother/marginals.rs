@@ -155,7 +155,8 @@ fn in_variable_coordinates(key: Key, block: DMatrix<f64>, values: &Values) -> Re
 
 /// The blocks of `H⁻¹` of `keys` for `hessian` (lower triangle in
 /// `pattern`'s layout, already assembled at `values`): one factorization on
-/// `cholesky`'s symbolic analysis, one solve per column of each block.
+/// `cholesky`'s symbolic analysis, one forward solve of every block's
+/// columns ([`SparseCholesky::inverse_diagonal_blocks`]).
 pub(crate) fn marginals_from_hessian(
     pattern: &Pattern,
     cholesky: &mut SparseCholesky,
@@ -164,25 +165,19 @@ pub(crate) fn marginals_from_hessian(
     keys: &[Key],
 ) -> Result<Marginals> {
     factorize_or_nudge(pattern, cholesky, hessian)?;
-    let n = pattern.ordering.dim;
+    let runs = keys
+        .iter()
+        .map(|key| {
+            let var = pattern
+                .ordering
+                .index
+                .get(key)
+                .ok_or_else(|| super::values::unknown_key(*key))?;
+            Ok((pattern.ordering.offsets[*var], key.dim()))
+        })
+        .collect::<Result<Vec<_>>>()?;
     let mut blocks = BTreeMap::new();
-    let mut column = vec![0.0; n];
-    for &key in keys {
-        let Some(&var) = pattern.ordering.index.get(&key) else {
-            return Err(super::values::unknown_key(key));
-        };
-        let off = pattern.ordering.offsets[var];
-        let d = key.dim();
-        let mut block = DMatrix::<f64>::zeros(d, d);
-        for b in 0..d {
-            column.iter_mut().for_each(|v| *v = 0.0);
-            column[off + b] = 1.0;
-            cholesky.solve(&mut column);
-            for a in 0..d {
-                block[(a, b)] = column[off + a];
-            }
-        }
-        let block = 0.5 * (&block + block.transpose());
+    for (&key, block) in keys.iter().zip(cholesky.inverse_diagonal_blocks(&runs)?) {
         if block.iter().any(|v| !v.is_finite()) {
             return Err(SlamError::NonFinite {
                 what: "marginal covariance",
@@ -310,6 +305,62 @@ mod tests {
             assert!((a - b).norm() <= 1e-9 * a.norm(), "{k:?}: {a} vs {b}");
         }
         assert!(some.get(Key::Pose(1)).is_err());
+        Ok(())
+    }
+
+    /// A graph dense enough for a supernodal factor (every landmark seen
+    /// from every pose): the forward-solve blocks of `marginals_of` still
+    /// equal the selected inverse's.
+    #[test]
+    fn supernodal_blocks_equal_the_whole_graph_marginals() -> Result<()> {
+        let mut g = FactorGraph::new();
+        let mut v = Values::new();
+        g.add_pose_prior(PosePriorFactor::new(
+            0,
+            Vector3::zeros(),
+            Matrix3::identity() * 1e-2,
+        )?)?;
+        for i in 0..40u64 {
+            let t = i as f64 * 0.15;
+            v.insert_pose(i, Vector3::new(3.0 * t.cos(), 3.0 * t.sin(), t))?;
+            if i > 0 {
+                g.add_odometry(OdometryFactor::new(
+                    i - 1,
+                    i,
+                    Vector3::new(0.45, 0.0, 0.15),
+                    Matrix3::identity() * 0.04,
+                )?)?;
+            }
+        }
+        for id in 0..30u64 {
+            let a = id as f64 * 0.21;
+            let p = Vector2::new(8.0 * a.cos(), 8.0 * a.sin() + 0.1 * id as f64);
+            v.insert_landmark(100 + id, p)?;
+            for i in 0..40u64 {
+                let pose = v.pose(i)?;
+                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z;
+                g.add_bearing(BearingFactor::new(i, 100 + id, bearing + 0.003, 0.02)?)?;
+            }
+        }
+        let kernel = RobustKernel::None;
+        let pattern = Pattern::new(&g, &v)?;
+        let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
+        assert!(matches!(
+            cholesky.symbolic().raw(),
+            SymbolicCholeskyRaw::Supernodal(_)
+        ));
+        let all = marginal_covariances(&g, &v, &kernel)?;
+        let keys = [
+            Key::Pose(0),
+            Key::Pose(17),
+            Key::Landmark(105),
+            Key::Pose(39),
+        ];
+        let some = marginals_of(&pattern, &mut cholesky, &g, &v, &kernel, &keys)?;
+        for k in keys {
+            let (a, b) = (all.get(k)?, some.get(k)?);
+            assert!((a - b).norm() <= 1e-8 * a.norm(), "{k:?}: {a} vs {b}");
+        }
         Ok(())
     }
 }

@@ -115,7 +115,8 @@ impl FixedLagSmoother {
             .copied()
             .collect();
         let old_prior = self.frozen.as_ref().and_then(|f| f.prior.clone());
-        let (mut factors, prior, _) = self.eliminate(&newly, &staying)?;
+        let elimination = self.eliminate(&newly, &staying)?;
+        let (mut factors, prior) = (elimination.taken, elimination.prior);
         if let Some(old) = &old_prior {
             factors.retain(|f| f != old);
         }
