@@ -41,6 +41,7 @@ from pathlib import Path
 from typing import Any
 
 import bearing_slam as bs
+from kitti_clips import clips_have_poses
 
 ROOT = Path(__file__).resolve().parent.parent
 EXAMPLES = ROOT / "target" / "release" / "examples"
@@ -87,10 +88,8 @@ def main(argv: list[str] | None = None) -> int:
             )
             return 2
     clips = [kitti / clip for clip in CLIPS]
-    for clip in clips:
-        if not (clip / "poses.txt").is_file():
-            print(f"error: {clip} has no poses.txt", file=sys.stderr)
-            return 2
+    if not clips_have_poses(clips):
+        return 2
     with tempfile.TemporaryDirectory() as tmp:
         room = Path(tmp) / "room"
         subprocess.run(

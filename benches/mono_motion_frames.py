@@ -25,6 +25,7 @@ import sys
 from pathlib import Path
 
 import bearing_slam as bs
+from kitti_clips import clips_have_poses
 from mono_ransac_seeds import CONFIGS, ate_percent
 
 #: The hand-held defaults of ``MonoRunConfig`` (the paper's setting).
@@ -36,10 +37,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("clips", nargs=2, type=Path, help="the two frames directories")
     args = parser.parse_args(argv)
     clips: list[Path] = args.clips
-    for clip in clips:
-        if not (clip / "poses.txt").is_file():
-            print(f"error: {clip} has no poses.txt", file=sys.stderr)
-            return 2
+    if not clips_have_poses(clips):
+        return 2
     print("| clip | velocity frame | noise rule | σ_a, σ_α | " + " | ".join(CONFIGS) + " |")
     print("|---" * (4 + len(CONFIGS)) + "|")
     for index, clip in enumerate(clips):

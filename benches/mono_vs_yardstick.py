@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 import bearing_slam as bs
+from kitti_clips import clips_have_poses
 from mono_vo_opencv import five_point_vo
 
 #: The car configuration of docs/results/mono.md, besides the motion noise.
@@ -56,10 +57,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("clips", nargs=2, type=Path, help="the two KITTI clip directories")
     args = parser.parse_args(argv)
     clips: list[Path] = args.clips
-    for clip in clips:
-        if not (clip / "poses.txt").is_file():
-            print(f"error: {clip} has no poses.txt", file=sys.stderr)
-            return 2
+    if not clips_have_poses(clips):
+        return 2
     print(
         "| clip | scale given | ours: ATE Sim(3) % (metric m) | OpenCV VO: ATE Sim(3) % "
         "(metric m) | ours / VO |"
