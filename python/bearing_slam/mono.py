@@ -84,7 +84,8 @@ def run(
     Civera et al.'s test alone), ``speed_readings`` (a speed reading at every frame, as a
     car's wheel odometry gives: ``"none"``, ``"ground_truth"`` — the ground truth's step
     length over the frame interval, the information the OpenCV yardstick is handed — or
-    ``"file"``: the directory's ``speeds.txt``, one speed per frame in m/s),
+    ``"file"``: the directory's ``speeds.txt``, one speed per frame in m/s, or
+    ``time speed`` lines at the sensor's own rate, resampled to the frame intervals),
     ``speed_sigma_mps`` (their σ; default ``linear_accel_sigma · Δt / 2``) and
     ``front_end`` (``search``:
     ``confidence``, ``min_ncc``, ``refresh_ncc``, ``refresh_shift_px``,

@@ -173,6 +173,37 @@ def test_speed_readings_from_a_file_are_the_ground_truth_s_when_they_agree(
         bs.mono.run(clip, config=config)
 
 
+def test_timestamped_speed_readings_are_resampled_to_the_frame_intervals(
+    room: Path, tmp_path: Path
+) -> None:
+    """``speeds.txt`` as ``time speed`` lines at a wheel sensor's own rate, not in step
+    with the frames: each frame interval gets the mean of the readings' linear
+    interpolation over it. Readings that hold each interval's true speed (switching
+    within 1e-7 of the interval at its ends) run as the ground truth's step lengths;
+    readings that stop before the last frame, or whose time goes back, are refused."""
+    clip = tmp_path / "room"
+    shutil.copytree(room, clip)
+    poses = np.loadtxt(clip / "poses.txt").reshape(-1, 3, 4)[:, :, 3]
+    times = np.loadtxt(clip / "times.txt")
+    steps = np.linalg.norm(np.diff(poses, axis=0), axis=1) / np.diff(times)
+    delta = 1e-7 * float(np.min(np.diff(times)))
+    readings = [(times[0], steps[0])]
+    for k, speed in enumerate(steps):
+        readings += [(times[k] + delta, speed), (times[k + 1] - delta, speed)]
+    readings.append((times[-1], steps[-1]))
+    np.savetxt(clip / "speeds.txt", np.array(readings))
+    config = {"filter": "undelayed", "speed_readings": "file"}
+    from_file = bs.mono.run(clip, config=config)
+    from_truth = bs.mono.run(clip, config={**config, "speed_readings": "ground_truth"})
+    np.testing.assert_allclose(from_file.estimate, from_truth.estimate, rtol=1e-5, atol=1e-6)
+    np.savetxt(clip / "speeds.txt", np.array(readings[:-3]))
+    with pytest.raises(bs.DatasetError, match=r"speeds\.txt covers .* but frame \d+ needs"):
+        bs.mono.run(clip, config=config)
+    np.savetxt(clip / "speeds.txt", np.array([readings[0], *readings[2:3], readings[1]]))
+    with pytest.raises(bs.DatasetError, match="does not increase"):
+        bs.mono.run(clip, config=config)
+
+
 def test_motion_noise_is_the_rms_acceleration_of_the_ground_truth(
     capsys: pytest.CaptureFixture[str],
 ) -> None:

@@ -2,8 +2,9 @@
 //! (`image_l/NNNNNN.png`, `calib.txt` with the projection matrix `P0`,
 //! `poses.txt` with one 3×4 camera-to-world pose per frame, optional
 //! `times.txt`, `known_points.txt`: the paper's metric reference, one
-//! `x y z` world point per line, and `speeds.txt`: a speed reading per
-//! frame, m/s, as a car's wheel odometry gives). The synthetic renderer ([`crate::render`]) writes the same
+//! `x y z` world point per line, and `speeds.txt`: speed readings, m/s, as
+//! a car's wheel odometry gives, one per frame or `time speed` at the
+//! sensor's own rate ([`crate::speeds`])). The synthetic renderer ([`crate::render`]) writes the same
 //! layout, so one loader reads both.
 
 use crate::error::{Result, VisionError};
@@ -82,7 +83,8 @@ pub struct FrameSequence {
     /// empty when the directory has none).
     pub known_points: Vec<Vector3<f64>>,
     /// The speed over the interval ending at each frame, m/s (`speeds.txt`,
-    /// one per frame; frame 0's is not used), if the directory has them.
+    /// one per frame or timestamped at the sensor's rate and resampled:
+    /// [`crate::speeds`]; frame 0's is not used), if the directory has them.
     pub speeds: Option<Vec<f64>>,
 }
 
@@ -149,18 +151,7 @@ impl FrameSequence {
         };
         let speeds_path = dir.join(SPEEDS_FILE);
         let speeds = if speeds_path.exists() {
-            let speeds = read_speeds(&speeds_path)?;
-            if speeds.len() != images.len() {
-                return Err(VisionError::Layout {
-                    dir,
-                    reason: format!(
-                        "{SPEEDS_FILE} has {} lines but image_l has {} frames",
-                        speeds.len(),
-                        images.len()
-                    ),
-                });
-            }
-            Some(speeds)
+            Some(crate::speeds::read_speeds(&speeds_path, &times)?)
         } else {
             None
         };
@@ -225,7 +216,7 @@ pub fn load_gray(path: &Path) -> Result<GrayImage> {
     Ok(decoded.into_luma8())
 }
 
-fn read_text(path: &Path) -> Result<String> {
+pub(crate) fn read_text(path: &Path) -> Result<String> {
     std::fs::read_to_string(path).map_err(|e| VisionError::io(path, e))
 }
 
@@ -293,7 +284,7 @@ pub fn read_calibration(path: &Path) -> Result<Intrinsics> {
 
 /// The non-blank lines of a text file of numbers, each with its 1-based
 /// line number and exactly `count` finite numbers ([`parse_numbers`]).
-fn numeric_rows(path: &Path, count: usize) -> Result<Vec<(usize, Vec<f64>)>> {
+pub(crate) fn numeric_rows(path: &Path, count: usize) -> Result<Vec<(usize, Vec<f64>)>> {
     let text = read_text(path)?;
     text.lines()
         .enumerate()
@@ -353,21 +344,6 @@ fn read_known_points(path: &Path) -> Result<Vec<Vector3<f64>>> {
 }
 
 /// One speed per line, m/s, never negative.
-fn read_speeds(path: &Path) -> Result<Vec<f64>> {
-    let mut speeds = Vec::new();
-    for (line, v) in numeric_rows(path, 1)? {
-        if v[0] < 0.0 {
-            return Err(VisionError::Parse {
-                path: path.to_path_buf(),
-                line,
-                reason: format!("speed {} is negative", v[0]),
-            });
-        }
-        speeds.push(v[0]);
-    }
-    Ok(speeds)
-}
-
 fn read_times(path: &Path) -> Result<Vec<f64>> {
     let mut times: Vec<f64> = Vec::new();
     for (line, v) in numeric_rows(path, 1)? {

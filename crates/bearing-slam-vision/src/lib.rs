@@ -9,7 +9,8 @@
 //! ([`search`]), the frame loop over any
 //! [`bearing_slam_core::mono::MonoFilter`] ([`run`]), and its scores: ATE
 //! after Sim(3) alignment or with the first-two-poses scale ([`align`]);
-//! [`pipeline`] puts them together with the core's `MonoSlam`.
+//! [`pipeline`] puts them together with the core's `MonoSlam`, with a
+//! car's speed readings ([`speeds`]) when the directory has them.
 //! [`oracle`] is a ground-truth stand-in for the filter, for tests and for
 //! timing the front end alone.
 
@@ -24,6 +25,7 @@ pub mod render;
 pub mod run;
 pub mod scene;
 pub mod search;
+pub mod speeds;
 pub mod warp;
 
 pub use align::{AteReport, ate_first_two_poses, ate_sim3, ate_unaligned, path_length};

@@ -52,7 +52,8 @@ pub enum SpeedSource {
     /// handed (`benches/mono_vo_opencv.py`).
     GroundTruth,
     /// The directory's `speeds.txt` ([`crate::frames::SPEEDS_FILE`]): a
-    /// car's own wheel odometry.
+    /// car's own wheel odometry, per frame or at its own rate
+    /// ([`crate::speeds`]).
     File,
 }
 

@@ -257,11 +257,17 @@ mod tests {
     };
     use nalgebra::{Vector2, Vector3};
 
-    /// Three poses, two landmarks seen in bearing: the selected blocks of
-    /// `marginals_of` (solver's factorization, unit solves) equal the
-    /// selected inverse of `marginal_covariances`.
-    #[test]
-    fn selected_blocks_equal_the_whole_graph_marginals() -> Result<()> {
+    /// A graph of `poses` chained by the odometry `step`, the first with a
+    /// prior, and `landmarks` each seen in bearing (off by `offset` rad)
+    /// from every pose, with a loose prior of `landmark_prior` variance
+    /// when given.
+    fn seen_from_every_pose(
+        poses: &[Vector3<f64>],
+        step: Vector3<f64>,
+        landmarks: &[(u64, Vector2<f64>)],
+        landmark_prior: Option<f64>,
+        offset: f64,
+    ) -> Result<(FactorGraph, Values)> {
         let mut g = FactorGraph::new();
         let mut v = Values::new();
         g.add_pose_prior(PosePriorFactor::new(
@@ -269,98 +275,122 @@ mod tests {
             Vector3::zeros(),
             Matrix3::identity() * 1e-2,
         )?)?;
-        for i in 0..3u64 {
-            v.insert_pose(i, Vector3::new(i as f64, 0.1 * i as f64, 0.05))?;
+        for (i, pose) in (0u64..).zip(poses) {
+            v.insert_pose(i, *pose)?;
             if i > 0 {
                 g.add_odometry(OdometryFactor::new(
                     i - 1,
                     i,
-                    Vector3::new(1.0, 0.0, 0.0),
+                    step,
                     Matrix3::identity() * 0.04,
                 )?)?;
             }
         }
-        for (id, p) in [(7u64, Vector2::new(2.0, 3.0)), (9, Vector2::new(1.0, -2.0))] {
+        for &(id, p) in landmarks {
             v.insert_landmark(id, p)?;
-            g.add_landmark_prior(LandmarkPriorFactor::new(
-                id,
-                p,
-                Matrix2::identity() * 100.0,
-            )?)?;
-            for i in 0..3u64 {
-                let pose = v.pose(i)?;
-                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z + 0.01;
+            if let Some(var) = landmark_prior {
+                g.add_landmark_prior(LandmarkPriorFactor::new(id, p, Matrix2::identity() * var)?)?;
+            }
+            for (i, pose) in (0u64..).zip(poses) {
+                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z + offset;
                 g.add_bearing(BearingFactor::new(i, id, bearing, 0.02)?)?;
             }
         }
-        let kernel = RobustKernel::Huber(2.0);
-        let all = marginal_covariances(&g, &v, &kernel)?;
+        Ok((g, v))
+    }
+
+    /// The blocks of `marginals_of` at `keys` (the solver's factorization,
+    /// `cholesky`) against the selected inverse of `marginal_covariances`.
+    fn assert_blocks_match(
+        g: &FactorGraph,
+        v: &Values,
+        kernel: &RobustKernel,
+        pattern: &Pattern,
+        cholesky: &mut SparseCholesky,
+        keys: &[Key],
+        tolerance: f64,
+    ) -> Result<Marginals> {
+        let all = marginal_covariances(g, v, kernel)?;
+        let some = marginals_of(pattern, cholesky, g, v, kernel, keys)?;
+        assert_eq!(some.blocks().len(), keys.len());
+        for &k in keys {
+            let (a, b) = (all.get(k)?, some.get(k)?);
+            assert!((a - b).norm() <= tolerance * a.norm(), "{k:?}: {a} vs {b}");
+        }
+        Ok(some)
+    }
+
+    /// Three poses, two landmarks seen in bearing: the selected blocks of
+    /// `marginals_of` (solver's factorization, one forward solve) equal the
+    /// selected inverse of `marginal_covariances`.
+    #[test]
+    fn selected_blocks_equal_the_whole_graph_marginals() -> Result<()> {
+        let poses: Vec<Vector3<f64>> = (0..3)
+            .map(|i| Vector3::new(f64::from(i), 0.1 * f64::from(i), 0.05))
+            .collect();
+        let landmarks = [(7u64, Vector2::new(2.0, 3.0)), (9, Vector2::new(1.0, -2.0))];
+        let (g, v) = seen_from_every_pose(
+            &poses,
+            Vector3::new(1.0, 0.0, 0.0),
+            &landmarks,
+            Some(100.0),
+            0.01,
+        )?;
         let pattern = Pattern::new(&g, &v)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
         let keys = [Key::Pose(0), Key::Landmark(9)];
-        let some = marginals_of(&pattern, &mut cholesky, &g, &v, &kernel, &keys)?;
-        assert_eq!(some.blocks().len(), 2);
-        for k in keys {
-            let (a, b) = (all.get(k)?, some.get(k)?);
-            assert!((a - b).norm() <= 1e-9 * a.norm(), "{k:?}: {a} vs {b}");
-        }
+        let kernel = RobustKernel::Huber(2.0);
+        let some = assert_blocks_match(&g, &v, &kernel, &pattern, &mut cholesky, &keys, 1e-9)?;
         assert!(some.get(Key::Pose(1)).is_err());
         Ok(())
     }
 
-    /// A graph dense enough for a supernodal factor (every landmark seen
-    /// from every pose): the forward-solve blocks of `marginals_of` still
-    /// equal the selected inverse's.
+    /// A graph dense enough for a supernodal factor (30 landmarks seen
+    /// from each of 40 poses): the forward-solve blocks still equal the
+    /// selected inverse's.
     #[test]
     fn supernodal_blocks_equal_the_whole_graph_marginals() -> Result<()> {
-        let mut g = FactorGraph::new();
-        let mut v = Values::new();
-        g.add_pose_prior(PosePriorFactor::new(
-            0,
-            Vector3::zeros(),
-            Matrix3::identity() * 1e-2,
-        )?)?;
-        for i in 0..40u64 {
-            let t = i as f64 * 0.15;
-            v.insert_pose(i, Vector3::new(3.0 * t.cos(), 3.0 * t.sin(), t))?;
-            if i > 0 {
-                g.add_odometry(OdometryFactor::new(
-                    i - 1,
-                    i,
-                    Vector3::new(0.45, 0.0, 0.15),
-                    Matrix3::identity() * 0.04,
-                )?)?;
-            }
-        }
-        for id in 0..30u64 {
-            let a = id as f64 * 0.21;
-            let p = Vector2::new(8.0 * a.cos(), 8.0 * a.sin() + 0.1 * id as f64);
-            v.insert_landmark(100 + id, p)?;
-            for i in 0..40u64 {
-                let pose = v.pose(i)?;
-                let bearing = (p.y - pose.y).atan2(p.x - pose.x) - pose.z;
-                g.add_bearing(BearingFactor::new(i, 100 + id, bearing + 0.003, 0.02)?)?;
-            }
-        }
-        let kernel = RobustKernel::None;
+        let poses: Vec<Vector3<f64>> = (0..40)
+            .map(|i| {
+                let t = f64::from(i) * 0.15;
+                Vector3::new(3.0 * t.cos(), 3.0 * t.sin(), t)
+            })
+            .collect();
+        let landmarks: Vec<(u64, Vector2<f64>)> = (0..30u32)
+            .map(|id| {
+                let a = f64::from(id) * 0.21;
+                let p = Vector2::new(8.0 * a.cos(), 8.0 * a.sin() + 0.1 * f64::from(id));
+                (100 + u64::from(id), p)
+            })
+            .collect();
+        let (g, v) = seen_from_every_pose(
+            &poses,
+            Vector3::new(0.45, 0.0, 0.15),
+            &landmarks,
+            None,
+            0.003,
+        )?;
         let pattern = Pattern::new(&g, &v)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
         assert!(matches!(
             cholesky.symbolic().raw(),
             SymbolicCholeskyRaw::Supernodal(_)
         ));
-        let all = marginal_covariances(&g, &v, &kernel)?;
         let keys = [
             Key::Pose(0),
             Key::Pose(17),
             Key::Landmark(105),
             Key::Pose(39),
         ];
-        let some = marginals_of(&pattern, &mut cholesky, &g, &v, &kernel, &keys)?;
-        for k in keys {
-            let (a, b) = (all.get(k)?, some.get(k)?);
-            assert!((a - b).norm() <= 1e-8 * a.norm(), "{k:?}: {a} vs {b}");
-        }
+        assert_blocks_match(
+            &g,
+            &v,
+            &RobustKernel::None,
+            &pattern,
+            &mut cholesky,
+            &keys,
+            1e-8,
+        )?;
         Ok(())
     }
 }
