@@ -400,7 +400,10 @@ def vocabulary() -> dict[str, Any]: ...
 
 # issue 17: monocular SLAM on image sequences (wrapped by bearing_slam.mono).
 def mono_run(
-    frames_dir: _Path, calib: _Path | None = None, config_json: str | None = None
+    frames_dir: _Path,
+    calib: _Path | None = None,
+    config_json: str | None = None,
+    mcap: _Path | None = None,
 ) -> dict[str, Any]: ...
 def mono_render(out_dir: _Path, config_json: str | None = None) -> int: ...
 def mono_motion_noise(

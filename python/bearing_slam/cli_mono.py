@@ -24,8 +24,11 @@ def _cmd_mono(args: argparse.Namespace) -> int:
         config["metric_reference"] = True
     if args.max_frames is not None:
         config["max_frames"] = args.max_frames
-    result = mono.run(Path(args.frames_dir), args.calib, config)
-    metrics = mono.write_outputs(result, args.out)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    mcap = None if args.no_mcap else out / "mono.mcap"
+    result = mono.run(Path(args.frames_dir), args.calib, config, mcap=mcap)
+    metrics = mono.write_outputs(result, out)
     if not args.quiet:
         summary = {
             "ate_sim3_m": metrics["ate_sim3"]["rmse_m"],
@@ -70,7 +73,9 @@ def add_mono_parser(sub: Any) -> None:
         "the ellipse of S, the inverse-depth EKF) on DIR (image_l/*.png, calib.txt, "
         "poses.txt) from frame 1, started from the first two ground-truth poses, and "
         "writes OUT/metrics.json (ATE after Sim(3) and unaligned, path length, fps), "
-        "OUT/trajectory.png (X-Y and X-Z views) and OUT/frames.png (ellipses and matches).",
+        "OUT/trajectory.png (X-Y and X-Z views), OUT/frames.png (ellipses and matches) and "
+        "OUT/mono.mcap for Foxglove (the images, the estimated and true camera paths, the "
+        "map's 2σ ellipsoids after every frame).",
     )
     p.add_argument("frames_dir", metavar="DIR", help="the frames directory")
     p.add_argument("--out", required=True, help="output folder")
@@ -101,6 +106,7 @@ def add_mono_parser(sub: Any) -> None:
     p.add_argument("--max-frames", type=int, help="run at most this many frames")
     p.add_argument("--config", help="more settings as JSON (see bearing_slam.mono.run)")
     p.add_argument("--quiet", action="store_true", help="no summary on stdout")
+    p.add_argument("--no-mcap", action="store_true", help="do not write OUT/mono.mcap")
     p.set_defaults(func=_cmd_mono)
 
     n = sub.add_parser(

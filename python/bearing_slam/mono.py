@@ -63,10 +63,17 @@ class MonoResult:
 
 
 def run(
-    frames_dir: _PathLike, calib: _PathLike | None = None, config: dict[str, Any] | None = None
+    frames_dir: _PathLike,
+    calib: _PathLike | None = None,
+    config: dict[str, Any] | None = None,
+    mcap: _PathLike | None = None,
 ) -> MonoResult:
     """Runs monocular SLAM on ``frames_dir`` (calibration from ``calib`` or
-    ``frames_dir/calib.txt``).
+    ``frames_dir/calib.txt``); with ``mcap``, also writes the run there for Foxglove:
+    ``/camera/image`` (``foxglove.CompressedImage``, the frames as read), ``/tf`` and
+    ``/camera/path/estimate|truth`` (the camera, estimated and true), ``/map``
+    (``foxglove.SceneUpdate``: each landmark's 2σ ellipsoid after every frame, blue as a
+    point, orange in inverse depth). A failed write leaves no file there.
 
     ``config`` keys (all optional): ``filter`` (``"delayed"``, ``"delayed_clone"``,
     ``"undelayed"``, ``"oracle"`` — ground truth, rendered sequences only), ``pixel_sigma``,
@@ -92,12 +99,14 @@ def run(
     ``max_half_axis_px``, ``patch_half``, ``subpixel``, ``warp``,
     ``warp_window_half``; ``detector``:
     ``fast_threshold``, ``min_distance_px``, ``grid_cols``, ``grid_rows``;
-    ``target_features``, ``max_new_per_frame``). Unknown keys are an error.
+    ``target_features``, ``max_new_per_frame``, ``record_maps``: keep the map after every
+    frame, which ``mcap`` turns on). Unknown keys are an error.
     """
     raw = _native.mono_run(
         os.fspath(frames_dir),
         None if calib is None else os.fspath(calib),
         None if config is None else json.dumps(config),
+        None if mcap is None else os.fspath(mcap),
     )
     return MonoResult(
         estimate=raw["estimate"],

@@ -3,10 +3,12 @@
 
 from __future__ import annotations
 
+import base64
 import json
 import os
 import shutil
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -65,6 +67,58 @@ def test_cli_writes_metrics_and_figures(room: Path, tmp_path: Path) -> None:
     assert (out / "trajectory.png").stat().st_size > 10_000
     assert (out / "frames.png").stat().st_size > 10_000
     assert main(["mono", str(tmp_path / "missing"), "--out", str(out), "--quiet"]) == 2
+
+
+def test_a_run_is_written_as_an_mcap_for_foxglove(room: Path, tmp_path: Path) -> None:
+    """``bs.mono.run(..., mcap=path)`` (and the CLI's ``OUT/mono.mcap``) on 20 frames of
+    KITTI clip 2: every frame's image as it was read, the estimated and true camera
+    paths, and the map after every frame (growing), the last one the run's final map;
+    the estimate is the run's without the MCAP."""
+    from mcap.reader import make_reader
+
+    clip = KITTI / "KITTI_sequence_2"
+    assert clip.is_dir(), f"KITTI clips not found at {KITTI} (set BEARING_SLAM_KITTI)"
+    path = tmp_path / "run.mcap"
+    config = {"filter": "undelayed", "max_frames": 20}
+    result = bs.mono.run(clip, config=config, mcap=path)
+    np.testing.assert_array_equal(result.estimate, bs.mono.run(clip, config=config).estimate)
+    by_topic: dict[str, list[dict[str, Any]]] = {}
+    with path.open("rb") as stream:
+        for schema, channel, message in make_reader(stream).iter_messages():
+            assert channel.message_encoding == "json"
+            assert schema is not None
+            topic = f"{channel.topic} {schema.name}"
+            by_topic.setdefault(topic, []).append(json.loads(message.data))
+    frames = len(result.estimate)
+    assert {topic: len(messages) for topic, messages in by_topic.items()} == {
+        "/camera/image foxglove.CompressedImage": frames,
+        "/tf foxglove.FrameTransform": 2 * frames,
+        "/camera/path/estimate foxglove.PosesInFrame": frames,
+        "/camera/path/truth foxglove.PosesInFrame": frames,
+        "/map foxglove.SceneUpdate": frames,
+    }
+    images = by_topic["/camera/image foxglove.CompressedImage"]
+    first = base64.b64decode(str(images[0]["data"]))
+    assert first == Path(result.images[1]).read_bytes()
+    last_path = by_topic["/camera/path/estimate foxglove.PosesInFrame"][-1]["poses"]
+    assert len(last_path) == frames
+    assert last_path[-1]["position"]["x"] == pytest.approx(result.estimate[-1, 0], abs=1e-6)
+    maps = [m["entities"][0]["spheres"] for m in by_topic["/map foxglove.SceneUpdate"]]
+    sizes = [len(spheres) for spheres in maps]
+    assert sizes[0] == 0, sizes
+    assert sizes[-1] > sizes[len(sizes) // 2] > 10, sizes
+    spheres = maps[-1]
+    assert len(spheres) == len(result.landmarks)
+    centres = sorted(round(s["pose"]["position"]["z"], 4) for s in spheres)
+    assert centres == sorted(round(float(z), 4) for z in result.landmarks[:, 3])
+
+    out = tmp_path / "cli"
+    assert main(["mono", str(room), "--out", str(out), "--filter", "undelayed", "--quiet"]) == 0
+    assert (out / "mono.mcap").stat().st_size > 1000
+    assert main(["mono", str(room), "--out", str(out / "no"), "--no-mcap", "--quiet"]) == 0
+    assert not (out / "no" / "mono.mcap").exists()
+    with pytest.raises(bs.McapError, match="cannot create"):
+        bs.mono.run(room, config=config, mcap=tmp_path / "missing" / "run.mcap")
 
 
 def test_ransac_seed_is_a_setting_and_a_run_is_deterministic_for_it(room: Path) -> None:

@@ -140,6 +140,15 @@ pub enum IoError {
         /// The time, seconds.
         time: f64,
     },
+    /// An image to be written that is not a PNG or JPEG file by its name
+    /// (the monocular MCAP, [`crate::mono_view`]).
+    #[error("{path}: {reason}")]
+    Image {
+        /// The image file.
+        path: PathBuf,
+        /// What is wrong.
+        reason: String,
+    },
     /// A message could not be encoded as JSON.
     #[error("{path}: cannot encode a message for topic {topic}: {source}")]
     Encode {

@@ -21,6 +21,8 @@ pub const FRAME_TRANSFORM: &str = "foxglove.FrameTransform";
 pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";
 /// Schema name of a log line.
 pub const LOG: &str = "foxglove.Log";
+/// Schema name of a compressed image (PNG or JPEG bytes).
+pub const COMPRESSED_IMAGE: &str = "foxglove.CompressedImage";
 
 /// The fixed frame.
 pub const WORLD_FRAME: &str = "world";
@@ -207,6 +209,17 @@ pub(crate) struct FrameTransform {
     pub child_frame_id: &'static str,
     pub translation: Vector3,
     pub rotation: Quaternion,
+}
+
+/// `foxglove.CompressedImage`: `data` is the image file's bytes, base64 in
+/// JSON (the schema's `contentEncoding`).
+#[derive(Debug, Serialize)]
+pub(crate) struct CompressedImage {
+    pub timestamp: Time,
+    pub frame_id: &'static str,
+    pub data: String,
+    /// `png` or `jpeg`.
+    pub format: &'static str,
 }
 
 /// `foxglove.Log`.
@@ -504,6 +517,22 @@ pub(crate) fn frame_transform_schema() -> Value {
             "rotation": quaternion_schema("Child orientation in the parent frame")
         },
         "required": ["timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"]
+    })
+}
+
+/// JSON schema of `foxglove.CompressedImage`.
+pub(crate) fn compressed_image_schema() -> Value {
+    json!({
+        "title": COMPRESSED_IMAGE,
+        "description": "A compressed image",
+        "type": "object",
+        "properties": {
+            "timestamp": time_schema("Timestamp of the image"),
+            "frame_id": { "type": "string" },
+            "data": { "type": "string", "contentEncoding": "base64" },
+            "format": { "type": "string" }
+        },
+        "required": ["timestamp", "frame_id", "data", "format"]
     })
 }
 

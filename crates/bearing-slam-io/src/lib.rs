@@ -60,6 +60,9 @@
 //! With the feature `live`, `live::LiveServer` streams the same topics to
 //! the Foxglove app over a WebSocket (the Foxglove SDK's server).
 //!
+//! A monocular run (the 6-DOF camera) has its own file for Foxglove, with
+//! the images, the camera paths and the 3-D map: [`mono_view`].
+//!
 //! [`SensorLog`]: bearing_slam_core::log::SensorLog
 //! [`SlamTrace`]: bearing_slam_core::trace::SlamTrace
 //! [`LogInfo`]: bearing_slam_core::log::LogInfo
@@ -70,6 +73,7 @@ pub mod error;
 pub mod foxglove;
 #[cfg(feature = "live")]
 pub mod live;
+pub mod mono_view;
 pub mod mrclam;
 mod path_view;
 pub mod reader;

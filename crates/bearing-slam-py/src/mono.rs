@@ -4,9 +4,11 @@
 //! crates); results as a dict of numpy arrays.
 
 use crate::convert::arr2;
-use crate::errors::{raise, slam};
+use crate::errors::{io, raise, slam};
+use bearing_slam::io::IoError;
+use bearing_slam::io::mono_view::{MonoFrameView, write_mono_mcap};
 use bearing_slam_vision::search::SearchOutcome;
-use bearing_slam_vision::{MonoRunConfig, SyntheticConfig, VisionError};
+use bearing_slam_vision::{MonoOutput, MonoRunConfig, SyntheticConfig, VisionError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
 use std::path::PathBuf;
@@ -32,20 +34,29 @@ fn parse<T: serde::de::DeserializeOwned + Default>(json: Option<&str>, what: &st
 }
 
 /// Runs monocular SLAM on a frames directory (KITTI clip layout) and
-/// returns a dict of numpy arrays and the metrics as JSON; see
+/// returns a dict of numpy arrays and the metrics as JSON; with `mcap`,
+/// also writes the run's MCAP for Foxglove there (images, camera paths,
+/// the map after every frame: `bearing_slam_io::mono_view`); see
 /// `bearing_slam.mono.run`.
 #[pyfunction]
-#[pyo3(signature = (frames_dir, calib = None, config_json = None))]
+#[pyo3(signature = (frames_dir, calib = None, config_json = None, mcap = None))]
 pub(crate) fn mono_run<'py>(
     py: Python<'py>,
     frames_dir: PathBuf,
     calib: Option<PathBuf>,
     config_json: Option<&str>,
+    mcap: Option<PathBuf>,
 ) -> PyResult<Bound<'py, PyDict>> {
-    let config: MonoRunConfig = parse(config_json, "mono config")?;
+    let mut config: MonoRunConfig = parse(config_json, "mono config")?;
+    if mcap.is_some() {
+        config.front_end.record_maps = true;
+    }
     let out = py
         .detach(|| bearing_slam_vision::run_directory(&frames_dir, calib.as_deref(), &config))
         .map_err(vision)?;
+    if let Some(path) = &mcap {
+        py.detach(|| write_run_mcap(path, &out)).map_err(io)?;
+    }
     let pose_rows = |poses: &[bearing_slam::core::mono::CameraPose]| -> Vec<f64> {
         poses
             .iter()
@@ -146,6 +157,25 @@ pub(crate) fn mono_run<'py>(
     d.set_item("width", out.sequence.width)?;
     d.set_item("height", out.sequence.height)?;
     Ok(d)
+}
+
+/// Writes `out` (run with `record_maps`) as the monocular MCAP at `path`.
+fn write_run_mcap(path: &std::path::Path, out: &MonoOutput) -> Result<(), IoError> {
+    let seq = &out.sequence;
+    let frames: Vec<MonoFrameView<'_>> = out
+        .run
+        .poses
+        .iter()
+        .enumerate()
+        .map(|(k, estimate)| MonoFrameView {
+            time_s: seq.times[out.first_frame + k],
+            image: &seq.images[out.first_frame + k],
+            estimate: *estimate,
+            truth: out.truth.get(k).copied(),
+            map: out.run.maps.get(k).map_or(&[], Vec::as_slice),
+        })
+        .collect();
+    write_mono_mcap(path, &frames)
 }
 
 /// The constant-velocity model's acceleration noise `(σ_a, σ_α)` fitted to

@@ -11,7 +11,7 @@ use crate::frames::FrameSequence;
 use crate::patch::Patch;
 use crate::search::{FrameSearch, PatchStore, PredictedView, SearchConfig, active_search_warped};
 use crate::warp::PatchView;
-use bearing_slam_core::mono::{CameraPose, MonoFilter};
+use bearing_slam_core::mono::{CameraPose, MapPoint, MonoFilter};
 use image::GrayImage;
 use nalgebra::Vector2;
 use serde::{Deserialize, Serialize};
@@ -29,6 +29,10 @@ pub struct FrontEndConfig {
     pub target_features: usize,
     /// At most this many features are added in one frame.
     pub max_new_per_frame: usize,
+    /// Keep the filter's map after every frame ([`MonoRun::maps`]), read
+    /// outside the timed work: for a viewer of the run (the monocular
+    /// MCAP), off by default.
+    pub record_maps: bool,
 }
 
 impl Default for FrontEndConfig {
@@ -38,6 +42,7 @@ impl Default for FrontEndConfig {
             detector: DetectorConfig::default(),
             target_features: 30,
             max_new_per_frame: 30,
+            record_maps: false,
         }
     }
 }
@@ -111,6 +116,9 @@ pub struct MonoRun {
     pub searches: Vec<FrameSearch>,
     /// The pixels of the features added in each frame.
     pub added_px: Vec<Vec<Vector2<f64>>>,
+    /// The map after each frame, with [`FrontEndConfig::record_maps`]
+    /// (empty otherwise).
+    pub maps: Vec<Vec<MapPoint>>,
 }
 
 /// Runs the loop over frames `first..frames.len()` (at most `max_frames` of
@@ -153,6 +161,7 @@ pub fn run_mono_seeded<F: MonoFilter>(
         frames: Vec::with_capacity(count),
         searches: Vec::with_capacity(count),
         added_px: Vec::with_capacity(count),
+        maps: Vec::new(),
     };
     let border = config.search.patch_half + 1;
     for k in first..first + count {
@@ -273,6 +282,9 @@ pub fn run_mono_seeded<F: MonoFilter>(
         run.frames.push(stats);
         run.searches.push(search);
         run.added_px.push(new_px);
+        if config.record_maps {
+            run.maps.push(filter.landmarks());
+        }
     }
     Ok(run)
 }

@@ -1,0 +1,191 @@
+//! The monocular run's MCAP (`bearing_slam_io::mono_view`): the documented
+//! topics and schemas, the image bytes as they were, the paths growing by
+//! a pose a frame, the map's 2σ ellipsoids, and bad input refused with no
+//! file left behind.
+
+mod common;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use base64::Engine as _;
+use bearing_slam_core::mono::{CameraPose, MapPoint};
+use bearing_slam_core::nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use bearing_slam_io::IoError;
+use bearing_slam_io::mono_view::{MAX_SEMI_AXIS_M, MonoFrameView, write_mono_mcap};
+use common::tmp;
+use serde_json::Value;
+
+fn pose(x: f64, yaw: f64) -> CameraPose {
+    CameraPose {
+        position: Vector3::new(x, 0.0, 0.5 * x),
+        orientation: UnitQuaternion::from_euler_angles(0.0, yaw, 0.0),
+    }
+}
+
+fn landmarks() -> Vec<MapPoint> {
+    vec![
+        MapPoint {
+            feature_id: 3,
+            position: Vector3::new(1.0, -2.0, 8.0),
+            covariance: Matrix3::from_diagonal(&Vector3::new(1.0, 4.0, 9.0)),
+            inverse_depth: false,
+        },
+        MapPoint {
+            feature_id: 9,
+            position: Vector3::new(0.0, 0.0, 30.0),
+            covariance: Matrix3::from_diagonal(&Vector3::new(0.01, 0.01, 1e6)),
+            inverse_depth: true,
+        },
+    ]
+}
+
+/// Three frames of fake PNG bytes in `dir`.
+fn images(dir: &Path) -> Vec<PathBuf> {
+    (0..3u8)
+        .map(|k| {
+            let path = dir.join(format!("{k:06}.png"));
+            std::fs::write(&path, [0x89, b'P', b'N', b'G', k, 255 - k]).expect("write image");
+            path
+        })
+        .collect()
+}
+
+fn frames<'a>(images: &'a [PathBuf], map: &'a [MapPoint]) -> Vec<MonoFrameView<'a>> {
+    images
+        .iter()
+        .enumerate()
+        .map(|(k, image)| MonoFrameView {
+            time_s: 0.1 * k as f64,
+            image,
+            estimate: pose(k as f64, 0.1),
+            truth: Some(pose(k as f64 + 0.05, 0.12)),
+            map: &map[..k.min(map.len())],
+        })
+        .collect()
+}
+
+/// Every message of the file, by topic, decoded.
+fn messages(path: &Path) -> BTreeMap<String, Vec<Value>> {
+    let bytes = std::fs::read(path).expect("read the file");
+    let mut by_topic: BTreeMap<String, Vec<Value>> = BTreeMap::new();
+    for message in mcap::MessageStream::new(&bytes).expect("an MCAP file") {
+        let message = message.expect("a whole message");
+        let schema = message.channel.schema.as_ref().expect("a schema");
+        assert_eq!(message.channel.message_encoding, "json");
+        assert_eq!(schema.encoding, "jsonschema");
+        let value: Value = serde_json::from_slice(&message.data).expect("JSON");
+        by_topic
+            .entry(format!("{} {}", message.channel.topic, schema.name))
+            .or_default()
+            .push(value);
+    }
+    by_topic
+}
+
+#[test]
+fn a_monocular_run_is_written_for_foxglove() {
+    let dir = tmp();
+    let images = images(dir.path());
+    let map = landmarks();
+    let path = dir.path().join("mono.mcap");
+    write_mono_mcap(&path, &frames(&images, &map)).expect("written");
+    let topics = messages(&path);
+    let counts: Vec<(&str, usize)> = topics.iter().map(|(t, m)| (t.as_str(), m.len())).collect();
+    assert_eq!(
+        counts,
+        [
+            ("/camera/image foxglove.CompressedImage", 3),
+            ("/camera/path/estimate foxglove.PosesInFrame", 3),
+            ("/camera/path/truth foxglove.PosesInFrame", 3),
+            ("/map foxglove.SceneUpdate", 3),
+            ("/tf foxglove.FrameTransform", 6),
+        ]
+    );
+    for (k, image) in topics["/camera/image foxglove.CompressedImage"]
+        .iter()
+        .enumerate()
+    {
+        assert_eq!(image["format"], "png");
+        assert_eq!(image["frame_id"], "camera_estimate");
+        let data = base64::engine::general_purpose::STANDARD
+            .decode(image["data"].as_str().expect("base64 text"))
+            .expect("base64");
+        assert_eq!(data, std::fs::read(&images[k]).expect("image bytes"));
+    }
+    for (k, path) in topics["/camera/path/estimate foxglove.PosesInFrame"]
+        .iter()
+        .enumerate()
+    {
+        let poses = path["poses"].as_array().expect("poses");
+        assert_eq!(poses.len(), k + 1);
+        assert_eq!(poses[k]["position"]["x"], k as f64);
+    }
+    let children: Vec<&str> = topics["/tf foxglove.FrameTransform"]
+        .iter()
+        .map(|t| t["child_frame_id"].as_str().expect("child"))
+        .collect();
+    assert_eq!(children.iter().filter(|c| **c == "camera_truth").count(), 3);
+    let last_map = &topics["/map foxglove.SceneUpdate"][2];
+    assert_eq!(last_map["deletions"][0]["type"], 1);
+    let spheres = last_map["entities"][0]["spheres"]
+        .as_array()
+        .expect("spheres");
+    assert_eq!(spheres.len(), 2);
+    let diameters = |s: &Value| {
+        let mut d: Vec<f64> = ["x", "y", "z"]
+            .iter()
+            .map(|a| s["size"][a].as_f64().expect("size"))
+            .collect();
+        d.sort_by(f64::total_cmp);
+        d
+    };
+    // 2σ: diameters 4σ along the axes; σ = 1, 2, 3 m.
+    assert_eq!(diameters(&spheres[0]), [4.0, 8.0, 12.0]);
+    // Depth unknown: its ray's σ of 1000 m is drawn at the cap.
+    assert_eq!(diameters(&spheres[1]), [0.4, 0.4, 2.0 * MAX_SEMI_AXIS_M]);
+    assert!(spheres[1]["color"]["r"].as_f64() > spheres[0]["color"]["r"].as_f64());
+}
+
+#[test]
+fn bad_input_is_refused_and_leaves_no_file() {
+    let dir = tmp();
+    let images = images(dir.path());
+    let map = landmarks();
+    let path = dir.path().join("mono.mcap");
+    std::fs::write(&path, b"an earlier file").expect("write");
+    let check = |frames: Vec<MonoFrameView<'_>>, expect: &str| {
+        let err = write_mono_mcap(&path, &frames).expect_err("refused");
+        assert!(err.to_string().contains(expect), "{err}");
+        assert_eq!(std::fs::read(&path).expect("kept"), b"an earlier file");
+        assert!(!dir.path().join("mono.mcap.partial").exists());
+        err
+    };
+
+    let mut back = frames(&images, &map);
+    back[2].time_s = 0.05;
+    let err = check(back, "frame 2");
+    assert!(matches!(err, IoError::TimeOutOfRange { .. }));
+
+    let mut nan = frames(&images, &map);
+    nan[1].estimate.position.y = f64::NAN;
+    let err = check(nan, "estimate");
+    assert!(matches!(err, IoError::NonFinite { .. }));
+
+    let mut bad_map = landmarks();
+    bad_map[1].covariance[(2, 2)] = f64::INFINITY;
+    let err = check(frames(&images, &bad_map), "landmark 9");
+    assert!(matches!(err, IoError::NonFinite { value, .. } if value.is_infinite()));
+
+    let missing = dir.path().join("missing.png");
+    let mut gone = frames(&images, &map);
+    gone[1].image = &missing;
+    check(gone, "missing.png");
+
+    let bitmap = dir.path().join("frame.bmp");
+    std::fs::write(&bitmap, b"BM").expect("write");
+    let mut bmp = frames(&images, &map);
+    bmp[0].image = &bitmap;
+    let err = check(bmp, "frame.bmp");
+    assert!(matches!(err, IoError::Image { .. }));
+}
