@@ -3,9 +3,10 @@
 //! first two poses and the calibration line of the KITTI 1 clip, in
 //! `fixtures/kitti/`) is written to a per-process directory; the input's
 //! first byte picks the file it replaces (calib.txt, poses.txt, times.txt,
-//! either frame's PNG, or times.txt removed), the rest is its content. The
-//! directory is opened and every frame decoded; what a successful open
-//! promises is checked.
+//! either frame's PNG, or times.txt removed, or a speeds.txt added: per
+//! frame or timestamped, `bearing_slam_vision::speeds`), the rest is its
+//! content. The directory is opened and every frame decoded; what a
+//! successful open promises is checked.
 #![no_main]
 
 use bearing_slam_vision::frames::FrameSequence;
@@ -40,7 +41,9 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     let Some((&selector, content)) = data.split_first() else {
         return;
     };
-    let replaced = usize::from(selector) % (FILES.len() + 1);
+    // FILES, then times.txt removed, then speeds.txt written.
+    let replaced = usize::from(selector) % (FILES.len() + 2);
+    let speeds = FILES.len() + 1;
     let dir = clip_dir();
     for (k, (name, fixture)) in FILES.iter().enumerate() {
         let bytes = if k == replaced { content } else { fixture };
@@ -48,6 +51,12 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
     }
     if replaced == FILES.len() {
         std::fs::remove_file(dir.join("times.txt")).expect("remove times.txt");
+    }
+    let speeds_path = dir.join("speeds.txt");
+    if replaced == speeds {
+        std::fs::write(&speeds_path, content).expect("write speeds.txt");
+    } else if speeds_path.exists() {
+        std::fs::remove_file(&speeds_path).expect("remove speeds.txt");
     }
     let Ok(clip) = FrameSequence::open(dir, None) else {
         return;
@@ -64,6 +73,11 @@ libfuzzer_sys::fuzz_target!(|data: &[u8]| {
         assert!((pose.orientation.norm() - 1.0).abs() < 1e-9);
     }
     assert!(clip.width > 0 && clip.height > 0);
+    if let Some(speeds) = &clip.speeds {
+        assert_eq!(speeds.len(), clip.len(), "a speed per frame");
+        // Frame 0's may be NaN (timestamped readings say nothing before it).
+        assert!(speeds[1..].iter().all(|v| v.is_finite() && *v >= 0.0), "{speeds:?}");
+    }
     for index in 0..clip.len() {
         if let Ok(frame) = clip.frame(index) {
             assert_eq!(frame.dimensions(), (clip.width, clip.height));
