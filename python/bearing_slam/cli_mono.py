@@ -74,8 +74,8 @@ def add_mono_parser(sub: Any) -> None:
         "poses.txt) from frame 1, started from the first two ground-truth poses, and "
         "writes OUT/metrics.json (ATE after Sim(3) and unaligned, path length, fps), "
         "OUT/trajectory.png (X-Y and X-Z views), OUT/frames.png (ellipses and matches) and "
-        "OUT/mono.mcap for Foxglove (the images, the estimated and true camera paths, the "
-        "map's 2σ ellipsoids after every frame).",
+        "OUT/mono.mcap for Foxglove (the images with the search ellipses and matches, the "
+        "estimated and true camera paths, the map's 2σ ellipsoids after every frame).",
     )
     p.add_argument("frames_dir", metavar="DIR", help="the frames directory")
     p.add_argument("--out", required=True, help="output folder")

@@ -70,7 +70,9 @@ def run(
 ) -> MonoResult:
     """Runs monocular SLAM on ``frames_dir`` (calibration from ``calib`` or
     ``frames_dir/calib.txt``); with ``mcap``, also writes the run there for Foxglove:
-    ``/camera/image`` (``foxglove.CompressedImage``, the frames as read), ``/tf`` and
+    ``/camera/image`` (``foxglove.CompressedImage``, the frames as read),
+    ``/camera/annotations`` (``foxglove.ImageAnnotations``: the search ellipses, green
+    found, red missed, and the matches, as the paper's Fig. 12), ``/tf`` and
     ``/camera/path/estimate|truth`` (the camera, estimated and true), ``/map``
     (``foxglove.SceneUpdate``: each landmark's 2σ ellipsoid after every frame, blue as a
     point, orange in inverse depth). A failed write leaves no file there.

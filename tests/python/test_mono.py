@@ -92,6 +92,7 @@ def test_a_run_is_written_as_an_mcap_for_foxglove(room: Path, tmp_path: Path) ->
     frames = len(result.estimate)
     assert {topic: len(messages) for topic, messages in by_topic.items()} == {
         "/camera/image foxglove.CompressedImage": frames,
+        "/camera/annotations foxglove.ImageAnnotations": frames,
         "/tf foxglove.FrameTransform": 2 * frames,
         "/camera/path/estimate foxglove.PosesInFrame": frames,
         "/camera/path/truth foxglove.PosesInFrame": frames,
@@ -100,6 +101,10 @@ def test_a_run_is_written_as_an_mcap_for_foxglove(room: Path, tmp_path: Path) ->
     images = by_topic["/camera/image foxglove.CompressedImage"]
     first = base64.b64decode(str(images[0]["data"]))
     assert first == Path(result.images[1]).read_bytes()
+    drawn = by_topic["/camera/annotations foxglove.ImageAnnotations"]
+    searched = result.searches[result.searches[:, 7] < 2]  # found or missed, in view
+    assert sum(len(d["points"]) for d in drawn) == len(searched)
+    assert sum(len(d["circles"]) for d in drawn) == np.count_nonzero(searched[:, 7] == 0)
     last_path = by_topic["/camera/path/estimate foxglove.PosesInFrame"][-1]["poses"]
     assert len(last_path) == frames
     assert last_path[-1]["position"]["x"] == pytest.approx(result.estimate[-1, 0], abs=1e-6)

@@ -21,8 +21,6 @@ pub const FRAME_TRANSFORM: &str = "foxglove.FrameTransform";
 pub const SCENE_UPDATE: &str = "foxglove.SceneUpdate";
 /// Schema name of a log line.
 pub const LOG: &str = "foxglove.Log";
-/// Schema name of a compressed image (PNG or JPEG bytes).
-pub const COMPRESSED_IMAGE: &str = "foxglove.CompressedImage";
 
 /// The fixed frame.
 pub const WORLD_FRAME: &str = "world";
@@ -211,17 +209,6 @@ pub(crate) struct FrameTransform {
     pub rotation: Quaternion,
 }
 
-/// `foxglove.CompressedImage`: `data` is the image file's bytes, base64 in
-/// JSON (the schema's `contentEncoding`).
-#[derive(Debug, Serialize)]
-pub(crate) struct CompressedImage {
-    pub timestamp: Time,
-    pub frame_id: &'static str,
-    pub data: String,
-    /// `png` or `jpeg`.
-    pub format: &'static str,
-}
-
 /// `foxglove.Log`.
 #[derive(Debug, Serialize)]
 pub(crate) struct Log {
@@ -403,7 +390,7 @@ pub fn covariance_ellipse(
 // JSON schemas (written for this crate after the Foxglove schema definitions:
 // same titles, field names and required keys).
 
-fn time_schema(description: &str) -> Value {
+pub(crate) fn time_schema(description: &str) -> Value {
     json!({
         "type": "object",
         "title": "time",
@@ -458,7 +445,7 @@ fn pose_schema(description: &str) -> Value {
     })
 }
 
-fn color_schema(description: &str) -> Value {
+pub(crate) fn color_schema(description: &str) -> Value {
     json!({
         "title": "foxglove.Color",
         "description": description,
@@ -517,22 +504,6 @@ pub(crate) fn frame_transform_schema() -> Value {
             "rotation": quaternion_schema("Child orientation in the parent frame")
         },
         "required": ["timestamp", "parent_frame_id", "child_frame_id", "translation", "rotation"]
-    })
-}
-
-/// JSON schema of `foxglove.CompressedImage`.
-pub(crate) fn compressed_image_schema() -> Value {
-    json!({
-        "title": COMPRESSED_IMAGE,
-        "description": "A compressed image",
-        "type": "object",
-        "properties": {
-            "timestamp": time_schema("Timestamp of the image"),
-            "frame_id": { "type": "string" },
-            "data": { "type": "string", "contentEncoding": "base64" },
-            "format": { "type": "string" }
-        },
-        "required": ["timestamp", "frame_id", "data", "format"]
     })
 }
 

@@ -71,6 +71,7 @@
 
 pub mod error;
 pub mod foxglove;
+pub(crate) mod foxglove_image;
 #[cfg(feature = "live")]
 pub mod live;
 pub mod mono_view;

@@ -6,6 +6,7 @@
 //! | topic | schema | content |
 //! |---|---|---|
 //! | `/camera/image` | `foxglove.CompressedImage` | each frame's image file, its bytes as they are (PNG or JPEG), in frame `camera_estimate` |
+//! | `/camera/annotations` | `foxglove.ImageAnnotations` | over the image, as the paper's Fig. 12: each feature's search ellipse (30) clipped to its search box (green: found, red: missed) and a circle where it was found |
 //! | `/tf` | `foxglove.FrameTransform` | `world` → `camera_estimate` and, with ground truth, `world` → `camera_truth` |
 //! | `/camera/path/estimate`, `/camera/path/truth` | `foxglove.PosesInFrame` | the path up to the frame |
 //! | `/map` | `foxglove.SceneUpdate` | the map after the frame: each landmark its 2σ ellipsoid (blue: a point, orange: still in inverse depth (27)), semi-axes capped at [`MAX_SEMI_AXIS_M`] |
@@ -26,10 +27,14 @@ use serde_json::Value;
 
 use crate::error::{IoError, Result};
 use crate::foxglove::{
-    self as fx, Color, CompressedImage, FrameTransform, Pose, PosesInFrame, Quaternion,
-    SceneEntity, SceneEntityDeletion, SceneUpdate, SpherePrimitive, Time, Vector3,
+    self as fx, Color, FrameTransform, Pose, PosesInFrame, Quaternion, SceneEntity,
+    SceneEntityDeletion, SceneUpdate, SpherePrimitive, Time, Vector3,
+};
+use crate::foxglove_image::{
+    self as fi, CircleAnnotation, CompressedImage, ImageAnnotations, Point2, PointsAnnotation,
 };
 use crate::schema::{MESSAGE_ENCODING, SCHEMA_ENCODING};
+use bearing_slam_core::nalgebra::{Matrix2, Vector2};
 
 /// The child frame of the estimated camera on `/tf`.
 pub const CAMERA_ESTIMATE_FRAME: &str = "camera_estimate";
@@ -53,9 +58,31 @@ pub struct MonoFrameView<'a> {
     pub truth: Option<CameraPose>,
     /// The map after the frame.
     pub map: &'a [MapPoint],
+    /// The frame's searches, drawn over its image.
+    pub searches: &'a [SearchMark],
 }
 
+/// One feature's active search in a frame, as Fig. 12 draws it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SearchMark {
+    /// The predicted pixel (pixel centres at integers).
+    pub predicted_px: Vector2<f64>,
+    /// The search ellipse `νᵀ E⁻¹ ν ≤ 1`: `E = χ² S_i` for the innovation
+    /// covariance `S_i` (30) at the search's χ² level, pixels².
+    pub ellipse: Matrix2<f64>,
+    /// The half side of the box the search is clipped to, pixels (the
+    /// front end's `max_half_axis_px`): the ellipse is drawn clipped to it,
+    /// as it was searched.
+    pub clip_half_px: f64,
+    /// Where the feature was found, if it was.
+    pub found_px: Option<Vector2<f64>>,
+}
+
+/// Points on each search ellipse drawn.
+const ELLIPSE_POINTS: usize = 24;
+
 const IMAGE: &str = "/camera/image";
+const ANNOTATIONS: &str = "/camera/annotations";
 const TF: &str = "/tf";
 const PATH_ESTIMATE: &str = "/camera/path/estimate";
 const PATH_TRUTH: &str = "/camera/path/truth";
@@ -149,9 +176,18 @@ fn write_frames(partial: &Path, path: &Path, frames: &[MonoFrameView<'_>]) -> Re
                 return Err(bad(format!("landmark {}", point.feature_id), v));
             }
         }
+        for (i, mark) in frame.searches.iter().enumerate() {
+            let found = mark.found_px.iter().flat_map(|p| p.iter().copied());
+            let values = mark.predicted_px.iter().chain(mark.ellipse.iter()).copied();
+            let clip = std::iter::once(mark.clip_half_px);
+            if let Some(v) = first_non_finite(values.chain(found).chain(clip)) {
+                return Err(bad(format!("search {i}"), v));
+            }
+        }
         let estimate = pose_of(&frame.estimate);
         let truth = frame.truth.as_ref().map(pose_of);
         out.image(log_time, stamp, frame.image)?;
+        out.emit(ANNOTATIONS, log_time, &annotations(stamp, frame.searches))?;
         out.transform(log_time, stamp, CAMERA_ESTIMATE_FRAME, estimate)?;
         estimates.push(estimate);
         out.emit(
@@ -210,7 +246,8 @@ impl MonoWriter {
             return Ok(id);
         }
         let (name, schema): (&str, Value) = match topic {
-            IMAGE => (fx::COMPRESSED_IMAGE, fx::compressed_image_schema()),
+            IMAGE => (fi::COMPRESSED_IMAGE, fi::compressed_image_schema()),
+            ANNOTATIONS => (fi::IMAGE_ANNOTATIONS, fi::image_annotations_schema()),
             TF => (fx::FRAME_TRANSFORM, fx::frame_transform_schema()),
             MAP => (fx::SCENE_UPDATE, fx::scene_update_schema()),
             _ => (fx::POSES_IN_FRAME, fx::poses_in_frame_schema()),
@@ -341,6 +378,67 @@ fn pose_of(pose: &CameraPose) -> Pose {
             z: q.k,
             w: q.w,
         },
+    }
+}
+
+/// The searches over the image: each ellipse a closed polyline (its points
+/// clamped to the search's box), each match a circle (Foxglove's pixel
+/// origin is the top-left pixel's corner, ours its centre: half a pixel
+/// apart).
+fn annotations(stamp: Time, searches: &[SearchMark]) -> ImageAnnotations {
+    let found = Color::rgba(0.2, 0.9, 0.2, 1.0);
+    let missed = Color::rgba(1.0, 0.25, 0.2, 1.0);
+    let clear = Color::rgba(0.0, 0.0, 0.0, 0.0);
+    let corner = |p: Vector2<f64>| Point2 {
+        x: p.x + 0.5,
+        y: p.y + 0.5,
+    };
+    let points = searches
+        .iter()
+        .map(|mark| {
+            let c = 0.5 * (mark.ellipse + mark.ellipse.transpose());
+            let eigen = c.symmetric_eigen();
+            let axes = eigen.eigenvectors
+                * Matrix2::from_diagonal(&eigen.eigenvalues.map(|l| l.max(0.0).sqrt()));
+            let ring = (0..ELLIPSE_POINTS)
+                .map(|i| {
+                    let t = std::f64::consts::TAU * i as f64 / ELLIPSE_POINTS as f64;
+                    let offset = (axes * Vector2::new(t.cos(), t.sin()))
+                        .map(|d| d.clamp(-mark.clip_half_px, mark.clip_half_px));
+                    corner(mark.predicted_px + offset)
+                })
+                .collect();
+            PointsAnnotation {
+                timestamp: stamp,
+                kind: fi::points_type::LINE_LOOP,
+                points: ring,
+                outline_color: if mark.found_px.is_some() {
+                    found
+                } else {
+                    missed
+                },
+                outline_colors: Vec::new(),
+                fill_color: clear,
+                thickness: 1.0,
+            }
+        })
+        .collect();
+    let circles = searches
+        .iter()
+        .filter_map(|mark| mark.found_px)
+        .map(|px| CircleAnnotation {
+            timestamp: stamp,
+            position: corner(px),
+            diameter: 5.0,
+            thickness: 1.5,
+            fill_color: clear,
+            outline_color: found,
+        })
+        .collect();
+    ImageAnnotations {
+        circles,
+        points,
+        texts: Vec::new(),
     }
 }
 

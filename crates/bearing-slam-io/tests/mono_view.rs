@@ -10,9 +10,10 @@ use std::path::{Path, PathBuf};
 
 use base64::Engine as _;
 use bearing_slam_core::mono::{CameraPose, MapPoint};
+use bearing_slam_core::nalgebra::{Matrix2, Vector2};
 use bearing_slam_core::nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use bearing_slam_io::IoError;
-use bearing_slam_io::mono_view::{MAX_SEMI_AXIS_M, MonoFrameView, write_mono_mcap};
+use bearing_slam_io::mono_view::{MAX_SEMI_AXIS_M, MonoFrameView, SearchMark, write_mono_mcap};
 use common::tmp;
 use serde_json::Value;
 
@@ -51,7 +52,31 @@ fn images(dir: &Path) -> Vec<PathBuf> {
         .collect()
 }
 
-fn frames<'a>(images: &'a [PathBuf], map: &'a [MapPoint]) -> Vec<MonoFrameView<'a>> {
+/// A found feature (a circle of radius 2 px about (10, 20)) and a missed
+/// one (an ellipse of semi-axes 3 and 1 px about (40, 30), its search
+/// clipped to ±2 px).
+fn marks() -> Vec<SearchMark> {
+    vec![
+        SearchMark {
+            predicted_px: Vector2::new(10.0, 20.0),
+            ellipse: Matrix2::identity() * 4.0,
+            clip_half_px: 60.0,
+            found_px: Some(Vector2::new(11.0, 19.0)),
+        },
+        SearchMark {
+            predicted_px: Vector2::new(40.0, 30.0),
+            ellipse: Matrix2::new(9.0, 0.0, 0.0, 1.0),
+            clip_half_px: 2.0,
+            found_px: None,
+        },
+    ]
+}
+
+fn frames<'a>(
+    images: &'a [PathBuf],
+    map: &'a [MapPoint],
+    searches: &'a [SearchMark],
+) -> Vec<MonoFrameView<'a>> {
     images
         .iter()
         .enumerate()
@@ -61,6 +86,7 @@ fn frames<'a>(images: &'a [PathBuf], map: &'a [MapPoint]) -> Vec<MonoFrameView<'
             estimate: pose(k as f64, 0.1),
             truth: Some(pose(k as f64 + 0.05, 0.12)),
             map: &map[..k.min(map.len())],
+            searches,
         })
         .collect()
 }
@@ -83,18 +109,25 @@ fn messages(path: &Path) -> BTreeMap<String, Vec<Value>> {
     by_topic
 }
 
+/// The timestamp of frame `k`'s image.
+fn images_stamp(topics: &BTreeMap<String, Vec<Value>>, k: usize) -> Value {
+    topics["/camera/image foxglove.CompressedImage"][k]["timestamp"].clone()
+}
+
 #[test]
 fn a_monocular_run_is_written_for_foxglove() {
     let dir = tmp();
     let images = images(dir.path());
     let map = landmarks();
+    let searches = marks();
     let path = dir.path().join("mono.mcap");
-    write_mono_mcap(&path, &frames(&images, &map)).expect("written");
+    write_mono_mcap(&path, &frames(&images, &map, &searches)).expect("written");
     let topics = messages(&path);
     let counts: Vec<(&str, usize)> = topics.iter().map(|(t, m)| (t.as_str(), m.len())).collect();
     assert_eq!(
         counts,
         [
+            ("/camera/annotations foxglove.ImageAnnotations", 3),
             ("/camera/image foxglove.CompressedImage", 3),
             ("/camera/path/estimate foxglove.PosesInFrame", 3),
             ("/camera/path/truth foxglove.PosesInFrame", 3),
@@ -113,6 +146,40 @@ fn a_monocular_run_is_written_for_foxglove() {
             .expect("base64");
         assert_eq!(data, std::fs::read(&images[k]).expect("image bytes"));
     }
+    let drawn = &topics["/camera/annotations foxglove.ImageAnnotations"][1];
+    assert_eq!(drawn["points"][0]["timestamp"], images_stamp(&topics, 1));
+    let ring = |i: usize| -> Vec<(f64, f64)> {
+        drawn["points"][i]["points"]
+            .as_array()
+            .expect("points")
+            .iter()
+            .map(|p| (p["x"].as_f64().expect("x"), p["y"].as_f64().expect("y")))
+            .collect()
+    };
+    // Pixel centres move by half a pixel to Foxglove's corner origin.
+    for (x, y) in ring(0) {
+        assert!(
+            ((x - 10.5).hypot(y - 20.5) - 2.0).abs() < 1e-6,
+            "({x}, {y})"
+        );
+    }
+    let clipped = ring(1);
+    for &(x, y) in &clipped {
+        let (u, v) = (x - 40.5, y - 30.5);
+        let on_ellipse = ((u / 3.0).hypot(v) - 1.0).abs() < 1e-6;
+        let on_box_side = (u.abs() - 2.0).abs() < 1e-9 && (u / 3.0).hypot(v) < 1.0 + 1e-9;
+        assert!(
+            u.abs() <= 2.0 + 1e-9 && (on_ellipse || on_box_side),
+            "({x}, {y})"
+        );
+    }
+    assert!(clipped.iter().any(|&(x, _)| (x - 42.5).abs() < 1e-9));
+    assert_eq!(drawn["points"][0]["type"], 2);
+    let green = |i: usize| drawn["points"][i]["outline_color"]["g"].as_f64();
+    assert!(green(0) > green(1), "found green, missed red");
+    let circles = drawn["circles"].as_array().expect("circles");
+    assert_eq!(circles.len(), 1);
+    assert_eq!(circles[0]["position"]["x"], 11.5);
     for (k, path) in topics["/camera/path/estimate foxglove.PosesInFrame"]
         .iter()
         .enumerate()
@@ -152,6 +219,7 @@ fn bad_input_is_refused_and_leaves_no_file() {
     let dir = tmp();
     let images = images(dir.path());
     let map = landmarks();
+    let searches = marks();
     let path = dir.path().join("mono.mcap");
     std::fs::write(&path, b"an earlier file").expect("write");
     let check = |frames: Vec<MonoFrameView<'_>>, expect: &str| {
@@ -162,29 +230,33 @@ fn bad_input_is_refused_and_leaves_no_file() {
         err
     };
 
-    let mut back = frames(&images, &map);
+    let mut back = frames(&images, &map, &searches);
     back[2].time_s = 0.05;
     let err = check(back, "frame 2");
     assert!(matches!(err, IoError::TimeOutOfRange { .. }));
 
-    let mut nan = frames(&images, &map);
+    let mut nan = frames(&images, &map, &searches);
     nan[1].estimate.position.y = f64::NAN;
     let err = check(nan, "estimate");
     assert!(matches!(err, IoError::NonFinite { .. }));
 
     let mut bad_map = landmarks();
     bad_map[1].covariance[(2, 2)] = f64::INFINITY;
-    let err = check(frames(&images, &bad_map), "landmark 9");
+    let err = check(frames(&images, &bad_map, &searches), "landmark 9");
     assert!(matches!(err, IoError::NonFinite { value, .. } if value.is_infinite()));
 
     let missing = dir.path().join("missing.png");
-    let mut gone = frames(&images, &map);
+    let mut gone = frames(&images, &map, &searches);
     gone[1].image = &missing;
     check(gone, "missing.png");
 
+    let mut nan_search = marks();
+    nan_search[1].clip_half_px = f64::NAN;
+    check(frames(&images, &map, &nan_search), "search 1");
+
     let bitmap = dir.path().join("frame.bmp");
     std::fs::write(&bitmap, b"BM").expect("write");
-    let mut bmp = frames(&images, &map);
+    let mut bmp = frames(&images, &map, &searches);
     bmp[0].image = &bitmap;
     let err = check(bmp, "frame.bmp");
     assert!(matches!(err, IoError::Image { .. }));

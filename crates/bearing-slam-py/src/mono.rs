@@ -5,9 +5,8 @@
 
 use crate::convert::arr2;
 use crate::errors::{io, raise, slam};
-use bearing_slam::io::IoError;
-use bearing_slam::io::mono_view::{MonoFrameView, write_mono_mcap};
-use bearing_slam_vision::search::SearchOutcome;
+use bearing_slam::io::mono_view::{MonoFrameView, SearchMark, write_mono_mcap};
+use bearing_slam_vision::search::{SearchOutcome, chi2_quantile_2dof};
 use bearing_slam_vision::{MonoOutput, MonoRunConfig, SyntheticConfig, VisionError};
 use pyo3::prelude::*;
 use pyo3::types::PyDict;
@@ -55,7 +54,7 @@ pub(crate) fn mono_run<'py>(
         .detach(|| bearing_slam_vision::run_directory(&frames_dir, calib.as_deref(), &config))
         .map_err(vision)?;
     if let Some(path) = &mcap {
-        py.detach(|| write_run_mcap(path, &out)).map_err(io)?;
+        py.detach(|| write_run_mcap(path, &out, &config))?;
     }
     let pose_rows = |poses: &[bearing_slam::core::mono::CameraPose]| -> Vec<f64> {
         poses
@@ -159,8 +158,38 @@ pub(crate) fn mono_run<'py>(
     Ok(d)
 }
 
-/// Writes `out` (run with `record_maps`) as the monocular MCAP at `path`.
-fn write_run_mcap(path: &std::path::Path, out: &MonoOutput) -> Result<(), IoError> {
+/// Writes `out` (run with `record_maps` and `config`) as the monocular
+/// MCAP at `path`, each search's ellipse at the front end's χ² level.
+fn write_run_mcap(
+    path: &std::path::Path,
+    out: &MonoOutput,
+    config: &MonoRunConfig,
+) -> PyResult<()> {
+    let gate = chi2_quantile_2dof(config.front_end.search.confidence).map_err(vision)?;
+    let marks: Vec<Vec<SearchMark>> = out
+        .run
+        .searches
+        .iter()
+        .map(|search| {
+            search
+                .records
+                .iter()
+                .filter_map(|record| {
+                    let found_px = match record.outcome {
+                        SearchOutcome::Found { px, .. } => Some(px),
+                        SearchOutcome::Missed { .. } => None,
+                        SearchOutcome::OutOfView => return None,
+                    };
+                    Some(SearchMark {
+                        predicted_px: record.region.predicted_px,
+                        ellipse: record.region.innovation_cov * gate,
+                        clip_half_px: config.front_end.search.max_half_axis_px,
+                        found_px,
+                    })
+                })
+                .collect()
+        })
+        .collect();
     let seq = &out.sequence;
     let frames: Vec<MonoFrameView<'_>> = out
         .run
@@ -173,9 +202,10 @@ fn write_run_mcap(path: &std::path::Path, out: &MonoOutput) -> Result<(), IoErro
             estimate: *estimate,
             truth: out.truth.get(k).copied(),
             map: out.run.maps.get(k).map_or(&[], Vec::as_slice),
+            searches: marks.get(k).map_or(&[], Vec::as_slice),
         })
         .collect();
-    write_mono_mcap(path, &frames)
+    write_mono_mcap(path, &frames).map_err(io)
 }
 
 /// The constant-velocity model's acceleration noise `(σ_a, σ_α)` fitted to
