@@ -81,12 +81,43 @@ pub struct SearchMark {
 /// Points on each search ellipse drawn.
 const ELLIPSE_POINTS: usize = 24;
 
-const IMAGE: &str = "/camera/image";
-const ANNOTATIONS: &str = "/camera/annotations";
-const TF: &str = "/tf";
-const PATH_ESTIMATE: &str = "/camera/path/estimate";
-const PATH_TRUTH: &str = "/camera/path/truth";
-const MAP: &str = "/map";
+/// A topic of the file: its name and its message's schema.
+#[derive(Clone, Copy)]
+struct Topic {
+    name: &'static str,
+    schema_name: &'static str,
+    schema: fn() -> Value,
+}
+
+const IMAGE: Topic = Topic {
+    name: "/camera/image",
+    schema_name: fi::COMPRESSED_IMAGE,
+    schema: fi::compressed_image_schema,
+};
+const ANNOTATIONS: Topic = Topic {
+    name: "/camera/annotations",
+    schema_name: fi::IMAGE_ANNOTATIONS,
+    schema: fi::image_annotations_schema,
+};
+const TF: Topic = Topic {
+    name: "/tf",
+    schema_name: fx::FRAME_TRANSFORM,
+    schema: fx::frame_transform_schema,
+};
+const PATH_ESTIMATE: Topic = Topic {
+    name: "/camera/path/estimate",
+    schema_name: fx::POSES_IN_FRAME,
+    schema: fx::poses_in_frame_schema,
+};
+const PATH_TRUTH: Topic = Topic {
+    name: "/camera/path/truth",
+    ..PATH_ESTIMATE
+};
+const MAP: Topic = Topic {
+    name: "/map",
+    schema_name: fx::SCENE_UPDATE,
+    schema: fx::scene_update_schema,
+};
 
 /// Writes `frames` to a new MCAP file at `path` (zstd chunks). Errors name
 /// the file and the frame: a time that is negative, not finite or not
@@ -96,7 +127,9 @@ const MAP: &str = "/map";
 /// no half-written file under `path` (and an earlier file there stays).
 pub fn write_mono_mcap(path: impl AsRef<Path>, frames: &[MonoFrameView<'_>]) -> Result<()> {
     let path = path.as_ref().to_path_buf();
-    let partial = PathBuf::from(format!("{}.partial", path.display()));
+    let mut partial = path.clone().into_os_string();
+    partial.push(".partial");
+    let partial = PathBuf::from(partial);
     let written = write_frames(&partial, &path, frames);
     if written.is_err() {
         // The partial file is useless; its removal failing changes nothing.
@@ -241,44 +274,37 @@ struct MonoWriter {
 }
 
 impl MonoWriter {
-    fn channel(&mut self, topic: &'static str) -> Result<u16> {
-        if let Some(&id) = self.channels.get(topic) {
+    fn channel(&mut self, topic: Topic) -> Result<u16> {
+        if let Some(&id) = self.channels.get(topic.name) {
             return Ok(id);
         }
-        let (name, schema): (&str, Value) = match topic {
-            IMAGE => (fi::COMPRESSED_IMAGE, fi::compressed_image_schema()),
-            ANNOTATIONS => (fi::IMAGE_ANNOTATIONS, fi::image_annotations_schema()),
-            TF => (fx::FRAME_TRANSFORM, fx::frame_transform_schema()),
-            MAP => (fx::SCENE_UPDATE, fx::scene_update_schema()),
-            _ => (fx::POSES_IN_FRAME, fx::poses_in_frame_schema()),
-        };
-        let schema = serde_json::to_vec(&schema).map_err(|source| IoError::Encode {
+        let schema = serde_json::to_vec(&(topic.schema)()).map_err(|source| IoError::Encode {
             path: self.path.clone(),
-            topic: topic.into(),
+            topic: topic.name.into(),
             source,
         })?;
-        let action = format!("declaring topic {topic}");
+        let action = format!("declaring topic {}", topic.name);
         let schema_id = self
             .writer
-            .add_schema(name, SCHEMA_ENCODING, &schema)
+            .add_schema(topic.schema_name, SCHEMA_ENCODING, &schema)
             .map_err(|source| mcap_error(&self.path, &action, source))?;
         let id = self
             .writer
-            .add_channel(schema_id, topic, MESSAGE_ENCODING, &BTreeMap::new())
+            .add_channel(schema_id, topic.name, MESSAGE_ENCODING, &BTreeMap::new())
             .map_err(|source| mcap_error(&self.path, &action, source))?;
-        self.channels.insert(topic, id);
+        self.channels.insert(topic.name, id);
         Ok(id)
     }
 
     fn emit<T: Serialize + ?Sized>(
         &mut self,
-        topic: &'static str,
+        topic: Topic,
         log_time: u64,
         value: &T,
     ) -> Result<()> {
         let data = serde_json::to_vec(value).map_err(|source| IoError::Encode {
             path: self.path.clone(),
-            topic: topic.into(),
+            topic: topic.name.into(),
             source,
         })?;
         let header = MessageHeader {
@@ -290,7 +316,11 @@ impl MonoWriter {
         self.writer
             .write_to_known_channel(&header, &data)
             .map_err(|source| {
-                mcap_error(&self.path, &format!("writing a message on {topic}"), source)
+                mcap_error(
+                    &self.path,
+                    &format!("writing a message on {}", topic.name),
+                    source,
+                )
             })?;
         self.sequence = self.sequence.wrapping_add(1);
         Ok(())
