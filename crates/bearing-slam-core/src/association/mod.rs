@@ -144,6 +144,22 @@ pub struct AssociationConfig {
     /// here, so a static landmark out of range is evicted too
     /// (docs/results/association.md). `None` (the default) keeps them.
     pub moving_object_pair_ratio: Option<f64>,
+    /// Remembers where each landmark that
+    /// [`Self::moving_object_nis_factor`] removed (its own bearings showed
+    /// it moving) was when it left the map, and never maps a track that
+    /// such a mover explains: its point within the χ²₂ gate of the mover's
+    /// estimate, or its first and newest rays through it within the χ²₁
+    /// gate, whether or not the track has a point (a moving object's
+    /// triangulated point is anywhere); with descriptors, alike too. A
+    /// thing that moved once is not a landmark when it looks static again
+    /// from afar. The price: a static landmark seen along the same rays is
+    /// not mapped either. Landmarks [`Self::moving_object_pair_ratio`]
+    /// removed are not remembered (out of view and moved away look alike
+    /// to it). Off by default: where the NIS rule also evicts static
+    /// landmarks (the slips of `slip_patch`) they are then never mapped
+    /// again, and recall falls (docs/results/association.md, "Moving
+    /// distractor").
+    pub remember_movers: bool,
     /// Counts a track's evidence in time instead of scans, for sensors
     /// whose scans are single detections at irregular times (MRCLAM): a
     /// track is dropped when it has not been seen for this many seconds,
@@ -376,6 +392,7 @@ impl Default for AssociationConfig {
             max_tracks: 200,
             moving_object_nis_factor: None,
             moving_object_pair_ratio: None,
+            remember_movers: false,
             track_max_gap_s: None,
             exclusive_track_births: false,
             merge_duplicates: true,

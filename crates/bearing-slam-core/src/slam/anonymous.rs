@@ -20,7 +20,7 @@ use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::log::{BearingObservation, Descriptor, ensure_bearing};
 use crate::trace::SlamEvent;
-use nalgebra::{DMatrix, Matrix1};
+use nalgebra::{DMatrix, Matrix1, Matrix2, Vector2};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
 
@@ -81,6 +81,22 @@ pub(super) struct Anonymous {
     /// sighting's key, when the initializer keeps first rays
     /// (`track_clones`).
     pub(super) track_clones: BTreeMap<u64, (u64, (u64, usize))>,
+    /// Where the landmarks removed as moving objects were when they left
+    /// the map ([`AssociationConfig::remember_movers`]).
+    pub(super) movers: Vec<Mover>,
+}
+
+/// A landmark removed as a moving object, as it was estimated when it left
+/// the map: a track that it explains is the same mover seen again, not a
+/// new landmark ([`AssociationConfig::remember_movers`]).
+#[derive(Clone, Debug, PartialEq)]
+pub(super) struct Mover {
+    /// World position when it was removed, metres.
+    pub(super) position: Vector2<f64>,
+    /// Covariance of that position, m².
+    pub(super) covariance: Matrix2<f64>,
+    /// Its appearance, when the bearings carry descriptors.
+    pub(super) appearance: Option<Appearance>,
 }
 
 impl Anonymous {
@@ -112,6 +128,7 @@ impl Anonymous {
             recent_pairings: BTreeMap::new(),
             last_paired: BTreeMap::new(),
             track_clones: BTreeMap::new(),
+            movers: Vec::new(),
         }))
     }
 
@@ -124,6 +141,19 @@ impl Anonymous {
         self.last_paired.remove(&id);
         self.deaths.insert(id, time);
     }
+}
+
+/// Why a mapped landmark is removed as a moving object.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Evidence {
+    /// Its own bearings kept pulling away from it (the windowed NIS): it
+    /// was seen moving.
+    Inconsistent,
+    /// It was rarely paired (the pairing ratio): moved away, or only out
+    /// of view, which the filter cannot tell apart without a visibility
+    /// model; not remembered, so that a static landmark evicted so may
+    /// enter again.
+    Unpaired,
 }
 
 /// Pairings in the window of a landmark's NIS test.
@@ -668,14 +698,33 @@ impl BearingSlam {
                     doomed.push(id);
                 }
             }
-            for &id in &doomed {
-                a.forget_removed(id, time);
-            }
         }
         for id in doomed {
-            self.remove_landmark(id)?;
+            self.remove_moving_object(id, time, Evidence::Inconsistent)?;
         }
         Ok(())
+    }
+
+    /// Removes mapped landmark `id` from the map at `time` as a moving
+    /// object: what was known of it is forgotten and its death recorded;
+    /// with [`AssociationConfig::remember_movers`], where it was is kept
+    /// when its own bearings showed it moving ([`Evidence::Inconsistent`]).
+    fn remove_moving_object(&mut self, id: u64, time: f64, evidence: Evidence) -> Result<()> {
+        let estimate = self.landmark(id).ok();
+        let remember =
+            evidence == Evidence::Inconsistent && self.config.association.remember_movers;
+        if let Some(a) = self.anonymous.as_mut() {
+            let appearance = a.appearances.get(&id).copied();
+            a.forget_removed(id, time);
+            if let Some(l) = estimate.filter(|_| remember) {
+                a.movers.push(Mover {
+                    position: l.position,
+                    covariance: l.covariance,
+                    appearance,
+                });
+            }
+        }
+        self.remove_landmark(id)
     }
 
     /// Records whether each mapped landmark was paired in this scan and
@@ -702,12 +751,9 @@ impl BearingSlam {
                     doomed.push(id);
                 }
             }
-            for &id in &doomed {
-                a.forget_removed(id, time);
-            }
         }
         for id in doomed {
-            self.remove_landmark(id)?;
+            self.remove_moving_object(id, time, Evidence::Unpaired)?;
         }
         Ok(())
     }

@@ -62,12 +62,17 @@ impl BearingSlam {
                     .is_none_or(|&t| t < first.time)
             });
             if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref())
-                || (track.point.is_none()
-                    && self.explained_by_rays(&first, &last, track.appearance.as_ref()))
+                || self.explained_by_rays(
+                    &first,
+                    &last,
+                    track.appearance.as_ref(),
+                    track.point.is_none(),
+                )
                 || (look_alike.is_some() && lost.is_none())
             {
                 // A mapped landmark already stands there: its bearings
-                // missed the gate for a while; it is not mapped twice.
+                // missed the gate for a while; it is not mapped twice. Or a
+                // mover removed from the map stands there again.
                 if let Some(a) = self.anonymous.as_mut() {
                     a.tracks.remove_with_competitors(id);
                 }
@@ -166,25 +171,63 @@ impl BearingSlam {
             .map(|(id, _)| id)
     }
 
-    /// Whether a mapped landmark already explains a track without a point:
-    /// its estimate lies on the first and the newest sighting's rays, each
-    /// within the χ²₁ gate (the bearing noise, the sighting's heading and
-    /// position variances and the landmark's across the ray) and, with
-    /// descriptors, it looks like the track. A far landmark's track whose
-    /// bearings missed the landmark's gate for a while is not mapped twice.
+    /// What a track may already be: every mapped landmark's estimate
+    /// (with its appearance, when known; only when `mapped`) and, with
+    /// [`crate::association::AssociationConfig::remember_movers`], where
+    /// each landmark removed as a moving object was.
+    fn explanations(&self, mapped: bool) -> Vec<Explanation> {
+        let Some(a) = self.anonymous.as_ref() else {
+            return Vec::new();
+        };
+        let landmarks = if mapped { self.landmarks() } else { Vec::new() };
+        let mapped = landmarks.into_iter().map(|l| Explanation {
+            position: l.position,
+            covariance: l.covariance,
+            appearance: a.appearances.get(&l.id).copied(),
+        });
+        let movers = a
+            .movers
+            .iter()
+            .filter(|_| self.config.association.remember_movers)
+            .map(|m| Explanation {
+                position: m.position,
+                covariance: m.covariance,
+                appearance: m.appearance,
+            });
+        mapped.chain(movers).collect()
+    }
+
+    /// Whether two appearances may be one thing's: always, unless both are
+    /// known and their distance is beyond the χ²_D gate of the descriptors.
+    fn alike(&self, a: Option<&Appearance>, b: Option<&Appearance>) -> bool {
+        let p = self.config.association.gate_probability;
+        match (&self.config.association.descriptors, a, b) {
+            (Some(m), Some(a), Some(b)) => {
+                m.distance_between(a, b) <= m.gate(p).unwrap_or(f64::INFINITY)
+            }
+            _ => true,
+        }
+    }
+
+    /// Whether a remembered mover, or (when `mapped`, for a track without
+    /// a point) a mapped landmark, already explains a track: its estimate
+    /// lies on the first and the newest sighting's rays, each within the
+    /// χ²₁ gate (the bearing noise, the sighting's heading and position
+    /// variances and the landmark's across the ray) and, with descriptors,
+    /// it looks like the track. A far landmark's track whose bearings
+    /// missed the landmark's gate for a while is not mapped twice; a
+    /// mover's, whose triangulated point may be anywhere, not at all.
     fn explained_by_rays(
         &self,
         first: &Sighting,
         last: &Sighting,
         appearance: Option<&Appearance>,
+        mapped: bool,
     ) -> bool {
         let p = self.config.association.gate_probability;
         let Ok(gate) = crate::stats::chi2_quantile(1.0, p) else {
             return false;
         };
-        let model = self.config.association.descriptors;
-        let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
-        let known = self.anonymous.as_ref().map(|a| &a.appearances);
         let noise = self.config.bearing_sigma.powi(2);
         let fits = |s: &Sighting, x: &Vector2<f64>, cov: &Matrix2<f64>| {
             let d = x - s.pose.xy();
@@ -198,46 +241,43 @@ impl BearingSlam {
             let variance = noise + v.z + j.dot(&(cov * j)) + 0.5 * (v.x + v.y) / range2;
             wrap_angle(d.y.atan2(d.x) - s.world_bearing()).powi(2) / variance <= gate
         };
-        self.landmarks().iter().any(|l| {
-            let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
-                (Some(m), Some(a), Some(b)) => m.distance_between(a, b) <= appearance_gate,
-                _ => true,
-            };
-            alike
-                && fits(first, &l.position, &l.covariance)
-                && fits(last, &l.position, &l.covariance)
+        self.explanations(mapped).iter().any(|e| {
+            self.alike(appearance, e.appearance.as_ref())
+                && fits(first, &e.position, &e.covariance)
+                && fits(last, &e.position, &e.covariance)
         })
     }
 
-    /// Whether a mapped landmark already explains a track: its point lies
-    /// within the χ²₂ gate of the track's (covariances of both summed)
-    /// and, with descriptors, it looks like it (appearance within the χ²_D
-    /// gate).
+    /// Whether a mapped landmark (or a remembered mover) already explains a
+    /// track: its point lies within the χ²₂ gate of the track's
+    /// (covariances of both summed) and, with descriptors, it looks like it
+    /// (appearance within the χ²_D gate).
     fn explained_by_map(
         &self,
         point: Option<&TrackPoint>,
         appearance: Option<&Appearance>,
     ) -> bool {
-        let p = self.config.association.gate_probability;
-        let model = self.config.association.descriptors;
-        let appearance_gate = model.map_or(f64::INFINITY, |m| m.gate(p).unwrap_or(f64::INFINITY));
-        let known = self.anonymous.as_ref().map(|a| &a.appearances);
         let Some((x, cov)) = point else {
             return false;
         };
+        let p = self.config.association.gate_probability;
         let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
-        self.landmarks().iter().any(|l| {
-            let d = x - l.position;
-            let alike = match (&model, appearance, known.and_then(|k| k.get(&l.id))) {
-                (Some(m), Some(a), Some(b)) => m.distance_between(a, b) <= appearance_gate,
-                _ => true,
-            };
-            alike
-                && (cov + l.covariance)
+        self.explanations(true).iter().any(|e| {
+            let d = x - e.position;
+            self.alike(appearance, e.appearance.as_ref())
+                && (cov + e.covariance)
                     .try_inverse()
                     .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
         })
     }
+}
+
+/// A point a confirmed track may already be: a mapped landmark's estimate
+/// or a remembered mover's.
+struct Explanation {
+    position: Vector2<f64>,
+    covariance: Matrix2<f64>,
+    appearance: Option<Appearance>,
 }
 
 /// The candidate of the delayed initializer (16) a track's first sighting makes.

@@ -78,7 +78,8 @@ pub(crate) struct Row {
 /// `base` with association `method` and the options read from the
 /// environment: `ASSOCIATION_TRACK_GAP_S` (seconds),
 /// `ASSOCIATION_MOVING_FACTOR` (the moving-object removal's factor, unset:
-/// off), `ASSOCIATION_PAIR_RATIO` (the rarely-paired removal's fraction,
+/// off), `ASSOCIATION_REMEMBER_MOVERS` (`0`: forget where the removed movers
+/// were), `ASSOCIATION_PAIR_RATIO` (the rarely-paired removal's fraction,
 /// unset: off), and `0` or `1` in
 /// `ASSOCIATION_EXCLUSION`, `ASSOCIATION_MERGE`, `ASSOCIATION_TRACK_PAIRING`,
 /// `ASSOCIATION_AMBIGUOUS_SIGHTINGS`, `ASSOCIATION_AMBIGUOUS_PAIRINGS` to
@@ -122,6 +123,7 @@ fn configured(base: &RunConfig, method: AssociationMethod, prior: NewLandmarkDen
             .ok()
             .and_then(|s| s.parse().ok())
             .or(d.moving_object_pair_ratio),
+        remember_movers: switch("ASSOCIATION_REMEMBER_MOVERS", d.remember_movers),
         merge_duplicates: switch("ASSOCIATION_MERGE", d.merge_duplicates),
         associate_tracks: switch("ASSOCIATION_TRACK_PAIRING", d.associate_tracks),
         skip_ambiguous_sightings: switch(
