@@ -151,9 +151,14 @@ class Config:
     # RANSAC) (ids hidden: the filter takes all three, FastSLAM "nn" only,
     # per-particle maximum likelihood; the smoothers all three, the EKF as
     # their front end); the appearance descriptors'
-    # noise σ (None: descriptors ignored; hidden ids only).
+    # noise σ (None: descriptors ignored; hidden ids only); the EKF's
+    # moving-object removal (windowed NIS factor, pairing ratio, and
+    # whether the removed movers are remembered; off by default).
     association: str
     descriptor_sigma: float | None
+    moving_object_nis_factor: float | None
+    moving_object_pair_ratio: float | None
+    remember_movers: bool
     # Robustness on a real camera (issue 13 item 3): robust gating and the
     # bearing-offset state, all off (None) by default.
     readmit_after: int | None

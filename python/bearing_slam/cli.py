@@ -46,6 +46,11 @@ from bearing_slam.arg_types import (
     robot_number,
     seed,
 )
+from bearing_slam.association_options import (
+    add_association_option,
+    add_hidden_id_options,
+    with_hidden_id_options,
+)
 from bearing_slam.cli_batch import add_batch_parsers
 from bearing_slam.estimators import (
     add_estimator_options,
@@ -64,7 +69,6 @@ from bearing_slam.outputs import (
 )
 from bearing_slam.tum import write_tum
 from bearing_slam.vocabulary import (
-    ASSOCIATIONS,
     DEFAULT_INIT,
     DEFAULT_PRIOR,
     FAR_PRIOR,
@@ -274,22 +278,6 @@ def _cmd_simulate(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_association_option(parser: argparse.ArgumentParser) -> None:
-    """Adds ``--association`` (issue 16): the log's ids, or hidden from the
-    filter, which then pairs bearings with landmarks itself."""
-    parser.add_argument(
-        "--association",
-        choices=ASSOCIATIONS,
-        default="known",
-        help="data association (default: %(default)s, the log's ids; nn/jcbb/ransac: the ids "
-        "are hidden from the estimator, which pairs bearings with landmarks itself; they then "
-        "only score it, in metrics.json; ransac is 1-point RANSAC; the filter takes nn, jcbb "
-        "and ransac, fastslam1/fastslam2 take nn (per-particle maximum likelihood); the "
-        "smoothers take nn, jcbb and ransac with the filter as their front end (the batch then "
-        "re-associates every bearing against its smoothed estimate)",
-    )
-
-
 def _add_robustness_options(parser: argparse.ArgumentParser) -> None:
     """Adds ``--robust-gate`` and ``--bearing-offset`` (issue 13 item 3):
     robust gating with re-admission and the camera-yaw offset state, both
@@ -341,10 +329,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if problem := estimator_problem(args):
         raise UserError(problem)
     config = with_estimator(_config(log, args), args).replace(association=args.association)
-    if args.descriptor_sigma is not None:
-        if args.association == "known":
-            raise UserError("--descriptor-sigma applies to --association nn, jcbb or ransac only")
-        config = config.replace(descriptor_sigma=args.descriptor_sigma)
+    config = with_hidden_id_options(config, args)
     config = _with_robustness(config, args)
     live = _rerun_logger(args, log)
     with tqdm(total=1, desc=f"run {args.init}", unit="run", disable=args.quiet) as bar:
@@ -582,14 +567,8 @@ def _parser() -> argparse.ArgumentParser:
     _add_view_flags(runp)
     add_estimator_options(runp)
     add_online_smoother_options(runp)
-    _add_association_option(runp)
-    runp.add_argument(
-        "--descriptor-sigma",
-        type=positive_float,
-        help="with --association nn/jcbb/ransac: the noise σ of the log's appearance "
-        "descriptors; a bearing that carries one is then paired only with a landmark that "
-        "looks alike",
-    )
+    add_association_option(runp)
+    add_hidden_id_options(runp)
     _add_robustness_options(runp)
     add_live_arguments(runp)  # --live
     runp.set_defaults(func=_cmd_run)
@@ -652,7 +631,7 @@ def _parser() -> argparse.ArgumentParser:
     _add_view_flags(mr)
     add_estimator_options(mr)
     add_online_smoother_options(mr)
-    _add_association_option(mr)
+    add_association_option(mr)
     add_live_arguments(mr)  # --live
     mr.set_defaults(func=_cmd_mrclam)
 

@@ -122,7 +122,7 @@ def test_simulate_with_clutter_and_descriptors_then_associate(tmp_path: Path) ->
     assert score["spurious"] == 0  # type: ignore[index]
     r = cli("run", log, "--descriptor-sigma", "0.1", "--out", tmp_path / "known", "--quiet")
     assert r.returncode != 0
-    assert "--descriptor-sigma applies to --association nn, jcbb or ransac only" in r.stderr
+    assert "--descriptor-sigma: for --association nn, jcbb or ransac only" in r.stderr
     r = cli("simulate", "paper_fig4", "--descriptor-confusion", "0.1", "--out", log)
     assert r.returncode != 0
     assert "--descriptor-confusion needs --descriptor-sigma" in r.stderr

@@ -226,6 +226,25 @@ pub(crate) struct PyConfig {
     /// a landmark that looks alike; None (default) ignores descriptors.
     #[pyo3(get, set)]
     pub descriptor_sigma: Option<f64>,
+    /// Moving objects (`AssociationConfig::moving_object_nis_factor`; ids
+    /// hidden only): a mapped landmark whose last 10 pairings' NIS sums
+    /// beyond χ²₁₀(0.999) and beyond this factor (> 1) times the other
+    /// landmarks' median leaves the map; None (default) keeps every
+    /// landmark. It also evicts static landmarks where the robot slips.
+    #[pyo3(get, set)]
+    pub moving_object_nis_factor: Option<f64>,
+    /// Moving objects (`AssociationConfig::moving_object_pair_ratio`; ids
+    /// hidden only): a mapped landmark paired in fewer than this fraction
+    /// of its last 20 scans leaves the map (MonoSLAM's rule); only for a
+    /// sensor that keeps every landmark in view. None (default): off.
+    #[pyo3(get, set)]
+    pub moving_object_pair_ratio: Option<f64>,
+    /// Moving objects (`AssociationConfig::remember_movers`; with
+    /// `moving_object_nis_factor`): where a landmark the NIS rule removed
+    /// stood is remembered, and a track it explains is not mapped. False
+    /// (default).
+    #[pyo3(get, set)]
+    pub remember_movers: bool,
     // --- robustness on a real camera (issue #13 item 3) ---
     /// Robust gating (`RobustGate::readmit_after`): a landmark's bearings
     /// gated out this many times in a row are re-admitted with inflated
@@ -246,7 +265,7 @@ pub(crate) struct PyConfig {
 }
 
 /// The attribute names, in display order.
-const FIELDS: [&str; 51] = [
+const FIELDS: [&str; 54] = [
     "init",
     "bearing_sigma",
     "range_sigma",
@@ -294,6 +313,9 @@ const FIELDS: [&str; 51] = [
     "landmark_chart",
     "association",
     "descriptor_sigma",
+    "moving_object_nis_factor",
+    "moving_object_pair_ratio",
+    "remember_movers",
     // robustness on a real camera (issue #13 item 3)
     "readmit_after",
     "huber_threshold",
@@ -357,6 +379,9 @@ impl Default for PyConfig {
             landmark_chart: SmootherConfig::default().landmark_chart.to_string(),
             association: slam.association.method.to_string(),
             descriptor_sigma: None,
+            moving_object_nis_factor: slam.association.moving_object_nis_factor,
+            moving_object_pair_ratio: slam.association.moving_object_pair_ratio,
+            remember_movers: slam.association.remember_movers,
             readmit_after: None,
             huber_threshold: None,
             bearing_offset_sigma: None,
@@ -385,6 +410,9 @@ impl PyConfig {
         c.second_order = s.second_order;
         c.association = s.association.method.to_string();
         c.descriptor_sigma = s.association.descriptors.map(|d| d.sigma);
+        c.moving_object_nis_factor = s.association.moving_object_nis_factor;
+        c.moving_object_pair_ratio = s.association.moving_object_pair_ratio;
+        c.remember_movers = s.association.remember_movers;
         c.readmit_after = s.robust_gate.and_then(|r| r.readmit_after);
         c.huber_threshold = s.robust_gate.and_then(|r| r.huber_threshold);
         c.bearing_offset_sigma = s.bearing_offset.map(|b| b.sigma_per_sqrt_s);
@@ -536,6 +564,9 @@ impl PyConfig {
             second_order: self.second_order,
             association: AssociationConfig {
                 descriptors: self.descriptor_sigma.map(|sigma| DescriptorModel { sigma }),
+                moving_object_nis_factor: self.moving_object_nis_factor,
+                moving_object_pair_ratio: self.moving_object_pair_ratio,
+                remember_movers: self.remember_movers,
                 ..AssociationConfig::of(parse_name::<AssociationMethod>(&self.association)?)
             },
             robust_gate: (self.readmit_after.is_some() || self.huber_threshold.is_some())

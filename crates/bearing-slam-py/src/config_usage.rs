@@ -108,9 +108,31 @@ impl PyConfig {
                     self.estimator
                 ))
             }
-            "descriptor_sigma" if self.association == AssociationMethod::Known.to_string() => Some(
-                "it is a parameter of the association with the ids hidden \
-                 (association \"nn\", \"jcbb\" or \"ransac\"), and association is \"known\""
+            "descriptor_sigma"
+            | "moving_object_nis_factor"
+            | "moving_object_pair_ratio"
+            | "remember_movers"
+                if self.association == AssociationMethod::Known.to_string() =>
+            {
+                Some(
+                    "it is a parameter of the association with the ids hidden \
+                     (association \"nn\", \"jcbb\" or \"ransac\"), and association is \"known\""
+                        .to_owned(),
+                )
+            }
+            "moving_object_nis_factor" | "moving_object_pair_ratio" | "remember_movers"
+                if parse_name::<EstimatorKind>(&self.estimator)
+                    .is_ok_and(|e| matches!(e, EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2)) =>
+            {
+                Some(format!(
+                    "it is a parameter of the EKF's association (FastSLAM associates per \
+                     particle), and estimator is {:?}",
+                    self.estimator
+                ))
+            }
+            "remember_movers" if self.moving_object_nis_factor.is_none() => Some(
+                "it remembers the landmarks moving_object_nis_factor removes, \
+                 and moving_object_nis_factor is None"
                     .to_owned(),
             ),
             "range_sigma" if !self.use_range => {
