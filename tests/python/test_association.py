@@ -215,6 +215,7 @@ def test_the_moving_object_rules_take_a_pacing_person_out_of_the_map(tmp_path: P
     # none of them today (docs/results/association.md, "Remembered movers").
     at_end = {"off": 0, "rules": 0}
     removed = 0
+    refusals: set[str] = set()
     for seed in range(6):
         log = _paced_log(seed, tmp_path)
         off = bs.run(log, bs.Config.for_log(log, association="jcbb")).association
@@ -226,16 +227,23 @@ def test_the_moving_object_rules_take_a_pacing_person_out_of_the_map(tmp_path: P
             association="jcbb",
         )
         assert (config.moving_object_nis_factor, config.remember_movers) == (3.0, True)
-        rules = bs.run(log, config).association
+        result = bs.run(log, config)
+        rules = result.association
         assert off is not None
         assert rules is not None
         assert off["removed"] == 0, off
         at_end["off"] += off["spurious_at_end"]
         at_end["rules"] += rules["spurious_at_end"]
         removed += rules["removed"]
+        # Each removal is an event that names its cause.
+        causes = [e["cause"] for e in result.events if e["kind"] == "landmark_removed"]
+        assert len(causes) == rules["removed"], causes
+        assert set(causes) <= {"moving_object", "rarely_paired", "duplicate"}, causes
+        refusals.update(e["cause"] for e in result.events if e["kind"] == "track_not_mapped")
     assert at_end["off"] >= 6, at_end
     assert at_end["rules"] <= 1, at_end
     assert removed >= 6, removed
+    assert "remembered_mover" in refusals, refusals
 
 
 def test_the_moving_object_rules_are_refused_where_they_do_nothing(tmp_path: Path) -> None:

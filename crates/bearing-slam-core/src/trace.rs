@@ -119,6 +119,54 @@ pub enum SlamEvent {
         /// The pairing's posterior probability.
         probability: f64,
     },
+    /// A mapped landmark left the map (unknown-identity mode).
+    LandmarkRemoved {
+        /// Landmark id.
+        id: u64,
+        /// Why.
+        cause: RemovalCause,
+    },
+    /// A confirmed track did not enter the map: something already there,
+    /// or a mover removed from it, explains its sightings (unknown-identity
+    /// mode).
+    TrackNotMapped {
+        /// The track's id (the landmark id it would have had).
+        id: u64,
+        /// What explains it.
+        cause: TrackRefusal,
+    },
+}
+
+/// Why a mapped landmark left the map in the unknown-identity mode.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RemovalCause {
+    /// Its own bearings kept pulling away from it: the windowed NIS rule
+    /// (`AssociationConfig::moving_object_nis_factor`) saw it move.
+    MovingObject,
+    /// Paired in too few of its latest scans
+    /// (`AssociationConfig::moving_object_pair_ratio`): moved away, or out
+    /// of view.
+    RarelyPaired,
+    /// The same point as an older landmark (`merge_duplicates`).
+    Duplicate,
+    /// Lost by its estimate and replaced by a track that looks like it
+    /// (appearance descriptors).
+    Replaced,
+}
+
+/// What explains a confirmed track that was not mapped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum TrackRefusal {
+    /// A mapped landmark: its bearings missed the gate for a while.
+    MappedLandmark,
+    /// A landmark removed as a moving object
+    /// (`AssociationConfig::remember_movers`).
+    RememberedMover,
+    /// A mapped landmark that looks like it and is still paired: a mixture
+    /// of its sightings with a look-alike's (appearance descriptors).
+    LookAlike,
 }
 
 /// Why the delayed initializer did not use a bearing of a waiting landmark.

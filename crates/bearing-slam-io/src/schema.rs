@@ -456,7 +456,9 @@ pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
     match &e.event {
         SlamEvent::CandidateCreated { .. }
         | SlamEvent::CandidateExpired { .. }
-        | SlamEvent::BearingsDiscarded { .. } => Ok(()),
+        | SlamEvent::BearingsDiscarded { .. }
+        | SlamEvent::LandmarkRemoved { .. }
+        | SlamEvent::TrackNotMapped { .. } => Ok(()),
         SlamEvent::LandmarkInitialized { parallax_rad, .. } => {
             fin("event.parallax_rad", *parallax_rad)
         }
@@ -710,7 +712,9 @@ fn slam_event_schema() -> Value {
                             "measurement_down_weighted",
                             "measurement_readmitted",
                             "bearings_discarded",
-                            "pairing_set_aside"
+                            "pairing_set_aside",
+                            "landmark_removed",
+                            "track_not_mapped"
                         ]
                     },
                     "id": id("Landmark id"),
@@ -733,6 +737,11 @@ fn slam_event_schema() -> Value {
                         "enum": ["no_history", "history_full", "decimated", "restarted", "expired", "far_first_bearing", "wait_budget", "parallax_stalled"]
                     },
                     "probability": number("Posterior probability of a pairing the posterior test set aside"),
+                    "cause": {
+                        "type": "string",
+                        "description": "Why a landmark left the map (landmark_removed), or what explains a track not mapped (track_not_mapped)",
+                        "enum": ["moving_object", "rarely_paired", "duplicate", "replaced", "mapped_landmark", "remembered_mover", "look_alike"]
+                    },
                 },
                 "required": ["kind"],
             },

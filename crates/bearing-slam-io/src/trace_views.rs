@@ -4,7 +4,8 @@
 //! [`crate::writer`]).
 
 use bearing_slam_core::trace::{
-    DiscardReason, EstimateSnapshot, InitMethod, ParticleCloud, SlamEvent,
+    DiscardReason, EstimateSnapshot, InitMethod, ParticleCloud, RemovalCause, SlamEvent,
+    TrackRefusal,
 };
 
 use crate::foxglove::{
@@ -225,5 +226,25 @@ pub(crate) fn describe(event: &SlamEvent) -> (u8, String) {
                 "bearing paired with landmark {id} set aside: posterior probability {probability:.3}"
             ),
         ),
+        SlamEvent::LandmarkRemoved { id, cause } => {
+            let why = match cause {
+                RemovalCause::MovingObject => "a moving object (its bearings stopped fitting it)",
+                RemovalCause::RarelyPaired => "rarely paired (moved away, or out of view)",
+                RemovalCause::Duplicate => "the same point as an older landmark",
+                RemovalCause::Replaced => "lost, and replaced by a track that looks like it",
+            };
+            (
+                WARNING,
+                format!("landmark {id} removed from the map: {why}"),
+            )
+        }
+        SlamEvent::TrackNotMapped { id, cause } => {
+            let why = match cause {
+                TrackRefusal::MappedLandmark => "a mapped landmark explains it",
+                TrackRefusal::RememberedMover => "a mover removed from the map explains it",
+                TrackRefusal::LookAlike => "a mapped landmark that looks like it is still seen",
+            };
+            (DEBUG, format!("track {id} not mapped: {why}"))
+        }
     }
 }

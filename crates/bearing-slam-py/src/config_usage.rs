@@ -121,8 +121,9 @@ impl PyConfig {
                 )
             }
             "moving_object_nis_factor" | "moving_object_pair_ratio" | "remember_movers"
-                if parse_name::<EstimatorKind>(&self.estimator)
-                    .is_ok_and(|e| matches!(e, EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2)) =>
+                if parse_name::<EstimatorKind>(&self.estimator).is_ok_and(|e| {
+                    matches!(e, EstimatorKind::FastSlam1 | EstimatorKind::FastSlam2)
+                }) =>
             {
                 Some(format!(
                     "it is a parameter of the EKF's association (FastSLAM associates per \

@@ -19,7 +19,7 @@ use crate::ekf::BlockJacobian;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::log::{BearingObservation, Descriptor, ensure_bearing};
-use crate::trace::SlamEvent;
+use crate::trace::{RemovalCause, SlamEvent};
 use nalgebra::{DMatrix, Matrix1, Matrix2, Vector2};
 use std::collections::{BTreeMap, VecDeque};
 use std::time::Instant;
@@ -141,19 +141,6 @@ impl Anonymous {
         self.last_paired.remove(&id);
         self.deaths.insert(id, time);
     }
-}
-
-/// Why a mapped landmark is removed as a moving object.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Evidence {
-    /// Its own bearings kept pulling away from it (the windowed NIS): it
-    /// was seen moving.
-    Inconsistent,
-    /// It was rarely paired (the pairing ratio): moved away, or only out
-    /// of view, which the filter cannot tell apart without a visibility
-    /// model; not remembered, so that a static landmark evicted so may
-    /// enter again.
-    Unpaired,
 }
 
 /// Pairings in the window of a landmark's NIS test.
@@ -700,19 +687,24 @@ impl BearingSlam {
             }
         }
         for id in doomed {
-            self.remove_moving_object(id, time, Evidence::Inconsistent)?;
+            self.remove_moving_object(id, time, RemovalCause::MovingObject)?;
         }
         Ok(())
     }
 
     /// Removes mapped landmark `id` from the map at `time` as a moving
-    /// object: what was known of it is forgotten and its death recorded;
-    /// with [`AssociationConfig::remember_movers`], where it was is kept
-    /// when its own bearings showed it moving ([`Evidence::Inconsistent`]).
-    fn remove_moving_object(&mut self, id: u64, time: f64, evidence: Evidence) -> Result<()> {
+    /// object, recording why (a [`SlamEvent::LandmarkRemoved`]): what was
+    /// known of it is forgotten and its death recorded; with
+    /// [`AssociationConfig::remember_movers`], where it was is kept when
+    /// its own bearings showed it moving ([`RemovalCause::MovingObject`]).
+    /// One only rarely paired ([`RemovalCause::RarelyPaired`]) may have
+    /// moved away or only be out of view, which the filter cannot tell
+    /// apart without a visibility model; it is not remembered, so that a
+    /// static landmark evicted so may enter again.
+    fn remove_moving_object(&mut self, id: u64, time: f64, cause: RemovalCause) -> Result<()> {
         let estimate = self.landmark(id).ok();
         let remember =
-            evidence == Evidence::Inconsistent && self.config.association.remember_movers;
+            cause == RemovalCause::MovingObject && self.config.association.remember_movers;
         if let Some(a) = self.anonymous.as_mut() {
             let appearance = a.appearances.get(&id).copied();
             a.forget_removed(id, time);
@@ -724,6 +716,7 @@ impl BearingSlam {
                 });
             }
         }
+        self.record(SlamEvent::LandmarkRemoved { id, cause });
         self.remove_landmark(id)
     }
 
@@ -753,7 +746,7 @@ impl BearingSlam {
             }
         }
         for id in doomed {
-            self.remove_moving_object(id, time, Evidence::Unpaired)?;
+            self.remove_moving_object(id, time, RemovalCause::RarelyPaired)?;
         }
         Ok(())
     }
@@ -796,6 +789,10 @@ impl BearingSlam {
             anonymous.recent_nis.remove(&younger);
             anonymous.appearances.remove(&younger);
             anonymous.last_paired.remove(&younger);
+            self.record(SlamEvent::LandmarkRemoved {
+                id: younger,
+                cause: RemovalCause::Duplicate,
+            });
             self.remove_landmark(younger)?;
         }
         Ok(())

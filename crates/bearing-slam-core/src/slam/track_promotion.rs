@@ -11,6 +11,7 @@ use crate::association::tracks::{Sighting, TrackPoint};
 use crate::error::Result;
 use crate::geometry::wrap_angle;
 use crate::init::{Candidate, CandidateDecision, decide};
+use crate::trace::{RemovalCause, SlamEvent, TrackRefusal};
 use nalgebra::{Matrix2, Vector2, Vector3};
 
 impl BearingSlam {
@@ -61,18 +62,22 @@ impl BearingSlam {
                     .and_then(|a| a.last_paired.get(old))
                     .is_none_or(|&t| t < first.time)
             });
-            if self.explained_by_map(track.point.as_ref(), track.appearance.as_ref())
-                || self.explained_by_rays(
-                    &first,
-                    &last,
-                    track.appearance.as_ref(),
-                    track.point.is_none(),
-                )
-                || (look_alike.is_some() && lost.is_none())
-            {
+            let refusal = self
+                .explained_by_map(track.point.as_ref(), track.appearance.as_ref())
+                .or_else(|| {
+                    self.explained_by_rays(
+                        &first,
+                        &last,
+                        track.appearance.as_ref(),
+                        track.point.is_none(),
+                    )
+                })
+                .or((look_alike.is_some() && lost.is_none()).then_some(TrackRefusal::LookAlike));
+            if let Some(cause) = refusal {
                 // A mapped landmark already stands there: its bearings
                 // missed the gate for a while; it is not mapped twice. Or a
                 // mover removed from the map stands there again.
+                self.record(SlamEvent::TrackNotMapped { id, cause });
                 if let Some(a) = self.anonymous.as_mut() {
                     a.tracks.remove_with_competitors(id);
                 }
@@ -147,6 +152,10 @@ impl BearingSlam {
                     }
                 }
                 if let Some(old) = lost {
+                    self.record(SlamEvent::LandmarkRemoved {
+                        id: old,
+                        cause: RemovalCause::Replaced,
+                    });
                     self.remove_landmark(old)?;
                 }
                 entered += 1;
@@ -184,6 +193,7 @@ impl BearingSlam {
             position: l.position,
             covariance: l.covariance,
             appearance: a.appearances.get(&l.id).copied(),
+            kind: TrackRefusal::MappedLandmark,
         });
         let movers = a
             .movers
@@ -193,6 +203,7 @@ impl BearingSlam {
                 position: m.position,
                 covariance: m.covariance,
                 appearance: m.appearance,
+                kind: TrackRefusal::RememberedMover,
             });
         mapped.chain(movers).collect()
     }
@@ -209,12 +220,12 @@ impl BearingSlam {
         }
     }
 
-    /// Whether a remembered mover, or (when `mapped`, for a track without
-    /// a point) a mapped landmark, already explains a track: its estimate
-    /// lies on the first and the newest sighting's rays, each within the
-    /// χ²₁ gate (the bearing noise, the sighting's heading and position
-    /// variances and the landmark's across the ray) and, with descriptors,
-    /// it looks like the track. A far landmark's track whose bearings
+    /// What explains a track by its rays, if anything: a remembered mover
+    /// or (when `mapped`, for a track without a point) a mapped landmark
+    /// whose estimate lies on the first and the newest sighting's rays,
+    /// each within the χ²₁ gate (the bearing noise, the sighting's heading
+    /// and position variances and the landmark's across the ray) and that,
+    /// with descriptors, looks like the track. A far landmark's track whose bearings
     /// missed the landmark's gate for a while is not mapped twice; a
     /// mover's, whose triangulated point may be anywhere, not at all.
     fn explained_by_rays(
@@ -223,11 +234,9 @@ impl BearingSlam {
         last: &Sighting,
         appearance: Option<&Appearance>,
         mapped: bool,
-    ) -> bool {
+    ) -> Option<TrackRefusal> {
         let p = self.config.association.gate_probability;
-        let Ok(gate) = crate::stats::chi2_quantile(1.0, p) else {
-            return false;
-        };
+        let gate = crate::stats::chi2_quantile(1.0, p).ok()?;
         let noise = self.config.bearing_sigma.powi(2);
         let fits = |s: &Sighting, x: &Vector2<f64>, cov: &Matrix2<f64>| {
             let d = x - s.pose.xy();
@@ -241,34 +250,38 @@ impl BearingSlam {
             let variance = noise + v.z + j.dot(&(cov * j)) + 0.5 * (v.x + v.y) / range2;
             wrap_angle(d.y.atan2(d.x) - s.world_bearing()).powi(2) / variance <= gate
         };
-        self.explanations(mapped).iter().any(|e| {
-            self.alike(appearance, e.appearance.as_ref())
-                && fits(first, &e.position, &e.covariance)
-                && fits(last, &e.position, &e.covariance)
-        })
+        self.explanations(mapped)
+            .iter()
+            .find(|e| {
+                self.alike(appearance, e.appearance.as_ref())
+                    && fits(first, &e.position, &e.covariance)
+                    && fits(last, &e.position, &e.covariance)
+            })
+            .map(|e| e.kind)
     }
 
-    /// Whether a mapped landmark (or a remembered mover) already explains a
-    /// track: its point lies within the χ²₂ gate of the track's
-    /// (covariances of both summed) and, with descriptors, it looks like it
+    /// What explains a track by its point, if anything: a mapped landmark
+    /// (or a remembered mover) within the χ²₂ gate of the track's point
+    /// (covariances of both summed) that, with descriptors, looks like it
     /// (appearance within the χ²_D gate).
     fn explained_by_map(
         &self,
         point: Option<&TrackPoint>,
         appearance: Option<&Appearance>,
-    ) -> bool {
-        let Some((x, cov)) = point else {
-            return false;
-        };
+    ) -> Option<TrackRefusal> {
+        let (x, cov) = point?;
         let p = self.config.association.gate_probability;
         let gate = crate::stats::chi2_quantile(2.0, p).unwrap_or(f64::INFINITY);
-        self.explanations(true).iter().any(|e| {
-            let d = x - e.position;
-            self.alike(appearance, e.appearance.as_ref())
-                && (cov + e.covariance)
-                    .try_inverse()
-                    .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
-        })
+        self.explanations(true)
+            .iter()
+            .find(|e| {
+                let d = x - e.position;
+                self.alike(appearance, e.appearance.as_ref())
+                    && (cov + e.covariance)
+                        .try_inverse()
+                        .is_some_and(|inv| d.dot(&(inv * d)) <= gate)
+            })
+            .map(|e| e.kind)
     }
 }
 
@@ -278,6 +291,8 @@ struct Explanation {
     position: Vector2<f64>,
     covariance: Matrix2<f64>,
     appearance: Option<Appearance>,
+    /// Which of the two.
+    kind: TrackRefusal,
 }
 
 /// The candidate of the delayed initializer (16) a track's first sighting makes.

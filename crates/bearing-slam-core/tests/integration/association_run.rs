@@ -11,6 +11,7 @@ use bearing_slam_core::log::{
 };
 use bearing_slam_core::runner::run;
 use bearing_slam_core::testing::kinematic::KinematicScenario;
+use bearing_slam_core::trace::{RemovalCause, SlamEvent, TrackRefusal};
 use bearing_slam_core::wrap_angle;
 use rand::rngs::StdRng;
 use rand::{RngExt, SeedableRng};
@@ -55,14 +56,42 @@ pub(crate) fn log(seed: u64, clutter: usize, distractor: bool) -> SensorLog {
 }
 
 fn run_with(log: &SensorLog, association: AssociationConfig) -> AssociationScore {
+    run_traced(log, association).0
+}
+
+/// [`run_with`] with the filter's events.
+fn run_traced(
+    log: &SensorLog,
+    association: AssociationConfig,
+) -> (AssociationScore, Vec<SlamEvent>) {
     let mut config = KinematicScenario::paper_fig4(false)
         .run_config()
         .expect("valid scenario");
     config.slam.association = association;
     let output = run(log, &config).expect("the run completes");
-    output
+    let events = output.trace.events.into_iter().map(|e| e.event).collect();
+    let score = output
         .association
-        .expect("unknown-identity runs are scored")
+        .expect("unknown-identity runs are scored");
+    (score, events)
+}
+
+/// How many of `events` are `LandmarkRemoved` for `cause`, and
+/// `TrackNotMapped` for `refusal`.
+fn count_events(
+    events: &[SlamEvent],
+    cause: RemovalCause,
+    refusal: TrackRefusal,
+) -> (usize, usize) {
+    let removed = events
+        .iter()
+        .filter(|e| matches!(e, SlamEvent::LandmarkRemoved { cause: c, .. } if *c == cause))
+        .count();
+    let refused = events
+        .iter()
+        .filter(|e| matches!(e, SlamEvent::TrackNotMapped { cause: c, .. } if *c == refusal))
+        .count();
+    (removed, refused)
 }
 
 #[test]
@@ -108,13 +137,31 @@ fn a_moving_distractor_is_removed_each_time_it_stops_fitting() {
     };
     let (mut kept_by_nis, mut kept_by_both, mut kept_forgotten) = (0, 0, 0);
     let (mut mapped_remembered, mut mapped_forgotten) = (0, 0);
+    let mut refused_as_movers = 0;
     for seed in 0..10 {
         let log = log(seed, 0, true);
-        let (a, b, c) = (
-            run_with(&log, nis_only),
-            run_with(&log, both),
-            run_with(&log, forgetful),
+        let ((a, events_a), (b, events_b), (c, events_c)) = (
+            run_traced(&log, nis_only),
+            run_traced(&log, both),
+            run_traced(&log, forgetful),
         );
+        // Every removal is an event naming its cause; only a remembered
+        // mover refuses a track as one.
+        let mover = (RemovalCause::MovingObject, TrackRefusal::RememberedMover);
+        let (removed_a, refused_a) = count_events(&events_a, mover.0, mover.1);
+        let (removed_c, refused_c) = count_events(&events_c, mover.0, mover.1);
+        let paired = count_events(&events_b, RemovalCause::RarelyPaired, mover.1).0;
+        let duplicates = |e: &[SlamEvent]| count_events(e, RemovalCause::Duplicate, mover.1).0;
+        assert_eq!(removed_a + duplicates(&events_a), a.removed, "seed {seed}");
+        assert_eq!(removed_c + duplicates(&events_c), c.removed, "seed {seed}");
+        let removed_b = count_events(&events_b, mover.0, mover.1).0;
+        assert_eq!(
+            removed_b + paired + duplicates(&events_b),
+            b.removed,
+            "seed {seed}"
+        );
+        assert_eq!(refused_c, 0, "seed {seed}: nothing is remembered");
+        refused_as_movers += refused_a;
         assert!(b.spurious >= 1, "seed {seed}: mapped now and then: {b:?}");
         assert!(b.spurious_at_end <= 1, "seed {seed}: {b:?}");
         for s in [&a, &b, &c] {
@@ -132,6 +179,7 @@ fn a_moving_distractor_is_removed_each_time_it_stops_fitting() {
         kept_by_both < kept_by_nis,
         "{kept_by_both} against {kept_by_nis}"
     );
+    assert!(refused_as_movers > 0, "no track was refused as a mover");
     assert!(
         mapped_remembered < mapped_forgotten && kept_by_nis <= kept_forgotten,
         "mapped {mapped_remembered} times against {mapped_forgotten}, \
