@@ -7,6 +7,7 @@
 
 mod bench;
 mod config;
+mod config_convert;
 mod config_usage;
 mod convert;
 mod errors;
