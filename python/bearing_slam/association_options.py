@@ -79,7 +79,12 @@ def with_hidden_id_options(config: Config, args: argparse.Namespace) -> Config:
         if args.moving_object_nis_factor is None:
             raise UserError("--remember-movers needs --moving-object-nis-factor")
         options["remember_movers"] = True
+    given = ", ".join("--" + name.replace("_", "-") for name in options)
     if options and args.association == "known":
-        given = ", ".join("--" + name.replace("_", "-") for name in options)
         raise UserError(f"{given}: for --association nn, jcbb or ransac only")
+    moving = [name for name in options if name != "descriptor_sigma"]
+    if moving and getattr(args, "estimator", None) in ("fastslam1", "fastslam2"):
+        raise UserError(
+            f"{given}: the moving-object rules are the filter's (FastSLAM associates per particle)"
+        )
     return config.replace(**options) if options else config

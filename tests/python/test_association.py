@@ -272,3 +272,7 @@ def test_the_moving_object_rules_are_refused_where_they_do_nothing(tmp_path: Pat
     r = cli("run", log_path, "--association", "nn", "--out", out, "--remember-movers")
     assert r.returncode != 0
     assert "--remember-movers needs --moving-object-nis-factor" in r.stderr
+    fastslam: list[str | Path] = ["--estimator", "fastslam1", "--association", "nn", "--out", out]
+    r = cli("run", log_path, *fastslam, "--moving-object-pair-ratio", "0.5")
+    assert r.returncode != 0
+    assert "FastSLAM associates per particle" in r.stderr

@@ -189,7 +189,7 @@ impl BearingSlam {
             return Vec::new();
         };
         let landmarks = if mapped { self.landmarks() } else { Vec::new() };
-        let mapped = landmarks.into_iter().map(|l| Explanation {
+        let of_landmarks = landmarks.into_iter().map(|l| Explanation {
             position: l.position,
             covariance: l.covariance,
             appearance: a.appearances.get(&l.id).copied(),
@@ -205,7 +205,7 @@ impl BearingSlam {
                 appearance: m.appearance,
                 kind: TrackRefusal::RememberedMover,
             });
-        mapped.chain(movers).collect()
+        of_landmarks.chain(movers).collect()
     }
 
     /// Whether two appearances may be one thing's: always, unless both are
@@ -225,9 +225,9 @@ impl BearingSlam {
     /// whose estimate lies on the first and the newest sighting's rays,
     /// each within the χ²₁ gate (the bearing noise, the sighting's heading
     /// and position variances and the landmark's across the ray) and that,
-    /// with descriptors, looks like the track. A far landmark's track whose bearings
-    /// missed the landmark's gate for a while is not mapped twice; a
-    /// mover's, whose triangulated point may be anywhere, not at all.
+    /// with descriptors, looks like the track. A far landmark's track whose
+    /// bearings missed the landmark's gate for a while is not mapped twice;
+    /// a mover's, whose triangulated point may be anywhere, not at all.
     fn explained_by_rays(
         &self,
         first: &Sighting,
