@@ -197,12 +197,19 @@ def _event_text(event: dict[str, Any]) -> tuple[str, str]:
         for k, v in event.items()
         if k not in ("time", "kind", "id")
     )
-    text = f"{kind.replace('_', ' ')}: landmark {event.get('id')}" + (
+    subject = "track" if kind == "track_not_mapped" else "landmark"
+    text = f"{kind.replace('_', ' ')}: {subject} {event.get('id')}" + (
         f" ({extra})" if extra else ""
     )
     level = (
         "WARN"
-        if kind in ("measurement_rejected", "measurement_readmitted", "candidate_expired")
+        if kind
+        in (
+            "measurement_rejected",
+            "measurement_readmitted",
+            "candidate_expired",
+            "landmark_removed",
+        )
         else "INFO"
     )
     return text, level

@@ -173,8 +173,8 @@ impl BearingSlam {
 
     /// Removes the younger of every pair of mapped landmarks that are the
     /// same point within the χ²₂ gate at `gate_probability`
-    /// ([`Self::duplicate_pairs`]); a removal is recorded as a death and a
-    /// merge (`merged[younger] = older`).
+    /// ([`Self::duplicate_pairs`]); a removal is recorded as a death, a
+    /// merge (`merged[younger] = older`) and a [`SlamEvent::LandmarkRemoved`].
     pub(in crate::slam) fn remove_duplicates(&mut self, time: f64) -> Result<()> {
         let p = self.config.association.gate_probability;
         let gate = crate::stats::chi2_quantile(2.0, p)?;
