@@ -33,7 +33,7 @@ use crate::foxglove::{
 use crate::foxglove_image::{
     self as fi, CircleAnnotation, CompressedImage, ImageAnnotations, Point2, PointsAnnotation,
 };
-use crate::schema::{MESSAGE_ENCODING, SCHEMA_ENCODING};
+use crate::schema::declare_json_channel;
 use bearing_slam_core::nalgebra::{Matrix2, Vector2};
 
 /// The child frame of the estimated camera on `/tf`.
@@ -278,20 +278,13 @@ impl MonoWriter {
         if let Some(&id) = self.channels.get(topic.name) {
             return Ok(id);
         }
-        let schema = serde_json::to_vec(&(topic.schema)()).map_err(|source| IoError::Encode {
-            path: self.path.clone(),
-            topic: topic.name.into(),
-            source,
-        })?;
-        let action = format!("declaring topic {}", topic.name);
-        let schema_id = self
-            .writer
-            .add_schema(topic.schema_name, SCHEMA_ENCODING, &schema)
-            .map_err(|source| mcap_error(&self.path, &action, source))?;
-        let id = self
-            .writer
-            .add_channel(schema_id, topic.name, MESSAGE_ENCODING, &BTreeMap::new())
-            .map_err(|source| mcap_error(&self.path, &action, source))?;
+        let id = declare_json_channel(
+            &mut self.writer,
+            &self.path,
+            topic.name,
+            (topic.schema_name, &(topic.schema)()),
+            &BTreeMap::new(),
+        )?;
         self.channels.insert(topic.name, id);
         Ok(id)
     }

@@ -481,6 +481,37 @@ pub(crate) fn check_slam_event(e: &TimedSlamEvent) -> Result<(), NonFinite> {
     }
 }
 
+/// Declares topic `name` on an MCAP `writer` with its JSON `schema`
+/// (named `schema_name`) and the channel's `metadata`, returning the
+/// channel id; errors name the file (`path`) and the topic. The one
+/// declaration of the SLAM log ([`crate::writer`]) and the monocular run's
+/// file ([`crate::mono_view`]).
+pub(crate) fn declare_json_channel<W: std::io::Write + std::io::Seek>(
+    writer: &mut mcap::Writer<W>,
+    path: &std::path::Path,
+    name: &str,
+    (schema_name, schema): (&str, &Value),
+    metadata: &std::collections::BTreeMap<String, String>,
+) -> Result<u16, crate::error::IoError> {
+    use crate::error::IoError;
+    let schema = serde_json::to_vec(schema).map_err(|source| IoError::Encode {
+        path: path.to_path_buf(),
+        topic: name.into(),
+        source,
+    })?;
+    let mcap_err = |source| IoError::Mcap {
+        path: path.to_path_buf(),
+        action: format!("declaring topic {name}"),
+        source,
+    };
+    let schema_id = writer
+        .add_schema(schema_name, SCHEMA_ENCODING, &schema)
+        .map_err(mcap_err)?;
+    writer
+        .add_channel(schema_id, name, MESSAGE_ENCODING, metadata)
+        .map_err(mcap_err)
+}
+
 // ---------------------------------------------------------------------------
 // JSON schemas of the exact-data topics.
 

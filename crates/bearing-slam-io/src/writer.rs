@@ -25,8 +25,7 @@ use crate::foxglove::{
 };
 use crate::path_view::{PathCadence, PathView};
 use crate::schema::{
-    self, FORMAT_VERSION, FORMAT_VERSION_KEY, LandmarksMsg, MESSAGE_ENCODING, NonFinite,
-    SCHEMA_ENCODING, Topic,
+    self, FORMAT_VERSION, FORMAT_VERSION_KEY, LandmarksMsg, NonFinite, Topic, declare_json_channel,
 };
 use crate::time_order::{Timed, in_time_order};
 use crate::trace_views::{describe, map_scene, particles_scene};
@@ -668,27 +667,17 @@ impl McapLogWriter {
                 return Ok(id);
             }
         };
-        let schema =
-            serde_json::to_vec(&topic.json_schema()).map_err(|source| IoError::Encode {
-                path: path.clone(),
-                topic: topic.name().into(),
-                source,
-            })?;
-        let mcap_err = |source| IoError::Mcap {
-            path: path.clone(),
-            action: format!("declaring topic {}", topic.name()),
-            source,
-        };
-        let schema_id = writer
-            .add_schema(topic.schema_name(), SCHEMA_ENCODING, &schema)
-            .map_err(mcap_err)?;
         let mut metadata = BTreeMap::new();
         if topic.is_exact() {
             metadata.insert(FORMAT_VERSION_KEY.to_owned(), FORMAT_VERSION.to_string());
         }
-        let id = writer
-            .add_channel(schema_id, topic.name(), MESSAGE_ENCODING, &metadata)
-            .map_err(mcap_err)?;
+        let id = declare_json_channel(
+            writer,
+            &path,
+            topic.name(),
+            (topic.schema_name(), &topic.json_schema()),
+            &metadata,
+        )?;
         self.channels[topic.index()] = Some(id);
         Ok(id)
     }
