@@ -73,7 +73,8 @@ def run(
     ``/camera/image`` (``foxglove.CompressedImage``, the frames as read),
     ``/camera/annotations`` (``foxglove.ImageAnnotations``: the search ellipses, green
     found, red missed, and the matches, as the paper's Fig. 12), ``/tf`` and
-    ``/camera/path/estimate|truth`` (the camera, estimated and true), ``/map``
+    ``/camera/path/estimate|truth`` (the camera's path so far, estimated and true,
+    every 10 frames and at the last, thinned past 1000 poses), ``/map``
     (``foxglove.SceneUpdate``: each landmark's 2σ ellipsoid after every frame, blue as a
     point, orange in inverse depth). A failed write leaves no file there.
 

@@ -8,11 +8,20 @@
 //! | `/camera/image` | `foxglove.CompressedImage` | each frame's image file, its bytes as they are (PNG or JPEG), in frame `camera_estimate` |
 //! | `/camera/annotations` | `foxglove.ImageAnnotations` | over the image, as the paper's Fig. 12: each feature's search ellipse (30) clipped to its search box (green: found, red: missed) and a circle where it was found |
 //! | `/tf` | `foxglove.FrameTransform` | `world` → `camera_estimate` and, with ground truth, `world` → `camera_truth` |
-//! | `/camera/path/estimate`, `/camera/path/truth` | `foxglove.PosesInFrame` | the path up to the frame |
+//! | `/camera/path/estimate`, `/camera/path/truth` | `foxglove.PosesInFrame` | the path so far, every [`PATH_EVERY_FRAMES`] frames and at the last, at most [`PATH_MAX_POSES`] poses (halved past it) |
 //! | `/map` | `foxglove.SceneUpdate` | the map after the frame: each landmark its 2σ ellipsoid (blue: a point, orange: still in inverse depth (27)), semi-axes capped at [`MAX_SEMI_AXIS_M`] |
 //!
 //! The world frame is the sequence's (KITTI: the first camera's, y down);
 //! messages are stamped with the frames' times.
+//!
+//! A path message holds the whole path so far (Foxglove draws a topic's
+//! latest message), so republishing it at every frame would make the file
+//! grow with the square of the run: KITTI's 4541-frame sequence 00 would
+//! carry about 10⁷ poses per path. The paths are therefore thinned as the
+//! 2-D log's are ([`crate::path_view`]): republished every
+//! [`PATH_EVERY_FRAMES`] frames and at the last frame, each holding at most
+//! [`PATH_MAX_POSES`] poses plus the newest; the camera's own pose is on
+//! `/tf` at every frame.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -33,6 +42,7 @@ use crate::foxglove::{
 use crate::foxglove_image::{
     self as fi, CircleAnnotation, CompressedImage, ImageAnnotations, Point2, PointsAnnotation,
 };
+use crate::path_view::{PathCadence, PathView};
 use crate::schema::declare_json_channel;
 use bearing_slam_core::nalgebra::{Matrix2, Vector2};
 
@@ -44,6 +54,12 @@ pub const CAMERA_TRUTH_FRAME: &str = "camera_truth";
 /// unknown has a covariance reaching far along its ray, which would fill
 /// the view.
 pub const MAX_SEMI_AXIS_M: f64 = 10.0;
+/// The paths are republished every this many frames (1 s of KITTI's 10 Hz
+/// camera), and at the last frame.
+pub const PATH_EVERY_FRAMES: usize = 10;
+/// Most poses a published path keeps before it is halved (the 2-D log's
+/// default, [`crate::McapWriteOptions::path_max_points`]).
+pub const PATH_MAX_POSES: usize = 1000;
 
 /// One frame of a monocular run, as the viewer shows it.
 #[derive(Clone, Copy, Debug)]
@@ -161,8 +177,9 @@ fn write_frames(partial: &Path, path: &Path, frames: &[MonoFrameView<'_>]) -> Re
         channels: BTreeMap::new(),
         sequence: 0,
     };
-    let mut estimates = Vec::with_capacity(frames.len());
-    let mut truths = Vec::with_capacity(frames.len());
+    let mut estimates = PathView::new();
+    let mut truths = PathView::new();
+    let cadence = PathCadence::EveryPoses(PATH_EVERY_FRAMES);
     let mut last_time = None;
     for (index, frame) in frames.iter().enumerate() {
         let bad = |field: String, value: f64| IoError::NonFinite {
@@ -221,29 +238,16 @@ fn write_frames(partial: &Path, path: &Path, frames: &[MonoFrameView<'_>]) -> Re
         let truth = frame.truth.as_ref().map(pose_of);
         out.image(log_time, stamp, frame.image)?;
         out.emit(ANNOTATIONS, log_time, &annotations(stamp, frame.searches))?;
+        let last = index + 1 == frames.len();
         out.transform(log_time, stamp, CAMERA_ESTIMATE_FRAME, estimate)?;
-        estimates.push(estimate);
-        out.emit(
-            PATH_ESTIMATE,
-            log_time,
-            &PosesInFrame {
-                timestamp: stamp,
-                frame_id: fx::WORLD_FRAME,
-                poses: &estimates,
-            },
-        )?;
+        if estimates.push(estimate, cadence, PATH_MAX_POSES) || last {
+            out.path(PATH_ESTIMATE, log_time, stamp, &mut estimates)?;
+        }
         if let Some(truth) = truth {
             out.transform(log_time, stamp, CAMERA_TRUTH_FRAME, truth)?;
-            truths.push(truth);
-            out.emit(
-                PATH_TRUTH,
-                log_time,
-                &PosesInFrame {
-                    timestamp: stamp,
-                    frame_id: fx::WORLD_FRAME,
-                    poses: &truths,
-                },
-            )?;
+            if truths.push(truth, cadence, PATH_MAX_POSES) || last {
+                out.path(PATH_TRUTH, log_time, stamp, &mut truths)?;
+            }
         }
         out.emit(MAP, log_time, &map_scene(stamp, frame.map))?;
     }
@@ -366,6 +370,26 @@ impl MonoWriter {
                 child_frame_id: child,
                 translation: pose.position,
                 rotation: pose.orientation,
+            },
+        )
+    }
+
+    /// Publishes `path` on `topic` (`/camera/path/estimate` or `/truth`).
+    fn path(
+        &mut self,
+        topic: Topic,
+        log_time: u64,
+        stamp: Time,
+        path: &mut PathView,
+    ) -> Result<()> {
+        let poses = path.publish();
+        self.emit(
+            topic,
+            log_time,
+            &PosesInFrame {
+                timestamp: stamp,
+                frame_id: fx::WORLD_FRAME,
+                poses: &poses,
             },
         )
     }

@@ -1,7 +1,7 @@
 //! The monocular run's MCAP (`bearing_slam_io::mono_view`): the documented
-//! topics and schemas, the image bytes as they were, the paths growing by
-//! a pose a frame, the map's 2σ ellipsoids, and bad input refused with no
-//! file left behind.
+//! topics and schemas, the image bytes as they were, the paths
+//! republished every few frames and thinned on a long run, the map's 2σ
+//! ellipsoids, and bad input refused with no file left behind.
 
 mod common;
 
@@ -13,7 +13,9 @@ use bearing_slam_core::mono::{CameraPose, MapPoint};
 use bearing_slam_core::nalgebra::{Matrix2, Vector2};
 use bearing_slam_core::nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use bearing_slam_io::IoError;
-use bearing_slam_io::mono_view::{MAX_SEMI_AXIS_M, MonoFrameView, SearchMark, write_mono_mcap};
+use bearing_slam_io::mono_view::{
+    MAX_SEMI_AXIS_M, MonoFrameView, PATH_EVERY_FRAMES, PATH_MAX_POSES, SearchMark, write_mono_mcap,
+};
 use common::tmp;
 use serde_json::Value;
 
@@ -129,8 +131,9 @@ fn a_monocular_run_is_written_for_foxglove() {
         [
             ("/camera/annotations foxglove.ImageAnnotations", 3),
             ("/camera/image foxglove.CompressedImage", 3),
-            ("/camera/path/estimate foxglove.PosesInFrame", 3),
-            ("/camera/path/truth foxglove.PosesInFrame", 3),
+            // Fewer frames than the path's cadence: published at the last.
+            ("/camera/path/estimate foxglove.PosesInFrame", 1),
+            ("/camera/path/truth foxglove.PosesInFrame", 1),
             ("/map foxglove.SceneUpdate", 3),
             ("/tf foxglove.FrameTransform", 6),
         ]
@@ -180,14 +183,15 @@ fn a_monocular_run_is_written_for_foxglove() {
     let circles = drawn["circles"].as_array().expect("circles");
     assert_eq!(circles.len(), 1);
     assert_eq!(circles[0]["position"]["x"], 11.5);
-    for (k, path) in topics["/camera/path/estimate foxglove.PosesInFrame"]
+    let path = &topics["/camera/path/estimate foxglove.PosesInFrame"][0];
+    let xs: Vec<f64> = path["poses"]
+        .as_array()
+        .expect("poses")
         .iter()
-        .enumerate()
-    {
-        let poses = path["poses"].as_array().expect("poses");
-        assert_eq!(poses.len(), k + 1);
-        assert_eq!(poses[k]["position"]["x"], k as f64);
-    }
+        .map(|p| p["position"]["x"].as_f64().expect("x"))
+        .collect();
+    assert_eq!(xs, [0.0, 1.0, 2.0]);
+    assert_eq!(path["timestamp"], images_stamp(&topics, 2));
     let children: Vec<&str> = topics["/tf foxglove.FrameTransform"]
         .iter()
         .map(|t| t["child_frame_id"].as_str().expect("child"))
@@ -212,6 +216,65 @@ fn a_monocular_run_is_written_for_foxglove() {
     // Depth unknown: its ray's σ of 1000 m is drawn at the cap.
     assert_eq!(diameters(&spheres[1]), [0.4, 0.4, 2.0 * MAX_SEMI_AXIS_M]);
     assert!(spheres[1]["color"]["r"].as_f64() > spheres[0]["color"]["r"].as_f64());
+}
+
+/// A long run (more frames than a path keeps): each path is republished
+/// every `PATH_EVERY_FRAMES` frames and at the last, never holds more than
+/// `PATH_MAX_POSES` + 1 poses, spans the run from its first pose to the
+/// newest, and the file stays far below the square of the run.
+#[test]
+fn a_long_run_s_paths_are_republished_every_few_frames_and_thinned() {
+    let dir = tmp();
+    let image = images(dir.path()).remove(0);
+    let n = 2 * PATH_MAX_POSES + 5;
+    let frames: Vec<MonoFrameView<'_>> = (0..n)
+        .map(|k| MonoFrameView {
+            time_s: 0.1 * k as f64,
+            image: &image,
+            estimate: pose(k as f64, 0.1),
+            truth: Some(pose(k as f64 + 0.05, 0.12)),
+            map: &[],
+            searches: &[],
+        })
+        .collect();
+    let path = dir.path().join("long.mcap");
+    write_mono_mcap(&path, &frames).expect("written");
+    let topics = messages(&path);
+    for topic in [
+        "/camera/path/estimate foxglove.PosesInFrame",
+        "/camera/path/truth foxglove.PosesInFrame",
+    ] {
+        let paths = &topics[topic];
+        assert_eq!(paths.len(), n.div_ceil(PATH_EVERY_FRAMES), "{topic}");
+        let xs = |m: &Value| -> Vec<f64> {
+            m["poses"]
+                .as_array()
+                .expect("poses")
+                .iter()
+                .map(|p| p["position"]["x"].as_f64().expect("x"))
+                .collect()
+        };
+        let first = xs(&paths[0]);
+        assert_eq!(first.len(), PATH_EVERY_FRAMES, "{topic}");
+        let offset = first[0];
+        let total: usize = paths.iter().map(|m| xs(m).len()).sum();
+        // Every frame's path in full would be n(n+1)/2 poses.
+        assert!(10 * total < n * (n + 1) / 2, "{topic}: {total} poses");
+        for m in paths {
+            assert!(xs(m).len() <= PATH_MAX_POSES + 1, "{topic}");
+        }
+        let last = xs(paths.last().expect("a path"));
+        assert_eq!(last[0], offset, "{topic}: the first pose stays");
+        assert_eq!(
+            *last.last().expect("poses"),
+            offset + (n - 1) as f64,
+            "{topic}"
+        );
+        assert!(last.windows(2).all(|w| w[0] < w[1]), "{topic}: in order");
+    }
+    // Every frame's image and pose are there.
+    assert_eq!(topics["/camera/image foxglove.CompressedImage"].len(), n);
+    assert_eq!(topics["/tf foxglove.FrameTransform"].len(), 2 * n);
 }
 
 #[test]
