@@ -34,12 +34,14 @@
 //! (`fixed`: its fixed world anchor, the chart before 2026-11-29);
 //! `ONLINE_TIMING_SCAN_POSES=0|1` (0: the scans between keyframes observe
 //! through their odometry offset, as before 2026-11-28);
-//! `ONLINE_TIMING_ODOMETRY_START=1`; `ONLINE_TIMING_POINT_CHART=1`;
+//! `ONLINE_TIMING_START=filter|odometry|filter-motion` where a new pose
+//! starts (`OnlineStart`; the default `filter-motion` since 2026-12-01,
+//! `filter` before); `ONLINE_TIMING_POINT_CHART=1`;
 //! `ONLINE_TIMING_KERNEL=huber:k|cauchy:k|none`;
 //! `ONLINE_TIMING_TRIANGULATE=0|1`; `ONLINE_TIMING_KEYFRAME_ITERATIONS=n[,tol]`
 //! (at most `n` linearizations per solve, stopping on the step at `tol`).
 //! The keyframe window before 2026-11-28 is
-//! `ONLINE_TIMING_SCAN_POSES=0 ONLINE_TIMING_KEYFRAME_FEJ=0 ONLINE_TIMING_KERNEL=huber:2 ONLINE_TIMING_KEYFRAME_ITERATIONS=5`.
+//! `ONLINE_TIMING_SCAN_POSES=0 ONLINE_TIMING_KEYFRAME_FEJ=0 ONLINE_TIMING_KERNEL=huber:2 ONLINE_TIMING_KEYFRAME_ITERATIONS=5 ONLINE_TIMING_START=filter`.
 //!
 //! `DATA_DIR` holds `MRCLAM_Dataset6` (default `$BEARING_SLAM_DATA` or `../shared/datasets/mrclam`
 //! beside the repository); `ONLINE_TIMING_DATASET=MRCLAM_Dataset2` times
@@ -153,8 +155,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     ) {
         rule.scan_poses = v == "1";
     }
-    if flag("ONLINE_TIMING_ODOMETRY_START").is_some_and(|v| v == "1") {
-        keyframes.smoother.online_start = OnlineStart::Odometry;
+    match flag("ONLINE_TIMING_START").as_deref() {
+        None | Some("filter-motion") => {}
+        Some("filter") => keyframes.smoother.online_start = OnlineStart::Filter,
+        Some("odometry") => keyframes.smoother.online_start = OnlineStart::Odometry,
+        Some(other) => {
+            return Err(
+                format!("ONLINE_TIMING_START={other}: filter, odometry or filter-motion").into(),
+            );
+        }
     }
     if flag("ONLINE_TIMING_POINT_CHART").is_some_and(|v| v == "1") {
         keyframes.smoother.landmark_chart = LandmarkChart::Point;

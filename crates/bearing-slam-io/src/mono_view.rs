@@ -18,7 +18,7 @@
 //! latest message), so republishing it at every frame would make the file
 //! grow with the square of the run: KITTI's 4541-frame sequence 00 would
 //! carry about 10⁷ poses per path. The paths are therefore thinned as the
-//! 2-D log's are ([`crate::path_view`]): republished every
+//! 2-D log's are ([`crate::McapWriteOptions::path_every`]): republished every
 //! [`PATH_EVERY_FRAMES`] frames and at the last frame, each holding at most
 //! [`PATH_MAX_POSES`] poses plus the newest; the camera's own pose is on
 //! `/tf` at every frame.

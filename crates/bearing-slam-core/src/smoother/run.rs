@@ -88,7 +88,10 @@ pub struct SmootherConfig {
     /// stay out, as their bearings did before). Fixed-lag mode: see
     /// [`SmootherConfig::triangulate_online`].
     pub triangulate_unmapped: Option<UnmappedTriangulation>,
-    /// Fixed-lag mode: where a new pose and a new landmark start.
+    /// Fixed-lag mode: where a new pose and a new landmark start (set with
+    /// the window by [`OnlineWindow::apply`]: the filter's estimate for the
+    /// per-scan window, the filter's motion from the window's pose for
+    /// keyframes).
     pub online_start: OnlineStart,
     /// Fixed-lag mode: which scans get a pose variable of their own
     /// (`None`: every scan that follows motion, the window then holding
