@@ -76,6 +76,11 @@ pub struct FixedLagConfig {
     /// and eliminated once into a linear prior ([`frozen`]); `None` solves
     /// the whole window at every update. At most `lag − 1`.
     pub active_lag: Option<usize>,
+    /// Most linearizations of a solve of the active part (≥ 1; `None`: the
+    /// solver's `max_iterations`). iSAM2 takes one per update and lets the
+    /// next updates go on from there; the whole-window solves still run to
+    /// convergence.
+    pub active_max_iterations: Option<usize>,
 }
 
 impl Default for FixedLagConfig {
@@ -85,6 +90,7 @@ impl Default for FixedLagConfig {
             first_estimates: true,
             prior_anchor: PriorAnchor::default(),
             active_lag: None,
+            active_max_iterations: None,
             solver: SolverConfig {
                 max_iterations: 10,
                 ..SolverConfig::default()
@@ -138,6 +144,13 @@ impl FixedLagSmoother {
                 name: "active_lag",
                 value: active as f64,
                 reason: "the active part must hold at least 1 pose and fewer than the lag",
+            });
+        }
+        if config.active_max_iterations == Some(0) {
+            return Err(SlamError::InvalidParameter {
+                name: "active_max_iterations",
+                value: 0.0,
+                reason: "a solve of the active part needs at least 1 linearization",
             });
         }
         Ok(Self {
@@ -277,11 +290,12 @@ impl FixedLagSmoother {
     }
 
     /// Optimizes the graph as it stands (the whole window, or the active
-    /// part against the held part's prior), returning its pattern and
-    /// symbolic factorization for more solves on it, the report and, when
-    /// the solve stopped on the decrement, its last `H`.
+    /// part against the held part's prior) with `solver`, returning its
+    /// pattern and symbolic factorization for more solves on it, the report
+    /// and, when the solve stopped on the decrement, its last `H`.
     fn optimize_graph(
         &mut self,
+        solver: &SolverConfig,
     ) -> Result<(Pattern, SparseCholesky, SolveReport, Option<Vec<f64>>)> {
         let pattern = Pattern::new(&self.graph, &self.values)?;
         let mut cholesky = SparseCholesky::analyze(&pattern, false)?;
@@ -290,14 +304,15 @@ impl FixedLagSmoother {
             &mut cholesky,
             &self.graph,
             &mut self.values,
-            &self.config.solver,
+            solver,
         )?;
         Ok((pattern, cholesky, report, hessian))
     }
 
     /// Solves the whole window and marginalizes the poses beyond the lag.
     fn solve_window(&mut self) -> Result<SolveReport> {
-        let (pattern, mut cholesky, report, converged_hessian) = self.optimize_graph()?;
+        let solver = self.config.solver;
+        let (pattern, mut cholesky, report, converged_hessian) = self.optimize_graph(&solver)?;
         let leaving_ids = self.leaving_poses();
         if !leaving_ids.is_empty() {
             let leaving: Vec<Key> = leaving_ids.iter().map(|id| Key::Pose(*id)).collect();

@@ -47,6 +47,7 @@ fn run_online(p: &Problem, lag: usize) -> FixedLagSmoother {
 fn run_online_with(p: &Problem, lag: usize, first_estimates: bool) -> FixedLagSmoother {
     let config = FixedLagConfig {
         active_lag: None,
+        active_max_iterations: None,
         prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates,
@@ -110,6 +111,7 @@ fn stopping_on_the_newton_decrement_keeps_the_batch_solution() {
     let p = problem(11, 10, true, false);
     let config = FixedLagConfig {
         active_lag: None,
+        active_max_iterations: None,
         prior_anchor: PriorAnchor::default(),
         lag: 10,
         first_estimates: false,
@@ -169,6 +171,7 @@ fn exact_after_marginalization_on_noise_free_data() {
 fn the_inverse_depth_chart_keeps_the_solution_and_the_marginals() {
     let config = |lag| FixedLagConfig {
         active_lag: None,
+        active_max_iterations: None,
         prior_anchor: PriorAnchor::default(),
         lag,
         first_estimates: false,
@@ -386,6 +389,7 @@ fn riding_poses_leave_with_the_counted_pose_before_them() {
         &p,
         FixedLagConfig {
             active_lag: None,
+            active_max_iterations: None,
             prior_anchor: PriorAnchor::default(),
             lag: 10,
             first_estimates: true,
@@ -418,6 +422,7 @@ fn a_marginalized_outlier_stays_down_weighted() {
     optimize(&p.graph, &mut batch, &solver).unwrap();
     let config = FixedLagConfig {
         active_lag: None,
+        active_max_iterations: None,
         prior_anchor: PriorAnchor::default(),
         lag: 4,
         first_estimates: false,
@@ -507,6 +512,7 @@ fn a_marginal_prior_holds_the_robustly_weighted_information() {
     let kernel = RobustKernel::Cauchy(2.0);
     let mut s = FixedLagSmoother::new(FixedLagConfig {
         active_lag: None,
+        active_max_iterations: None,
         prior_anchor: PriorAnchor::default(),
         lag: 2,
         first_estimates: false,

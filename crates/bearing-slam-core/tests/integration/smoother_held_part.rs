@@ -142,7 +142,7 @@ fn a_factor_on_a_held_pose_releases_the_older_part() {
 }
 
 #[test]
-fn an_active_part_as_long_as_the_lag_is_refused() {
+fn an_active_part_as_long_as_the_lag_or_given_no_step_is_refused() {
     for active in [0, 12, 13] {
         let error = FixedLagSmoother::new(FixedLagConfig {
             lag: 12,
@@ -152,4 +152,15 @@ fn an_active_part_as_long_as_the_lag_is_refused() {
         .unwrap_err();
         assert!(error.to_string().contains("active_lag"), "{error}");
     }
+    let error = FixedLagSmoother::new(FixedLagConfig {
+        lag: 12,
+        active_lag: Some(3),
+        active_max_iterations: Some(0),
+        ..FixedLagConfig::default()
+    })
+    .unwrap_err();
+    assert!(
+        error.to_string().contains("active_max_iterations"),
+        "{error}"
+    );
 }

@@ -128,6 +128,7 @@ fn fixed_lag_smoother_runs_online_close_to_the_batch() {
     let online_config = SmootherConfig {
         mode: SmootherMode::FixedLag(FixedLagConfig {
             active_lag: None,
+            active_max_iterations: None,
             prior_anchor: PriorAnchor::default(),
             lag: 50,
             first_estimates: false,

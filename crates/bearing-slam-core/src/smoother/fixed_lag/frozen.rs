@@ -34,7 +34,7 @@ use super::FixedLagSmoother;
 use crate::error::Result;
 use crate::smoother::factors::Factor;
 use crate::smoother::graph::FactorGraph;
-use crate::smoother::solver::SolveReport;
+use crate::smoother::solver::{SolveReport, SolverConfig};
 use crate::smoother::values::Key;
 use std::collections::BTreeSet;
 
@@ -83,7 +83,14 @@ impl FixedLagSmoother {
             return Ok(None);
         }
         frozen.updates += 1;
-        let (_, _, report, _) = self.optimize_graph()?;
+        let solver = SolverConfig {
+            max_iterations: self
+                .config
+                .active_max_iterations
+                .unwrap_or(self.config.solver.max_iterations),
+            ..self.config.solver
+        };
+        let (_, _, report, _) = self.optimize_graph(&solver)?;
         self.hold_older_part()?;
         Ok(Some(report))
     }
