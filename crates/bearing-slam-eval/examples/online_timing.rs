@@ -25,7 +25,9 @@
 //! triangulation, `estimator::keyframe_fixed_lag`), solving at keyframes or,
 //! in `keyframes-every-scan`, at every scan. What-if knobs of the keyframe
 //! modes (environment): `ONLINE_TIMING_KEYFRAME_LAG=n` keyframes kept;
-//! `ONLINE_TIMING_ACTIVE_LAG=n` keyframes solved between whole-window
+//! `ONLINE_TIMING_ACTIVE_ITERATIONS=n` linearizations per solve of the
+//! active part (`FixedLagConfig::active_max_iterations`; 0: to convergence,
+//! as before 2026-12-01); `ONLINE_TIMING_ACTIVE_LAG=n` keyframes solved between whole-window
 //! solves (`FixedLagConfig::active_lag`; 0: the whole window every update);
 //! `ONLINE_TIMING_KEYFRAME_RULE=metres,radians,scans`;
 //! `ONLINE_TIMING_KEYFRAME_FEJ=0|1` first-estimate Jacobians;
@@ -35,7 +37,7 @@
 //! `ONLINE_TIMING_SCAN_POSES=0|1` (0: the scans between keyframes observe
 //! through their odometry offset, as before 2026-11-28);
 //! `ONLINE_TIMING_START=filter|odometry|filter-motion` where a new pose
-//! starts (`OnlineStart`; the default `filter-motion` since 2026-12-01,
+//! starts (`OnlineStart`; the default `odometry` since 2026-12-01,
 //! `filter` before); `ONLINE_TIMING_POINT_CHART=1`;
 //! `ONLINE_TIMING_KERNEL=huber:k|cauchy:k|none`;
 //! `ONLINE_TIMING_TRIANGULATE=0|1`; `ONLINE_TIMING_KEYFRAME_ITERATIONS=n[,tol]`
@@ -129,6 +131,9 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     if let Some(lag) = flag("ONLINE_TIMING_KEYFRAME_LAG").and_then(|v| v.parse().ok()) {
         keyframes.fixed_lag.lag = lag;
     }
+    if let Some(n) = flag("ONLINE_TIMING_ACTIVE_ITERATIONS").and_then(|v| v.parse().ok()) {
+        keyframes.fixed_lag.active_max_iterations = (n > 0).then_some(n);
+    }
     if let Some(active) = flag("ONLINE_TIMING_ACTIVE_LAG").and_then(|v| v.parse().ok()) {
         keyframes.fixed_lag.active_lag = (active > 0).then_some(active);
     }
@@ -156,9 +161,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         rule.scan_poses = v == "1";
     }
     match flag("ONLINE_TIMING_START").as_deref() {
-        None | Some("filter-motion") => {}
+        None => {}
         Some("filter") => keyframes.smoother.online_start = OnlineStart::Filter,
         Some("odometry") => keyframes.smoother.online_start = OnlineStart::Odometry,
+        Some("filter-motion") => keyframes.smoother.online_start = OnlineStart::FilterMotion,
         Some(other) => {
             return Err(
                 format!("ONLINE_TIMING_START={other}: filter, odometry or filter-motion").into(),

@@ -90,7 +90,7 @@ pub struct SmootherConfig {
     pub triangulate_unmapped: Option<UnmappedTriangulation>,
     /// Fixed-lag mode: where a new pose and a new landmark start (set with
     /// the window by [`OnlineWindow::apply`]: the filter's estimate for the
-    /// per-scan window, the filter's motion from the window's pose for
+    /// per-scan window, odometry from the window's latest pose for
     /// keyframes).
     pub online_start: OnlineStart,
     /// Fixed-lag mode: which scans get a pose variable of their own
