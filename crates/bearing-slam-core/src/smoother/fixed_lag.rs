@@ -26,6 +26,7 @@
 
 pub mod frozen;
 pub mod prior_chart;
+mod square_root;
 
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
@@ -37,6 +38,7 @@ use crate::error::{Result, SlamError};
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
 pub use prior_chart::PriorAnchor;
 use prior_chart::{change_of_variables, choose_anchors};
+use square_root::information_square_root;
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 /// A measurement whose landmark stands closer than this to its sensor is
@@ -199,23 +201,30 @@ impl FixedLagSmoother {
     /// Every pose of the window before its `kept`-th newest counted one
     /// (riders after such a counted pose go with it), oldest first.
     fn poses_before_newest(&self, kept: usize) -> Vec<u64> {
-        let counted = self.window.len() - self.riders.len();
-        if counted <= kept {
-            return Vec::new();
+        self.window
+            .range(..self.newest_start(kept))
+            .copied()
+            .collect()
+    }
+
+    /// Where in the window the newest `kept` counted poses start (the
+    /// riders after them included), found from the newest end, so that an
+    /// update's work does not grow with the window; 0 when the window holds
+    /// no more than `kept` counted poses.
+    fn newest_start(&self, kept: usize) -> usize {
+        if kept == 0 {
+            return self.window.len();
         }
-        let mut excess = counted - kept;
-        let mut leaving = Vec::new();
-        for id in &self.window {
-            let rider = self.riders.contains(id);
-            if excess == 0 && !rider {
-                break;
+        let mut counted = 0;
+        for (i, id) in self.window.iter().enumerate().rev() {
+            if !self.riders.contains(id) {
+                counted += 1;
+                if counted == kept {
+                    return i;
+                }
             }
-            if !rider {
-                excess -= 1;
-            }
-            leaving.push(*id);
         }
-        leaving
+        0
     }
 
     /// Adds a landmark with its initial estimate (the filter's, when it
@@ -526,29 +535,13 @@ impl FixedLagSmoother {
             });
         }
         let (schur_h, schur_g) = schur_complement(m, &hmm, &hrm, &hrr, &g)?;
-        // Square root of the information: H' = V Λ Vᵀ, R = Λ^{1/2} Vᵀ over
-        // the eigenvalues above 1e-12 of the largest (so positive; the rest
-        // is rounding), r₀ = Λ^{-1/2} Vᵀ g'.
-        let eig = schur_h.symmetric_eigen();
-        let max = eig.eigenvalues.max().max(0.0);
-        let kept: Vec<usize> = (0..r)
-            .filter(|&i| eig.eigenvalues[i] > 1e-12 * max)
-            .collect();
-        if kept.is_empty() {
+        let Some((jac, off)) = information_square_root(&schur_h, &schur_g) else {
             return Ok(Elimination {
                 taken,
                 prior: None,
                 degenerate,
             });
-        }
-        let mut jac = DMatrix::<f64>::zeros(kept.len(), r);
-        let mut off = DVector::<f64>::zeros(kept.len());
-        for (row, &i) in kept.iter().enumerate() {
-            let s = eig.eigenvalues[i].sqrt();
-            let v = eig.eigenvectors.column(i);
-            jac.row_mut(row).copy_from(&(v.transpose() * s));
-            off[row] = v.dot(&schur_g) / s;
-        }
+        };
         let rest: Vec<Key> = keys[targets.len()..].to_vec();
         let lin_points = rest
             .iter()

@@ -9,10 +9,12 @@
 use super::factors::Factor;
 use super::graph::FactorGraph;
 use super::robust::RobustKernel;
-use super::values::{Key, Values};
+use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::perm::PermRef;
 use faer::sparse::linalg::SupernodalThreshold;
+use faer::sparse::linalg::amd;
 use faer::sparse::linalg::cholesky::supernodal::SupernodalLltRef;
 use faer::sparse::linalg::cholesky::{
     CholeskySymbolicParams, LltRef, SymbolicCholesky, SymbolicCholeskyRaw, SymmetricOrdering,
@@ -22,33 +24,33 @@ use faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 use nalgebra::DMatrix;
-use std::collections::{BTreeSet, HashMap};
 
 /// Where each variable lives in the stacked increment `δ`.
 #[derive(Clone, Debug)]
 pub(crate) struct Ordering {
+    /// The variables, sorted (poses, then landmarks, each by id).
     pub keys: Vec<Key>,
     pub offsets: Vec<usize>,
-    pub index: HashMap<Key, usize>,
     pub dim: usize,
 }
 
 impl Ordering {
-    pub fn new(keys: &BTreeSet<Key>) -> Self {
-        let keys: Vec<Key> = keys.iter().copied().collect();
+    /// The ordering of `keys` (sorted and deduplicated here).
+    pub fn new(mut keys: Vec<Key>) -> Self {
+        keys.sort_unstable();
+        keys.dedup();
         let mut offsets = Vec::with_capacity(keys.len());
         let mut dim = 0;
         for k in &keys {
             offsets.push(dim);
             dim += k.dim();
         }
-        let index = keys.iter().enumerate().map(|(i, k)| (*k, i)).collect();
-        Self {
-            keys,
-            offsets,
-            index,
-            dim,
-        }
+        Self { keys, offsets, dim }
+    }
+
+    /// The index of `key` among the variables.
+    pub fn index_of(&self, key: &Key) -> Option<usize> {
+        self.keys.binary_search(key).ok()
     }
 }
 
@@ -63,56 +65,81 @@ pub(crate) struct Pattern {
     bases: Vec<usize>,
     /// Position of each diagonal entry.
     pub diagonal: Vec<usize>,
-    /// Variable indices of each factor, in its key order.
-    pub factor_vars: Vec<Vec<usize>>,
+    /// Variable indices of every factor, in its key order, one factor after
+    /// the other: factor `i`'s are `factor_vars[var_start[i]..var_start[i + 1]]`.
+    factor_vars: Vec<usize>,
+    var_start: Vec<usize>,
     /// Per factor, the first column base (index into `bases`) of each of
     /// its blocks `(a, b)` with `a ≥ b`, in the order the assembly visits
-    /// them: no block lookup by hashing per linearization.
-    factor_slots: Vec<Vec<usize>>,
+    /// them (no block lookup per linearization), one factor after the
+    /// other: factor `i`'s are `factor_slots[slot_start[i]..slot_start[i + 1]]`.
+    factor_slots: Vec<usize>,
+    slot_start: Vec<usize>,
+    /// The lower triangle of `H`'s block pattern (one entry per variable
+    /// pair), compressed by column: what the fill-reducing ordering reads.
+    block_col_ptr: Vec<usize>,
+    block_row_idx: Vec<usize>,
 }
 
 impl Pattern {
     pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self> {
         graph.check(values)?;
-        let ordering = Ordering::new(&graph.keys());
-        let nvars = ordering.keys.len();
-        let mut factor_vars = Vec::with_capacity(graph.len());
-        let mut neighbours: Vec<BTreeSet<usize>> = vec![BTreeSet::new(); nvars];
+        // One allocation for every factor's keys, not one per factor.
+        let mut factor_keys = Vec::with_capacity(2 * graph.len());
+        let mut var_start = Vec::with_capacity(graph.len() + 1);
+        var_start.push(0);
         for f in graph.factors() {
-            let vars: Vec<usize> = f.keys().iter().map(|k| ordering.index[k]).collect();
-            for &a in &vars {
-                for &b in &vars {
+            factor_keys.extend(f.keys());
+            var_start.push(factor_keys.len());
+        }
+        let ordering = Ordering::new(factor_keys.clone());
+        let nvars = ordering.keys.len();
+        let factor_vars = factor_keys
+            .iter()
+            .map(|k| ordering.index_of(k).ok_or_else(|| unknown_key(*k)))
+            .collect::<Result<Vec<usize>>>()?;
+        // Per column variable, the row variables of its blocks (row ≥ column).
+        let mut neighbours: Vec<Vec<usize>> = (0..nvars).map(|c| vec![c]).collect();
+        for vars in var_start.windows(2).map(|w| &factor_vars[w[0]..w[1]]) {
+            for &a in vars {
+                for &b in vars {
                     // var indices follow offsets, so a ≥ b ⇔ offset(a) ≥ offset(b).
-                    if a >= b {
-                        neighbours[b].insert(a);
+                    if a > b {
+                        neighbours[b].push(a);
                     }
                 }
             }
-            factor_vars.push(vars);
+        }
+        for rows in &mut neighbours {
+            rows.sort_unstable();
+            rows.dedup();
         }
         let n = ordering.dim;
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
-        // `(row var, col var)` with `offset(row) ≥ offset(col)` → index into
-        // `bases` of the first of `dim(col)` column bases.
-        let mut slots = HashMap::new();
-        let mut bases = Vec::new();
+        // Block pair `(r, c)`, the `p`-th row variable of column `c`: its
+        // `dim(c)` column bases start at `column_slot[c] + p dim(c)` in `bases`.
+        let mut column_slot = Vec::with_capacity(nvars);
+        let mut slot_count = 0;
+        for (c, rows) in neighbours.iter().enumerate() {
+            column_slot.push(slot_count);
+            slot_count += rows.len() * ordering.keys[c].dim();
+        }
+        let slot = |r: usize, c: usize| -> Result<usize> {
+            let p = neighbours[c]
+                .binary_search(&r)
+                .map_err(|_| SlamError::Mismatch("a factor's block outside the pattern"))?;
+            Ok(column_slot[c] + p * ordering.keys[c].dim())
+        };
+        let mut bases = vec![0; slot_count];
         let mut diagonal = Vec::with_capacity(n);
         col_ptr.push(0);
-        // Slot starts first (one per block pair), then fill columns.
-        for (c, rows) in neighbours.iter().enumerate() {
-            for &r in rows {
-                slots.insert((r, c), bases.len());
-                bases.extend(std::iter::repeat_n(0, ordering.keys[c].dim()));
-            }
-        }
         for (c, rows) in neighbours.iter().enumerate() {
             let dc = ordering.keys[c].dim();
             let oc = ordering.offsets[c];
             for t in 0..dc {
-                for &r in rows {
-                    let base = slots[&(r, c)] + t;
-                    bases[base] = row_idx.len();
+                for (p, &r) in rows.iter().enumerate() {
+                    bases[column_slot[c] + p * dc + t] = row_idx.len();
                     let or = ordering.offsets[r];
                     let start = if r == c { oc + t } else { or };
                     if r == c {
@@ -123,20 +150,26 @@ impl Pattern {
                 col_ptr.push(row_idx.len());
             }
         }
-        let factor_slots = factor_vars
-            .iter()
-            .map(|vars| {
-                let mut first = Vec::with_capacity(vars.len() * (vars.len() + 1) / 2);
-                for &a in vars {
-                    for &b in vars {
-                        if a >= b {
-                            first.push(slots[&(a, b)]);
-                        }
+        let mut factor_slots = Vec::with_capacity(3 * graph.len());
+        let mut slot_start = Vec::with_capacity(graph.len() + 1);
+        slot_start.push(0);
+        for vars in var_start.windows(2).map(|w| &factor_vars[w[0]..w[1]]) {
+            for &a in vars {
+                for &b in vars {
+                    if a >= b {
+                        factor_slots.push(slot(a, b)?);
                     }
                 }
-                first
-            })
-            .collect();
+            }
+            slot_start.push(factor_slots.len());
+        }
+        let mut block_col_ptr = Vec::with_capacity(nvars + 1);
+        let mut block_row_idx = Vec::with_capacity(bases.len());
+        block_col_ptr.push(0);
+        for rows in &neighbours {
+            block_row_idx.extend(rows.iter().copied());
+            block_col_ptr.push(block_row_idx.len());
+        }
         Ok(Self {
             ordering,
             col_ptr,
@@ -144,8 +177,60 @@ impl Pattern {
             bases,
             diagonal,
             factor_vars,
+            var_start,
             factor_slots,
+            slot_start,
+            block_col_ptr,
+            block_row_idx,
         })
+    }
+
+    /// A fill-reducing ordering of `H`'s scalar rows and columns, as
+    /// (forward, inverse) permutations: AMD on the block pattern (one node
+    /// per variable, as GTSAM's COLAMD orders variables, not scalars), each
+    /// variable's scalars kept together in its place. AMD on the block
+    /// graph reads a ninth of the entries the scalar pattern has (3 × 3
+    /// pose blocks) and finds the same kind of ordering.
+    fn block_amd_ordering(&self) -> Result<(Vec<usize>, Vec<usize>)> {
+        let nvars = self.ordering.keys.len();
+        let blocks = SymbolicSparseColMatRef::new_checked(
+            nvars,
+            nvars,
+            &self.block_col_ptr,
+            None,
+            &self.block_row_idx,
+        );
+        let mut block_forward = vec![0usize; nvars];
+        let mut block_inverse = vec![0usize; nvars];
+        let mut buffer =
+            MemBuffer::try_new(amd::order_scratch::<usize>(nvars, self.block_row_idx.len()))
+                .map_err(faer_error)?;
+        amd::order(
+            &mut block_forward,
+            &mut block_inverse,
+            blocks,
+            amd::Control::default(),
+            MemStack::new(&mut buffer),
+        )
+        .map_err(faer_error)?;
+        let mut forward = Vec::with_capacity(self.ordering.dim);
+        for &var in &block_forward {
+            let offset = self.ordering.offsets[var];
+            forward.extend(offset..offset + self.ordering.keys[var].dim());
+        }
+        let mut inverse = vec![0usize; forward.len()];
+        for (new, &old) in forward.iter().enumerate() {
+            inverse[old] = new;
+        }
+        Ok((forward, inverse))
+    }
+
+    /// Factor `i`'s variable indices and block slots.
+    fn factor_blocks(&self, i: usize) -> (&[usize], &[usize]) {
+        (
+            &self.factor_vars[self.var_start[i]..self.var_start[i + 1]],
+            &self.factor_slots[self.slot_start[i]..self.slot_start[i + 1]],
+        )
     }
 
     pub fn nnz(&self) -> usize {
@@ -284,12 +369,11 @@ pub(crate) fn assemble(
     let mut hessian = vec![0.0; pattern.nnz()];
     let mut gradient = vec![0.0; pattern.ordering.dim];
     let mut cost = 0.0;
-    for ((f, vars), slots) in graph
-        .factors()
-        .iter()
-        .zip(&pattern.factor_vars)
-        .zip(&pattern.factor_slots)
-    {
+    if graph.len() + 1 != pattern.var_start.len() {
+        return Err(SlamError::Mismatch("the graph changed after its pattern"));
+    }
+    for (i, f) in graph.factors().iter().enumerate() {
+        let (vars, slots) = pattern.factor_blocks(i);
         let lin = f.linearize(values)?;
         let (c, w) = factor_cost(f, lin.residual.norm_squared(), kernel);
         cost += c;
@@ -346,10 +430,12 @@ impl SparseCholesky {
             },
             ..Default::default()
         };
+        let (forward, inverse) = pattern.block_amd_ordering()?;
+        let permutation = PermRef::new_checked(&forward, &inverse, forward.len());
         let symbolic = factorize_symbolic_cholesky(
             pattern.symbolic(),
             Side::Lower,
-            SymmetricOrdering::Amd,
+            SymmetricOrdering::Custom(permutation),
             params,
         )
         .map_err(faer_error)?;

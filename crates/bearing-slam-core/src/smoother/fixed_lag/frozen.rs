@@ -106,21 +106,24 @@ impl FixedLagSmoother {
         let Some(active) = self.config.active_lag else {
             return Ok(());
         };
+        // The held poses are the window's oldest (a hold takes every pose
+        // before the active part, and the active part only moves on), so
+        // the poses to hold now are those between them and the active
+        // part, found from the active part back: no pass over the window.
         let held = self.frozen.as_ref().map(|f| &f.poses);
-        let newly: Vec<u64> = self
-            .poses_before_newest(active)
-            .into_iter()
-            .filter(|id| held.is_none_or(|h| !h.contains(id)))
+        let start = self.newest_start(active);
+        let mut newly: Vec<u64> = self
+            .window
+            .range(..start)
+            .rev()
+            .take_while(|id| held.is_none_or(|h| !h.contains(id)))
+            .copied()
             .collect();
         if newly.is_empty() {
             return Ok(());
         }
-        let staying: Vec<u64> = self
-            .window
-            .iter()
-            .filter(|id| !newly.contains(id) && held.is_none_or(|h| !h.contains(id)))
-            .copied()
-            .collect();
+        newly.reverse();
+        let staying: Vec<u64> = self.window.range(start..).copied().collect();
         let old_prior = self.frozen.as_ref().and_then(|f| f.prior.clone());
         let elimination = self.eliminate(&newly, &staying)?;
         let (mut factors, prior) = (elimination.taken, elimination.prior);
