@@ -100,9 +100,12 @@ pub struct OnlineSmoother {
     /// Scans since the latest keyframe (observing from it, unless
     /// [`KeyframeRule::scan_poses`]).
     scans_since_keyframe: usize,
-    /// Odometry since the latest keyframe (the keyframe rule's motion; it
-    /// is `pending` unless scans between keyframes have poses of their own).
-    since_keyframe: PreintegratedOdometry,
+    /// The motion from the latest keyframe to the latest pose variable
+    /// (identity unless scans between keyframes have poses of their own):
+    /// composed with `pending`, the keyframe rule's motion. Composed from
+    /// the odometry factors' deltas, not integrated a second time (the
+    /// motion models are equivariant: preintegration.rs).
+    since_keyframe: Pose2,
     /// The filter's pose when the latest pose variable was added.
     filter_at_latest_node: Pose2,
     /// Scans added factors or poses since the latest solve (a keyframe
@@ -193,7 +196,7 @@ impl OnlineSmoother {
                 }),
             triangulated: BTreeMap::new(),
             scans_since_keyframe: 0,
-            since_keyframe: PreintegratedOdometry::new(),
+            since_keyframe: Pose2::default(),
             filter_at_latest_node: start,
             unsolved: false,
             latest_scan_time: f64::NAN,
@@ -481,7 +484,6 @@ impl OnlineEstimator for OnlineSmoother {
         OnlineEstimator::predict(&mut self.filter, time, model, control)?;
         let filter_s = clock.elapsed().as_secs_f64();
         self.pending.integrate(model, control)?;
-        self.since_keyframe.integrate(model, control)?;
         self.pending_filter_s += filter_s;
         self.pending_graph_s += (clock.elapsed().as_secs_f64() - filter_s).max(0.0);
         Ok(())
@@ -496,8 +498,13 @@ impl OnlineEstimator for OnlineSmoother {
         let clock = Instant::now();
         let solves = self.report.update_times_s.len();
         let counts = OnlineEstimator::update(&mut self.filter, time, scan, use_range)?;
+        // The filter's estimate after the scan, counted as the filter's
+        // work: it is the run's output for the scan (the runner asks for
+        // it next, as it does of the filter alone), and the window reads
+        // its pose and new landmarks from it.
+        let snapshot = self.filter.snapshot();
         let filter_s = clock.elapsed().as_secs_f64();
-        self.scan_step(time, scan)?;
+        self.scan_step(time, scan, snapshot)?;
         let solved_s: f64 = self.report.update_times_s[solves..].iter().sum();
         // The solves lie inside the step's interval: never below zero but
         // for the rounding of the subtraction.
@@ -567,8 +574,14 @@ impl OnlineEstimator for OnlineSmoother {
 }
 
 impl OnlineSmoother {
-    /// The smoother's part of a scan's update, after its filter's.
-    fn scan_step(&mut self, time: f64, scan: &[BearingObservation]) -> Result<()> {
+    /// The smoother's part of a scan's update, after its filter's
+    /// (`snapshot`: the filter's estimate after the scan).
+    fn scan_step(
+        &mut self,
+        time: f64,
+        scan: &[BearingObservation],
+        snapshot: EstimateSnapshot,
+    ) -> Result<()> {
         self.latest_scan_time = time;
         // With the ids hidden, the scan under the filter's ids (the bearings
         // given none dropped and counted).
@@ -594,11 +607,13 @@ impl OnlineSmoother {
             }
             None => scan,
         };
-        let snapshot = self.filter.snapshot();
         let scan_poses = self.keyframes.is_some_and(|rule| rule.scan_poses);
         let keyframe = self.pending.steps > 0
             && self.keyframes.is_none_or(|rule| {
-                rule.is_keyframe(&self.since_keyframe, self.scans_since_keyframe)
+                let motion = self
+                    .since_keyframe
+                    .compose(&Pose2::from_vector(&self.pending.delta));
+                rule.is_keyframe(&motion.to_vector(), self.scans_since_keyframe)
             });
         let rider = !keyframe && scan_poses && self.pending.steps > 0;
         if keyframe || rider {
@@ -627,6 +642,11 @@ impl OnlineSmoother {
                 self.smoother.add_pose(node, start.to_vector())?;
             }
             let motion = std::mem::take(&mut self.pending);
+            if rider {
+                self.since_keyframe = self
+                    .since_keyframe
+                    .compose(&Pose2::from_vector(&motion.delta));
+            }
             self.smoother
                 .add_factor(Factor::Odometry(OdometryFactor::from_preintegrated(
                     node - 1,
@@ -638,7 +658,7 @@ impl OnlineSmoother {
         }
         if keyframe {
             self.scans_since_keyframe = 0;
-            self.since_keyframe = PreintegratedOdometry::new();
+            self.since_keyframe = Pose2::default();
         }
         self.scans_since_keyframe += 1;
         let node = self.nodes - 1;

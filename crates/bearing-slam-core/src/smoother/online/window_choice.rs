@@ -5,8 +5,8 @@
 use crate::error::{Result, SlamError};
 use crate::smoother::fixed_lag::FixedLagConfig;
 use crate::smoother::online::OnlineStart;
-use crate::smoother::preintegration::PreintegratedOdometry;
 use crate::smoother::run::SmootherConfig;
+use nalgebra::Vector3;
 
 /// Which scans get a pose variable of their own in the online window
 /// ([`SmootherConfig::keyframes`]). A scan is a keyframe when the odometry
@@ -132,12 +132,13 @@ impl OnlineWindow {
 }
 
 impl KeyframeRule {
-    /// Whether a scan after `motion` since the latest pose variable, which
-    /// `scans` scans already observe from, is a keyframe.
+    /// Whether a scan after `motion` (`[Δx, Δy, Δθ]` in the latest
+    /// keyframe's frame) since the latest keyframe, which `scans` scans
+    /// already observe from, is a keyframe.
     #[must_use]
-    pub fn is_keyframe(&self, motion: &PreintegratedOdometry, scans: usize) -> bool {
-        motion.delta.fixed_rows::<2>(0).norm() >= self.min_translation_m
-            || motion.delta.z.abs() >= self.min_rotation_rad
+    pub fn is_keyframe(&self, motion: &Vector3<f64>, scans: usize) -> bool {
+        motion.fixed_rows::<2>(0).norm() >= self.min_translation_m
+            || motion.z.abs() >= self.min_rotation_rad
             || scans >= self.max_scans
     }
 
