@@ -226,6 +226,14 @@ fn keyframe_windows_with_scan_poses_solve_at_keyframes_and_stay_near_the_batch()
         with_poses.report.update_times_s.len(),
         with_offsets.report.update_times_s.len()
     );
+    // At the same scans: with scan poses the rule's motion since the
+    // keyframe is composed from the riders' odometry factors, without
+    // them it is the odometry pending since the keyframe. (The first
+    // solve is the start's, before any scan: NaN in both.)
+    assert_eq!(
+        with_poses.report.update_at_s[1..],
+        with_offsets.report.update_at_s[1..]
+    );
     assert!(3 * with_offsets.report.n_poses < with_poses.report.n_poses);
     let b = summarize(&log, &batch.output).unwrap();
     let k = summarize(&log, &with_poses.output).unwrap();
