@@ -84,7 +84,7 @@ pub(crate) struct Pattern {
 impl Pattern {
     pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self> {
         graph.check(values)?;
-        // One allocation for every factor's keys, not one per factor.
+        // Every factor's keys in one array, not an array per factor.
         let mut factor_keys = Vec::with_capacity(2 * graph.len());
         let mut var_start = Vec::with_capacity(graph.len() + 1);
         var_start.push(0);

@@ -14,8 +14,9 @@ use nalgebra::{DMatrix, DVector};
 /// largest remaining diagonal entry as pivot, its scaled row as a row of `R`
 /// and the outer product of that row out of the rest, and the factorization
 /// stops when every remaining diagonal entry is below `1e-12` of `h`'s
-/// largest (what is left is rounding). A third of an eigendecomposition's
-/// work, `n³/3`, at the held prior's 30–60 dimensions.
+/// largest (what is left is rounding). About `n³/3` flops where the
+/// eigendecomposition it replaces took several `n³`, at the held prior's
+/// 30–60 dimensions.
 pub(super) fn information_square_root(
     h: &DMatrix<f64>,
     g: &DVector<f64>,
