@@ -608,12 +608,13 @@ impl OnlineSmoother {
             None => scan,
         };
         let scan_poses = self.keyframes.is_some_and(|rule| rule.scan_poses);
+        // The motion since the latest keyframe, this scan's odometry included.
+        let since_keyframe = self
+            .since_keyframe
+            .compose(&Pose2::from_vector(&self.pending.delta));
         let keyframe = self.pending.steps > 0
             && self.keyframes.is_none_or(|rule| {
-                let motion = self
-                    .since_keyframe
-                    .compose(&Pose2::from_vector(&self.pending.delta));
-                rule.is_keyframe(&motion.to_vector(), self.scans_since_keyframe)
+                rule.is_keyframe(&since_keyframe.to_vector(), self.scans_since_keyframe)
             });
         let rider = !keyframe && scan_poses && self.pending.steps > 0;
         if keyframe || rider {
@@ -643,9 +644,7 @@ impl OnlineSmoother {
             }
             let motion = std::mem::take(&mut self.pending);
             if rider {
-                self.since_keyframe = self
-                    .since_keyframe
-                    .compose(&Pose2::from_vector(&motion.delta));
+                self.since_keyframe = since_keyframe;
             }
             self.smoother
                 .add_factor(Factor::Odometry(OdometryFactor::from_preintegrated(
