@@ -522,6 +522,57 @@ impl LinearFactor {
     }
 }
 
+/// The variables one factor touches ([`Factor::keys`]), read as a slice:
+/// the one or two keys of a nonlinear factor held inline, a linear
+/// factor's borrowed.
+#[derive(Clone, Copy, Debug)]
+pub enum FactorKeys<'a> {
+    /// The first `n` (1 or 2) of the keys.
+    Inline([Key; 2], usize),
+    /// A linear factor's keys.
+    Borrowed(&'a [Key]),
+}
+
+impl std::ops::Deref for FactorKeys<'_> {
+    type Target = [Key];
+
+    fn deref(&self) -> &[Key] {
+        match self {
+            FactorKeys::Inline(keys, n) => &keys[..*n],
+            FactorKeys::Borrowed(keys) => keys,
+        }
+    }
+}
+
+impl<'a> IntoIterator for FactorKeys<'a> {
+    type Item = Key;
+    type IntoIter = FactorKeysIter<'a>;
+
+    fn into_iter(self) -> FactorKeysIter<'a> {
+        FactorKeysIter {
+            keys: self,
+            next: 0,
+        }
+    }
+}
+
+/// The keys of a [`FactorKeys`], by value.
+#[derive(Clone, Debug)]
+pub struct FactorKeysIter<'a> {
+    keys: FactorKeys<'a>,
+    next: usize,
+}
+
+impl Iterator for FactorKeysIter<'_> {
+    type Item = Key;
+
+    fn next(&mut self) -> Option<Key> {
+        let key = self.keys.get(self.next).copied();
+        self.next += 1;
+        key
+    }
+}
+
 /// Any factor of the graph.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 #[serde(tag = "kind", content = "data", rename_all = "snake_case")]
@@ -541,16 +592,18 @@ pub enum Factor {
 }
 
 impl Factor {
-    /// The variables the factor touches, in the order of its Jacobians.
+    /// The variables the factor touches, in the order of its Jacobians
+    /// (a view, not a copy: graph passes ask this of every factor).
     #[must_use]
-    pub fn keys(&self) -> Vec<Key> {
+    pub fn keys(&self) -> FactorKeys<'_> {
+        let two = |a, b| FactorKeys::Inline([a, b], 2);
         match self {
-            Factor::PosePrior(f) => vec![Key::Pose(f.pose)],
-            Factor::LandmarkPrior(f) => vec![Key::Landmark(f.landmark)],
-            Factor::Odometry(f) => vec![Key::Pose(f.from), Key::Pose(f.to)],
-            Factor::Bearing(f) => vec![Key::Pose(f.pose), Key::Landmark(f.landmark)],
-            Factor::RangeBearing(f) => vec![Key::Pose(f.pose), Key::Landmark(f.landmark)],
-            Factor::Linear(f) => f.keys.clone(),
+            Factor::PosePrior(f) => FactorKeys::Inline([Key::Pose(f.pose); 2], 1),
+            Factor::LandmarkPrior(f) => FactorKeys::Inline([Key::Landmark(f.landmark); 2], 1),
+            Factor::Odometry(f) => two(Key::Pose(f.from), Key::Pose(f.to)),
+            Factor::Bearing(f) => two(Key::Pose(f.pose), Key::Landmark(f.landmark)),
+            Factor::RangeBearing(f) => two(Key::Pose(f.pose), Key::Landmark(f.landmark)),
+            Factor::Linear(f) => FactorKeys::Borrowed(&f.keys),
         }
     }
 

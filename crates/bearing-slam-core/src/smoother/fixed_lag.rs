@@ -35,6 +35,7 @@ use super::solver::{SolveReport, SolverConfig, optimize_on};
 use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
+use faer::sparse::Triplet;
 use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
 pub use prior_chart::PriorAnchor;
 use prior_chart::{change_of_variables, choose_anchors};
@@ -427,21 +428,35 @@ impl FixedLagSmoother {
     /// one linear prior on the rest (see [`Self::marginalize`]): what it
     /// took and added ([`Elimination`]). The poses' values stay.
     fn eliminate(&mut self, ids: &[u64], staying: &[u64]) -> Result<Elimination> {
-        let targets: Vec<Key> = ids.iter().map(|id| Key::Pose(*id)).collect();
-        if targets.is_empty() {
+        // The targets sorted, found by bisection (a held part eliminates
+        // hundreds of poses at once, and every factor's keys are asked).
+        let mut target_ids = ids.to_vec();
+        target_ids.sort_unstable();
+        target_ids.dedup();
+        if target_ids.is_empty() {
             return Ok(Elimination::default());
         }
+        let target_index = |k: &Key| match k {
+            Key::Pose(id) => target_ids.binary_search(id).ok(),
+            Key::Landmark(_) => None,
+        };
         let taken = self.graph.extract(|f| {
-            matches!(f, Factor::Linear(_)) || f.keys().iter().any(|k| targets.contains(k))
+            matches!(f, Factor::Linear(_)) || f.keys().iter().any(|k| target_index(k).is_some())
         });
+        let mut rest: BTreeSet<Key> = taken
+            .iter()
+            .flat_map(Factor::keys)
+            .filter(|k| target_index(k).is_none())
+            .collect();
         // Linearization point: first estimates of the previous prior's keys
         // (FEJ), or the current estimate, of what the taken factors touch
         // and of the poses the prior may anchor at (not the whole window:
         // a hold eliminates a few poses at every update).
-        let touched: Vec<Key> = taken
+        let touched: Vec<Key> = target_ids
             .iter()
-            .flat_map(Factor::keys)
-            .chain(staying.iter().map(|id| Key::Pose(*id)))
+            .chain(staying)
+            .map(|id| Key::Pose(*id))
+            .chain(rest.iter().copied())
             .collect();
         let mut point = self.values.restricted_to(&touched);
         for f in taken.iter().filter(|_| self.config.first_estimates) {
@@ -451,11 +466,6 @@ impl FixedLagSmoother {
                 }
             }
         }
-        let mut rest: BTreeSet<Key> = taken
-            .iter()
-            .flat_map(Factor::keys)
-            .filter(|k| !targets.contains(k))
-            .collect();
         let anchors = choose_anchors(
             &self.graph,
             &taken,
@@ -465,19 +475,29 @@ impl FixedLagSmoother {
             self.config.prior_anchor,
         )?;
         rest.extend(anchors.values().map(|pose| Key::Pose(*pose)));
-        let keys: Vec<Key> = targets.iter().chain(rest.iter()).copied().collect();
-        let mut offsets = BTreeMap::new();
-        let mut n = 0;
-        for k in &keys {
-            offsets.insert(*k, n);
-            n += k.dim();
+        let rest: Vec<Key> = rest.into_iter().collect();
+        // Offsets in [targets | rest]: the targets' are 3 per pose; the
+        // rest's, found by bisection of the sorted keys.
+        let m = 3 * target_ids.len();
+        let mut rest_offsets = Vec::with_capacity(rest.len());
+        let mut r = 0;
+        for k in &rest {
+            rest_offsets.push(m + r);
+            r += k.dim();
         }
+        let n = m + r;
+        let offset_of = |k: &Key| match target_index(k) {
+            Some(i) => Ok(3 * i),
+            None => rest
+                .binary_search(k)
+                .map(|i| rest_offsets[i])
+                .map_err(|_| unknown_key(*k)),
+        };
         // H = Σ w JᵀJ and g = Σ w Jᵀe over [targets | rest]: the targets'
-        // block sparse (a held part has hundreds of poses, chained), the
-        // rest's blocks dense (the landmarks and a few poses).
-        let m: usize = targets.iter().map(|k| k.dim()).sum();
-        let r = n - m;
-        let mut hmm: BTreeMap<(usize, usize), f64> = BTreeMap::new();
+        // block sparse (a held part has hundreds of poses, chained; its
+        // lower triangle as triplets, repeated entries summed), the rest's
+        // blocks dense (the landmarks and a few poses).
+        let mut hmm: Vec<Triplet<usize, usize, f64>> = Vec::new();
         let mut hrm = DMatrix::<f64>::zeros(r, m);
         let mut hrr = DMatrix::<f64>::zeros(r, r);
         let mut g = DVector::<f64>::zeros(n);
@@ -498,18 +518,18 @@ impl FixedLagSmoother {
             };
             let fk = f.keys();
             for (a, ja) in fk.iter().zip(&lin.jacobians) {
-                let oa = offsets[a];
+                let oa = offset_of(a)?;
                 let mut ga = g.rows_mut(oa, a.dim());
                 ga += ja.tr_mul(&lin.residual) * w;
                 for (b, jb) in fk.iter().zip(&lin.jacobians) {
-                    let ob = offsets[b];
+                    let ob = offset_of(b)?;
                     let block = ja.tr_mul(jb) * w;
                     match (oa < m, ob < m) {
                         (true, true) => {
                             for j in 0..b.dim() {
                                 for i in 0..a.dim() {
                                     if oa + i >= ob + j {
-                                        *hmm.entry((oa + i, ob + j)).or_default() += block[(i, j)];
+                                        hmm.push(Triplet::new(oa + i, ob + j, block[(i, j)]));
                                     }
                                 }
                             }
@@ -542,7 +562,6 @@ impl FixedLagSmoother {
                 degenerate,
             });
         };
-        let rest: Vec<Key> = keys[targets.len()..].to_vec();
         let lin_points = rest
             .iter()
             .map(|k| point.get(*k))
@@ -580,22 +599,18 @@ struct Elimination {
 /// `faer`. Errors when `H_mm` is not positive definite.
 fn schur_complement(
     m: usize,
-    hmm: &BTreeMap<(usize, usize), f64>,
+    hmm: &[Triplet<usize, usize, f64>],
     hrm: &DMatrix<f64>,
     hrr: &DMatrix<f64>,
     g: &DVector<f64>,
 ) -> Result<(DMatrix<f64>, DVector<f64>)> {
     use faer::linalg::solvers::Solve;
-    use faer::sparse::{SparseColMat, Triplet};
+    use faer::sparse::SparseColMat;
     let not_pd = || SlamError::NotPositiveDefinite {
         what: "the information of the eliminated poses",
     };
     let r = hrr.nrows();
-    let triplets: Vec<Triplet<usize, usize, f64>> = hmm
-        .iter()
-        .map(|(&(i, j), &v)| Triplet::new(i, j, v))
-        .collect();
-    let h = SparseColMat::<usize, f64>::try_new_from_triplets(m, m, &triplets)
+    let h = SparseColMat::<usize, f64>::try_new_from_triplets(m, m, hmm)
         .map_err(|_| SlamError::Degenerate("the eliminated poses' information has no entries"))?;
     let llt = h.sp_cholesky(faer::Side::Lower).map_err(|_| not_pd())?;
     // [H_mr | g_m], solved in place: [H_mm⁻¹ H_mr | H_mm⁻¹ g_m].

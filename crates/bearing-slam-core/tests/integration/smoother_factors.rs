@@ -103,7 +103,7 @@ fn check_in_charts(factor: &Factor, values: &Values) -> Result<(), String> {
     let retracted = |delta: &DVector<f64>| {
         let mut v = values.clone();
         let mut off = 0;
-        for k in &keys {
+        for k in keys.iter() {
             v.retract(*k, &delta.as_slice()[off..off + k.dim()])
                 .unwrap();
             off += k.dim();

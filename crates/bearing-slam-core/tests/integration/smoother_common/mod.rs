@@ -149,7 +149,7 @@ pub fn with_outlier(p: &Problem, pose: u64, landmark: u64, offset: f64) -> Facto
     let mut g = FactorGraph::new();
     for f in p.graph.factors() {
         if let Factor::Bearing(_) = f
-            && f.keys() == vec![Key::Pose(pose), Key::Landmark(landmark)]
+            && *f.keys() == [Key::Pose(pose), Key::Landmark(landmark)]
         {
             let z = p
                 .bearings
