@@ -83,7 +83,9 @@ pub(crate) struct Pattern {
 
 impl Pattern {
     pub fn new(graph: &FactorGraph, values: &Values) -> Result<Self> {
-        graph.check(values)?;
+        if graph.is_empty() {
+            return Err(SlamError::Mismatch("the factor graph is empty"));
+        }
         // Every factor's keys in one array, not an array per factor.
         let mut factor_keys = Vec::with_capacity(2 * graph.len());
         let mut var_start = Vec::with_capacity(graph.len() + 1);
@@ -93,6 +95,11 @@ impl Pattern {
             var_start.push(factor_keys.len());
         }
         let ordering = Ordering::new(factor_keys.clone());
+        // Each variable checked once (`FactorGraph::check` would read every
+        // factor's keys again).
+        if let Some(k) = ordering.keys.iter().find(|k| !values.contains(**k)) {
+            return Err(unknown_key(*k));
+        }
         let nvars = ordering.keys.len();
         let factor_vars = factor_keys
             .iter()
