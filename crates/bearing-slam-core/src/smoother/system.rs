@@ -105,22 +105,30 @@ impl Pattern {
             .iter()
             .map(|k| ordering.index_of(k).ok_or_else(|| unknown_key(*k)))
             .collect::<Result<Vec<usize>>>()?;
-        // Per column variable, the row variables of its blocks (row ≥ column).
-        let mut neighbours: Vec<Vec<usize>> = (0..nvars).map(|c| vec![c]).collect();
+        // The lower triangle of the block pattern, compressed by column:
+        // every block pair `(column, row)` with row ≥ column, sorted, once.
+        let mut pairs: Vec<(usize, usize)> = (0..nvars).map(|c| (c, c)).collect();
         for vars in var_start.windows(2).map(|w| &factor_vars[w[0]..w[1]]) {
             for &a in vars {
                 for &b in vars {
                     // var indices follow offsets, so a ≥ b ⇔ offset(a) ≥ offset(b).
                     if a > b {
-                        neighbours[b].push(a);
+                        pairs.push((b, a));
                     }
                 }
             }
         }
-        for rows in &mut neighbours {
-            rows.sort_unstable();
-            rows.dedup();
+        pairs.sort_unstable();
+        pairs.dedup();
+        let mut block_col_ptr = vec![0; nvars + 1];
+        for &(c, _) in &pairs {
+            block_col_ptr[c + 1] += 1;
         }
+        for c in 0..nvars {
+            block_col_ptr[c + 1] += block_col_ptr[c];
+        }
+        let block_row_idx: Vec<usize> = pairs.iter().map(|&(_, r)| r).collect();
+        let neighbours = |c: usize| &block_row_idx[block_col_ptr[c]..block_col_ptr[c + 1]];
         let n = ordering.dim;
         let mut col_ptr = Vec::with_capacity(n + 1);
         let mut row_idx = Vec::new();
@@ -128,12 +136,12 @@ impl Pattern {
         // `dim(c)` column bases start at `column_slot[c] + p dim(c)` in `bases`.
         let mut column_slot = Vec::with_capacity(nvars);
         let mut slot_count = 0;
-        for (c, rows) in neighbours.iter().enumerate() {
+        for c in 0..nvars {
             column_slot.push(slot_count);
-            slot_count += rows.len() * ordering.keys[c].dim();
+            slot_count += neighbours(c).len() * ordering.keys[c].dim();
         }
         let slot = |r: usize, c: usize| -> Result<usize> {
-            let p = neighbours[c]
+            let p = neighbours(c)
                 .binary_search(&r)
                 .map_err(|_| SlamError::Mismatch("a factor's block outside the pattern"))?;
             Ok(column_slot[c] + p * ordering.keys[c].dim())
@@ -141,7 +149,8 @@ impl Pattern {
         let mut bases = vec![0; slot_count];
         let mut diagonal = Vec::with_capacity(n);
         col_ptr.push(0);
-        for (c, rows) in neighbours.iter().enumerate() {
+        for c in 0..nvars {
+            let rows = neighbours(c);
             let dc = ordering.keys[c].dim();
             let oc = ordering.offsets[c];
             for t in 0..dc {
@@ -169,13 +178,6 @@ impl Pattern {
                 }
             }
             slot_start.push(factor_slots.len());
-        }
-        let mut block_col_ptr = Vec::with_capacity(nvars + 1);
-        let mut block_row_idx = Vec::with_capacity(bases.len());
-        block_col_ptr.push(0);
-        for rows in &neighbours {
-            block_row_idx.extend(rows.iter().copied());
-            block_col_ptr.push(block_row_idx.len());
         }
         Ok(Self {
             ordering,
