@@ -516,14 +516,28 @@ impl FixedLagSmoother {
             } else {
                 1.0
             };
+            // `w JᵀJ` and `w Jᵀe` of the factor's stacked Jacobian in one
+            // product each (a prior's is dense over tens of keys), then
+            // scattered by key.
             let fk = f.keys();
-            for (a, ja) in fk.iter().zip(&lin.jacobians) {
+            let cols: usize = lin.jacobians.iter().map(|j| j.ncols()).sum();
+            let mut stacked = DMatrix::<f64>::zeros(lin.residual.len(), cols);
+            let mut local = Vec::with_capacity(fk.len());
+            let mut c = 0;
+            for j in &lin.jacobians {
+                stacked.columns_mut(c, j.ncols()).copy_from(j);
+                local.push(c);
+                c += j.ncols();
+            }
+            let jtj = stacked.tr_mul(&stacked) * w;
+            let jte = stacked.tr_mul(&lin.residual) * w;
+            for (a, &ca) in fk.iter().zip(&local) {
                 let oa = offset_of(a)?;
                 let mut ga = g.rows_mut(oa, a.dim());
-                ga += ja.tr_mul(&lin.residual) * w;
-                for (b, jb) in fk.iter().zip(&lin.jacobians) {
+                ga += jte.rows(ca, a.dim());
+                for (b, &cb) in fk.iter().zip(&local) {
                     let ob = offset_of(b)?;
-                    let block = ja.tr_mul(jb) * w;
+                    let block = jtj.view((ca, cb), (a.dim(), b.dim()));
                     match (oa < m, ob < m) {
                         (true, true) => {
                             for j in 0..b.dim() {
