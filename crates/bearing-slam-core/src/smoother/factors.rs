@@ -16,6 +16,9 @@ use crate::measurement::{BearingToPoint, RangeBearing};
 use crate::model::MeasurementModel;
 use nalgebra::{DMatrix, DVector, Matrix2, Matrix3, Vector1, Vector2, Vector3};
 use serde::Serialize;
+pub(crate) use small::SmallLinearization;
+
+mod small;
 
 /// A factor linearized at the current estimate: whitened residual `e` and,
 /// per key (in [`Factor::keys`] order), `∂e/∂δ` so that
@@ -471,30 +474,8 @@ impl LinearFactor {
     /// is `R_u ∂u/∂p ∂p/∂δ` on the landmark and `−R_u ∂u/∂p` added to the
     /// anchor's `[x, y]` columns, at the current estimate.
     fn linearize(&self, values: &Values) -> Result<Linearization> {
-        let mut delta = Vec::with_capacity(self.jacobian.ncols());
-        // For each pose-anchored landmark key, `∂u/∂p` at the estimate.
-        let mut gradients = Vec::with_capacity(self.keys.len());
-        for (i, (k, x0)) in self.keys.iter().zip(&self.linearization_point).enumerate() {
-            let x = values.get(*k)?;
-            match self.anchors[i] {
-                Some(j) => {
-                    let a = values.get(self.keys[j])?;
-                    let a0 = &self.linearization_point[j];
-                    let a = Vector2::new(a[0], a[1]);
-                    let p = Vector2::new(x[0], x[1]);
-                    let u = inverse_depth_of(&a, &p);
-                    let u0 =
-                        inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
-                    delta.extend([wrap_angle(u.x - u0.x), u.y - u0.y]);
-                    gradients.push(Some(inverse_depth_gradient(&a, &p)?));
-                }
-                None => {
-                    delta.extend(values.local_difference(*k, &x, x0).iter());
-                    gradients.push(None);
-                }
-            }
-        }
-        let residual = &self.jacobian * DVector::from_vec(delta) + &self.offset;
+        let (delta, gradients) = self.difference(values)?;
+        let residual = &self.jacobian * delta + &self.offset;
         let mut jacobians = Vec::with_capacity(self.keys.len());
         let mut col = 0;
         for k in &self.keys {
@@ -519,6 +500,41 @@ impl LinearFactor {
             residual,
             jacobians,
         })
+    }
+
+    /// The residual `R (x ⊟ x₀) + r₀` alone.
+    fn residual(&self, values: &Values) -> Result<DVector<f64>> {
+        Ok(&self.jacobian * self.difference(values)?.0 + &self.offset)
+    }
+
+    /// `x ⊟ x₀` key by key (a pose-anchored landmark as `u(p, x_a) −
+    /// u(p₀, x_a₀)`) and, for each such landmark, `∂u/∂p` at the estimate.
+    #[allow(clippy::type_complexity)]
+    fn difference(&self, values: &Values) -> Result<(DVector<f64>, Vec<Option<Matrix2<f64>>>)> {
+        let mut delta = Vec::with_capacity(self.jacobian.ncols());
+        // For each pose-anchored landmark key, `∂u/∂p` at the estimate.
+        let mut gradients = Vec::with_capacity(self.keys.len());
+        for (i, (k, x0)) in self.keys.iter().zip(&self.linearization_point).enumerate() {
+            let x = values.get(*k)?;
+            match self.anchors[i] {
+                Some(j) => {
+                    let a = values.get(self.keys[j])?;
+                    let a0 = &self.linearization_point[j];
+                    let a = Vector2::new(a[0], a[1]);
+                    let p = Vector2::new(x[0], x[1]);
+                    let u = inverse_depth_of(&a, &p);
+                    let u0 =
+                        inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
+                    delta.extend([wrap_angle(u.x - u0.x), u.y - u0.y]);
+                    gradients.push(Some(inverse_depth_gradient(&a, &p)?));
+                }
+                None => {
+                    delta.extend(values.local_difference(*k, &x, x0).iter());
+                    gradients.push(None);
+                }
+            }
+        }
+        Ok((DVector::from_vec(delta), gradients))
     }
 }
 
@@ -639,14 +655,13 @@ impl Factor {
     /// ([`Values::anchor_landmark`]) gets `J_p ∂p/∂[θ, ρ]`. A linear
     /// factor's Jacobian is already in the charts it was formed in.
     pub fn linearize(&self, values: &Values) -> Result<Linearization> {
-        let mut lin = self.linearize_at_points(values)?;
-        if values.has_anchors()
-            && let Some((id, slot)) = self.landmark_slot()
-            && let Some(chart) = values.landmark_chart_jacobian(id)?
-        {
-            lin.jacobians[slot] = &lin.jacobians[slot] * dm(&chart);
+        match (self, self.small_linearize(values)?) {
+            (_, Some(lin)) => Ok(lin.to_dynamic()),
+            (Factor::Linear(f), None) => f.linearize(values),
+            (_, None) => Err(SlamError::Mismatch(
+                "a nonlinear factor without a linearization",
+            )),
         }
-        Ok(lin)
     }
 
     /// The landmark a point-measuring factor touches and the index of its
@@ -660,85 +675,98 @@ impl Factor {
         }
     }
 
-    /// [`Factor::linearize`] with every landmark Jacobian taken with
-    /// respect to its point.
-    fn linearize_at_points(&self, values: &Values) -> Result<Linearization> {
-        match self {
+    /// A nonlinear factor's linearization, on the stack, with every
+    /// landmark Jacobian taken with respect to its point; `None` for a
+    /// linear factor.
+    fn small_at_points(&self, values: &Values) -> Result<Option<SmallLinearization>> {
+        Ok(Some(match self {
             Factor::PosePrior(f) => {
                 let x = values.pose(f.pose)?;
                 let mut r = x - f.mean;
                 r.z = wrap_angle(r.z);
-                Ok(Linearization {
-                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
-                    jacobians: vec![dm(&f.sqrt_info)],
-                })
+                SmallLinearization::one(&(f.sqrt_info * r), &f.sqrt_info)
             }
             Factor::LandmarkPrior(f) => {
                 let r = values.landmark(f.landmark)? - f.mean;
-                Ok(Linearization {
-                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
-                    jacobians: vec![dm(&f.sqrt_info)],
-                })
+                SmallLinearization::one(&(f.sqrt_info * r), &f.sqrt_info)
             }
             Factor::Odometry(f) => {
                 let (r, ji, jj) = f.raw(&values.pose(f.from)?, &values.pose(f.to)?);
-                Ok(Linearization {
-                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
-                    jacobians: vec![dm(&(f.sqrt_info * ji)), dm(&(f.sqrt_info * jj))],
-                })
+                SmallLinearization::two(
+                    &(f.sqrt_info * r),
+                    &(f.sqrt_info * ji),
+                    &(f.sqrt_info * jj),
+                )
             }
             Factor::Bearing(f) => {
                 let x = values.pose(f.pose)?;
                 let p = values.landmark(f.landmark)?;
                 let w = -1.0 / f.sigma;
-                if let Some(offset) = &f.offset {
-                    let (sensor, j_sensor) = offset_pose(&x, offset);
-                    let pred = BearingToPoint.predict(&sensor, &p)?;
-                    let r = BearingToPoint.residual(&Vector1::new(f.bearing), &pred.value);
-                    return Ok(Linearization {
-                        residual: DVector::from_element(1, r.x / f.sigma),
-                        jacobians: vec![
-                            dm(&(pred.j_z_vehicle * j_sensor * w)),
-                            dm(&(pred.j_z_landmark * w)),
-                        ],
-                    });
-                }
-                let pred = BearingToPoint.predict(&x, &p)?;
+                let (sensor, j_sensor) = match &f.offset {
+                    Some(offset) => offset_pose(&x, offset),
+                    None => (x, Matrix3::identity()),
+                };
+                let pred = BearingToPoint.predict(&sensor, &p)?;
                 let r = BearingToPoint.residual(&Vector1::new(f.bearing), &pred.value);
-                Ok(Linearization {
-                    residual: DVector::from_element(1, r.x / f.sigma),
-                    jacobians: vec![dm(&(pred.j_z_vehicle * w)), dm(&(pred.j_z_landmark * w))],
-                })
+                SmallLinearization::two(
+                    &(r / f.sigma),
+                    &(pred.j_z_vehicle * j_sensor * w),
+                    &(pred.j_z_landmark * w),
+                )
             }
             Factor::RangeBearing(f) => {
                 let x = values.pose(f.pose)?;
                 let p = values.landmark(f.landmark)?;
                 let s = -f.sqrt_info;
-                if let Some(offset) = &f.offset {
-                    let (sensor, j_sensor) = offset_pose(&x, offset);
-                    let pred = RangeBearing.predict(&sensor, &p)?;
-                    let r = RangeBearing.residual(&f.measured, &pred.value);
-                    return Ok(Linearization {
-                        residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
-                        jacobians: vec![
-                            dm(&(s * pred.j_z_vehicle * j_sensor)),
-                            dm(&(s * pred.j_z_landmark)),
-                        ],
-                    });
-                }
-                let pred = RangeBearing.predict(&x, &p)?;
+                let (sensor, j_sensor) = match &f.offset {
+                    Some(offset) => offset_pose(&x, offset),
+                    None => (x, Matrix3::identity()),
+                };
+                let pred = RangeBearing.predict(&sensor, &p)?;
                 let r = RangeBearing.residual(&f.measured, &pred.value);
-                Ok(Linearization {
-                    residual: DVector::from_column_slice((f.sqrt_info * r).as_slice()),
-                    jacobians: vec![dm(&(s * pred.j_z_vehicle)), dm(&(s * pred.j_z_landmark))],
-                })
+                SmallLinearization::two(
+                    &(f.sqrt_info * r),
+                    &(s * pred.j_z_vehicle * j_sensor),
+                    &(s * pred.j_z_landmark),
+                )
             }
-            Factor::Linear(f) => f.linearize(values),
+            Factor::Linear(_) => return Ok(None),
+        }))
+    }
+
+    /// [`Factor::linearize`] of a nonlinear factor, on the stack (no
+    /// allocation: the solver's assembly reads every factor at every
+    /// iteration); `None` for a linear factor.
+    pub(crate) fn small_linearize(&self, values: &Values) -> Result<Option<SmallLinearization>> {
+        let Some(mut lin) = self.small_at_points(values)? else {
+            return Ok(None);
+        };
+        if values.has_anchors()
+            && let Some((id, slot)) = self.landmark_slot()
+            && let Some(chart) = values.landmark_chart_jacobian(id)?
+        {
+            lin.apply_chart(slot, &chart);
         }
+        Ok(Some(lin))
     }
 
     /// The whitened residual only.
     pub fn error(&self, values: &Values) -> Result<DVector<f64>> {
-        Ok(self.linearize(values)?.residual)
+        match (self, self.small_at_points(values)?) {
+            (_, Some(lin)) => Ok(lin.residual().into_owned()),
+            (Factor::Linear(f), None) => f.residual(values),
+            (_, None) => Err(SlamError::Mismatch(
+                "a nonlinear factor without a linearization",
+            )),
+        }
+    }
+
+    /// `‖e‖²`, without allocating for a nonlinear factor (every cost
+    /// evaluation asks it of every factor).
+    pub(crate) fn squared_error(&self, values: &Values) -> Result<f64> {
+        match self.small_at_points(values)? {
+            Some(lin) => Ok(lin.squared_norm()),
+            None => Ok(self.error(values)?.norm_squared()),
+        }
     }
 }

@@ -23,7 +23,12 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use nalgebra::DMatrix;
+use nalgebra::{DMatrix, Dyn, Matrix, Storage, U1};
+
+/// A Jacobian block, on the heap or a view of one on the stack.
+type Block<S> = Matrix<f64, Dyn, Dyn, S>;
+/// A residual, on the heap or a view of one on the stack.
+type Column<S> = Matrix<f64, Dyn, U1, S>;
 
 /// Where each variable lives in the stacked increment `δ`.
 #[derive(Clone, Debug)]
@@ -259,12 +264,12 @@ impl Pattern {
     /// Adds the block `w jaᵀ jb` (dim(r) × dim(c)) at block position
     /// (r, c), r ≥ c, whose first column base is `first` (`slots[(r, c)]`),
     /// entry by entry (no temporary matrix).
-    fn add_block(
+    fn add_block<S: Storage<f64, Dyn, Dyn>>(
         &self,
         h: &mut [f64],
         first: usize,
         (r, c): (usize, usize),
-        (ja, jb): (&nalgebra::DMatrix<f64>, &nalgebra::DMatrix<f64>),
+        (ja, jb): (&Block<S>, &Block<S>),
         w: f64,
     ) {
         for t in 0..jb.ncols() {
@@ -276,6 +281,34 @@ impl Pattern {
                 h[base + u - from] += w * ja.column(u).dot(&jt);
             }
         }
+    }
+
+    /// Adds factor `i`'s `w JᵀJ` blocks and `w Jᵀe` (its Jacobians, one
+    /// per key, and residual) to `normal`.
+    fn add_factor<S: Storage<f64, Dyn, Dyn>, SR: Storage<f64, Dyn, U1>>(
+        &self,
+        normal: &mut NormalEquations,
+        i: usize,
+        (jacobians, residual): (&[Block<S>], &Column<SR>),
+        w: f64,
+    ) -> Result<()> {
+        let (vars, slots) = self.factor_blocks(i);
+        let mut slot = slots.iter();
+        for (a, ja) in vars.iter().zip(jacobians) {
+            let oa = self.ordering.offsets[*a];
+            for i in 0..ja.ncols() {
+                normal.gradient[oa + i] += w * ja.column(i).dot(residual);
+            }
+            for (b, jb) in vars.iter().zip(jacobians) {
+                if a >= b {
+                    let Some(&first) = slot.next() else {
+                        return Err(SlamError::Mismatch("the graph changed after its pattern"));
+                    };
+                    self.add_block(&mut normal.hessian, first, (*a, *b), (ja, jb), w);
+                }
+            }
+        }
+        Ok(())
     }
 }
 
@@ -356,8 +389,7 @@ pub(crate) fn total_cost(
 ) -> Result<f64> {
     let mut cost = 0.0;
     for f in graph.factors() {
-        let e = f.error(values)?;
-        cost += factor_cost(f, e.norm_squared(), kernel).0;
+        cost += factor_cost(f, f.squared_error(values)?, kernel).0;
     }
     if !cost.is_finite() {
         return Err(SlamError::NonFinite {
@@ -375,33 +407,34 @@ pub(crate) fn assemble(
     values: &Values,
     kernel: &RobustKernel,
 ) -> Result<NormalEquations> {
-    let mut hessian = vec![0.0; pattern.nnz()];
-    let mut gradient = vec![0.0; pattern.ordering.dim];
-    let mut cost = 0.0;
     if graph.len() + 1 != pattern.var_start.len() {
         return Err(SlamError::Mismatch("the graph changed after its pattern"));
     }
+    let mut normal = NormalEquations {
+        hessian: vec![0.0; pattern.nnz()],
+        gradient: vec![0.0; pattern.ordering.dim],
+        cost: 0.0,
+    };
     for (i, f) in graph.factors().iter().enumerate() {
-        let (vars, slots) = pattern.factor_blocks(i);
-        let lin = f.linearize(values)?;
-        let (c, w) = factor_cost(f, lin.residual.norm_squared(), kernel);
-        cost += c;
-        let mut slot = slots.iter();
-        for (a, ja) in vars.iter().zip(&lin.jacobians) {
-            let oa = pattern.ordering.offsets[*a];
-            for i in 0..ja.ncols() {
-                gradient[oa + i] += w * ja.column(i).dot(&lin.residual);
-            }
-            for (b, jb) in vars.iter().zip(&lin.jacobians) {
-                if a >= b {
-                    let Some(&first) = slot.next() else {
-                        return Err(SlamError::Mismatch("the graph changed after its pattern"));
-                    };
-                    pattern.add_block(&mut hessian, first, (*a, *b), (ja, jb), w);
-                }
-            }
+        // A nonlinear factor's linearization on the stack; a linear
+        // factor's (dense over its keys) on the heap.
+        if let Some(lin) = f.small_linearize(values)? {
+            let (jacobians, keys) = lin.jacobians();
+            let (c, w) = factor_cost(f, lin.squared_norm(), kernel);
+            normal.cost += c;
+            pattern.add_factor(&mut normal, i, (&jacobians[..keys], &lin.residual()), w)?;
+        } else {
+            let lin = f.linearize(values)?;
+            let (c, w) = factor_cost(f, lin.residual.norm_squared(), kernel);
+            normal.cost += c;
+            pattern.add_factor(&mut normal, i, (&lin.jacobians, &lin.residual), w)?;
         }
     }
+    let NormalEquations {
+        hessian,
+        gradient,
+        cost,
+    } = normal;
     if !cost.is_finite() || hessian.iter().chain(&gradient).any(|v| !v.is_finite()) {
         return Err(SlamError::NonFinite {
             what: "normal equations",

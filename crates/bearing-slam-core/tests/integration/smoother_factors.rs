@@ -48,11 +48,25 @@ fn unstack(keys: &[Key], x: &DVector<f64>) -> Values {
     v
 }
 
+/// The residual alone (`Factor::error`, computed without Jacobians) is
+/// the linearization's, to the bit.
+fn same_residual(factor: &Factor, values: &Values, residual: &DVector<f64>) -> Result<(), String> {
+    let error = factor.error(values).map_err(|e| e.to_string())?;
+    if &error == residual {
+        Ok(())
+    } else {
+        Err(format!(
+            "error {error} against the linearization's {residual}"
+        ))
+    }
+}
+
 /// Checks the stacked analytic Jacobian of `factor` at `values` against
 /// central differences of its whitened error.
 fn check(factor: &Factor, values: &Values) -> Result<(), String> {
     let keys = factor.keys();
     let lin = factor.linearize(values).map_err(|e| e.to_string())?;
+    same_residual(factor, values, &lin.residual)?;
     let blocks: Vec<&DMatrix<f64>> = lin.jacobians.iter().collect();
     let analytic = DMatrix::from_fn(
         lin.residual.len(),
@@ -86,6 +100,7 @@ fn check(factor: &Factor, values: &Values) -> Result<(), String> {
 fn check_in_charts(factor: &Factor, values: &Values) -> Result<(), String> {
     let keys = factor.keys();
     let lin = factor.linearize(values).map_err(|e| e.to_string())?;
+    same_residual(factor, values, &lin.residual)?;
     let analytic = DMatrix::from_fn(
         lin.residual.len(),
         keys.iter().map(Key::dim).sum(),
