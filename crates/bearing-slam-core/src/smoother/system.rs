@@ -430,22 +430,19 @@ pub(crate) fn assemble(
             pattern.add_factor(&mut normal, i, (&lin.jacobians, &lin.residual), w)?;
         }
     }
-    let NormalEquations {
-        hessian,
-        gradient,
-        cost,
-    } = normal;
-    if !cost.is_finite() || hessian.iter().chain(&gradient).any(|v| !v.is_finite()) {
+    if !normal.cost.is_finite()
+        || normal
+            .hessian
+            .iter()
+            .chain(&normal.gradient)
+            .any(|v| !v.is_finite())
+    {
         return Err(SlamError::NonFinite {
             what: "normal equations",
-            value: cost,
+            value: normal.cost,
         });
     }
-    Ok(NormalEquations {
-        hessian,
-        gradient,
-        cost,
-    })
+    Ok(normal)
 }
 
 /// A sparse `LLᵀ` of matrices with one fixed pattern: the symbolic analysis
