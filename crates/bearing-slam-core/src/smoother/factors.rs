@@ -55,7 +55,7 @@ pub fn whitening(what: &'static str, covariance: &DMatrix<f64>) -> Result<DMatri
         .ok_or(SlamError::NotPositiveDefinite { what })
 }
 
-pub(super) fn dm<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatrix<f64> {
+fn dm<const R: usize, const C: usize>(m: &nalgebra::SMatrix<f64, R, C>) -> DMatrix<f64> {
     DMatrix::from_column_slice(R, C, m.as_slice())
 }
 

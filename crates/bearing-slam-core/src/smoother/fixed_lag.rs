@@ -31,12 +31,13 @@ mod square_root;
 use super::factors::{Factor, LinearFactor};
 use super::graph::FactorGraph;
 use super::marginals::{Marginals, marginal_covariances, marginals_from_hessian, marginals_of};
+use super::robust::RobustKernel;
 use super::solver::{SolveReport, SolverConfig, optimize_on};
 use super::system::{Pattern, SparseCholesky};
 use super::values::{Key, Values, unknown_key};
 use crate::error::{Result, SlamError};
 use faer::sparse::Triplet;
-use nalgebra::{DMatrix, DVector, Matrix3, Vector2, Vector3};
+use nalgebra::{DMatrix, DVector, Matrix3, SMatrix, Vector2, Vector3};
 pub use prior_chart::PriorAnchor;
 use prior_chart::{change_of_variables, choose_anchors};
 use square_root::information_square_root;
@@ -510,27 +511,15 @@ impl FixedLagSmoother {
                 degenerate += 1;
                 continue;
             }
-            let lin = f.linearize(&point)?;
-            let w = if f.is_measurement() {
-                kernel.weight(lin.residual.norm_squared())
-            } else {
-                1.0
-            };
-            // `w JᵀJ` and `w Jᵀe` of the factor's stacked Jacobian in one
-            // product each (a prior's is dense over tens of keys), then
-            // scattered by key.
+            // The factor's `w JᵀJ` and `w Jᵀe` over its keys, scattered by key.
+            let (jtj, jte) = weighted_normal_terms(f, &point, &kernel)?;
             let fk = f.keys();
-            let cols: usize = lin.jacobians.iter().map(|j| j.ncols()).sum();
-            let mut stacked = DMatrix::<f64>::zeros(lin.residual.len(), cols);
             let mut local = Vec::with_capacity(fk.len());
             let mut c = 0;
-            for j in &lin.jacobians {
-                stacked.columns_mut(c, j.ncols()).copy_from(j);
+            for k in fk.iter() {
                 local.push(c);
-                c += j.ncols();
+                c += k.dim();
             }
-            let jtj = stacked.tr_mul(&stacked) * w;
-            let jte = stacked.tr_mul(&lin.residual) * w;
             for (a, &ca) in fk.iter().zip(&local) {
                 let oa = offset_of(a)?;
                 let mut ga = g.rows_mut(oa, a.dim());
@@ -605,6 +594,42 @@ struct Elimination {
     /// Measurements left out of the prior for standing at their sensor
     /// ([`MIN_PRIOR_SENSOR_DISTANCE_M`]).
     degenerate: usize,
+}
+
+/// A factor's `w JᵀJ` and `w Jᵀe` at `point`, over its keys' increments
+/// stacked in key order, `w` the robust kernel's IRLS weight of a
+/// measurement (1 otherwise): a linear factor's from its information
+/// ([`LinearFactor::normal_terms`], no product with its dense Jacobian), a
+/// nonlinear factor's from its linearization on the stack.
+fn weighted_normal_terms(
+    f: &Factor,
+    point: &Values,
+    kernel: &RobustKernel,
+) -> Result<(DMatrix<f64>, DVector<f64>)> {
+    if let Factor::Linear(l) = f {
+        let (hessian, gradient, _) = l.normal_terms(point)?;
+        return Ok((hessian, gradient));
+    }
+    let lin = f.small_linearize(point)?.ok_or(SlamError::Mismatch(
+        "a nonlinear factor without a linearization",
+    ))?;
+    let w = if f.is_measurement() {
+        kernel.weight(lin.squared_norm())
+    } else {
+        1.0
+    };
+    let (jacobians, keys) = lin.jacobians();
+    let residual = lin.residual();
+    let mut stacked = SMatrix::<f64, 3, 6>::zeros();
+    let mut cols = 0;
+    for j in &jacobians[..keys] {
+        stacked
+            .view_mut((0, cols), (j.nrows(), j.ncols()))
+            .copy_from(j);
+        cols += j.ncols();
+    }
+    let stacked = stacked.view((0, 0), (residual.nrows(), cols));
+    Ok((stacked.tr_mul(&stacked) * w, stacked.tr_mul(&residual) * w))
 }
 
 /// The Schur complement of the first `m` variables of a symmetric system:

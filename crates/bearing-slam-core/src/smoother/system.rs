@@ -23,7 +23,7 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::triangular_solve::solve_lower_triangular_in_place;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
-use nalgebra::{DMatrix, Dyn, Matrix, Storage, U1};
+use nalgebra::{DMatrix, DVector, Dyn, Matrix, Storage, U1};
 
 /// A Jacobian block, on the heap or a view of one on the stack.
 type Block<S> = Matrix<f64, Dyn, Dyn, S>;
@@ -310,6 +310,45 @@ impl Pattern {
         }
         Ok(())
     }
+
+    /// Adds factor `i`'s `JᵀJ` and `Jᵀe` given as such (`hessian` and
+    /// `gradient` over its keys' increments stacked in key order), block
+    /// by block into the slots [`Self::add_factor`] fills.
+    fn add_normal_terms(
+        &self,
+        normal: &mut NormalEquations,
+        i: usize,
+        (hessian, gradient): (&DMatrix<f64>, &DVector<f64>),
+    ) -> Result<()> {
+        let (vars, slots) = self.factor_blocks(i);
+        let mut slot = slots.iter();
+        let dim = |v: usize| self.ordering.keys[v].dim();
+        let mut ca = 0;
+        for &a in vars {
+            let oa = self.ordering.offsets[a];
+            for u in 0..dim(a) {
+                normal.gradient[oa + u] += gradient[ca + u];
+            }
+            let mut cb = 0;
+            for &b in vars {
+                if a >= b {
+                    let Some(&first) = slot.next() else {
+                        return Err(SlamError::Mismatch("the graph changed after its pattern"));
+                    };
+                    for t in 0..dim(b) {
+                        let base = self.bases[first + t];
+                        let from = if a == b { t } else { 0 };
+                        for u in from..dim(a) {
+                            normal.hessian[base + u - from] += hessian[(ca + u, cb + t)];
+                        }
+                    }
+                }
+                cb += dim(b);
+            }
+            ca += dim(a);
+        }
+        Ok(())
+    }
 }
 
 /// Normal equations at one estimate.
@@ -417,17 +456,19 @@ pub(crate) fn assemble(
     };
     for (i, f) in graph.factors().iter().enumerate() {
         // A nonlinear factor's linearization on the stack; a linear
-        // factor's (dense over its keys) on the heap.
-        if let Some(lin) = f.small_linearize(values)? {
+        // factor's normal terms (dense over its keys) from its information.
+        if let Factor::Linear(l) = f {
+            let (hessian, gradient, squared) = l.normal_terms(values)?;
+            normal.cost += 0.5 * squared;
+            pattern.add_normal_terms(&mut normal, i, (&hessian, &gradient))?;
+        } else {
+            let lin = f.small_linearize(values)?.ok_or(SlamError::Mismatch(
+                "a nonlinear factor without a linearization",
+            ))?;
             let (jacobians, keys) = lin.jacobians();
             let (c, w) = factor_cost(f, lin.squared_norm(), kernel);
             normal.cost += c;
             pattern.add_factor(&mut normal, i, (&jacobians[..keys], &lin.residual()), w)?;
-        } else {
-            let lin = f.linearize(values)?;
-            let (c, w) = factor_cost(f, lin.residual.norm_squared(), kernel);
-            normal.cost += c;
-            pattern.add_factor(&mut normal, i, (&lin.jacobians, &lin.residual), w)?;
         }
     }
     if !normal.cost.is_finite()

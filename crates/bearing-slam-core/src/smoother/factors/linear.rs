@@ -1,6 +1,6 @@
 //! The fixed linear factor marginalization leaves behind.
 
-use super::{Linearization, dm};
+use super::Linearization;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
 use crate::smoother::values::{Key, Values, inverse_depth_gradient, inverse_depth_of};
@@ -32,6 +32,10 @@ pub struct LinearFactor {
     /// anchor pose.
     #[serde(skip_serializing_if = "no_anchors")]
     anchors: Vec<Option<usize>>,
+    /// `RᵀR`, formed once: every assembly of the normal equations reads
+    /// it (`n²` work) where `R`'s Gram product would be `rows · n²`.
+    #[serde(skip)]
+    information: DMatrix<f64>,
 }
 
 fn no_anchors(anchors: &[Option<usize>]) -> bool {
@@ -83,12 +87,14 @@ impl LinearFactor {
             });
         }
         let anchors = vec![None; keys.len()];
+        let information = jacobian.tr_mul(&jacobian);
         Ok(Self {
             keys,
             linearization_point,
             jacobian,
             offset,
             anchors,
+            information,
         })
     }
 
@@ -144,40 +150,88 @@ impl LinearFactor {
     }
 }
 
+/// Per key of a linear factor, what turns `R`'s columns into the
+/// Jacobian at the estimate: for a pose-anchored landmark, its anchor's
+/// index, `∂u/∂p` and the landmark's chart Jacobian `∂p/∂δ` (`None` in
+/// point coordinates); `None` for every other key (identity).
+type ChainRule = Vec<Option<(usize, Matrix2<f64>, Option<Matrix2<f64>>)>>;
+
 impl LinearFactor {
     /// The residual `R (x ⊟ x₀) + r₀` at `values` and its Jacobians with
-    /// respect to each variable's increment in its own chart. For a key in
-    /// its own chart that is `R`'s block (the chart's difference and
-    /// retraction are inverse); for a pose-anchored landmark `u(p, x_a)` it
-    /// is `R_u ∂u/∂p ∂p/∂δ` on the landmark and `−R_u ∂u/∂p` added to the
-    /// anchor's `[x, y]` columns, at the current estimate.
+    /// respect to each variable's increment in its own chart: `J = R G`
+    /// (see [`Self::apply_chain_rule`]).
     pub(crate) fn linearize(&self, values: &Values) -> Result<Linearization> {
-        let (delta, gradients) = self.difference(values)?;
+        let (delta, chain) = self.difference(values)?;
         let residual = &self.jacobian * delta + &self.offset;
+        let mut stacked = self.jacobian.clone();
+        self.apply_chain_rule(&mut stacked, &chain);
         let mut jacobians = Vec::with_capacity(self.keys.len());
         let mut col = 0;
         for k in &self.keys {
-            jacobians.push(self.jacobian.columns(col, k.dim()).into_owned());
+            jacobians.push(stacked.columns(col, k.dim()).into_owned());
             col += k.dim();
-        }
-        for (i, gradient) in gradients.iter().enumerate() {
-            let (Some(du_dp), Some(j), Key::Landmark(id)) =
-                (gradient, self.anchors[i], self.keys[i])
-            else {
-                continue;
-            };
-            let on_point = &jacobians[i] * dm(du_dp);
-            let mut anchor_xy = jacobians[j].columns_mut(0, 2);
-            anchor_xy -= &on_point;
-            jacobians[i] = match values.landmark_chart_jacobian(id)? {
-                Some(chart) => on_point * dm(&chart),
-                None => on_point,
-            };
         }
         Ok(Linearization {
             residual,
             jacobians,
         })
+    }
+
+    /// The factor's normal-equation terms at `values` without its
+    /// Jacobian: `JᵀJ = Gᵀ (RᵀR) G` (with `RᵀR` formed once), `Jᵀe =
+    /// Gᵀ Rᵀ e` and `‖e‖²`, for `J = R G` as [`Self::linearize`] returns it
+    /// stacked (keys in order). `n²` work per call where `JᵀJ` from `J`
+    /// would be `rows · n²`; what the solver's assembly and the hold's
+    /// elimination read of a prior dense over tens of keys.
+    pub(crate) fn normal_terms(
+        &self,
+        values: &Values,
+    ) -> Result<(DMatrix<f64>, DVector<f64>, f64)> {
+        let (delta, chain) = self.difference(values)?;
+        let residual = &self.jacobian * delta + &self.offset;
+        // `Jᵀe` as the row `eᵀ R G`.
+        let mut gradient = DMatrix::from_row_slice(
+            1,
+            self.jacobian.ncols(),
+            self.jacobian.tr_mul(&residual).as_slice(),
+        );
+        self.apply_chain_rule(&mut gradient, &chain);
+        let mut hessian = self.information.clone();
+        self.apply_chain_rule(&mut hessian, &chain);
+        hessian.transpose_mut();
+        self.apply_chain_rule(&mut hessian, &chain);
+        Ok((
+            hessian,
+            DVector::from_column_slice(gradient.as_slice()),
+            residual.norm_squared(),
+        ))
+    }
+
+    /// `A ← A G`, `G = ∂(x ⊟ x₀)/∂δ` (identity but for pose-anchored
+    /// landmarks, `u(p, x_a)`): landmark `i`'s columns become
+    /// `A_i ∂u/∂p ∂p/∂δ_i` and `A_i ∂u/∂p` is taken from its anchor's
+    /// `[x, y]` columns (`∂u/∂x_a = −∂u/∂p`), `A_i` read before it is
+    /// replaced (a landmark is never an anchor).
+    fn apply_chain_rule(&self, a: &mut DMatrix<f64>, chain: &ChainRule) {
+        let mut col = 0;
+        let mut starts = Vec::with_capacity(self.keys.len());
+        for k in &self.keys {
+            starts.push(col);
+            col += k.dim();
+        }
+        for (i, link) in chain.iter().enumerate() {
+            let Some((j, du_dp, chart)) = link else {
+                continue;
+            };
+            let on_point = a.columns(starts[i], 2) * du_dp;
+            let mut anchor_xy = a.columns_mut(starts[*j], 2);
+            anchor_xy -= &on_point;
+            let mut landmark = a.columns_mut(starts[i], 2);
+            match chart {
+                Some(chart) => landmark.copy_from(&(on_point * chart)),
+                None => landmark.copy_from(&on_point),
+            }
+        }
     }
 
     /// The residual `R (x ⊟ x₀) + r₀` alone.
@@ -186,16 +240,15 @@ impl LinearFactor {
     }
 
     /// `x ⊟ x₀` key by key (a pose-anchored landmark as `u(p, x_a) −
-    /// u(p₀, x_a₀)`) and, for each such landmark, `∂u/∂p` at the estimate.
-    #[allow(clippy::type_complexity)]
-    fn difference(&self, values: &Values) -> Result<(DVector<f64>, Vec<Option<Matrix2<f64>>>)> {
+    /// u(p₀, x_a₀)`) and, for each such landmark, its link of `G` at the
+    /// estimate.
+    fn difference(&self, values: &Values) -> Result<(DVector<f64>, ChainRule)> {
         let mut delta = Vec::with_capacity(self.jacobian.ncols());
-        // For each pose-anchored landmark key, `∂u/∂p` at the estimate.
-        let mut gradients = Vec::with_capacity(self.keys.len());
+        let mut chain = Vec::with_capacity(self.keys.len());
         for (i, (k, x0)) in self.keys.iter().zip(&self.linearization_point).enumerate() {
             let x = values.get(*k)?;
-            match self.anchors[i] {
-                Some(j) => {
+            match (self.anchors[i], k) {
+                (Some(j), Key::Landmark(id)) => {
                     let a = values.get(self.keys[j])?;
                     let a0 = &self.linearization_point[j];
                     let a = Vector2::new(a[0], a[1]);
@@ -204,14 +257,77 @@ impl LinearFactor {
                     let u0 =
                         inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
                     delta.extend([wrap_angle(u.x - u0.x), u.y - u0.y]);
-                    gradients.push(Some(inverse_depth_gradient(&a, &p)?));
+                    let du_dp = inverse_depth_gradient(&a, &p)?;
+                    chain.push(Some((j, du_dp, values.landmark_chart_jacobian(*id)?)));
                 }
-                None => {
+                _ => {
                     delta.extend(values.local_difference(*k, &x, x0).iter());
-                    gradients.push(None);
+                    chain.push(None);
                 }
             }
         }
-        Ok((DVector::from_vec(delta), gradients))
+        Ok((DVector::from_vec(delta), chain))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    /// `normal_terms` is `JᵀJ`, `Jᵀe`, `‖e‖²` of `linearize`, for keys in
+    /// their own charts, a landmark in the values' inverse-depth chart, and
+    /// pose-anchored landmarks (one also in that chart).
+    #[test]
+    fn normal_terms_match_the_linearization() {
+        let keys = vec![
+            Key::Pose(0),
+            Key::Landmark(5),
+            Key::Pose(1),
+            Key::Landmark(7),
+            Key::Landmark(9),
+        ];
+        let points = vec![
+            DVector::from_vec(vec![0.1, -0.2, 0.3]),
+            DVector::from_vec(vec![3.0, 1.0]),
+            DVector::from_vec(vec![1.0, 0.5, -0.4]),
+            DVector::from_vec(vec![-2.0, 4.0]),
+            DVector::from_vec(vec![5.0, -1.0]),
+        ];
+        let n = 12;
+        let rows = 14;
+        // Deterministic, well-spread entries.
+        let jacobian = DMatrix::from_fn(rows, n, |i, j| ((i * 7 + j * 13) % 11) as f64 / 5.0 - 1.0);
+        let offset = DVector::from_fn(rows, |i, _| (i as f64 * 0.37).sin());
+        let factor = LinearFactor::new(keys, points, jacobian, offset)
+            .unwrap()
+            .with_anchors(vec![None, Some(0), None, Some(2), None])
+            .unwrap();
+        let mut values = Values::new();
+        values.insert_pose(0, Vector3::new(0.3, -0.1, 0.2)).unwrap();
+        values.insert_pose(1, Vector3::new(1.2, 0.4, -0.1)).unwrap();
+        values.insert_landmark(5, Vector2::new(3.3, 1.4)).unwrap();
+        values.insert_landmark(7, Vector2::new(-1.7, 4.2)).unwrap();
+        values.insert_landmark(9, Vector2::new(4.6, -0.8)).unwrap();
+        values.anchor_landmark(7, Vector2::new(0.0, 0.0)).unwrap();
+        values.anchor_landmark(9, Vector2::new(1.0, 1.0)).unwrap();
+
+        let lin = factor.linearize(&values).unwrap();
+        let mut stacked = DMatrix::zeros(rows, n);
+        let mut col = 0;
+        for j in &lin.jacobians {
+            stacked.columns_mut(col, j.ncols()).copy_from(j);
+            col += j.ncols();
+        }
+        let (hessian, gradient, squared) = factor.normal_terms(&values).unwrap();
+        let expected_h = stacked.tr_mul(&stacked);
+        let expected_g = stacked.tr_mul(&lin.residual);
+        let scale = expected_h.amax();
+        assert!((hessian - expected_h).amax() < 1e-9 * scale);
+        assert!((gradient - expected_g).amax() < 1e-9 * scale);
+        assert!((squared - lin.residual.norm_squared()).abs() < 1e-9 * squared);
+        // The chain rule did act: the anchored landmark's Jacobian is not
+        // `R`'s block.
+        assert!((lin.jacobians[1].clone() - factor.jacobian.columns(3, 2)).amax() > 1e-3);
     }
 }
