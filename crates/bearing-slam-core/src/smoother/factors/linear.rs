@@ -279,7 +279,7 @@ mod tests {
     /// their own charts, a landmark in the values' inverse-depth chart, and
     /// pose-anchored landmarks (one also in that chart).
     #[test]
-    fn normal_terms_match_the_linearization() {
+    fn normal_terms_match_the_linearization() -> Result<()> {
         let keys = vec![
             Key::Pose(0),
             Key::Landmark(5),
@@ -299,27 +299,30 @@ mod tests {
         // Deterministic, well-spread entries.
         let jacobian = DMatrix::from_fn(rows, n, |i, j| ((i * 7 + j * 13) % 11) as f64 / 5.0 - 1.0);
         let offset = DVector::from_fn(rows, |i, _| (i as f64 * 0.37).sin());
-        let factor = LinearFactor::new(keys, points, jacobian, offset)
-            .unwrap()
-            .with_anchors(vec![None, Some(0), None, Some(2), None])
-            .unwrap();
+        let factor = LinearFactor::new(keys, points, jacobian, offset)?.with_anchors(vec![
+            None,
+            Some(0),
+            None,
+            Some(2),
+            None,
+        ])?;
         let mut values = Values::new();
-        values.insert_pose(0, Vector3::new(0.3, -0.1, 0.2)).unwrap();
-        values.insert_pose(1, Vector3::new(1.2, 0.4, -0.1)).unwrap();
-        values.insert_landmark(5, Vector2::new(3.3, 1.4)).unwrap();
-        values.insert_landmark(7, Vector2::new(-1.7, 4.2)).unwrap();
-        values.insert_landmark(9, Vector2::new(4.6, -0.8)).unwrap();
-        values.anchor_landmark(7, Vector2::new(0.0, 0.0)).unwrap();
-        values.anchor_landmark(9, Vector2::new(1.0, 1.0)).unwrap();
+        values.insert_pose(0, Vector3::new(0.3, -0.1, 0.2))?;
+        values.insert_pose(1, Vector3::new(1.2, 0.4, -0.1))?;
+        values.insert_landmark(5, Vector2::new(3.3, 1.4))?;
+        values.insert_landmark(7, Vector2::new(-1.7, 4.2))?;
+        values.insert_landmark(9, Vector2::new(4.6, -0.8))?;
+        values.anchor_landmark(7, Vector2::new(0.0, 0.0))?;
+        values.anchor_landmark(9, Vector2::new(1.0, 1.0))?;
 
-        let lin = factor.linearize(&values).unwrap();
+        let lin = factor.linearize(&values)?;
         let mut stacked = DMatrix::zeros(rows, n);
         let mut col = 0;
         for j in &lin.jacobians {
             stacked.columns_mut(col, j.ncols()).copy_from(j);
             col += j.ncols();
         }
-        let (hessian, gradient, squared) = factor.normal_terms(&values).unwrap();
+        let (hessian, gradient, squared) = factor.normal_terms(&values)?;
         let expected_h = stacked.tr_mul(&stacked);
         let expected_g = stacked.tr_mul(&lin.residual);
         let scale = expected_h.amax();
@@ -329,5 +332,6 @@ mod tests {
         // The chain rule did act: the anchored landmark's Jacobian is not
         // `R`'s block.
         assert!((lin.jacobians[1].clone() - factor.jacobian.columns(3, 2)).amax() > 1e-3);
+        Ok(())
     }
 }
