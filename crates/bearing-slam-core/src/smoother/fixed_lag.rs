@@ -570,7 +570,7 @@ impl FixedLagSmoother {
             .map(|k| point.get(*k))
             .collect::<Result<Vec<_>>>()?;
         let (t, slots) = change_of_variables(&rest, &anchors, &point)?;
-        let jac = if anchors.is_empty() { jac } else { jac * t };
+        let jac = t.right_apply(jac);
         let prior =
             Factor::Linear(LinearFactor::new(rest, lin_points, jac, off)?.with_anchors(slots)?);
         self.graph.add(prior.clone())?;

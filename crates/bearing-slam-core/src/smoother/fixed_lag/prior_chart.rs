@@ -178,18 +178,55 @@ fn observers_in(
 }
 
 /// The change of variables from the prior's chart `z` to the solver's
-/// increments `δ = T z` at `point`, over `keys` (the prior's variables in
-/// order), and the anchor index (in `keys`) of each key. The identity but
-/// for a pose-anchored landmark `l` with anchor `a`:
-/// `p = x_a + c_a(u)` and `p = c_l(δ_l)` give
+/// increments `δ = T z` at a linearization point (`change_of_variables`):
+/// the identity but for a pose-anchored landmark `l` with anchor `a`,
+/// `p = x_a + c_a(u)` and `p = c_l(δ_l)` giving
 /// `δ_l = C_l⁻¹ (C_a u + [I 0] δ_a)` (`C_l`, `C_a` the two charts'
-/// `∂p/∂[θ, ρ]`), so a prior `R δ + r₀` formed in the solver's
-/// increments becomes `(R T) z + r₀`.
+/// `∂p/∂[θ, ρ]`). Held as those 2 × 2 blocks, not as a dense `T`: a prior
+/// `R δ + r₀` formed in the solver's increments becomes `(R T) z + r₀`
+/// by column operations (`n` work per landmark, where `R T` dense is `n³`).
+#[derive(Debug, Default)]
+pub(crate) struct ChangeOfVariables {
+    /// Per pose-anchored landmark: its column offset, its anchor's, and
+    /// `T`'s blocks `T_ll = C_l⁻¹ C_a` and `T_la = C_l⁻¹` (on `[x, y]`).
+    links: Vec<(usize, usize, Matrix2<f64>, Matrix2<f64>)>,
+}
+
+impl ChangeOfVariables {
+    /// `R T`: landmark `l`'s columns `R_l T_ll`, its anchor's `[x, y]`
+    /// columns plus `R_l T_la` (`R_l` read before it is replaced; a
+    /// landmark is never an anchor).
+    pub(crate) fn right_apply(&self, mut r: DMatrix<f64>) -> DMatrix<f64> {
+        for (ol, oa, t_ll, t_la) in &self.links {
+            let on_anchor = r.columns(*ol, 2) * t_la;
+            let on_landmark = r.columns(*ol, 2) * t_ll;
+            let mut anchor_xy = r.columns_mut(*oa, 2);
+            anchor_xy += &on_anchor;
+            r.columns_mut(*ol, 2).copy_from(&on_landmark);
+        }
+        r
+    }
+
+    /// `T` itself, dense (for checking `right_apply`).
+    #[cfg(test)]
+    fn dense(&self, n: usize) -> DMatrix<f64> {
+        let mut t = DMatrix::<f64>::identity(n, n);
+        for (ol, oa, t_ll, t_la) in &self.links {
+            t.view_mut((*ol, *ol), (2, 2)).copy_from(t_ll);
+            t.view_mut((*ol, *oa), (2, 2)).copy_from(t_la);
+        }
+        t
+    }
+}
+
+/// The change of variables ([`ChangeOfVariables`]) from the prior's chart
+/// to the solver's increments at `point`, over `keys` (the prior's
+/// variables in order), and the anchor index (in `keys`) of each key.
 pub(crate) fn change_of_variables(
     keys: &[Key],
     anchors: &BTreeMap<u64, u64>,
     point: &Values,
-) -> Result<(DMatrix<f64>, Vec<Option<usize>>)> {
+) -> Result<(ChangeOfVariables, Vec<Option<usize>>)> {
     let mut offsets = Vec::with_capacity(keys.len());
     let mut index = BTreeMap::new();
     let mut n = 0;
@@ -198,7 +235,7 @@ pub(crate) fn change_of_variables(
         index.insert(*k, i);
         n += k.dim();
     }
-    let mut t = DMatrix::<f64>::identity(n, n);
+    let mut change = ChangeOfVariables::default();
     let mut slots = vec![None; keys.len()];
     for (id, pose) in anchors {
         let (Some(&i), Some(&j)) = (index.get(&Key::Landmark(*id)), index.get(&Key::Pose(*pose)))
@@ -216,10 +253,43 @@ pub(crate) fn change_of_variables(
             ))?,
             None => Matrix2::identity(),
         };
-        let (ol, oa) = (offsets[i], offsets[j]);
-        t.view_mut((ol, ol), (2, 2)).copy_from(&(c_l_inv * c_a));
-        t.view_mut((ol, oa), (2, 2)).copy_from(&c_l_inv);
+        change
+            .links
+            .push((offsets[i], offsets[j], c_l_inv * c_a, c_l_inv));
         slots[i] = Some(j);
     }
-    Ok((t, slots))
+    Ok((change, slots))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::Vector3;
+
+    /// `right_apply` is the product with the dense `T`, for a landmark in
+    /// its point chart and one in inverse depth, both anchored at one pose.
+    #[test]
+    fn the_column_operations_are_the_product_with_t() -> Result<()> {
+        let keys = [
+            Key::Pose(1),
+            Key::Pose(2),
+            Key::Landmark(4),
+            Key::Landmark(6),
+        ];
+        let mut point = Values::new();
+        point.insert_pose(1, Vector3::new(0.0, 0.0, 0.1))?;
+        point.insert_pose(2, Vector3::new(1.0, 0.5, 0.3))?;
+        point.insert_landmark(4, Vector2::new(4.0, 2.0))?;
+        point.insert_landmark(6, Vector2::new(-3.0, 5.0))?;
+        point.anchor_landmark(6, Vector2::new(0.5, 0.5))?;
+        let anchors = BTreeMap::from([(4, 2), (6, 2)]);
+        let (change, slots) = change_of_variables(&keys, &anchors, &point)?;
+        assert_eq!(slots, vec![None, None, Some(1), Some(1)]);
+        let r = DMatrix::from_fn(9, 10, |i, j| ((i * 5 + j * 3) % 7) as f64 - 3.0);
+        let expected = &r * change.dense(10);
+        let got = change.right_apply(r.clone());
+        assert!((got - &expected).amax() < 1e-12 * expected.amax());
+        assert!((expected - r).amax() > 1e-3);
+        Ok(())
+    }
 }
