@@ -24,6 +24,7 @@
 //! * [`run`]: [`run_from_log`], the filter's run followed by the batch
 //!   smoother (or the online one), returning the runner's output shape.
 
+mod anchor_links;
 pub mod factors;
 pub mod fixed_lag;
 pub mod graph;

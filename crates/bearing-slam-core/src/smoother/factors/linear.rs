@@ -3,8 +3,9 @@
 use super::Linearization;
 use crate::error::{Result, SlamError};
 use crate::geometry::wrap_angle;
+use crate::smoother::anchor_links::{AnchorLink, right_multiply};
 use crate::smoother::values::{Key, Values, inverse_depth_gradient, inverse_depth_of};
-use nalgebra::{DMatrix, DVector, Matrix2, Vector2};
+use nalgebra::{DMatrix, DVector, Vector2};
 use serde::Serialize;
 
 /// A fixed linear factor `e = R (x ⊟ x₀) + r₀` over several variables: what
@@ -150,21 +151,16 @@ impl LinearFactor {
     }
 }
 
-/// Per key of a linear factor, what turns `R`'s columns into the
-/// Jacobian at the estimate: for a pose-anchored landmark, its anchor's
-/// index, `∂u/∂p` and the landmark's chart Jacobian `∂p/∂δ` (`None` in
-/// point coordinates); `None` for every other key (identity).
-type ChainRule = Vec<Option<(usize, Matrix2<f64>, Option<Matrix2<f64>>)>>;
-
 impl LinearFactor {
     /// The residual `R (x ⊟ x₀) + r₀` at `values` and its Jacobians with
-    /// respect to each variable's increment in its own chart: `J = R G`
-    /// (see [`Self::apply_chain_rule`]).
+    /// respect to each variable's increment in its own chart: `J = R G`,
+    /// `G = ∂(x ⊟ x₀)/∂δ` the identity but for pose-anchored landmarks
+    /// (see [`Self::difference`]).
     pub(crate) fn linearize(&self, values: &Values) -> Result<Linearization> {
         let (delta, chain) = self.difference(values)?;
         let residual = &self.jacobian * delta + &self.offset;
         let mut stacked = self.jacobian.clone();
-        self.apply_chain_rule(&mut stacked, &chain);
+        right_multiply(&mut stacked, &chain);
         let mut jacobians = Vec::with_capacity(self.keys.len());
         let mut col = 0;
         for k in &self.keys {
@@ -195,43 +191,16 @@ impl LinearFactor {
             self.jacobian.ncols(),
             self.jacobian.tr_mul(&residual).as_slice(),
         );
-        self.apply_chain_rule(&mut gradient, &chain);
+        right_multiply(&mut gradient, &chain);
         let mut hessian = self.information.clone();
-        self.apply_chain_rule(&mut hessian, &chain);
+        right_multiply(&mut hessian, &chain);
         hessian.transpose_mut();
-        self.apply_chain_rule(&mut hessian, &chain);
+        right_multiply(&mut hessian, &chain);
         Ok((
             hessian,
             DVector::from_column_slice(gradient.as_slice()),
             residual.norm_squared(),
         ))
-    }
-
-    /// `A ← A G`, `G = ∂(x ⊟ x₀)/∂δ` (identity but for pose-anchored
-    /// landmarks, `u(p, x_a)`): landmark `i`'s columns become
-    /// `A_i ∂u/∂p ∂p/∂δ_i` and `A_i ∂u/∂p` is taken from its anchor's
-    /// `[x, y]` columns (`∂u/∂x_a = −∂u/∂p`), `A_i` read before it is
-    /// replaced (a landmark is never an anchor).
-    fn apply_chain_rule(&self, a: &mut DMatrix<f64>, chain: &ChainRule) {
-        let mut col = 0;
-        let mut starts = Vec::with_capacity(self.keys.len());
-        for k in &self.keys {
-            starts.push(col);
-            col += k.dim();
-        }
-        for (i, link) in chain.iter().enumerate() {
-            let Some((j, du_dp, chart)) = link else {
-                continue;
-            };
-            let on_point = a.columns(starts[i], 2) * du_dp;
-            let mut anchor_xy = a.columns_mut(starts[*j], 2);
-            anchor_xy -= &on_point;
-            let mut landmark = a.columns_mut(starts[i], 2);
-            match chart {
-                Some(chart) => landmark.copy_from(&(on_point * chart)),
-                None => landmark.copy_from(&on_point),
-            }
-        }
     }
 
     /// The residual `R (x ⊟ x₀) + r₀` alone.
@@ -240,11 +209,19 @@ impl LinearFactor {
     }
 
     /// `x ⊟ x₀` key by key (a pose-anchored landmark as `u(p, x_a) −
-    /// u(p₀, x_a₀)`) and, for each such landmark, its link of `G` at the
-    /// estimate.
-    fn difference(&self, values: &Values) -> Result<(DVector<f64>, ChainRule)> {
+    /// u(p₀, x_a₀)`) and, for each such landmark, its blocks of
+    /// `G = ∂(x ⊟ x₀)/∂δ` at the estimate: `∂u/∂p ∂p/∂δ` on its own
+    /// increments (`∂p/∂δ` its chart's) and `∂u/∂x_a = −∂u/∂p` on its
+    /// anchor's `[x, y]`.
+    fn difference(&self, values: &Values) -> Result<(DVector<f64>, Vec<AnchorLink>)> {
         let mut delta = Vec::with_capacity(self.jacobian.ncols());
-        let mut chain = Vec::with_capacity(self.keys.len());
+        let mut chain = Vec::new();
+        let mut starts = Vec::with_capacity(self.keys.len());
+        let mut col = 0;
+        for k in &self.keys {
+            starts.push(col);
+            col += k.dim();
+        }
         for (i, (k, x0)) in self.keys.iter().zip(&self.linearization_point).enumerate() {
             let x = values.get(*k)?;
             match (self.anchors[i], k) {
@@ -258,12 +235,17 @@ impl LinearFactor {
                         inverse_depth_of(&Vector2::new(a0[0], a0[1]), &Vector2::new(x0[0], x0[1]));
                     delta.extend([wrap_angle(u.x - u0.x), u.y - u0.y]);
                     let du_dp = inverse_depth_gradient(&a, &p)?;
-                    chain.push(Some((j, du_dp, values.landmark_chart_jacobian(*id)?)));
+                    chain.push(AnchorLink {
+                        landmark: starts[i],
+                        anchor: starts[j],
+                        on_landmark: match values.landmark_chart_jacobian(*id)? {
+                            Some(chart) => du_dp * chart,
+                            None => du_dp,
+                        },
+                        on_anchor: -du_dp,
+                    });
                 }
-                _ => {
-                    delta.extend(values.local_difference(*k, &x, x0).iter());
-                    chain.push(None);
-                }
+                _ => delta.extend(values.local_difference(*k, &x, x0).iter()),
             }
         }
         Ok((DVector::from_vec(delta), chain))

@@ -21,6 +21,7 @@
 //! chart by the change of variables `δ = T z` (`change_of_variables`),
 //! exact to first order there.
 
+use super::super::anchor_links::{AnchorLink, right_multiply};
 use super::super::factors::Factor;
 use super::super::graph::FactorGraph;
 use super::super::values::{Key, Values, inverse_depth_chart_jacobian};
@@ -182,28 +183,18 @@ fn observers_in(
 /// the identity but for a pose-anchored landmark `l` with anchor `a`,
 /// `p = x_a + c_a(u)` and `p = c_l(δ_l)` giving
 /// `δ_l = C_l⁻¹ (C_a u + [I 0] δ_a)` (`C_l`, `C_a` the two charts'
-/// `∂p/∂[θ, ρ]`). Held as those 2 × 2 blocks, not as a dense `T`: a prior
+/// `∂p/∂[θ, ρ]`): blocks `T_ll = C_l⁻¹ C_a` and `T_la = C_l⁻¹`, so a prior
 /// `R δ + r₀` formed in the solver's increments becomes `(R T) z + r₀`
-/// by column operations (`n` work per landmark, where `R T` dense is `n³`).
+/// by column operations ([`right_multiply`]).
 #[derive(Debug, Default)]
 pub(crate) struct ChangeOfVariables {
-    /// Per pose-anchored landmark: its column offset, its anchor's, and
-    /// `T`'s blocks `T_ll = C_l⁻¹ C_a` and `T_la = C_l⁻¹` (on `[x, y]`).
-    links: Vec<(usize, usize, Matrix2<f64>, Matrix2<f64>)>,
+    links: Vec<AnchorLink>,
 }
 
 impl ChangeOfVariables {
-    /// `R T`: landmark `l`'s columns `R_l T_ll`, its anchor's `[x, y]`
-    /// columns plus `R_l T_la` (`R_l` read before it is replaced; a
-    /// landmark is never an anchor).
+    /// `R T`.
     pub(crate) fn right_apply(&self, mut r: DMatrix<f64>) -> DMatrix<f64> {
-        for (ol, oa, t_ll, t_la) in &self.links {
-            let on_anchor = r.columns(*ol, 2) * t_la;
-            let on_landmark = r.columns(*ol, 2) * t_ll;
-            let mut anchor_xy = r.columns_mut(*oa, 2);
-            anchor_xy += &on_anchor;
-            r.columns_mut(*ol, 2).copy_from(&on_landmark);
-        }
+        right_multiply(&mut r, &self.links);
         r
     }
 
@@ -211,9 +202,11 @@ impl ChangeOfVariables {
     #[cfg(test)]
     fn dense(&self, n: usize) -> DMatrix<f64> {
         let mut t = DMatrix::<f64>::identity(n, n);
-        for (ol, oa, t_ll, t_la) in &self.links {
-            t.view_mut((*ol, *ol), (2, 2)).copy_from(t_ll);
-            t.view_mut((*ol, *oa), (2, 2)).copy_from(t_la);
+        for link in &self.links {
+            t.view_mut((link.landmark, link.landmark), (2, 2))
+                .copy_from(&link.on_landmark);
+            t.view_mut((link.landmark, link.anchor), (2, 2))
+                .copy_from(&link.on_anchor);
         }
         t
     }
@@ -253,9 +246,12 @@ pub(crate) fn change_of_variables(
             ))?,
             None => Matrix2::identity(),
         };
-        change
-            .links
-            .push((offsets[i], offsets[j], c_l_inv * c_a, c_l_inv));
+        change.links.push(AnchorLink {
+            landmark: offsets[i],
+            anchor: offsets[j],
+            on_landmark: c_l_inv * c_a,
+            on_anchor: c_l_inv,
+        });
         slots[i] = Some(j);
     }
     Ok((change, slots))
