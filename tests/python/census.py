@@ -178,6 +178,16 @@ def api_cases(
         ),
         (
             "NaN/Inf",
+            "`from_arrays(wheels=..., landmarks=[[1, nan, 0]])`",
+            lambda: attempt(arrays(wheels=[[0.0, 0.0, 0.0]], landmarks=[[1, nan, 0.0]])),
+        ),
+        (
+            "NaN/Inf",
+            "`log.head(nan)`",
+            lambda: attempt(lambda: log.head(nan)),
+        ),
+        (
+            "NaN/Inf",
             "`Config(bearing_sigma=nan)`",
             lambda: attempt(lambda: bs.Config(bearing_sigma=nan)),
         ),
@@ -226,6 +236,13 @@ def api_cases(
             "shape/dtype",
             "`from_arrays(bearings=[[0, 1.5, 0.1]])` (fractional id)",
             lambda: attempt(arrays(bearings=[[0.0, 1.5, 0.1]])),
+        ),
+        (
+            "shape/dtype",
+            "`from_arrays(wheels=..., landmarks=[[1, 0, 0], [1, 2, 1]])` (an id twice)",
+            lambda: attempt(
+                arrays(wheels=[[0.0, 0.0, 0.0]], landmarks=[[1, 0.0, 0.0], [1, 2.0, 1.0]])
+            ),
         ),
         (
             "shape/dtype",

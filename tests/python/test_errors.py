@@ -122,6 +122,19 @@ def test_no_ground_truth_is_a_mismatch() -> None:
         bs.Config.for_log(bs.SensorLog.from_arrays(wheels=[[0.1, 0.01, 0.01]]))
 
 
+def test_bad_landmark_truth_and_head() -> None:
+    wheels = [[0.0, 0.0, 0.0], [0.1, 0.01, 0.01]]
+    with pytest.raises(bs.NonFiniteError, match="landmark truth x"):
+        bs.SensorLog.from_arrays(wheels=wheels, landmarks=[[1, np.nan, 0.0]])
+    with pytest.raises(bs.InvalidParameterError, match="landmark truth id = 1"):
+        bs.SensorLog.from_arrays(wheels=wheels, landmarks=[[1, 0.0, 0.0], [1, 2.0, 1.0]])
+    log = bs.SensorLog.from_arrays(wheels=wheels, landmarks=[[1, 0.0, 0.0], [2, 2.0, 1.0]])
+    assert len(log.head(0.05)) == 1
+    for seconds in (float("nan"), -1.0, float("inf")):
+        with pytest.raises(bs.InvalidParameterError, match="head"):
+            log.head(seconds)
+
+
 def test_bad_shapes_and_dtypes(filt: bs.SlamFilter) -> None:
     with pytest.raises(ValueError, match="differ in length"):
         filt.update_bearings(0.2, [1, 2], [0.1])

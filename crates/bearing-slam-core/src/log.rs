@@ -215,9 +215,11 @@ impl SensorLog {
     /// range is positive and at most
     /// [`MAX_RANGE`](crate::measurement::MAX_RANGE) (the filter's own bound,
     /// so a log is refused when it is loaded, not at its first update) and
-    /// that every velocity command covers a positive `dt`; names the first
-    /// offending value.
+    /// that every velocity command covers a positive `dt`, and that the
+    /// landmark truth has finite positions and one entry per id; names the
+    /// first offending value.
     pub fn validate(&self) -> Result<()> {
+        self.validate_landmark_truth()?;
         let mut previous = f64::NEG_INFINITY;
         for event in &self.events {
             ensure_finite("event time", event.time)?;
@@ -261,6 +263,23 @@ impl SensorLog {
                     ensure_finite("ground-truth y", p.y)?;
                     ensure_finite("ground-truth theta", p.theta)?;
                 }
+            }
+        }
+        Ok(())
+    }
+
+    /// The landmark truth: finite positions, no id twice.
+    fn validate_landmark_truth(&self) -> Result<()> {
+        let mut ids = std::collections::HashSet::with_capacity(self.landmarks.len());
+        for landmark in &self.landmarks {
+            ensure_finite("landmark truth x", landmark.x)?;
+            ensure_finite("landmark truth y", landmark.y)?;
+            if !ids.insert(landmark.id) {
+                return Err(SlamError::InvalidParameter {
+                    name: "landmark truth id",
+                    value: landmark.id as f64,
+                    reason: "appears twice in the log's landmark truth",
+                });
             }
         }
         Ok(())

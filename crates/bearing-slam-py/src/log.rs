@@ -438,11 +438,18 @@ impl PySensorLog {
         Ok(Self::new(log))
     }
 
-    /// The first `seconds` of the log (events with `time <= start + seconds`).
-    fn head(&self, seconds: f64) -> Self {
+    /// The first `seconds` of the log (events with `time <= start + seconds`);
+    /// `seconds` finite and ≥ 0 (InvalidParameterError otherwise).
+    fn head(&self, seconds: f64) -> PyResult<Self> {
+        if !(seconds.is_finite() && seconds >= 0.0) {
+            return Err(errors::raise(
+                "InvalidParameterError",
+                format!("head: seconds = {seconds}; must be finite and >= 0"),
+            ));
+        }
         let start = self.inner.events.first().map_or(0.0, |e| e.time);
         let mut log = self.inner.clone();
         log.events.retain(|e| e.time <= start + seconds);
-        Self::new(log)
+        Ok(Self::new(log))
     }
 }

@@ -1,8 +1,8 @@
 //! Bad input refused with a clear error instead of a silently wrong run
 //! (issue 20): bearings beyond one turn, ranges the filter would refuse,
 //! velocity commands held for no time, a log whose odometry the configured
-//! model cannot use, and a filter that diverges flagged in its trace and
-//! summary.
+//! model cannot use, landmark truth with a non-finite position or an id
+//! twice, and a filter that diverges flagged in its trace and summary.
 
 // Tests may unwrap: a panic is a test failure with a message.
 #![allow(clippy::unwrap_used)]
@@ -88,6 +88,39 @@ fn a_range_the_filter_would_refuse_is_refused_when_the_log_is_validated() {
     for good in [1e-3, 4.0, MAX_RANGE] {
         with_range(fig4_log(), 10, good).validate().unwrap();
     }
+}
+
+#[test]
+fn landmark_truth_with_a_non_finite_position_or_an_id_twice_is_refused() {
+    let mut log = fig4_log();
+    log.validate().unwrap();
+    let mut nan = log.clone();
+    nan.landmarks[1].y = f64::NAN;
+    let err = nan.validate().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SlamError::NonFinite {
+                what: "landmark truth y",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    let id = log.landmarks[0].id;
+    log.landmarks[2].id = id;
+    let err = log.validate().unwrap_err();
+    assert!(
+        matches!(
+            err,
+            SlamError::InvalidParameter {
+                name: "landmark truth id",
+                value,
+                ..
+            } if value == id as f64
+        ),
+        "{err}"
+    );
 }
 
 #[test]
