@@ -460,6 +460,11 @@ def api_cases(
         # mismatches
         (
             "mismatch",
+            "`evaluate_mrclam(D6, 1, 'mte', particles=10)` (no particles in the EKF)",
+            lambda: attempt(lambda: bs.evaluate_mrclam(d6, 1, "mte", particles=10)),
+        ),
+        (
+            "mismatch",
             "`write_mcap(p, logA, run(logB))`",
             lambda: attempt(
                 lambda: bs.write_mcap(

@@ -368,6 +368,10 @@ def test_python_api() -> None:
         bs.evaluate_mrclam(D6, 300, "mte")
     with pytest.raises(bs.DatasetError, match="does not exist"):
         bs.evaluate_mrclam(D6 / "nope", 1, "mte")
+    # A particle count for an estimator without particles is refused, as
+    # `Config(particles=...)` and the CLI's `--particles` refuse it.
+    with pytest.raises(ValueError, match='particles applies to estimator "fastslam1"'):
+        bs.evaluate_mrclam(D6, 1, "mte", particles=10)
 
 
 def test_results_page_tables_match_results_json() -> None:

@@ -146,6 +146,12 @@ pub(crate) fn py_evaluate_mrclam<'py>(
     )?;
     let association = AssociationConfig::of(parse_name::<AssociationMethod>(association)?);
     let default = EstimatorConfig::of(parse_name::<EstimatorKind>(estimator)?);
+    if particles.is_some() && !default.kind.is_particle_filter() {
+        return Err(PyValueError::new_err(format!(
+            "particles applies to estimator \"fastslam1\" and \"fastslam2\" only, not to {:?}",
+            default.kind.name()
+        )));
+    }
     let mut estimator = EstimatorConfig {
         particles: particles.unwrap_or(default.particles),
         ..default
