@@ -127,6 +127,21 @@ def test_from_arrays_builds_a_runnable_log(fig4_log: bs.SensorLog) -> None:
     np.testing.assert_array_equal(a.estimate, b.estimate)
 
 
+def test_from_arrays_rows_at_one_time_form_one_scan_wherever_they_stand() -> None:
+    rows = [[1.0, 1, 0.1], [2.0, 2, 0.2], [1.0, 3, 0.3]]
+    log = bs.SensorLog.from_arrays(wheels=[[0.0, 0.0, 0.0]], bearings=rows, ranges=[1.0, 2.0, 3.0])
+    assert len(log) == 3  # the wheels, the scan at 1 s (ids 1 and 3), the scan at 2 s
+    np.testing.assert_array_equal(log.bearings, [[1.0, 1, 0.1], [1.0, 3, 0.3], [2.0, 2, 0.2]])
+    np.testing.assert_array_equal(log.ranges, [1.0, 3.0, 2.0])
+    with pytest.raises(bs.DuplicateMeasurementError, match="landmark id 1"):
+        bs.run(
+            bs.SensorLog.from_arrays(
+                wheels=[[0.0, 0.0, 0.0]], bearings=[[1.0, 1, 0.1], [2.0, 2, 0.2], [1.0, 1, 0.3]]
+            ),
+            bs.Config(),
+        )
+
+
 def test_config_defaults_are_the_papers() -> None:
     """The default initializer is ``auto`` (the paper's MTE wherever no
     landmark's visit ends untriangulated), every parameter the paper's."""

@@ -164,11 +164,16 @@ impl PySensorLog {
                     rs.len()
                 )));
             }
-            let mut i = 0;
-            while i < rs.len() {
-                let t = rs[i][0];
+            // Rows at one time form one scan wherever they stand: the rows
+            // in time order (stable), then each run of one time.
+            let mut order: Vec<usize> = (0..rs.len()).collect();
+            order.sort_by(|&a, &b| rs[a][0].total_cmp(&rs[b][0]));
+            let mut k = 0;
+            while k < order.len() {
+                let t = rs[order[k]][0];
                 let mut scan = Vec::new();
-                while i < rs.len() && rs[i][0].to_bits() == t.to_bits() {
+                while k < order.len() && rs[order[k]][0].to_bits() == t.to_bits() {
+                    let i = order[k];
                     let id = rs[i][1];
                     if !(id >= 0.0 && id.fract() == 0.0 && id < u64::MAX as f64) {
                         return Err(PyValueError::new_err(format!(
@@ -182,7 +187,7 @@ impl PySensorLog {
                         range,
                         descriptor: None,
                     });
-                    i += 1;
+                    k += 1;
                 }
                 events.push((t, 2, events.len(), EventKind::Bearings(scan)));
             }
