@@ -244,7 +244,7 @@ impl Row<'_> {
             return Err(self.error(
                 path,
                 format!(
-                    "column 1 (time) = {t} s is out of range: times must lie within \
+                    "column 1 (time) = {t:e} s is out of range: times must lie within \
                      ±{MAX_ABS_TIME_S:e} s (Unix epoch seconds)"
                 ),
             ));
@@ -383,7 +383,11 @@ pub(crate) fn read_measurements(path: &Path) -> Result<Vec<MeasurementRow>, Mrcl
                     format!(
                         "column 4 (bearing) = {} rad is out of range: a bearing must lie \
                          within [-2π, 2π] (degrees instead of radians?)",
-                        m.bearing
+                        if m.bearing.abs() < 1e6 {
+                            m.bearing.to_string()
+                        } else {
+                            format!("{:e}", m.bearing)
+                        }
                     ),
                 ));
             }
