@@ -361,6 +361,15 @@ fn time_window_yields_a_shorter_log() {
     );
     let error = load_mrclam_with(&dir, 3, &LoadOptions::window(1.0e6, 2.0e6)).expect_err("empty");
     assert!(matches!(error, MrclamError::EmptyWindow { .. }), "{error}");
+    // A huge value reads as 1e300 in the message, not as its 301 digits.
+    let error =
+        load_mrclam_with(&dir, 3, &LoadOptions::window(1.0e300, 2.0e300)).expect_err("empty");
+    assert!(
+        error
+            .to_string()
+            .starts_with("the time window [1e300, 2e300) s"),
+        "{error}"
+    );
 }
 
 /// A fresh temporary directory for one test.

@@ -75,6 +75,16 @@ use bearing_slam_core::log::{
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
+/// `x` for a message: as Rust prints it, or in exponent form (`1e300`)
+/// from a million up, where the plain form runs to hundreds of digits.
+fn readable(x: f64) -> String {
+    if x.abs() < 1e6 || !x.is_finite() {
+        x.to_string()
+    } else {
+        format!("{x:e}")
+    }
+}
+
 /// The number of robots in every MRCLAM dataset (numbered 1 to 5).
 pub const ROBOT_COUNT: u8 = 5;
 
@@ -157,7 +167,7 @@ pub enum MrclamError {
         file: PathBuf,
     },
     /// An invalid load option.
-    #[error("invalid option {name} = {value}: {reason}")]
+    #[error("invalid option {name} = {}: {reason}", readable(*.value))]
     InvalidOption {
         /// The option's name.
         name: &'static str,
@@ -167,7 +177,11 @@ pub enum MrclamError {
         reason: &'static str,
     },
     /// The time window selects no odometry.
-    #[error("the time window [{start_s}, {end_s}) s contains no odometry row")]
+    #[error(
+        "the time window [{}, {}) s contains no odometry row",
+        readable(*.start_s),
+        readable(*.end_s)
+    )]
     EmptyWindow {
         /// Window start, seconds since t0.
         start_s: f64,

@@ -10,7 +10,7 @@
 //! corrupt file is an error, and the real files load cleanly. A file larger
 //! than [`MAX_FILE_BYTES`] is refused before it is read whole.
 
-use super::MrclamError;
+use super::{MrclamError, readable};
 use std::collections::BTreeMap;
 use std::fs;
 use std::io::{self, Read};
@@ -383,11 +383,7 @@ pub(crate) fn read_measurements(path: &Path) -> Result<Vec<MeasurementRow>, Mrcl
                     format!(
                         "column 4 (bearing) = {} rad is out of range: a bearing must lie \
                          within [-2π, 2π] (degrees instead of radians?)",
-                        if m.bearing.abs() < 1e6 {
-                            m.bearing.to_string()
-                        } else {
-                            format!("{:e}", m.bearing)
-                        }
+                        readable(m.bearing)
                     ),
                 ));
             }
