@@ -8,7 +8,7 @@ use thiserror::Error;
 #[derive(Debug, Clone, PartialEq, Error)]
 pub enum SlamError {
     /// A NaN or infinite number where a finite one is required.
-    #[error("non-finite {what}: {value}")]
+    #[error("non-finite {what}: {}", readable_number(*value))]
     NonFinite {
         /// Which input was not finite.
         what: &'static str,
@@ -16,7 +16,7 @@ pub enum SlamError {
         value: f64,
     },
     /// A variance or standard deviation that is zero, negative or not finite.
-    #[error("invalid noise for {what}: {value} (must be positive and finite)")]
+    #[error("invalid noise for {what}: {} (must be positive and finite)", readable_number(*value))]
     InvalidNoise {
         /// Which noise parameter.
         what: &'static str,
@@ -24,7 +24,7 @@ pub enum SlamError {
         value: f64,
     },
     /// A parameter outside its valid range.
-    #[error("invalid parameter {name} = {value}: {reason}")]
+    #[error("invalid parameter {name} = {}: {reason}", readable_number(*value))]
     InvalidParameter {
         /// The parameter's name.
         name: &'static str,
@@ -109,6 +109,18 @@ pub fn ensure_in_range(checks: &[(&'static str, f64, bool)]) -> Result<()> {
             reason: "out of range",
         }),
         None => Ok(()),
+    }
+}
+
+/// A value as a message shows it: plain decimals for everyday sizes, and
+/// scientific notation beyond them (`1e300`, not three hundred digits).
+#[must_use]
+pub fn readable_number(value: f64) -> String {
+    let magnitude = value.abs();
+    if magnitude != 0.0 && magnitude.is_finite() && !(1e-6..1e15).contains(&magnitude) {
+        format!("{value:e}")
+    } else {
+        format!("{value}")
     }
 }
 

@@ -2,6 +2,7 @@
 //! [`SimError`]; nothing on a data path panics.
 
 use bearing_slam_core::SlamError;
+use bearing_slam_core::error::readable_number;
 use std::path::PathBuf;
 use thiserror::Error;
 
@@ -42,7 +43,7 @@ pub enum SimError {
         known: String,
     },
     /// A number outside its valid range (negative mass, μ < 0, σ ≤ 0, NaN, …).
-    #[error("invalid parameter {name} = {}: {reason}", readable(*value))]
+    #[error("invalid parameter {name} = {}: {reason}", readable_number(*value))]
     InvalidParameter {
         /// Where the parameter lives, e.g. `robot.mass_kg`.
         name: String,
@@ -53,7 +54,7 @@ pub enum SimError {
     },
     /// A size, rate, count or duration beyond the bounds of
     /// [`crate::limits`] (a run that would take hours or exhaust memory).
-    #[error("{name} = {} is out of range: {allowed}", readable(*value))]
+    #[error("{name} = {} is out of range: {allowed}", readable_number(*value))]
     OutOfRange {
         /// Where the parameter lives, e.g. `controller.repeat`.
         name: String,
@@ -125,17 +126,6 @@ pub(crate) fn invalid(name: &str, value: f64, reason: &'static str) -> SimError 
         name: name.to_owned(),
         value,
         reason,
-    }
-}
-
-/// A value as a message shows it: plain decimals for everyday sizes, and
-/// scientific notation beyond them (`1e300`, not three hundred digits).
-fn readable(value: f64) -> String {
-    let magnitude = value.abs();
-    if magnitude != 0.0 && magnitude.is_finite() && !(1e-6..1e15).contains(&magnitude) {
-        format!("{value:e}")
-    } else {
-        format!("{value}")
     }
 }
 

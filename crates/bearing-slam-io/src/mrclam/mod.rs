@@ -67,6 +67,7 @@ pub use parse::{
 };
 
 use bearing_slam_core::SlamError;
+use bearing_slam_core::error::readable_number;
 use bearing_slam_core::geometry::{Pose2, wrap_angle};
 use bearing_slam_core::log::{
     BearingObservation, DISTRACTOR_ID_START, Event, EventKind, LandmarkTruth, LogInfo, SensorLog,
@@ -74,16 +75,6 @@ use bearing_slam_core::log::{
 };
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-
-/// `x` for a message: as Rust prints it, or in exponent form (`1e300`)
-/// from a million up, where the plain form runs to hundreds of digits.
-fn readable(x: f64) -> String {
-    if x.abs() < 1e6 || !x.is_finite() {
-        x.to_string()
-    } else {
-        format!("{x:e}")
-    }
-}
 
 /// The number of robots in every MRCLAM dataset (numbered 1 to 5).
 pub const ROBOT_COUNT: u8 = 5;
@@ -167,7 +158,7 @@ pub enum MrclamError {
         file: PathBuf,
     },
     /// An invalid load option.
-    #[error("invalid option {name} = {}: {reason}", readable(*.value))]
+    #[error("invalid option {name} = {}: {reason}", readable_number(*.value))]
     InvalidOption {
         /// The option's name.
         name: &'static str,
@@ -179,8 +170,8 @@ pub enum MrclamError {
     /// The time window selects no odometry.
     #[error(
         "the time window [{}, {}) s contains no odometry row",
-        readable(*.start_s),
-        readable(*.end_s)
+        readable_number(*.start_s),
+        readable_number(*.end_s)
     )]
     EmptyWindow {
         /// Window start, seconds since t0.

@@ -10,7 +10,8 @@
 //! corrupt file is an error, and the real files load cleanly. A file larger
 //! than [`MAX_FILE_BYTES`] is refused before it is read whole.
 
-use super::{MrclamError, readable};
+use super::MrclamError;
+use bearing_slam_core::error::readable_number;
 use std::collections::BTreeMap;
 use std::fs;
 use std::io::{self, Read};
@@ -244,8 +245,9 @@ impl Row<'_> {
             return Err(self.error(
                 path,
                 format!(
-                    "column 1 (time) = {t:e} s is out of range: times must lie within \
-                     ±{MAX_ABS_TIME_S:e} s (Unix epoch seconds)"
+                    "column 1 (time) = {} s is out of range: times must lie within \
+                     ±{MAX_ABS_TIME_S:e} s (Unix epoch seconds)",
+                    readable_number(t)
                 ),
             ));
         }
@@ -383,7 +385,7 @@ pub(crate) fn read_measurements(path: &Path) -> Result<Vec<MeasurementRow>, Mrcl
                     format!(
                         "column 4 (bearing) = {} rad is out of range: a bearing must lie \
                          within [-2π, 2π] (degrees instead of radians?)",
-                        readable(m.bearing)
+                        readable_number(m.bearing)
                     ),
                 ));
             }
