@@ -246,6 +246,11 @@ def api_cases(
         ),
         (
             "shape/dtype",
+            "`Config(estimator='fastslam1', particles=10**12)`",
+            lambda: attempt(lambda: bs.Config(estimator="fastslam1", particles=10**12)),
+        ),
+        (
+            "shape/dtype",
             "`update_bearings(t, [1, 2], [0.1])`",
             lambda: attempt(lambda: fresh().update_bearings(0.2, [1, 2], [0.1])),
         ),

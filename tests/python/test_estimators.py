@@ -96,6 +96,9 @@ def test_bad_estimator_parameters_are_refused() -> None:
         bs.Config(estimator="ekf2")
     with pytest.raises(bs.InvalidParameterError, match="particles"):
         bs.Config(estimator="fastslam2", particles=0)
+    # A mistyped count is refused, not an abort on its first allocation.
+    with pytest.raises(bs.InvalidParameterError, match="more particles than a run can hold"):
+        bs.Config(estimator="fastslam1", particles=10**12)
     with pytest.raises(bs.InvalidParameterError, match="particles is not used here"):
         bs.Config(particles=10)
 

@@ -269,16 +269,10 @@ impl EstimatorConfig {
     /// Checks the estimator's own parameters.
     ///
     /// # Errors
-    /// [`SlamError::InvalidParameter`] for zero particles, a bad solver or
-    /// window.
+    /// [`SlamError::InvalidParameter`] for zero particles or more than
+    /// [`crate::particle::config::MAX_PARTICLES`], a bad solver or window.
     pub fn validate(&self) -> Result<()> {
-        if self.particles == 0 {
-            return Err(SlamError::InvalidParameter {
-                name: "particles",
-                value: 0.0,
-                reason: "a particle filter needs at least one particle (M ≥ 1)",
-            });
-        }
+        crate::particle::config::check_particle_count("particles", self.particles)?;
         self.smoother.solver.validate()?;
         self.gaussian_sum.validate()?;
         if self.kind == EstimatorKind::FilterSmoother {

@@ -33,6 +33,32 @@ pub enum ParticleInitializer {
     InverseDepth(InverseDepthPrior),
 }
 
+/// The most particles a filter accepts: 100 times the largest count the
+/// studies use (M = 1000), and a cloud that still fits in memory with a
+/// thousand-landmark map per particle. Without a bound a mistyped count
+/// (10¹² particles) aborted the process on its first allocation.
+pub const MAX_PARTICLES: usize = 100_000;
+
+/// Checks a particle count `particles` named `name`: at least one, at most
+/// [`MAX_PARTICLES`].
+///
+/// # Errors
+/// [`SlamError::InvalidParameter`] naming `name`.
+pub fn check_particle_count(name: &'static str, particles: usize) -> Result<()> {
+    let reason = if particles == 0 {
+        "a particle filter needs at least one particle (M ≥ 1)"
+    } else if particles > MAX_PARTICLES {
+        "more particles than a run can hold (at most MAX_PARTICLES = 100 000)"
+    } else {
+        return Ok(());
+    };
+    Err(SlamError::InvalidParameter {
+        name,
+        value: particles as f64,
+        reason,
+    })
+}
+
 /// Everything a FastSLAM filter needs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FastSlamConfig {
@@ -114,16 +140,11 @@ impl FastSlamConfig {
     /// Checks every parameter.
     ///
     /// # Errors
-    /// [`SlamError::InvalidParameter`] (M = 0, a threshold out of range, …),
+    /// [`SlamError::InvalidParameter`] (M = 0 or above [`MAX_PARTICLES`], a
+    /// threshold out of range, …),
     /// [`SlamError::InvalidNoise`] or [`SlamError::NonFinite`] naming the input.
     pub fn validate(&self) -> Result<()> {
-        if self.particles == 0 {
-            return Err(SlamError::InvalidParameter {
-                name: "particles",
-                value: 0.0,
-                reason: "a particle filter needs at least one particle (M ≥ 1)",
-            });
-        }
+        check_particle_count("particles", self.particles)?;
         ensure_finite("initial x", self.initial_pose.x)?;
         ensure_finite("initial y", self.initial_pose.y)?;
         ensure_finite("initial theta", self.initial_pose.theta)?;

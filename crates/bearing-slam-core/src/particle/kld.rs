@@ -72,7 +72,8 @@ impl KldConfig {
                 self.max_particles >= self.min_particles,
             ),
         ];
-        crate::error::ensure_in_range(&checks)
+        crate::error::ensure_in_range(&checks)?;
+        super::config::check_particle_count("max_particles", self.max_particles)
     }
 
     /// The upper standard-normal quantile `z_{1−δ}`.

@@ -126,13 +126,7 @@ impl MclConfig {
     /// # Errors
     /// [`SlamError::InvalidParameter`] or [`SlamError::InvalidNoise`] naming it.
     pub fn validate(&self) -> Result<()> {
-        if self.particles == 0 {
-            return Err(SlamError::InvalidParameter {
-                name: "particles",
-                value: 0.0,
-                reason: "a particle filter needs at least one particle (M ≥ 1)",
-            });
-        }
+        super::config::check_particle_count("particles", self.particles)?;
         self.bounds.validate()?;
         ensure_positive_noise("bearing sigma", self.bearing_sigma)?;
         if !(0.0..1.0).contains(&self.outlier_probability) {

@@ -5,6 +5,7 @@
 
 use bearing_slam_core::Pose2;
 use bearing_slam_core::error::{Result, SlamError};
+use bearing_slam_core::particle::config::MAX_PARTICLES;
 use bearing_slam_core::particle::existence::ExistenceConfig;
 use bearing_slam_core::particle::kld::KldConfig;
 use bearing_slam_core::particle::landmark_ekf::SensorNoise;
@@ -87,6 +88,17 @@ fn fastslam_configuration_edges() {
     edges
         .ok("one particle", |c| c.particles = 1)
         .refused("no particle", |c| c.particles = 0, "particles")
+        .ok("the most particles", |c| c.particles = MAX_PARTICLES)
+        .refused(
+            "more particles than a run can hold",
+            |c| c.particles = MAX_PARTICLES + 1,
+            "particles",
+        )
+        .refused(
+            "10¹² particles",
+            |c| c.particles = 1_000_000_000_000,
+            "particles",
+        )
         .refused("NaN x", |c| c.initial_pose.x = f64::NAN, "initial x")
         .refused("∞ y", |c| c.initial_pose.y = f64::INFINITY, "initial y")
         .refused(
@@ -203,6 +215,11 @@ fn kld_configuration_edges() {
         .refused("none at least", |c| c.min_particles = 0, "min_particles")
         .ok("a fixed count", |c| c.max_particles = c.min_particles)
         .refused(
+            "more particles than a run can hold",
+            |c| c.max_particles = MAX_PARTICLES + 1,
+            "max_particles",
+        )
+        .refused(
             "a maximum below the minimum",
             |c| c.max_particles = c.min_particles - 1,
             "max_particles",
@@ -246,6 +263,11 @@ fn mcl_configuration_edges() {
     resample_threshold_edges(&edges, |c| &mut c.resample_threshold);
     edges
         .refused("no particle", |c| c.particles = 0, "particles")
+        .refused(
+            "more particles than a run can hold",
+            |c| c.particles = MAX_PARTICLES + 1,
+            "particles",
+        )
         .refused("a flat room", |c| c.bounds.x_max = c.bounds.x_min, "bounds")
         .refused("an upside-down room", |c| c.bounds.y_max = -1.0, "bounds")
         .refused(

@@ -92,6 +92,18 @@ fn bad_estimator_parameters_are_refused_by_name() {
         ),
         "{err}"
     );
+    // 10¹² particles: refused by name before any allocation (it aborted the
+    // process).
+    let huge = EstimatorConfig {
+        particles: 1_000_000_000_000,
+        ..EstimatorConfig::of(EstimatorKind::FastSlam1)
+    };
+    let err = run_estimator(&log, &config, &huge).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("particles = 1000000000000: more particles than a run can hold"),
+        "{err}"
+    );
     let err = "ekf2".parse::<EstimatorKind>().unwrap_err();
     assert_eq!(
         err.to_string(),
