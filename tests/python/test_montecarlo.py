@@ -125,6 +125,12 @@ def test_progress_callback_counts_every_run() -> None:
             "drift_position_m",
         ),
         ({**make_spec("paper_fig4", "mte", 2), "extra": 1}, bs.InvalidParameterError, "extra"),
+        # Refused up front, not counted as two diverged runs.
+        (
+            make_spec("paper_fig4", "mte", 2, estimator="fastslam1", particles=10**12),
+            bs.InvalidParameterError,
+            "more particles than a run can hold",
+        ),
     ],
 )
 def test_bad_spec_raises(spec: dict[str, Any], error: type[Exception], match: str) -> None:

@@ -54,8 +54,9 @@ fn invalid(message: String) -> PyErr {
     })
 }
 
-/// Parses a spec and checks that its scenario builds and its initializer is
-/// valid (`SimulationError`, `InvalidParameterError`, … otherwise).
+/// Parses a spec and checks that its scenario builds and its initializer
+/// and estimator are valid (`SimulationError`, `InvalidParameterError`, …
+/// otherwise).
 fn parse_spec(spec_json: &str) -> PyResult<MonteCarloSpec> {
     let given: serde_json::Value = serde_json::from_str(spec_json)
         .map_err(|e| invalid(format!("invalid Monte Carlo spec: {e}")))?;
@@ -72,6 +73,7 @@ fn parse_spec(spec_json: &str) -> PyResult<MonteCarloSpec> {
     spec.initializer
         .to_config(&scenario.far_landmark_ids)
         .py()?;
+    spec.estimator_config(0).validate().py()?;
     let t = &spec.thresholds;
     for (name, v) in [
         ("diverged_position_m", t.diverged_position_m),

@@ -358,4 +358,16 @@ impl MonteCarloSpec {
             association: AssociationMethod::default(),
         }
     }
+
+    /// The estimator of the run with seed `seed`: the spec's kind and
+    /// particle count, the rest [`EstimatorConfig::default`].
+    #[must_use]
+    pub fn estimator_config(&self, seed: u64) -> EstimatorConfig {
+        EstimatorConfig {
+            kind: self.estimator,
+            particles: self.particles,
+            seed,
+            ..EstimatorConfig::default()
+        }
+    }
 }

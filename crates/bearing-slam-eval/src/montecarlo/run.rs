@@ -5,7 +5,7 @@ use super::MonteCarloSpec;
 use super::Thresholds;
 use crate::stats;
 use bearing_slam_core::association::{AssociationConfig, DescriptorModel};
-use bearing_slam_core::estimator::{EstimatorConfig, run_estimator};
+use bearing_slam_core::estimator::run_estimator;
 use bearing_slam_core::geometry::wrap_angle;
 use bearing_slam_core::log::SensorLog;
 use bearing_slam_core::metrics::pose_nees;
@@ -285,12 +285,7 @@ pub fn run_one(spec: &MonteCarloSpec, run_index: usize) -> RunRecord {
         Ok(c) => c,
         Err(e) => return RunRecord::failed(run_index, seed, format!("configuration: {e}")),
     };
-    let estimator = EstimatorConfig {
-        kind: spec.estimator,
-        particles: spec.particles,
-        seed,
-        ..EstimatorConfig::default()
-    };
+    let estimator = spec.estimator_config(seed);
     let output = match run_estimator(&log, &config, &estimator).map(|r| r.output) {
         Ok(o) => o,
         Err(e) => return RunRecord::failed(run_index, seed, format!("filter: {e}")),
